@@ -1,0 +1,39 @@
+"""Pieces every planner shares."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vcs_env.state import WorldState
+
+
+def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) -> np.ndarray:
+    """Velocity toward the goal, capped so the robot can stop there (vcs-method.md §2.5).
+
+    ``s = min(v_pref_max, d / dt, sqrt(2 a_max d))`` toward the goal, and 0 within ``r_goal``.
+
+    Returns:
+        ``(B, n, 2)`` [m/s].
+    """
+    e = world.goal - world.pos
+    d = np.sqrt(np.einsum("...i,...i->...", e, e))
+    cap = world.v_max if v_pref_max is None else v_pref_max
+    s = np.minimum(np.minimum(cap, d / world.dt), np.sqrt(2.0 * world.a_max * d))
+    s = np.where(d > world.r_goal, s, 0.0)
+    return e * (s / np.maximum(d, 1e-12))[..., None]
+
+
+def velocity_to_target(world: WorldState, vel: np.ndarray, keep_heading: np.ndarray | None = None) -> np.ndarray:
+    """Polar targets ``(B, n, 2)`` = (speed, heading) from velocities ``(B, n, 2)``; a zero
+    velocity keeps ``keep_heading`` (default: the current heading)."""
+    speed = np.sqrt(np.einsum("...i,...i->...", vel, vel))
+    fallback = world.heading if keep_heading is None else keep_heading
+    heading = np.where(speed > 1e-9, np.arctan2(vel[..., 1], vel[..., 0]), fallback)
+    return np.stack((speed, heading), axis=-1)
+
+
+def goal_heading(world: WorldState) -> np.ndarray:
+    """Direction of the goal ``(B, n)`` [rad] (the current heading at the goal)."""
+    e = world.goal - world.pos
+    d = np.sqrt(np.einsum("...i,...i->...", e, e))
+    return np.where(d > 1e-9, np.arctan2(e[..., 1], e[..., 0]), world.heading)

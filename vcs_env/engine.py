@@ -1,0 +1,185 @@
+"""Episode logic shared by every API adapter: simulator + observations + rewards + expert.
+
+:class:`NavEngine` is batched and array-only (no Gymnasium or PettingZoo types). The PettingZoo
+env (B = 1), the single-robot Gymnasium env and the SB3 VecEnv of ``agents`` are thin
+adapters over it, so episode semantics are defined once:
+
+* a robot *terminates* on the step it reaches its goal, or touches anything when
+  ``scenario.on_collision == "terminate"``;
+* robots still driving when a world has taken ``max_steps`` steps are *truncated*;
+* robots that ended get no more reward, and stay in the world parked (``park_finished``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .observations import observe
+from .planning import Planner, make_planner
+from .rewards import base_terms, imitation_term, potential_term, weighted_sum
+from .scenario import Scenario
+from .sim import Simulator, StepEvents
+from .state import WorldState
+
+RewardFn = Callable[[WorldState, StepEvents, np.ndarray], np.ndarray]
+"""A custom reward term: ``fn(world_after, events, actions (B, n, 2)) -> (B, n)``."""
+
+
+@dataclass
+class StepResult:
+    """Outcome of one batched step."""
+
+    obs: np.ndarray  # (B, n, D) float32, observation after the step
+    reward: np.ndarray  # (B, n) weighted sum of the terms
+    terms: dict[str, np.ndarray]  # name -> (B, n), unweighted
+    terminated: np.ndarray  # (B, n) bool
+    truncated: np.ndarray  # (B, n) bool
+    events: StepEvents
+    expert_action: np.ndarray | None  # (B, n, 2) expert's action for the new state, if attached
+    final_obs: np.ndarray | None = None  # (B, n, D) last obs of the worlds auto-reset this step
+    ended: np.ndarray | None = None  # (B,) bool, worlds auto-reset this step
+
+
+class NavEngine:
+    """Batched episodes of one scenario.
+
+    Args:
+        scenario: the episode family.
+        batch_size: number of worlds B stepped together.
+        action_mode: ``"delta"`` or ``"absolute"`` (:mod:`vcs_env.dynamics`).
+        expert: a planner or planner name whose action is reported for every state
+            (``expert_action``); needed by, and defaulting to ``"vcs"`` for, the ``vcs_*``
+            shaping terms.
+        reward_terms: extra named terms ``{name: (weight, fn)}`` (see :data:`RewardFn`).
+        obstacle_motion: overrides the scenario's obstacle motion model.
+        gamma: discount used by potential-based shaping.
+        max_steps: overrides ``scenario.max_steps``.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        batch_size: int = 1,
+        action_mode: str = "delta",
+        expert: str | Planner | None = None,
+        reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
+        obstacle_motion=None,
+        gamma: float = 0.99,
+        max_steps: int | None = None,
+    ):
+        self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion)
+        self.scenario = scenario
+        self.action_mode = action_mode
+        weights = scenario.rewards.as_dict()
+        self.extra_terms: dict[str, RewardFn] = {}
+        for name, spec in (reward_terms or {}).items():
+            if name in weights:
+                raise ValueError(f"reward term {name!r} already exists; pick another name")
+            try:
+                w, fn = spec
+            except (TypeError, ValueError):
+                raise ValueError(f"reward_terms[{name!r}] must be a (weight, fn) pair") from None
+            if not callable(fn):
+                raise ValueError(f"reward_terms[{name!r}] function is not callable")
+            weights[name] = float(w)
+            self.extra_terms[name] = fn
+        self.weights = weights
+        self.use_imitation = weights["vcs_imitation"] != 0.0
+        self.use_potential = weights["vcs_potential"] != 0.0
+        if expert is None and (self.use_imitation or self.use_potential):
+            expert = "vcs"
+        self.expert: Planner | None = None if expert is None else make_planner(expert)
+        if not 0.0 <= gamma <= 1.0:
+            raise ValueError(f"gamma must be in [0, 1], got {gamma}")
+        self.gamma = float(gamma)
+        self.max_steps = scenario.max_steps if max_steps is None else int(max_steps)
+        self._expert_action: np.ndarray | None = None
+        self._phi: np.ndarray | None = None
+
+    @property
+    def world(self) -> WorldState:
+        return self.sim.world
+
+    @property
+    def batch_size(self) -> int:
+        return self.sim.batch_size
+
+    def observe(self) -> np.ndarray:
+        return observe(self.sim.world, self.scenario)
+
+    def reset(self, seeds=None, worlds: Sequence[int] | None = None) -> np.ndarray:
+        """Reset ``worlds`` (default all) with ``seeds`` (see :meth:`Simulator.reset`); returns obs."""
+        idx = list(range(self.batch_size)) if worlds is None else list(worlds)
+        self.sim.reset(seeds, idx)
+        if self.expert is not None:
+            self._refresh_expert(idx)
+        return self.observe()
+
+    def _refresh_expert(self, idx: Sequence[int] | None = None) -> None:
+        """Expert action (and potential) for the current state of every world."""
+        world = self.sim.world
+        action = self.expert.act(world, self.action_mode)
+        if idx is None or self._expert_action is None:
+            self._expert_action = action
+        else:
+            self._expert_action[idx] = action[idx]
+        if self.use_potential:
+            phi = self.expert.potential(world)
+            if idx is None or self._phi is None:
+                self._phi = phi
+            else:
+                self._phi[idx] = phi[idx]
+
+    @property
+    def expert_action(self) -> np.ndarray | None:
+        """Expert actions ``(B, n, 2)`` for the current state (None without an expert)."""
+        return self._expert_action
+
+    def step(self, actions: np.ndarray, autoreset: bool = False) -> StepResult:
+        """Step all worlds with ``actions`` ``(B, n, 2)``.
+
+        With ``autoreset``, worlds whose episode ended (no robot active, or ``max_steps``
+        reached) start a new episode (continuing their random streams): ``obs`` is then the
+        first observation of the new episode and ``final_obs`` the last one of the old.
+        """
+        prev_expert = self._expert_action
+        events = self.sim.step(actions)
+        world = self.sim.world
+        terms = base_terms(events, self.scenario.dt)
+        terminated = events.reached | (events.collided & (self.scenario.on_collision == "terminate"))
+        truncated = world.active & (world.steps >= self.max_steps)[:, None]
+        if self.use_imitation:
+            terms["vcs_imitation"] = imitation_term(np.asarray(actions, dtype=np.float64), prev_expert, events.acted)
+        if self.use_potential:
+            # phi = 0 after termination; truncation keeps phi(s') (the value is bootstrapped).
+            phi_next = self.expert.potential(world)
+            terms["vcs_potential"] = potential_term(self._phi, phi_next, terminated, events.acted, self.gamma)
+            self._phi = phi_next
+        for name, fn in self.extra_terms.items():
+            terms[name] = np.where(events.acted, np.asarray(fn(world, events, actions), dtype=np.float64), 0.0)
+        obs = self.observe()
+        final_obs, ended = None, np.zeros(self.batch_size, dtype=bool)
+        if autoreset:
+            ended = ~(world.active & ~truncated).any(axis=1)
+            if ended.any():
+                final_obs = obs.copy()
+                self.sim.reset(None, np.flatnonzero(ended))
+                obs = self.observe()
+                if self.use_potential:
+                    self._phi[ended] = self.expert.potential(world)[ended]
+        if self.expert is not None:
+            self._expert_action = self.expert.act(world, self.action_mode)
+        return StepResult(
+            obs=obs,
+            reward=weighted_sum(terms, self.weights),
+            terms=terms,
+            terminated=terminated,
+            truncated=truncated,
+            events=events,
+            expert_action=self._expert_action,
+            final_obs=final_obs,
+            ended=ended,
+        )

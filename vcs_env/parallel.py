@@ -1,0 +1,230 @@
+"""PettingZoo ``ParallelEnv`` adapter over :class:`~vcs_env.engine.NavEngine` (one world)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import EzPickle
+from pettingzoo import ParallelEnv
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from .engine import NavEngine, RewardFn
+from .observations import observation_space, state_space, state_vector
+from .planning import Planner
+from .render import Renderer, ansi
+from .scenario import Scenario, make_scenario
+
+
+class VcsNavParallelEnv(ParallelEnv, EzPickle):
+    """Multi-robot navigation among moving obstacles (``vcs_nav_v0``).
+
+    ## Description
+    ``n`` circular wheeled robots (``robot_0`` ... ``robot_{n-1}``) drive to their goals among
+    passive obstacles. Every robot acts at every step of ``dt`` seconds; all robots move at
+    once. The layout comes from a :class:`~vcs_env.scenario.Scenario` (presets ``circle``,
+    ``swap``, ``crossing``, ``random``, ``crowd``, ``dynamic``, ``custom``).
+
+    ## Action Space
+    ``Box(-1, 1, (2,), float32)`` per robot. ``action_mode="delta"`` (default): (speed change,
+    heading change) as fractions of the one-step limits ``a_max dt`` and ``omega_max dt``, i.e.
+    a point of the one-step velocity change window. ``action_mode="absolute"``: (speed,
+    heading) commands tracked within the limits. Values outside [-1, 1] are clipped; NaN, inf
+    and wrong shapes raise ``ValueError``. Details: :mod:`vcs_env.dynamics`.
+
+    ## Observation Space
+    ``Box(-1, 1, (8 + 8 K,), float32)`` per robot, in the robot's frame: own speed, goal
+    distance and bearing, own limits and radius, then the ``K = n_neighbors`` nearest objects
+    within ``r_ca`` (relative position and velocity, radius, gap, robot flag, mask). Table in
+    :mod:`vcs_env.observations`. ``state()`` is the global state (SI units).
+
+    ## Rewards
+    Weighted sum of named terms (``progress``, ``arrival``, ``collision``, ``time``, optional
+    ``vcs_imitation`` / ``vcs_potential`` shaping and custom ``reward_terms``), weights in
+    ``scenario.rewards``. ``info[agent]["reward_terms"]`` has every unweighted term.
+
+    ## Starting State
+    Drawn from the scenario with the generator seeded by ``reset(seed=...)``.
+
+    ## Episode End
+    A robot terminates when its centre passes within ``r_goal`` of its goal or, with
+    ``on_collision="terminate"`` (default), when it touches a robot or obstacle (swept check).
+    Robots still driving after ``max_cycles`` steps are truncated. Finished robots stay in the
+    world, parked, as obstacles (``park_finished``).
+
+    ## Info
+    ``reward_terms``, ``reached_goal`` (bool), ``collided_with`` (list of ``robot_i`` /
+    ``obstacle_k``), ``min_separation`` (smallest swept gap this step [m]) and, with an expert,
+    ``expert_action`` (the expert's action for the returned observation).
+
+    ## Arguments
+    ``scenario`` (name or Scenario), ``render_mode`` (``human``, ``rgb_array``, ``ansi``),
+    ``max_cycles`` (default ``scenario.max_steps``), ``action_mode``, ``expert`` (planner or
+    name, e.g. ``"vcs"``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion``,
+    ``gamma`` (shaping discount), and any Scenario field as a keyword override
+    (``n_robots=16``).
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = {
+        "name": "vcs_nav_v0",
+        "render_modes": ["human", "rgb_array", "ansi"],
+        "render_fps": 10,
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        scenario: str | Scenario = "circle",
+        render_mode: str | None = None,
+        max_cycles: int | None = None,
+        action_mode: str = "delta",
+        expert: str | Planner | None = None,
+        reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
+        obstacle_motion=None,
+        gamma: float = 0.99,
+        **scenario_overrides,
+    ):
+        EzPickle.__init__(
+            self, scenario, render_mode, max_cycles, action_mode, expert, reward_terms, obstacle_motion, gamma,
+            **scenario_overrides,
+        )
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.scenario = make_scenario(scenario, **scenario_overrides)
+        if max_cycles is not None and (isinstance(max_cycles, bool) or not isinstance(max_cycles, int) or max_cycles < 1):
+            raise ValueError(f"max_cycles must be an integer >= 1, got {max_cycles!r}")
+        self.engine = NavEngine(
+            self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles
+        )
+        self.render_mode = render_mode
+        self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
+        self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
+        self.agents: list[str] = []
+        self._obs_space = observation_space(self.scenario)
+        self._act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.state_space = state_space(self.scenario)
+        self._renderer: Renderer | None = None
+        self._obstacle_names = [f"obstacle_{k}" for k in range(self.scenario.n_obstacles)]
+
+    # PettingZoo's tests set env.max_cycles directly.
+    @property
+    def max_cycles(self) -> int:
+        return self.engine.max_steps
+
+    @max_cycles.setter
+    def max_cycles(self, value: int) -> None:
+        self.engine.max_steps = int(value)
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        self._check_agent(agent)
+        return self._obs_space  # the identical object for every agent and call (PettingZoo API)
+
+    def action_space(self, agent: str) -> spaces.Box:
+        self._check_agent(agent)
+        return self._act_space
+
+    def _check_agent(self, agent: str) -> int:
+        if agent not in self.agent_index:
+            raise ValueError(f"unknown agent {agent!r}; agents are robot_0 .. robot_{len(self.possible_agents) - 1}")
+        return self.agent_index[agent]
+
+    @property
+    def world(self):
+        """The simulator state (privileged; planners read it)."""
+        return self.engine.world
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        obs = self.engine.reset(None if seed is None else [seed])
+        self.agents = list(self.possible_agents)
+        if self._renderer is not None:
+            self._renderer.reset()
+        expert = self.engine.expert_action
+        infos = {a: ({} if expert is None else {"expert_action": expert[0, i]}) for i, a in enumerate(self.agents)}
+        if self.render_mode == "human":
+            self.render()
+        return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos
+
+    def step(self, actions: Mapping[str, np.ndarray]):
+        if not self.agents:
+            raise RuntimeError("step() called on a finished episode; call reset() first")
+        if not isinstance(actions, Mapping):
+            raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        batch = np.zeros((1, len(self.possible_agents), 2))
+        for agent, act in actions.items():
+            i = self._check_agent(agent)
+            if agent not in self.agents:
+                continue  # a finished robot's action is ignored
+            try:
+                arr = np.asarray(act, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"action of {agent} must be numeric with shape (2,), got {act!r}") from None
+            if arr.shape != (2,):
+                raise ValueError(f"action of {agent} must have shape (2,), got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"action of {agent} must be finite, got {arr}")
+            batch[0, i] = arr
+        missing = [a for a in self.agents if a not in actions]
+        if missing:
+            raise ValueError(f"missing actions for live agents {missing}")
+        live = list(self.agents)
+        res = self.engine.step(batch)
+        ev = res.events
+        obs, rew, term, trunc, infos = {}, {}, {}, {}, {}
+        for agent in live:
+            i = self.agent_index[agent]
+            obs[agent] = res.obs[0, i]
+            rew[agent] = float(res.reward[0, i])
+            term[agent] = bool(res.terminated[0, i])
+            trunc[agent] = bool(res.truncated[0, i])
+            hits = [self.possible_agents[j] for j in np.flatnonzero(ev.robot_hits[0, i])]
+            hits += [self._obstacle_names[k] for k in np.flatnonzero(ev.obstacle_hits[0, i])]
+            info = {
+                "reward_terms": {k: float(v[0, i]) for k, v in res.terms.items()},
+                "reached_goal": bool(ev.reached[0, i]),
+                "collided_with": hits,
+                "min_separation": float(ev.min_separation[0, i]),
+            }
+            if res.expert_action is not None:
+                info["expert_action"] = res.expert_action[0, i]
+            infos[agent] = info
+        self.agents = [a for a in live if not (term[a] or trunc[a])]
+        if self.render_mode == "human":
+            self.render()
+        return obs, rew, term, trunc, infos
+
+    def state(self) -> np.ndarray:
+        return state_vector(self.engine.world)[0]
+
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode= to the env")
+            return None
+        if self.render_mode == "ansi":
+            return ansi(self.engine.world)
+        if self._renderer is None:
+            self._renderer = Renderer(self.scenario.world_extent + 0.5, mode=self.render_mode, fps=self.metadata["render_fps"])
+        return self._renderer.draw(self.engine.world)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def parallel_env(**kwargs) -> VcsNavParallelEnv:
+    """The PettingZoo parallel env; keyword arguments as :class:`VcsNavParallelEnv`."""
+    return VcsNavParallelEnv(**kwargs)
+
+
+def raw_env(**kwargs):
+    """The AEC version (via ``parallel_to_aec``)."""
+    return parallel_to_aec(VcsNavParallelEnv(**kwargs))
+
+
+env = raw_env

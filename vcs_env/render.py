@@ -1,0 +1,198 @@
+"""Rendering: pygame frames (``human`` window or ``rgb_array``), text (``ansi``), GIF/MP4 writers
+and a matplotlib trajectory plot. pygame, Pillow, imageio and matplotlib are imported lazily
+(the ``render`` extra); headless machines need ``SDL_VIDEODRIVER=dummy``.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from .state import WorldState
+
+OBSTACLE_COLOR = (120, 120, 120)
+BACKGROUND = (250, 250, 250)
+
+
+def robot_colors(n: int) -> list[tuple[int, int, int]]:
+    """``n`` well separated colours (RGB 0-255)."""
+    return [tuple(int(255 * c) for c in colorsys.hsv_to_rgb((i * 0.618034) % 1.0, 0.75, 0.85)) for i in range(n)]
+
+
+def _missing(extra_pkg: str, err: ImportError) -> ImportError:
+    return ImportError(f"{extra_pkg} is needed for this; install it with: pip install 'vcs-env[render]' ({err})")
+
+
+class Renderer:
+    """Draws world 0 of a :class:`WorldState`.
+
+    Args:
+        extent: half size of the drawn square [m] (centred on the origin).
+        size: image side [px].
+        mode: ``"human"`` opens a window; ``"rgb_array"`` draws off-screen.
+        fps: frame rate of the human window.
+    """
+
+    def __init__(self, extent: float, size: int = 600, mode: str = "rgb_array", fps: int = 10):
+        self.extent, self.size, self.mode, self.fps = float(extent), int(size), mode, fps
+        self._pg = None
+        self._screen = None
+        self._clock = None
+        self.trails: list[np.ndarray] = []
+
+    def _pygame(self):
+        if self._pg is None:
+            os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+            try:
+                import pygame
+                import pygame.gfxdraw  # noqa: F401
+            except ImportError as e:
+                raise _missing("pygame", e) from None
+            pygame.init()
+            self._pg = pygame
+            if self.mode == "human":
+                pygame.display.init()
+                self._screen = pygame.display.set_mode((self.size, self.size))
+                pygame.display.set_caption("vcs-env")
+                self._clock = pygame.time.Clock()
+        return self._pg
+
+    def _px(self, p: np.ndarray) -> np.ndarray:
+        scale = self.size / (2.0 * self.extent)
+        x = (p[..., 0] + self.extent) * scale
+        y = (self.extent - p[..., 1]) * scale
+        return np.stack((x, y), axis=-1)
+
+    def reset(self) -> None:
+        self.trails = []
+
+    def draw(self, world: WorldState):
+        """Draw world 0; returns an ``(H, W, 3)`` uint8 array (rgb_array) or None (human)."""
+        pg = self._pygame()
+        scale = self.size / (2.0 * self.extent)
+        surf = pg.Surface((self.size, self.size))
+        surf.fill(BACKGROUND)
+        n = world.n_robots
+        colors = robot_colors(n)
+        self.trails.append(world.pos[0].copy())
+        if len(self.trails) > 1:
+            trail = self._px(np.asarray(self.trails))
+            for i in range(n):
+                light = tuple(int(c + (255 - c) * 0.6) for c in colors[i])
+                pg.draw.lines(surf, light, False, trail[:, i].tolist(), 2)
+        for k in range(world.n_obstacles):
+            c = self._px(world.obs_pos[0, k])
+            r = max(1, int(world.obs_radius[0, k] * scale))
+            pg.gfxdraw.filled_circle(surf, int(c[0]), int(c[1]), r, OBSTACLE_COLOR)
+            pg.gfxdraw.aacircle(surf, int(c[0]), int(c[1]), r, (60, 60, 60))
+        for i in range(n):
+            g = self._px(world.goal[0, i])
+            rg = max(3, int(world.r_goal * scale))
+            pg.draw.circle(surf, colors[i], (int(g[0]), int(g[1])), rg, 2)
+        for i in range(n):
+            if not world.present[0, i]:
+                continue
+            c = self._px(world.pos[0, i])
+            r = max(2, int(world.radius[0, i] * scale))
+            col = colors[i] if world.active[0, i] else tuple(int(0.5 * v + 100) for v in colors[i])
+            pg.gfxdraw.filled_circle(surf, int(c[0]), int(c[1]), r, col)
+            edge = (220, 0, 0) if world.collided[0, i] else (30, 30, 30)
+            pg.gfxdraw.aacircle(surf, int(c[0]), int(c[1]), r, edge)
+            tip = self._px(world.pos[0, i] + world.radius[0, i] * np.array([np.cos(world.heading[0, i]), np.sin(world.heading[0, i])]))
+            pg.draw.line(surf, (20, 20, 20), (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), 2)
+        if self.mode == "human":
+            self._screen.blit(surf, (0, 0))
+            pg.event.pump()
+            pg.display.flip()
+            self._clock.tick(self.fps)
+            return None
+        return np.ascontiguousarray(np.transpose(pg.surfarray.array3d(surf), (1, 0, 2)), dtype=np.uint8)
+
+    def close(self) -> None:
+        if self._pg is not None and self.mode == "human":
+            self._pg.display.quit()
+        self._pg = None
+        self._screen = None
+
+
+def ansi(world: WorldState) -> str:
+    """A one-line-per-robot text view of world 0."""
+    lines = [f"t={world.time[0]:.1f}s"]
+    for i in range(world.n_robots):
+        status = "arrived" if world.reached[0, i] else ("crashed" if not world.active[0, i] else "driving")
+        x, y = world.pos[0, i]
+        gx, gy = world.goal[0, i]
+        lines.append(
+            f"robot_{i}: pos=({x:6.2f},{y:6.2f}) heading={world.heading[0, i]:+.2f} speed={world.speed[0, i]:.2f} "
+            f"goal=({gx:6.2f},{gy:6.2f}) {status}"
+        )
+    return "\n".join(lines)
+
+
+def write_video(frames: Sequence[np.ndarray], path: str, fps: int = 10) -> str:
+    """Write ``(H, W, 3)`` uint8 frames to a ``.gif`` (Pillow) or ``.mp4`` (imageio-ffmpeg)."""
+    if not frames:
+        raise ValueError("no frames to write")
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".gif":
+        try:
+            from PIL import Image
+        except ImportError as e:
+            raise _missing("Pillow", e) from None
+        images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
+        images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0, optimize=True)
+    elif ext == ".mp4":
+        try:
+            import imageio.v2 as imageio
+        except ImportError as e:
+            raise _missing("imageio", e) from None
+        with imageio.get_writer(path, fps=fps, macro_block_size=1) as writer:
+            for f in frames:
+                writer.append_data(np.asarray(f, dtype=np.uint8))
+    else:
+        raise ValueError(f"video path must end in .gif or .mp4, got {path!r}")
+    return path
+
+
+def plot_trajectories(pos, goal, radius, obs_pos=None, obs_radius=None, ax=None, title: str | None = None):
+    """Matplotlib plot of one episode.
+
+    Args:
+        pos: robot positions over time ``(T, n, 2)`` [m].
+        goal: ``(n, 2)`` [m].
+        radius: ``(n,)`` [m].
+        obs_pos: obstacle positions over time ``(T, m, 2)`` [m] (optional).
+        obs_radius: ``(m,)`` [m].
+        ax: axes to draw on (a new figure otherwise).
+
+    Returns:
+        The axes.
+    """
+    try:
+        import matplotlib.pyplot as plt
+        from matplotlib.patches import Circle
+    except ImportError as e:
+        raise _missing("matplotlib", e) from None
+    pos = np.asarray(pos)
+    if ax is None:
+        _, ax = plt.subplots(figsize=(6, 6))
+    colors = [tuple(c / 255 for c in col) for col in robot_colors(pos.shape[1])]
+    if obs_pos is not None and np.asarray(obs_pos).size:
+        obs_pos = np.asarray(obs_pos)
+        for k in range(obs_pos.shape[1]):
+            ax.plot(obs_pos[:, k, 0], obs_pos[:, k, 1], color="0.6", lw=1, ls="--")
+            ax.add_patch(Circle(obs_pos[-1, k], obs_radius[k], color="0.5", alpha=0.6))
+    for i in range(pos.shape[1]):
+        ax.plot(pos[:, i, 0], pos[:, i, 1], color=colors[i], lw=1.5)
+        ax.add_patch(Circle(pos[0, i], radius[i], fill=False, color=colors[i], ls=":"))
+        ax.add_patch(Circle(pos[-1, i], radius[i], color=colors[i], alpha=0.7))
+        ax.plot(*goal[i], marker="x", color=colors[i])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    if title:
+        ax.set_title(title)
+    return ax

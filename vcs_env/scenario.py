@@ -1,0 +1,401 @@
+"""Scenarios: frozen, validated descriptions of an episode family, and the named presets.
+
+A :class:`Scenario` says what to place where (``kind`` and its layout fields), how robots move
+(:class:`RobotSpec`), how obstacles move, when an episode ends and how it is rewarded
+(:class:`RewardWeights`). Invalid values raise :class:`ValueError` naming the field and its
+allowed range at construction. Variants come from :func:`dataclasses.replace` or
+:func:`make_scenario`::
+
+    >>> from vcs_env import make_scenario
+    >>> s = make_scenario("circle", n_robots=16)
+    >>> s.n_robots, s.circle_radius
+    (16, 5.0)
+
+Kinds:
+
+========== ==========================================================================================
+circle     ``n_robots`` on a circle of radius ``layout_radius``, each driving to the antipodal point.
+swap       ``n_robots / 2`` head-on pairs on parallel lanes ``lane_spacing`` apart, ``2 layout_radius``
+           long.
+crossing   two groups at 90 degrees: half drive along +x, half along +y, crossing near the origin.
+random     random starts and goals in the square arena ``[-arena_half_size, arena_half_size]^2``.
+crowd      robots on a circle (robot_0 from (0, -R) to (0, R)) among ``n_obstacles`` passive
+           obstacles that cross the same circle and ignore the robots (CrowdNav style).
+dynamic    random starts and goals among obstacles on arbitrary trajectories bouncing in the arena.
+custom     explicit arrays (:class:`CustomLayout`), e.g. to reproduce a layout from a paper.
+========== ==========================================================================================
+
+Except in ``crowd`` and ``custom``, the ``n_obstacles`` obstacles are placed at random in the
+arena, clear of every start and goal, and move by ``obstacle_motion``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+KINDS = ("circle", "swap", "crossing", "random", "crowd", "dynamic", "custom")
+MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go")
+COLLISION_MODES = ("terminate", "continue")
+
+# Reference scales used to normalize observations into [-1, 1]; limits are validated against them.
+V_REF = 3.0
+"""Largest allowed robot or obstacle speed [m/s]."""
+A_REF = 10.0
+"""Largest allowed robot acceleration [m/s^2]."""
+OMEGA_REF = 2.0 * math.pi
+"""Largest allowed robot turn rate [rad/s]."""
+R_REF = 2.0
+"""Largest allowed robot or obstacle radius [m]."""
+
+
+def _check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
+    """Raise ``ValueError`` unless ``lo <(=) value <(=) hi`` and ``value`` is finite."""
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
+    if ok:
+        ok = (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    if not ok:
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        raise ValueError(f"{name} must be a finite number in {left}{lo}, {hi}{right}, got {value!r}")
+
+
+def _check_int(name: str, value: int, lo: int, hi: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
+
+
+def _check_interval(name: str, value: Sequence[float], lo: float, hi: float) -> None:
+    if len(value) != 2:
+        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
+    _check_range(f"{name}[0]", value[0], lo, hi)
+    _check_range(f"{name}[1]", value[1], lo, hi)
+    if value[0] > value[1]:
+        raise ValueError(f"{name} must satisfy low <= high, got {value!r}")
+
+
+def _check_choice(name: str, value: str, choices: Sequence[str]) -> None:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Body and motion limits of every robot of a scenario."""
+
+    radius: float = 0.25
+    """Body radius [m], in (0, 2]."""
+    v_max: float = 1.0
+    """Top speed [m/s], in (0, 3]. Unicycle robots never reverse: 0 <= speed <= v_max."""
+    a_max: float = 0.5
+    """Largest speed change per second [m/s^2], in (0, 10]; |dv| <= a_max * dt per step."""
+    omega_max: float = math.pi / 2
+    """Largest turn rate [rad/s], in (0, 2 pi]; |dtheta| <= omega_max * dt per step (unicycle)."""
+    holonomic: bool = False
+    """If True the velocity vector may change in any direction by up to a_max * dt per step and
+    the heading is the direction of motion (no turn-rate limit). Default: unicycle."""
+
+    def __post_init__(self) -> None:
+        _check_range("robot.radius", self.radius, 0.0, R_REF, lo_open=True)
+        _check_range("robot.v_max", self.v_max, 0.0, V_REF, lo_open=True)
+        _check_range("robot.a_max", self.a_max, 0.0, A_REF, lo_open=True)
+        _check_range("robot.omega_max", self.omega_max, 0.0, OMEGA_REF, lo_open=True)
+        if not isinstance(self.holonomic, bool):
+            raise ValueError(f"robot.holonomic must be a bool, got {self.holonomic!r}")
+
+
+@dataclass(frozen=True)
+class RewardWeights:
+    """Weights of the named reward terms; the reward is the weighted sum of the terms.
+
+    Terms (per robot and step; each is reported in ``info["reward_terms"]`` before weighting):
+    ``progress`` = decrease of the goal distance [m]; ``arrival`` = 1 on the step the goal is
+    reached; ``collision`` = -1 on every step the robot touches something; ``time`` = -dt [s];
+    ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
+    window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = gamma * phi(s') - phi(s) with
+    phi the expert's value estimate of the state (needs an expert; policy invariant).
+    """
+
+    progress: float = 1.0
+    arrival: float = 10.0
+    collision: float = 10.0
+    time: float = 0.5
+    vcs_imitation: float = 0.0
+    vcs_potential: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            _check_range(f"rewards.{f.name}", getattr(self, f.name), -1e6, 1e6)
+
+    def as_dict(self) -> dict[str, float]:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class ObstacleTrajectory:
+    """A scripted obstacle: piecewise-linear motion through timed waypoints, held after the last.
+
+    A static obstacle is one waypoint; a constant-velocity one is two (start and end).
+    """
+
+    times: tuple[float, ...]
+    """Strictly increasing waypoint times [s], the first one 0."""
+    positions: tuple[tuple[float, float], ...]
+    """Waypoints [m], one per time."""
+    radius: float = 0.3
+    """Body radius [m]."""
+
+    def __post_init__(self) -> None:
+        times = tuple(float(t) for t in self.times)
+        positions = tuple((float(p[0]), float(p[1])) for p in self.positions)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "positions", positions)
+        if len(times) == 0 or len(times) != len(positions):
+            raise ValueError("ObstacleTrajectory needs as many times as positions, and at least one")
+        if times[0] != 0.0 or any(b <= a for a, b in zip(times, times[1:])):
+            raise ValueError(f"ObstacleTrajectory.times must start at 0 and increase strictly, got {times}")
+        if not all(math.isfinite(c) for p in positions for c in p):
+            raise ValueError("ObstacleTrajectory.positions must be finite")
+        _check_range("ObstacleTrajectory.radius", self.radius, 0.0, R_REF, lo_open=True)
+        speeds = [
+            math.dist(positions[i + 1], positions[i]) / (times[i + 1] - times[i]) for i in range(len(times) - 1)
+        ]
+        if speeds and max(speeds) > V_REF:
+            raise ValueError(f"ObstacleTrajectory speed must be <= {V_REF} m/s, got {max(speeds):.3f}")
+
+
+@dataclass(frozen=True)
+class CustomLayout:
+    """Explicit initial state for ``kind="custom"`` (all robots share the scenario's RobotSpec)."""
+
+    start: tuple[tuple[float, float], ...]
+    """Robot start positions [m], shape (n, 2)."""
+    goal: tuple[tuple[float, float], ...]
+    """Robot goals [m], shape (n, 2)."""
+    heading: tuple[float, ...] | None = None
+    """Initial headings [rad], shape (n,); default: facing the goal."""
+    speed: tuple[float, ...] | None = None
+    """Initial speeds [m/s], shape (n,); default 0."""
+    obstacles: tuple[ObstacleTrajectory, ...] = ()
+    """Scripted obstacles."""
+
+    def __post_init__(self) -> None:
+        def pts(name, value):
+            arr = np.asarray(value, dtype=np.float64)
+            if arr.ndim != 2 or arr.shape[1] != 2 or not np.all(np.isfinite(arr)):
+                raise ValueError(f"CustomLayout.{name} must be a finite (n, 2) array, got shape {arr.shape}")
+            return tuple(map(tuple, arr.tolist()))
+
+        object.__setattr__(self, "start", pts("start", self.start))
+        object.__setattr__(self, "goal", pts("goal", self.goal))
+        n = len(self.start)
+        if n == 0 or len(self.goal) != n:
+            raise ValueError(f"CustomLayout needs n >= 1 starts and as many goals, got {n} and {len(self.goal)}")
+        for name in ("heading", "speed"):
+            value = getattr(self, name)
+            if value is not None:
+                arr = np.asarray(value, dtype=np.float64)
+                if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+                    raise ValueError(f"CustomLayout.{name} must be a finite array of shape ({n},)")
+                object.__setattr__(self, name, tuple(arr.tolist()))
+        if self.speed is not None and min(self.speed) < 0:
+            raise ValueError("CustomLayout.speed must be >= 0")
+        object.__setattr__(self, "obstacles", tuple(self.obstacles))
+        for o in self.obstacles:
+            if not isinstance(o, ObstacleTrajectory):
+                raise ValueError(f"CustomLayout.obstacles must hold ObstacleTrajectory objects, got {type(o)}")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A family of episodes: layout, robots, obstacles, sensing, termination and rewards."""
+
+    kind: str = "circle"
+    """One of ``circle, swap, crossing, random, crowd, dynamic, custom`` (module docstring)."""
+    n_robots: int = 8
+    """Number of robots n, in [1, 256]; even for ``swap``, >= 2 for ``crossing``."""
+    n_obstacles: int = 0
+    """Number of passive obstacles m, in [0, 256] (custom: the number of trajectories)."""
+    layout_radius: float | None = None
+    """Circle radius for circle/crowd, half lane length for swap/crossing [m]; None picks
+    max(5, 0.3 n) for circle and 5 otherwise."""
+    arena_half_size: float = 6.0
+    """Half side of the square arena [m] for random placement and obstacle bouncing."""
+    lane_spacing: float = 1.2
+    """Distance between neighbouring lanes (swap) or robots in a group (crossing) [m]."""
+    jitter: float = 0.0
+    """Uniform noise on start positions [m] (circle, swap, crossing); 0 = perfectly symmetric."""
+    min_separation: float = 0.3
+    """Smallest gap between spawned bodies and between starts/goals [m]."""
+    initial_speed: float = 0.0
+    """Initial robot speed [m/s] (robots start facing their goal)."""
+    dt: float = 0.1
+    """Sensing-acting period [s], in (0, 1]."""
+    robot: RobotSpec = field(default_factory=RobotSpec)
+    """Robot body and limits."""
+    obstacle_motion: str = "static"
+    """Motion of generated obstacles: static, constant, patrol, arbitrary, stop_and_go."""
+    obstacle_radius: tuple[float, float] = (0.2, 0.4)
+    """Obstacle radius range [m], drawn uniformly."""
+    obstacle_speed: tuple[float, float] = (0.2, 0.7)
+    """Obstacle speed range [m/s], drawn uniformly (ignored by static)."""
+    turn_rate: float = 0.6
+    """``arbitrary``: turn rates are drawn from U(-turn_rate, turn_rate) [rad/s] ..."""
+    turn_period: float = 2.0
+    """... and redrawn every turn_period [s]."""
+    go_time: tuple[float, float] = (2.0, 5.0)
+    """``stop_and_go``: duration range of a moving phase [s]."""
+    stop_time: tuple[float, float] = (1.0, 3.0)
+    """``stop_and_go``: duration range of a stopped phase [s]."""
+    bounce: bool = False
+    """Obstacles bounce off the arena walls (``arena_half_size``)."""
+    r_goal: float = 0.1
+    """A robot has arrived when its centre passes within r_goal of its goal [m]."""
+    r_ca: float = 6.0
+    """Sensing radius [m]: a robot observes objects whose centres are within r_ca."""
+    n_neighbors: int = 8
+    """K, the number of nearest objects in each observation, in [1, 64]."""
+    max_steps: int = 600
+    """Episode length limit in steps (truncation)."""
+    on_collision: str = "terminate"
+    """``terminate``: a robot that touches anything stops and its episode ends; ``continue``: it
+    keeps driving (for evaluating planners), every contact step is still reported."""
+    park_finished: bool = True
+    """Robots that arrived (or crashed) stay in the world as static obstacles; if False they
+    leave the world (no collisions, not observed)."""
+    rewards: RewardWeights = field(default_factory=RewardWeights)
+    """Reward weights."""
+    custom: CustomLayout | None = None
+    """Explicit layout, required by and only allowed with ``kind="custom"``."""
+
+    def __post_init__(self) -> None:
+        _check_choice("kind", self.kind, KINDS)
+        if not isinstance(self.robot, RobotSpec):
+            raise ValueError(f"robot must be a RobotSpec, got {type(self.robot).__name__}")
+        if not isinstance(self.rewards, RewardWeights):
+            raise ValueError(f"rewards must be a RewardWeights, got {type(self.rewards).__name__}")
+        if self.kind == "custom":
+            if not isinstance(self.custom, CustomLayout):
+                raise ValueError("kind='custom' needs custom=CustomLayout(...)")
+            if self.n_robots != len(self.custom.start):
+                raise ValueError(
+                    f"n_robots must equal the number of custom starts ({len(self.custom.start)}), "
+                    f"got {self.n_robots}"
+                )
+            if self.n_obstacles != len(self.custom.obstacles):
+                raise ValueError(
+                    f"n_obstacles must equal the number of custom obstacles ({len(self.custom.obstacles)}), "
+                    f"got {self.n_obstacles}"
+                )
+        elif self.custom is not None:
+            raise ValueError(f"custom is only allowed with kind='custom', got kind={self.kind!r}")
+        _check_int("n_robots", self.n_robots, 1, 256)
+        _check_int("n_obstacles", self.n_obstacles, 0, 256)
+        if self.kind == "swap" and self.n_robots % 2:
+            raise ValueError(f"n_robots must be even for kind='swap', got {self.n_robots}")
+        if self.kind == "crossing" and self.n_robots < 2:
+            raise ValueError(f"n_robots must be >= 2 for kind='crossing', got {self.n_robots}")
+        if self.layout_radius is not None:
+            _check_range("layout_radius", self.layout_radius, 0.0, 1e4, lo_open=True)
+        _check_range("arena_half_size", self.arena_half_size, 0.0, 1e4, lo_open=True)
+        _check_range("lane_spacing", self.lane_spacing, 0.0, 1e3, lo_open=True)
+        _check_range("jitter", self.jitter, 0.0, 1e3)
+        _check_range("min_separation", self.min_separation, 0.0, 1e3)
+        _check_range("initial_speed", self.initial_speed, 0.0, self.robot.v_max)
+        _check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
+        _check_choice("obstacle_motion", self.obstacle_motion, MOTIONS)
+        _check_interval("obstacle_radius", self.obstacle_radius, 1e-3, R_REF)
+        _check_interval("obstacle_speed", self.obstacle_speed, 0.0, V_REF)
+        _check_range("turn_rate", self.turn_rate, 0.0, OMEGA_REF)
+        _check_range("turn_period", self.turn_period, 0.0, 1e4, lo_open=True)
+        _check_interval("go_time", self.go_time, 1e-3, 1e4)
+        _check_interval("stop_time", self.stop_time, 0.0, 1e4)
+        if not isinstance(self.bounce, bool) or not isinstance(self.park_finished, bool):
+            raise ValueError("bounce and park_finished must be bools")
+        _check_range("r_goal", self.r_goal, 0.0, 1e3, lo_open=True)
+        _check_range("r_ca", self.r_ca, 0.0, 1e4, lo_open=True)
+        _check_int("n_neighbors", self.n_neighbors, 1, 64)
+        _check_int("max_steps", self.max_steps, 1, 10**7)
+        _check_choice("on_collision", self.on_collision, COLLISION_MODES)
+        from .layouts import check_layout  # late import: layouts needs this module
+
+        check_layout(self)
+
+    # Derived quantities are properties, never defaults computed from other fields.
+    @property
+    def circle_radius(self) -> float:
+        """Layout radius actually used [m] (see ``layout_radius``)."""
+        if self.layout_radius is not None:
+            return float(self.layout_radius)
+        return max(5.0, 0.3 * self.n_robots) if self.kind == "circle" else 5.0
+
+    @property
+    def max_time(self) -> float:
+        """Episode time limit [s]."""
+        return self.max_steps * self.dt
+
+    @property
+    def world_extent(self) -> float:
+        """Half size of a square that holds every start, goal and spawned obstacle [m]."""
+        if self.kind == "custom":
+            pts = [c for p in self.custom.start + self.custom.goal for c in p]
+            pts += [c for o in self.custom.obstacles for p in o.positions for c in p]
+            return max(1.0, max(abs(c) for c in pts) + R_REF)
+        reach = self.circle_radius + self.jitter + self.lane_spacing * self.n_robots / 2
+        return max(self.arena_half_size, reach)
+
+    def with_robot(self, **changes) -> Scenario:
+        """Copy with some RobotSpec fields replaced (``s.with_robot(v_max=2.0)``)."""
+        return dataclasses.replace(self, robot=dataclasses.replace(self.robot, **changes))
+
+
+SCENARIOS: dict[str, Scenario] = {
+    "circle": Scenario(kind="circle", n_robots=8),
+    "swap": Scenario(kind="swap", n_robots=2, lane_spacing=1.2),
+    "crossing": Scenario(kind="crossing", n_robots=6, layout_radius=5.0),
+    "random": Scenario(kind="random", n_robots=6, arena_half_size=5.0),
+    "crowd": Scenario(
+        kind="crowd", n_robots=1, n_obstacles=5, layout_radius=4.0, obstacle_motion="patrol",
+        obstacle_radius=(0.3, 0.3), obstacle_speed=(0.5, 1.0), max_steps=300,
+    ),
+    "dynamic": Scenario(
+        kind="dynamic", n_robots=4, n_obstacles=6, arena_half_size=6.0, obstacle_motion="arbitrary",
+        bounce=True, obstacle_speed=(0.2, 0.6),
+    ),
+    "custom": Scenario(
+        kind="custom", n_robots=2, n_obstacles=1, max_steps=300,
+        custom=CustomLayout(
+            start=((-5.0, 0.0), (5.0, 0.2)),
+            goal=((5.0, 0.0), (-5.0, 0.2)),
+            obstacles=(ObstacleTrajectory(times=(0.0, 20.0), positions=((0.0, -6.0), (0.0, 6.0)), radius=0.4),),
+        ),
+    ),
+}
+"""Named presets; build variants with :func:`make_scenario` or ``dataclasses.replace``."""
+
+
+def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> Scenario:
+    """A preset by name (or a given scenario) with fields replaced by ``overrides``.
+
+    ``robot`` and ``rewards`` may be given as dicts of the fields to change.
+    """
+    if isinstance(name_or_scenario, Scenario):
+        base = name_or_scenario
+    elif name_or_scenario in SCENARIOS:
+        base = SCENARIOS[name_or_scenario]
+    else:
+        raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted(SCENARIOS)}")
+    names = {f.name for f in dataclasses.fields(Scenario)}
+    unknown = set(overrides) - names
+    if unknown:
+        raise ValueError(f"unknown Scenario fields {sorted(unknown)}; valid fields are {sorted(names)}")
+    for key, cls in (("robot", RobotSpec), ("rewards", RewardWeights)):
+        if isinstance(overrides.get(key), dict):
+            overrides[key] = dataclasses.replace(getattr(base, key), **overrides[key])
+    if base.kind == "custom" and overrides.get("kind", "custom") != "custom":
+        overrides.setdefault("custom", None)
+    return dataclasses.replace(base, **overrides)

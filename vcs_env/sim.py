@@ -1,0 +1,258 @@
+"""The batched simulator core: ``B`` worlds of one scenario stepped in one numpy call.
+
+No Gymnasium or PettingZoo types here; the API classes are thin adapters around
+:class:`Simulator`. Each world owns its ``np.random.Generator`` (seeded at reset) and draws
+everything random at reset, so one seed gives one trajectory, bit for bit, and stepping B
+worlds together equals stepping them one by one.
+
+A step has two phases: every robot's command comes from one frozen snapshot (the actions),
+then all robots and obstacles move. Collisions are checked on the swept motion of the step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from .dynamics import ACTION_MODES, check_actions, integrate
+from .geometry import closest_approach, point_segment_distance
+from .layouts import generate
+from .obstacles import ObstacleMotion, make_motion
+from .scenario import Scenario
+from .state import WorldState
+
+
+@dataclass
+class StepEvents:
+    """What happened in one step, per world and robot. Robots that were not active at the start
+    of the step have all-False events and ``min_separation = inf``."""
+
+    acted: np.ndarray  # (B, n) bool: robots that were active at the start of the step
+    reached: np.ndarray  # (B, n) bool: arrived during this step
+    collided: np.ndarray  # (B, n) bool: touched something during this step
+    robot_hits: np.ndarray  # (B, n, n) bool: [b, i, j] robot i touched robot j
+    obstacle_hits: np.ndarray  # (B, n, m) bool: [b, i, k] robot i touched obstacle k
+    min_separation: np.ndarray  # (B, n) smallest swept gap to any object this step [m]
+    goal_dist_before: np.ndarray  # (B, n) [m]
+    goal_dist_after: np.ndarray  # (B, n) [m]
+
+
+class Simulator:
+    """``B`` worlds of one scenario.
+
+    Args:
+        scenario: the episode family.
+        batch_size: number of worlds B.
+        action_mode: ``"delta"`` (velocity-change window fractions) or ``"absolute"``
+            (see :mod:`vcs_env.dynamics`).
+        obstacle_motion: overrides the scenario's obstacle motion model.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        batch_size: int = 1,
+        action_mode: str = "delta",
+        obstacle_motion: ObstacleMotion | None = None,
+    ):
+        if not isinstance(scenario, Scenario):
+            raise ValueError(f"scenario must be a vcs_env.Scenario, got {type(scenario).__name__}")
+        if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        if action_mode not in ACTION_MODES:
+            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
+        self.scenario = scenario
+        self.batch_size = int(batch_size)
+        self.action_mode = action_mode
+        self.motion = obstacle_motion if obstacle_motion is not None else make_motion(scenario)
+        self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(self.batch_size)]
+        self.world: WorldState = self._empty_world()
+        self.motion_params: dict[str, np.ndarray] = {}
+        self._needs_reset = np.ones(self.batch_size, dtype=bool)
+
+    # ------------------------------------------------------------------ reset
+    def _empty_world(self) -> WorldState:
+        s, B, n, m = self.scenario, self.batch_size, self.scenario.n_robots, self.scenario.n_obstacles
+        rs = s.robot
+        return WorldState(
+            time=np.zeros(B),
+            steps=np.zeros(B, dtype=np.int64),
+            key=np.zeros(B, dtype=np.uint64),
+            pos=np.zeros((B, n, 2)),
+            heading=np.zeros((B, n)),
+            speed=np.zeros((B, n)),
+            radius=np.full((B, n), rs.radius),
+            goal=np.zeros((B, n, 2)),
+            v_max=np.full((B, n), rs.v_max),
+            a_max=np.full((B, n), rs.a_max),
+            omega_max=np.full((B, n), rs.omega_max),
+            active=np.zeros((B, n), dtype=bool),
+            present=np.zeros((B, n), dtype=bool),
+            reached=np.zeros((B, n), dtype=bool),
+            collided=np.zeros((B, n), dtype=bool),
+            obs_pos=np.zeros((B, m, 2)),
+            obs_vel=np.zeros((B, m, 2)),
+            obs_radius=np.zeros((B, m)),
+            dt=s.dt,
+            r_goal=s.r_goal,
+            r_ca=s.r_ca,
+            holonomic=rs.holonomic,
+        )
+
+    def reset(self, seeds: int | Sequence[int | None] | None = None, worlds: Sequence[int] | None = None) -> WorldState:
+        """Start new episodes in ``worlds`` (default: all).
+
+        Args:
+            seeds: one seed per reset world, or one int (world ``i`` of the reset set gets
+                ``seed + i``), or None (fresh entropy). A world's generator is re-seeded only
+                when its seed is not None; otherwise it continues its stream.
+            worlds: indices of the worlds to reset.
+
+        Returns:
+            The world state (a reference; copy it to keep a snapshot).
+        """
+        idx = list(range(self.batch_size)) if worlds is None else [int(w) for w in worlds]
+        if seeds is None or isinstance(seeds, (int, np.integer)):
+            seed_list = [None if seeds is None else int(seeds) + i for i in range(len(idx))]
+        else:
+            seed_list = list(seeds)
+            if len(seed_list) != len(idx):
+                raise ValueError(f"got {len(seed_list)} seeds for {len(idx)} worlds")
+        w = self.world
+        for b, seed in zip(idx, seed_list):
+            if seed is not None:
+                self.rngs[b] = np.random.default_rng(seed)
+            rng = self.rngs[b]
+            lay = generate(self.scenario, rng)
+            params = self.motion.init(rng, self.scenario, lay.obs_pos, lay.obs_target)
+            w.time[b] = 0.0
+            w.steps[b] = 0
+            w.key[b] = rng.integers(0, np.iinfo(np.uint64).max, dtype=np.uint64, endpoint=True)
+            w.pos[b] = lay.start
+            w.heading[b] = lay.heading
+            w.speed[b] = lay.speed
+            w.goal[b] = lay.goal
+            w.active[b] = True
+            w.present[b] = True
+            w.reached[b] = False
+            w.collided[b] = False
+            w.obs_pos[b] = lay.obs_pos
+            w.obs_radius[b] = lay.obs_radius
+            w.obs_vel[b] = 0.0
+            for key, value in params.items():
+                if key not in self.motion_params:
+                    self.motion_params[key] = np.zeros((self.batch_size, *value.shape), dtype=value.dtype)
+                self.motion_params[key][b] = value
+        # Obstacle velocities are what they will do over the coming step (for sensing).
+        self._needs_reset[idx] = False
+        self._preview_obstacle_velocity(idx)
+        return w
+
+    def _preview_obstacle_velocity(self, idx: list[int]) -> None:
+        """Fill ``obs_vel`` of the reset worlds with the velocity of their first step, without
+        advancing the motion model's state."""
+        if self.scenario.n_obstacles == 0:
+            return
+        params = {k: v[idx].copy() for k, v in self.motion_params.items()}
+        vel = self.motion.velocity(params, self.world.time[idx], self.world.obs_pos[idx], self.scenario.dt)
+        self.world.obs_vel[idx] = vel
+
+    # ------------------------------------------------------------------- step
+    def step(self, actions: np.ndarray) -> StepEvents:
+        """Advance every world by one step.
+
+        Args:
+            actions: ``(B, n, 2)`` in the simulator's action units; rows of robots that are not
+                active are ignored. Values are clipped to [-1, 1]; NaN or inf raise.
+
+        Returns:
+            The events of the step. The state is updated in place (``self.world``).
+        """
+        if np.any(self._needs_reset):
+            raise RuntimeError(f"worlds {np.flatnonzero(self._needs_reset).tolist()} must be reset before step()")
+        s, w = self.scenario, self.world
+        B, n = self.batch_size, s.n_robots
+        actions = check_actions(actions, (B, n, 2))
+        acted = w.active.copy()
+        dt = s.dt
+
+        # Phase 1: commands from the frozen snapshot.
+        speed, heading, new_pos = integrate(w, actions, self.action_mode)
+        speed = np.where(acted, speed, 0.0)
+        heading = np.where(acted, heading, w.heading)
+        new_pos = np.where(acted[..., None], new_pos, w.pos)
+
+        obs_vel = self._obstacle_velocity()
+        new_obs = w.obs_pos + obs_vel * dt
+
+        # Phase 2: swept checks over the straight motions of the step.
+        old_pos = w.pos
+        present = w.present
+        rr_gap = closest_approach(
+            old_pos[:, None, :, :] - old_pos[:, :, None, :], new_pos[:, None, :, :] - new_pos[:, :, None, :]
+        ) - (w.radius[:, :, None] + w.radius[:, None, :])
+        pair_ok = present[:, :, None] & present[:, None, :] & ~np.eye(n, dtype=bool)
+        rr_gap = np.where(pair_ok, rr_gap, np.inf)
+        ro_gap = closest_approach(
+            w.obs_pos[:, None, :, :] - old_pos[:, :, None, :], new_obs[:, None, :, :] - new_pos[:, :, None, :]
+        ) - (w.radius[:, :, None] + w.obs_radius[:, None, :])
+        ro_gap = np.where(present[:, :, None], ro_gap, np.inf)
+        robot_hits = (rr_gap < 0.0) & acted[:, :, None]
+        obstacle_hits = (ro_gap < 0.0) & acted[:, :, None]
+        collided = robot_hits.any(axis=2) | obstacle_hits.any(axis=2)
+        min_sep = np.minimum(
+            rr_gap.min(axis=2, initial=np.inf), ro_gap.min(axis=2, initial=np.inf)
+        )
+        min_sep = np.where(acted, min_sep, np.inf)
+
+        goal_before = np.linalg.norm(w.goal - old_pos, axis=-1)
+        goal_after = np.linalg.norm(w.goal - new_pos, axis=-1)
+        reached = acted & (point_segment_distance(w.goal, old_pos, new_pos) <= s.r_goal)
+
+        # Commit.
+        w.pos, w.speed, w.heading = new_pos, speed, heading
+        w.obs_pos, w.obs_vel = new_obs, obs_vel
+        w.reached |= reached
+        w.collided |= collided
+        stopped = reached | (collided if s.on_collision == "terminate" else np.zeros_like(collided))
+        w.active &= ~stopped
+        w.speed = np.where(w.active, w.speed, 0.0)
+        if not s.park_finished:
+            w.present &= ~stopped
+        w.time = w.time + dt
+        w.steps = w.steps + 1
+        return StepEvents(
+            acted=acted,
+            reached=reached,
+            collided=collided,
+            robot_hits=robot_hits,
+            obstacle_hits=obstacle_hits,
+            min_separation=min_sep,
+            goal_dist_before=goal_before,
+            goal_dist_after=goal_after,
+        )
+
+    def _obstacle_velocity(self) -> np.ndarray:
+        """Velocities of all obstacles over the coming step, after wall bounces ``(B, m, 2)``."""
+        s, w = self.scenario, self.world
+        if s.n_obstacles == 0:
+            return np.zeros_like(w.obs_pos)
+        vel = self.motion.velocity(self.motion_params, w.time, w.obs_pos, s.dt)
+        if s.bounce:
+            half = s.arena_half_size
+            nxt = w.obs_pos + vel * s.dt
+            r = w.obs_radius[..., None]
+            # Reverse a component that would carry the disc through a wall during the step.
+            flip = ((nxt + r > half) & (vel > 0)) | ((nxt - r < -half) & (vel < 0))
+            if np.any(flip):
+                vel = np.where(flip, -vel, vel)
+                self.motion.reflect(self.motion_params, flip)
+        return vel
+
+    # ---------------------------------------------------------------- queries
+    @property
+    def done(self) -> np.ndarray:
+        """``(B,)`` bool: no robot is active any more."""
+        return ~self.world.active.any(axis=1)

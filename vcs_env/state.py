@@ -1,0 +1,76 @@
+"""The world state: a struct of flat arrays with a leading batch axis ``B`` (worlds).
+
+``n`` robots and ``m`` obstacles per world. Robots that finish are masked (``active``), never
+deleted. Planners read this (privileged) state; learned policies see observations.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from .geometry import unit
+
+
+@dataclass
+class WorldState:
+    """State of ``B`` worlds at one instant. Shapes in the comments; units in brackets."""
+
+    time: np.ndarray  # (B,) elapsed time [s]
+    steps: np.ndarray  # (B,) int, steps taken
+    key: np.ndarray  # (B,) uint64, per-episode random key for planners (vcs_env.noise)
+    pos: np.ndarray  # (B, n, 2) robot centres [m]
+    heading: np.ndarray  # (B, n) heading = direction of motion [rad]
+    speed: np.ndarray  # (B, n) speed >= 0 [m/s]
+    radius: np.ndarray  # (B, n) [m]
+    goal: np.ndarray  # (B, n, 2) [m]
+    v_max: np.ndarray  # (B, n) [m/s]
+    a_max: np.ndarray  # (B, n) [m/s^2]
+    omega_max: np.ndarray  # (B, n) [rad/s]
+    active: np.ndarray  # (B, n) bool: still driving (not arrived, not stopped by a crash)
+    present: np.ndarray  # (B, n) bool: physically in the world (parked robots are present)
+    reached: np.ndarray  # (B, n) bool: has arrived
+    collided: np.ndarray  # (B, n) bool: has touched something at least once
+    obs_pos: np.ndarray  # (B, m, 2) obstacle centres [m]
+    obs_vel: np.ndarray  # (B, m, 2) obstacle velocity over the last step [m/s]
+    obs_radius: np.ndarray  # (B, m) [m]
+    dt: float  # step [s]
+    r_goal: float  # arrival radius [m]
+    r_ca: float  # sensing radius [m]
+    holonomic: bool  # robots are holonomic (else unicycle)
+
+    @property
+    def batch_size(self) -> int:
+        return self.pos.shape[0]
+
+    @property
+    def n_robots(self) -> int:
+        return self.pos.shape[1]
+
+    @property
+    def n_obstacles(self) -> int:
+        return self.obs_pos.shape[1]
+
+    @property
+    def vel(self) -> np.ndarray:
+        """Robot velocities ``(B, n, 2)`` [m/s]."""
+        return self.speed[..., None] * unit(self.heading)
+
+    def copy(self) -> WorldState:
+        """A deep copy (arrays copied)."""
+        return dataclasses.replace(
+            self, **{f.name: getattr(self, f.name).copy() for f in dataclasses.fields(self) if isinstance(getattr(self, f.name), np.ndarray)}
+        )
+
+    def world(self, b: int) -> WorldState:
+        """World ``b`` alone, as a batch of one (arrays copied)."""
+        return dataclasses.replace(
+            self,
+            **{
+                f.name: getattr(self, f.name)[b : b + 1].copy()
+                for f in dataclasses.fields(self)
+                if isinstance(getattr(self, f.name), np.ndarray)
+            },
+        )
