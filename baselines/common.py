@@ -11,6 +11,10 @@ def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) 
     """Velocity toward the goal, capped so the robot can stop there (vcs-method.md §2.5).
 
     ``s = min(v_pref_max, d / dt, sqrt(2 a_max d))`` toward the goal, and 0 within ``r_goal``.
+    Unicycles are also capped so that they can turn onto the goal, ``s <= omega_max d /
+    (2 |sin(beta)|)`` (pure-pursuit curvature 2 sin(beta) / d for a goal at bearing beta;
+    ``|sin(beta)|`` counts as 1 for goals behind): without it a fast robot can orbit its goal
+    (a limit cycle of radius v / omega_max) [reconstructed].
 
     Returns:
         ``(B, n, 2)`` [m/s].
@@ -19,6 +23,10 @@ def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) 
     d = np.sqrt(np.einsum("...i,...i->...", e, e))
     cap = world.v_max if v_pref_max is None else v_pref_max
     s = np.minimum(np.minimum(cap, d / world.dt), np.sqrt(2.0 * world.a_max * d))
+    if not world.holonomic:
+        beta = np.arctan2(e[..., 1], e[..., 0]) - world.heading
+        sin_b = np.where(np.cos(beta) >= 0.0, np.abs(np.sin(beta)), 1.0)
+        s = np.minimum(s, world.omega_max * d / (2.0 * np.maximum(sin_b, 1e-9)))
     s = np.where(d > world.r_goal, s, 0.0)
     return e * (s / np.maximum(d, 1e-12))[..., None]
 

@@ -359,7 +359,7 @@ SCENARIOS: dict[str, Scenario] = {
     "crossing": Scenario(kind="crossing", n_robots=6, layout_radius=5.0),
     "random": Scenario(kind="random", n_robots=6, arena_half_size=5.0),
     "crowd": Scenario(
-        kind="crowd", n_robots=1, n_obstacles=5, layout_radius=4.0, obstacle_motion="patrol",
+        kind="crowd", n_robots=1, n_obstacles=5, layout_radius=4.0, obstacle_motion="constant",
         obstacle_radius=(0.3, 0.3), obstacle_speed=(0.5, 1.0), max_steps=300,
     ),
     "dynamic": Scenario(

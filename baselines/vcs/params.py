@@ -1,0 +1,163 @@
+"""Every parameter of the VCS planner, documented against ``notes/vcs-method.md`` (the spec).
+
+Tags as in the spec: [paper] from the seed paper, [standard] from the VO/RVO/HRVO/DWA
+literature, [reconstructed] our choice (the paper's formula is unknown).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+HORIZONS = ("adaptive", "infinite")
+WINDOWS = ("multi_step", "one_step")
+COSTS = ("full", "goal_only")
+RECIPROCITIES = ("hrvo", "rvo", "vo")
+FALLBACKS = ("penalty", "least_violation")
+GOAL_METRICS = ("vcs", "velocity")
+
+
+def _positive(name: str, value: float, allow_zero: bool = False) -> None:
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        raise ValueError(f"VCSParams.{name} must be a finite number {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class VCSParams:
+    """VCS planner parameters (spec §2.16 defaults)."""
+
+    # --- size regulation (§2.6) [paper concept, formula reconstructed]
+    delta_min: float = 0.05
+    """Always-on safety buffer added to the combined radius [m]."""
+    delta_s: float = 0.15
+    """Extra buffer at full collision-time or collision-distance factor [m]."""
+    eps_overlap: float = 1e-3
+    """Cone kept defined when the buffered disc already contains the robot: r_eff = d - eps [m]."""
+    buffer_share: float = 1.0
+    """Inside the buffer, r_eff = min(d - eps, r_0 + buffer_share (d - r_0)); 1 is the spec's
+    rule (a near half-plane), smaller values keep part of the remaining gap [reconstructed]."""
+    t_max: float = 5.0
+    """T_max: collision-time factor scale and the largest avoidance horizon [s]."""
+    # --- avoidance horizon (§2.7) [reconstructed]
+    t_margin: float = 2.0
+    """T_m: horizon = time needed to leave the cone + this margin [s]. The spec's prototype
+    used 1 s; here 1 s left dense circles (20-24 robots) with empty admissible sets and
+    collisions, 2 s solved them (see ``notes/vcs-calibration.md``) [reconstructed]."""
+    horizon: str | float = "adaptive"
+    """``"adaptive"`` (T_h = min(T_max, T_need + T_m)), ``"infinite"`` (classic conservative VO:
+    the foil of the un-conservative claim) or a number (a fixed horizon T [s])."""
+    # --- window (§2.10) [paper: multi-step window; rule reconstructed]
+    window: str = "multi_step"
+    """``"multi_step"``: window sized by the time to the first threat (foresighted);
+    ``"one_step"``: only the one-step window (the shortsighted foil)."""
+    window_margin_steps: int = 2
+    """Steps kept in hand before the first threat when sizing the window."""
+    # --- point search (§2.11) [reconstructed]
+    n_v: int = 21
+    """Grid values of the speed change over the window (endpoints included)."""
+    n_theta: int = 41
+    """Grid values of the direction change over a partial window (endpoints included)."""
+    n_theta_full: int = 72
+    """Direction values when the window covers the full circle, over [-pi, pi)."""
+    coarse_n_v: int = 21
+    """Coarse grid over the whole VCS domain for T_need (§2.7), speed values."""
+    coarse_n_theta: int = 72
+    """... direction values."""
+    # --- cost (§2.12) [reconstructed]
+    cost: str = "full"
+    """``"full"`` multi-objective cost; ``"goal_only"``: closest to the preferred velocity (the
+    RVO/HRVO ClearPath selection, the foil of the multi-objective claim)."""
+    goal_metric: str = "velocity"
+    """Where the goal term J_g is measured: ``"vcs"`` (distance to the goal point G in the VCS,
+    speed / v_max and direction / pi) or ``"velocity"`` (|v - v_pref| / (2 v_max), the spec's
+    §2.12 choice, the default). In velocity space a stopped unicycle gains nothing by turning
+    (every direction change maps to the zero velocity); the stall detour handles that case.
+    The VCS metric prices braking higher than turning and was less safe in dense circles
+    (``notes/vcs-calibration.md``); spec §5 open question 3 [reconstructed]."""
+    w_goal: float = 1.0
+    """Weight of the goal term J_g."""
+    w_safety: float = 0.2
+    """Weight of the soft safety band just beyond the horizon."""
+    w_change: float = 0.2
+    """Weight of the size of the velocity change."""
+    w_reach: float = 0.1
+    """Weight of the time needed to reach the candidate."""
+    w_hysteresis: float = 0.2
+    """Weight of the distance to last period's target."""
+    w_bias: float = 0.0
+    """Weight of the keep-right bias max(0, dtheta) / pi."""
+    tau_s: float = 1.0
+    """Width of the soft safety band beyond the horizon [s]."""
+    kappa: float = 5.0
+    """Fallback penalty kappa / t_c when no candidate is admissible [s] (§2.13)."""
+    fallback: str = "penalty"
+    """When no candidate is admissible: ``"penalty"`` (spec §2.13, kappa / t_c + J_g) or
+    ``"least_violation"`` (the candidate that violates the truncated VOs least, as ORCA's
+    fallback minimizes the largest half-plane penetration) [reconstructed]."""
+    # --- interaction (§2.4) [paper: interactive velocity rule; default HRVO]
+    reciprocity: str = "hrvo"
+    """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""
+    # --- preferred velocity and deadlocks (§2.5, §2.13)
+    perturbation: float = 0.01
+    """Symmetry-breaking noise on v_pref as a fraction of v_max (multi-robot only)."""
+    stall_speed: float = 0.05
+    """A robot slower than this fraction of v_max ..."""
+    stall_goal_margin: float = 0.0
+    """... farther than r_goal + this from its goal [m] (the spec's 0.3 m, with r_goal 0.1 m,
+    left robots stopped 0.1-0.3 m short of their goal for good) ..."""
+    stall_time: float = 1.0
+    """... for this long [s] starts a detour ..."""
+    detour_time: float = 2.0
+    """... of this duration [s] ..."""
+    detour_angle: float = -math.pi / 4
+    """... with v_pref rotated by this angle [rad] (negative: keep right) and w_safety = 0
+    (spec §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
+    detour, so a robot stopped with its goal behind it turns around [reconstructed]."""
+    r_ca: float | None = None
+    """Sensing radius [m]; None uses the world's."""
+
+    def __post_init__(self) -> None:
+        for name in ("delta_min", "delta_s", "eps_overlap", "t_margin", "tau_s", "perturbation", "stall_speed",
+                     "stall_goal_margin", "stall_time", "detour_time", "w_goal", "w_safety", "w_change",
+                     "w_reach", "w_hysteresis", "w_bias"):
+            _positive(name, getattr(self, name), allow_zero=True)
+        if not isinstance(self.buffer_share, (int, float)) or not 0.0 <= self.buffer_share <= 1.0:
+            raise ValueError(f"VCSParams.buffer_share must be in [0, 1], got {self.buffer_share!r}")
+        for name in ("t_max", "kappa"):
+            _positive(name, getattr(self, name))
+        if isinstance(self.horizon, str):
+            if self.horizon not in HORIZONS:
+                raise ValueError(f"VCSParams.horizon must be one of {HORIZONS} or a number of seconds, got {self.horizon!r}")
+        else:
+            _positive("horizon", self.horizon)
+        for name, choices in (("window", WINDOWS), ("cost", COSTS), ("reciprocity", RECIPROCITIES),
+                              ("fallback", FALLBACKS), ("goal_metric", GOAL_METRICS)):
+            if getattr(self, name) not in choices:
+                raise ValueError(f"VCSParams.{name} must be one of {choices}, got {getattr(self, name)!r}")
+        for name in ("n_v", "n_theta", "n_theta_full", "coarse_n_v", "coarse_n_theta"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or not 2 <= v <= 1000:
+                raise ValueError(f"VCSParams.{name} must be an integer in [2, 1000], got {v!r}")
+        if not isinstance(self.window_margin_steps, int) or self.window_margin_steps < 0:
+            raise ValueError(f"VCSParams.window_margin_steps must be an integer >= 0, got {self.window_margin_steps!r}")
+        if not isinstance(self.detour_angle, (int, float)) or not abs(self.detour_angle) <= math.pi:
+            raise ValueError(f"VCSParams.detour_angle must be in [-pi, pi], got {self.detour_angle!r}")
+        if self.r_ca is not None:
+            _positive("r_ca", self.r_ca)
+
+    @property
+    def weights(self) -> tuple[float, float, float, float, float, float]:
+        """(w_goal, w_safety, w_change, w_reach, w_hysteresis, w_bias) after the ``cost`` switch."""
+        if self.cost == "goal_only":
+            return (self.w_goal, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return (self.w_goal, self.w_safety, self.w_change, self.w_reach, self.w_hysteresis, self.w_bias)
+
+    @property
+    def horizon_value(self) -> float:
+        """-1 for adaptive, inf for infinite, else the fixed horizon [s] (kernel encoding)."""
+        if self.horizon == "adaptive":
+            return -1.0
+        if self.horizon == "infinite":
+            return math.inf
+        return float(self.horizon)

@@ -1,0 +1,213 @@
+"""The VCS planner: the expert policy and reward shaper (spec ``notes/vcs-method.md`` §2)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from vcs_env import noise
+from vcs_env.geometry import rotate, wrap_angle
+from vcs_env.planning import Planner
+from vcs_env.state import WorldState
+
+from ..common import preferred_velocity
+from . import kernel
+from .params import VCSParams
+
+
+def param_vector(p: VCSParams) -> np.ndarray:
+    """The kernel's float parameter vector (layout in :mod:`baselines.vcs.kernel`)."""
+    prm = np.zeros(kernel.N_PARAMS)
+    prm[kernel.P_DELTA_MIN] = p.delta_min
+    prm[kernel.P_DELTA_S] = p.delta_s
+    prm[kernel.P_EPS] = p.eps_overlap
+    prm[kernel.P_TMAX] = p.t_max
+    prm[kernel.P_TM] = p.t_margin
+    prm[kernel.P_HORIZON] = p.horizon_value
+    prm[kernel.P_TAU_S] = p.tau_s
+    prm[kernel.P_KAPPA] = p.kappa
+    (prm[kernel.P_WG], prm[kernel.P_WS], prm[kernel.P_WC], prm[kernel.P_WR], prm[kernel.P_WH],
+     prm[kernel.P_WB]) = p.weights
+    prm[kernel.P_NV] = p.n_v
+    prm[kernel.P_NTH] = p.n_theta
+    prm[kernel.P_NTH_FULL] = p.n_theta_full
+    prm[kernel.P_CNV] = p.coarse_n_v
+    prm[kernel.P_CNTH] = p.coarse_n_theta
+    prm[kernel.P_ONE_STEP] = 1.0 if p.window == "one_step" else 0.0
+    prm[kernel.P_RECIP] = {"hrvo": kernel.R_HRVO, "rvo": kernel.R_RVO, "vo": kernel.R_VO}[p.reciprocity]
+    prm[kernel.P_MARGIN] = p.window_margin_steps
+    prm[kernel.P_FALLBACK] = 1.0 if p.fallback == "least_violation" else 0.0
+    prm[kernel.P_SHARE] = p.buffer_share
+    prm[kernel.P_GMETRIC] = 1.0 if p.goal_metric == "vcs" else 0.0
+    return prm
+
+
+@dataclasses.dataclass
+class _Memory:
+    """Per-robot memory across periods, kept idempotent: ``inp`` is what the plan at step
+    ``step`` uses, ``out`` what it leaves for step ``step + 1``."""
+
+    step: np.ndarray  # (B,) int
+    key: np.ndarray  # (B,) uint64
+    prev_in: np.ndarray  # (B, n, 2) residual target (dv, dtheta) from the last period
+    has_prev_in: np.ndarray  # (B, n) bool
+    stall_in: np.ndarray  # (B, n) time spent stalled [s]
+    detour_in: np.ndarray  # (B, n) detour time left [s]
+    prev_out: np.ndarray
+    has_prev_out: np.ndarray
+    stall_out: np.ndarray
+    detour_out: np.ndarray
+
+    @classmethod
+    def empty(cls, B: int, n: int) -> _Memory:
+        z2, z1, zb = np.zeros((B, n, 2)), np.zeros((B, n)), np.zeros((B, n), dtype=bool)
+        return cls(np.full(B, -1, dtype=np.int64), np.zeros(B, dtype=np.uint64), z2, zb, z1, z1.copy(),
+                   z2.copy(), zb.copy(), z1.copy(), z1.copy())
+
+    def sync(self, world: WorldState) -> None:
+        """Move last period's output into this period's input, or clear it on a new episode."""
+        fresh = (world.steps == 0) | (world.key != self.key)
+        advance = ~fresh & (world.steps == self.step + 1)
+        same = ~fresh & (world.steps == self.step)
+        clear = ~(advance | same)
+        for a, b in ((self.prev_in, self.prev_out), (self.has_prev_in, self.has_prev_out),
+                     (self.stall_in, self.stall_out), (self.detour_in, self.detour_out)):
+            a[advance] = b[advance]
+            a[clear] = 0
+        self.step = world.steps.copy()
+        self.key = world.key.copy()
+
+
+class VCSPlanner(Planner):
+    """Velocity Change Space planner (Zhong, Zhong and Peng), batched over worlds and robots.
+
+    Each robot, every period, maps its goal, the (size-regulated, time-truncated) velocity
+    obstacles of what it senses within ``r_ca`` and its multi-step reachable window into the
+    plane of (speed change, direction change), searches a grid of that window for the
+    admissible point of least multi-objective cost, and steers toward it at its maximal
+    per-step rates. Decentralised: a robot uses only what it senses, and the communicated
+    preferred velocity of other robots (HRVO side choice).
+
+    Args:
+        params: a :class:`VCSParams`; keyword arguments replace its fields
+            (``VCSPlanner(horizon="infinite")`` is the classic-VO foil).
+
+    After each call, ``last`` holds per-robot diagnostics ``(B, n)``: ``fallback`` (no
+    admissible candidate), ``k`` (window steps), ``t_star`` (first threat time [s]),
+    ``threats``, ``target`` (dv*, dtheta*) ``(B, n, 2)``, ``goal_step`` (the one-step-clipped
+    goal point) ``(B, n, 2)``, ``cost`` and ``detour``.
+    """
+
+    name = "vcs"
+
+    def __init__(self, params: VCSParams | None = None, **overrides):
+        base = params if params is not None else VCSParams()
+        if not isinstance(base, VCSParams):
+            raise ValueError(f"params must be a VCSParams, got {type(base).__name__}")
+        self.params = dataclasses.replace(base, **overrides) if overrides else base
+        self._prm = param_vector(self.params)
+        self._mem: _Memory | None = None
+        self._cache_key: tuple | None = None
+        self._cache_target: np.ndarray | None = None
+        self.last: dict[str, np.ndarray] = {}
+
+    # ------------------------------------------------------------------ inputs
+    def _inputs(self, world: WorldState):
+        """Preferred velocities (perturbed, and detour-rotated) and communicated ones."""
+        p = self.params
+        mem = self._mem
+        pref = preferred_velocity(world)
+        own = pref.copy()
+        B, n = world.batch_size, world.n_robots
+        d_goal = np.linalg.norm(world.goal - world.pos, axis=-1)
+        if n > 1 and p.perturbation > 0:
+            # Symmetry breaking (§2.5): a small random push, from the world's counter-based noise.
+            psi = 2.0 * np.pi * noise.uniform(world.key, world.steps, n, stream=1)
+            push = p.perturbation * world.v_max[..., None] * np.stack((np.cos(psi), np.sin(psi)), -1)
+            own = own + np.where((d_goal > world.r_goal)[..., None], push, 0.0)
+        # Stall handling (§2.13): after stall_time [s] slow and away from the goal, detour.
+        stalled = (world.speed < p.stall_speed * world.v_max) & (d_goal > world.r_goal + p.stall_goal_margin) & world.active
+        start = (mem.detour_in <= 0) & stalled & (mem.stall_in + world.dt >= p.stall_time - 1e-9)
+        detour = (mem.detour_in > 0) | start
+        own = np.where(detour[..., None], rotate(own, np.full((B, n), p.detour_angle)), own)
+        mem.detour_out = np.where(detour, np.where(start, p.detour_time, mem.detour_in) - world.dt, 0.0)
+        mem.stall_out = np.where(stalled & ~detour, mem.stall_in + world.dt, 0.0)
+        return own, pref, detour
+
+    # -------------------------------------------------------------------- plan
+    def plan(self, world: WorldState) -> np.ndarray:
+        key = (world.key.tobytes(), world.steps.tobytes(), world.pos.tobytes(), world.active.tobytes(),
+               world.obs_pos.tobytes(), world.speed.tobytes())
+        if key == self._cache_key:
+            return self._cache_target.copy()
+        B, n = world.batch_size, world.n_robots
+        if self._mem is None or self._mem.prev_in.shape[:2] != (B, n):
+            self._mem = _Memory.empty(B, n)
+        mem = self._mem
+        mem.sync(world)
+        own, comm, detour = self._inputs(world)
+        r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
+        out_target = np.zeros((B, n, 2))
+        out_cost = np.zeros((B, n))
+        out_fallback = np.zeros((B, n), dtype=np.bool_)
+        out_k = np.zeros((B, n), dtype=np.int64)
+        out_tstar = np.zeros((B, n))
+        out_threats = np.zeros((B, n), dtype=np.int64)
+        out_g1 = np.zeros((B, n, 2))
+        kernel.plan_batch(
+            world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
+            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
+            own, comm, detour, mem.prev_in, mem.has_prev_in, self._prm, float(r_ca), float(world.dt),
+            bool(world.holonomic), out_target, out_cost, out_fallback, out_k, out_tstar, out_threats, out_g1,
+        )
+        # Residual of the target after this period's saturated command (for J_h next period).
+        dv, dth = out_target[..., 0], out_target[..., 1]
+        if world.holonomic:
+            cmd_dv, cmd_dth = dv, dth  # the holonomic command reaches along the velocity change
+            mem.prev_out = np.zeros((B, n, 2))
+        else:
+            dv1, dth1 = world.a_max * world.dt, world.omega_max * world.dt
+            cmd_dv, cmd_dth = np.clip(dv, -dv1, dv1), np.clip(dth, -dth1, dth1)
+            mem.prev_out = np.stack((dv - cmd_dv, wrap_angle(dth - cmd_dth)), axis=-1)
+        mem.has_prev_out = world.active.copy()
+        target = np.stack((world.speed + dv, wrap_angle(world.heading + dth)), axis=-1)
+        target[..., 0] = np.where(world.active, target[..., 0], 0.0)
+        target[..., 1] = np.where(world.active, target[..., 1], world.heading)
+        cap = sum(self.params.weights) + 1.0
+        self.last = {
+            "target": out_target, "cost": np.minimum(out_cost, cap), "fallback": out_fallback, "k": out_k,
+            "t_star": out_tstar, "threats": out_threats, "goal_step": out_g1, "detour": detour,
+        }
+        self._cache_key, self._cache_target = key, target
+        return target.copy()
+
+    def potential(self, world: WorldState) -> np.ndarray:
+        """Minus the expert's optimal cost J of the state ``(B, n)``, in ``[-(sum w + 1), 0]``
+        (0 for robots that are done); used by ``vcs_potential`` shaping."""
+        self.plan(world)
+        return np.where(world.active, -self.last["cost"], 0.0)
+
+    def evaluate(self, world: WorldState, b: int, i: int, dv: np.ndarray, dth: np.ndarray):
+        """Admissibility and cost of arbitrary VCS points of robot ``i`` in world ``b`` at this
+        state (same inputs as :meth:`plan`); for tests and plots.
+
+        Returns:
+            ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (n + m,) [s] per sensed object.
+        """
+        self.plan(world)  # memory and inputs of this state
+        mem = self._mem
+        own, comm, detour = self._inputs(world)
+        dv = np.ascontiguousarray(dv, dtype=np.float64).ravel()
+        dth = np.ascontiguousarray(dth, dtype=np.float64).ravel()
+        ok = np.zeros(dv.shape[0], dtype=np.bool_)
+        cost = np.zeros(dv.shape[0])
+        horizon = np.zeros(world.n_robots + world.n_obstacles)
+        r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
+        kernel.evaluate_points(
+            b, i, world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
+            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius, own, comm, detour,
+            mem.prev_in, mem.has_prev_in, self._prm, float(r_ca), float(world.dt), bool(world.holonomic),
+            dv, dth, ok, cost, horizon,
+        )
+        return ok, cost, horizon
