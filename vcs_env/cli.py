@@ -86,10 +86,13 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="vcs-env", description="Multi-robot navigation with a VCS expert planner.")
-    sub = parser.add_subparsers(dest="command", required=True)
+COMMAND_MODULES = ("vcs_env.cli",)
+"""Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers
+and sets ``func``. They must not import torch or stable-baselines3 at module level (the CLI
+imports them all to build ``--help``); heavy imports go inside the command functions."""
 
+
+def add_commands(sub) -> None:
     p = sub.add_parser("rollout", help="run a scripted planner and print per-episode metrics")
     add_scenario_args(p)
     p.add_argument("--planner", default="vcs", help="planner name (see baselines.PLANNERS)")
@@ -100,6 +103,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", default=None, help="write a trajectory plot of the first episode (PNG)")
     p.add_argument("--json", default=None, help="write per-episode metrics to this JSON file")
     p.set_defaults(func=cmd_rollout)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    import importlib
+
+    parser = argparse.ArgumentParser(prog="vcs-env", description="Multi-robot navigation with a VCS expert planner.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).add_commands(sub)
     return parser
 
 
