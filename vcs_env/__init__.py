@@ -7,6 +7,7 @@ Gymnasium env with ``gym.make("vcs_env/Navigation-v0")`` (registered on import).
 from __future__ import annotations
 
 import gymnasium
+import pettingzoo
 
 from .engine import NavEngine, StepResult
 from .parallel import VcsNavParallelEnv, env, parallel_env, raw_env
@@ -41,9 +42,16 @@ for _id, _preset in GYM_IDS.items():
     if _id not in gymnasium.registry:
         gymnasium.register(id=_id, entry_point="vcs_env.gym_env:VcsNavEnv", kwargs={"scenario": _preset})
 
+PZ_ID = "vcs_env/VcsNav-v0"
+"""PettingZoo registry id: ``pettingzoo.make("parallel", PZ_ID, scenario="circle")`` (or "aec")."""
+for _type, _entry in (("parallel", "vcs_env.parallel:parallel_env"), ("aec", "vcs_env.parallel:raw_env")):
+    if PZ_ID not in getattr(pettingzoo, f"{_type}_registry"):
+        pettingzoo.register(_type, PZ_ID, entry_point=_entry)
+
 __all__ = [
     "SCENARIOS",
     "GYM_IDS",
+    "PZ_ID",
     "CustomLayout",
     "NavEngine",
     "ObstacleTrajectory",

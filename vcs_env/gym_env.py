@@ -124,7 +124,9 @@ class VcsNavEnv(gym.Env):
         if self.render_mode == "ansi":
             return ansi(self.engine.world)
         if self._renderer is None:
-            self._renderer = Renderer(self.scenario.world_extent + 0.5, mode=self.render_mode, fps=self.metadata["render_fps"])
+            self._renderer = Renderer(
+                self.scenario.world_extent + 0.5, mode=self.render_mode, fps=self.metadata["render_fps"]
+            )
         return self._renderer.draw(self.engine.world)
 
     def close(self):

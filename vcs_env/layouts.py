@@ -115,7 +115,9 @@ def check_layout(s: Scenario) -> None:
                 raise ValueError(f"arena_half_size={s.arena_half_size:g} m leaves no room for goals >= 1 m away")
     if s.kind == "custom":
         lay = generate(s, np.random.default_rng(0))
-        _check_no_overlap(np.concatenate((lay.start, lay.obs_pos)), np.concatenate((np.full(s.n_robots, r), lay.obs_radius)))
+        _check_no_overlap(
+            np.concatenate((lay.start, lay.obs_pos)), np.concatenate((np.full(s.n_robots, r), lay.obs_radius))
+        )
 
 
 def _check_no_overlap(pos: np.ndarray, radius: np.ndarray) -> None:
@@ -123,7 +125,9 @@ def _check_no_overlap(pos: np.ndarray, radius: np.ndarray) -> None:
     np.fill_diagonal(d, np.inf)
     if np.any(d < 0):
         i, j = np.unravel_index(np.argmin(d), d.shape)
-        raise ValueError(f"custom layout overlaps at t=0: bodies {min(i, j)} and {max(i, j)} (robots first, then obstacles)")
+        raise ValueError(
+            f"custom layout overlaps at t=0: bodies {min(i, j)} and {max(i, j)} (robots first, then obstacles)"
+        )
 
 
 class _Sampler:
@@ -196,7 +200,9 @@ def generate(s: Scenario, rng: np.random.Generator) -> Layout:
         start = np.array([starts.sample(r, f"the start of robot {i}") for i in range(n)]).reshape(n, 2)
         goal = np.array(
             [
-                goals.sample(r, f"the goal of robot {i}", lambda p, i=i: np.linalg.norm(p - start[i]) >= MIN_GOAL_DISTANCE)
+                goals.sample(
+                    r, f"the goal of robot {i}", lambda p, i=i: np.linalg.norm(p - start[i]) >= MIN_GOAL_DISTANCE
+                )
                 for i in range(n)
             ]
         ).reshape(n, 2)
@@ -251,9 +257,7 @@ def _crowd_obstacles(
             noise = rng.uniform(-0.5, 0.5, size=2)
             p = s.circle_radius * np.array([np.cos(ang), np.sin(ang)]) + noise
             g = -p
-            ok = all(
-                np.linalg.norm(q - c) - rad - radius[k] >= s.min_separation for c, rad in bodies for q in (p, g)
-            )
+            ok = all(np.linalg.norm(q - c) - rad - radius[k] >= s.min_separation for c, rad in bodies for q in (p, g))
             if ok:
                 pos[k], target[k] = p, g
                 bodies += [(p, radius[k]), (g, radius[k])]

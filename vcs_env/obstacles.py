@@ -102,7 +102,9 @@ class Patrol(ObstacleMotion):
         arrive = dist <= step
         # Land exactly on the waypoint, then head for the next one.
         with np.errstate(invalid="ignore", divide="ignore"):
-            vel = np.where(arrive[..., None], delta / dt, delta / np.maximum(dist, 1e-12)[..., None] * params["speed"][..., None])
+            vel = np.where(
+                arrive[..., None], delta / dt, delta / np.maximum(dist, 1e-12)[..., None] * params["speed"][..., None]
+            )
         params["next"] = np.where(arrive, (nxt + 1) % wp.shape[-2], nxt)
         return vel
 

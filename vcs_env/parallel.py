@@ -89,17 +89,25 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
         **scenario_overrides,
     ):
         EzPickle.__init__(
-            self, scenario, render_mode, max_cycles, action_mode, expert, reward_terms, obstacle_motion, gamma,
+            self,
+            scenario,
+            render_mode,
+            max_cycles,
+            action_mode,
+            expert,
+            reward_terms,
+            obstacle_motion,
+            gamma,
             **scenario_overrides,
         )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.scenario = make_scenario(scenario, **scenario_overrides)
-        if max_cycles is not None and (isinstance(max_cycles, bool) or not isinstance(max_cycles, int) or max_cycles < 1):
+        if max_cycles is not None and (
+            isinstance(max_cycles, bool) or not isinstance(max_cycles, int) or max_cycles < 1
+        ):
             raise ValueError(f"max_cycles must be an integer >= 1, got {max_cycles!r}")
-        self.engine = NavEngine(
-            self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles
-        )
+        self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles)
         self.render_mode = render_mode
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
@@ -208,7 +216,9 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
         if self.render_mode == "ansi":
             return ansi(self.engine.world)
         if self._renderer is None:
-            self._renderer = Renderer(self.scenario.world_extent + 0.5, mode=self.render_mode, fps=self.metadata["render_fps"])
+            self._renderer = Renderer(
+                self.scenario.world_extent + 0.5, mode=self.render_mode, fps=self.metadata["render_fps"]
+            )
         return self._renderer.draw(self.engine.world)
 
     def close(self) -> None:

@@ -101,7 +101,10 @@ class Renderer:
             pg.gfxdraw.filled_circle(surf, int(c[0]), int(c[1]), r, col)
             edge = (220, 0, 0) if world.collided[0, i] else (30, 30, 30)
             pg.gfxdraw.aacircle(surf, int(c[0]), int(c[1]), r, edge)
-            tip = self._px(world.pos[0, i] + world.radius[0, i] * np.array([np.cos(world.heading[0, i]), np.sin(world.heading[0, i])]))
+            tip = self._px(
+                world.pos[0, i]
+                + world.radius[0, i] * np.array([np.cos(world.heading[0, i]), np.sin(world.heading[0, i])])
+            )
             pg.draw.line(surf, (20, 20, 20), (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), 2)
         if self.mode == "human":
             self._screen.blit(surf, (0, 0))

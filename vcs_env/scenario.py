@@ -161,9 +161,7 @@ class ObstacleTrajectory:
         if not all(math.isfinite(c) for p in positions for c in p):
             raise ValueError("ObstacleTrajectory.positions must be finite")
         _check_range("ObstacleTrajectory.radius", self.radius, 0.0, R_REF, lo_open=True)
-        speeds = [
-            math.dist(positions[i + 1], positions[i]) / (times[i + 1] - times[i]) for i in range(len(times) - 1)
-        ]
+        speeds = [math.dist(positions[i + 1], positions[i]) / (times[i + 1] - times[i]) for i in range(len(times) - 1)]
         if speeds and max(speeds) > V_REF:
             raise ValueError(f"ObstacleTrajectory speed must be <= {V_REF} m/s, got {max(speeds):.3f}")
 
@@ -283,13 +281,16 @@ class Scenario:
                 raise ValueError("kind='custom' needs custom=CustomLayout(...)")
             if self.n_robots != len(self.custom.start):
                 raise ValueError(
-                    f"n_robots must equal the number of custom starts ({len(self.custom.start)}), "
-                    f"got {self.n_robots}"
+                    f"n_robots must equal the number of custom starts ({len(self.custom.start)}), got {self.n_robots}"
                 )
             if self.n_obstacles != len(self.custom.obstacles):
                 raise ValueError(
                     f"n_obstacles must equal the number of custom obstacles ({len(self.custom.obstacles)}), "
                     f"got {self.n_obstacles}"
+                )
+            if self.custom.speed is not None and max(self.custom.speed) > self.robot.v_max:
+                raise ValueError(
+                    f"custom.speed must be <= robot.v_max = {self.robot.v_max}, got {max(self.custom.speed)}"
                 )
         elif self.custom is not None:
             raise ValueError(f"custom is only allowed with kind='custom', got kind={self.kind!r}")
@@ -359,15 +360,29 @@ SCENARIOS: dict[str, Scenario] = {
     "crossing": Scenario(kind="crossing", n_robots=6, layout_radius=5.0),
     "random": Scenario(kind="random", n_robots=6, arena_half_size=5.0),
     "crowd": Scenario(
-        kind="crowd", n_robots=1, n_obstacles=5, layout_radius=4.0, obstacle_motion="constant",
-        obstacle_radius=(0.3, 0.3), obstacle_speed=(0.5, 1.0), max_steps=300,
+        kind="crowd",
+        n_robots=1,
+        n_obstacles=5,
+        layout_radius=4.0,
+        obstacle_motion="constant",
+        obstacle_radius=(0.3, 0.3),
+        obstacle_speed=(0.5, 1.0),
+        max_steps=300,
     ),
     "dynamic": Scenario(
-        kind="dynamic", n_robots=4, n_obstacles=6, arena_half_size=6.0, obstacle_motion="arbitrary",
-        bounce=True, obstacle_speed=(0.2, 0.6),
+        kind="dynamic",
+        n_robots=4,
+        n_obstacles=6,
+        arena_half_size=6.0,
+        obstacle_motion="arbitrary",
+        bounce=True,
+        obstacle_speed=(0.2, 0.6),
     ),
     "custom": Scenario(
-        kind="custom", n_robots=2, n_obstacles=1, max_steps=300,
+        kind="custom",
+        n_robots=2,
+        n_obstacles=1,
+        max_steps=300,
         custom=CustomLayout(
             start=((-5.0, 0.0), (5.0, 0.2)),
             goal=((5.0, 0.0), (-5.0, 0.2)),
@@ -389,11 +404,13 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
         base = SCENARIOS[name_or_scenario]
     else:
         raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted(SCENARIOS)}")
+    if not overrides:
+        return base
     names = {f.name for f in dataclasses.fields(Scenario)}
     unknown = set(overrides) - names
     if unknown:
         raise ValueError(f"unknown Scenario fields {sorted(unknown)}; valid fields are {sorted(names)}")
-    for key, cls in (("robot", RobotSpec), ("rewards", RewardWeights)):
+    for key in ("robot", "rewards"):
         if isinstance(overrides.get(key), dict):
             overrides[key] = dataclasses.replace(getattr(base, key), **overrides[key])
     if base.kind == "custom" and overrides.get("kind", "custom") != "custom":

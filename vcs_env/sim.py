@@ -202,9 +202,7 @@ class Simulator:
         robot_hits = (rr_gap < 0.0) & acted[:, :, None]
         obstacle_hits = (ro_gap < 0.0) & acted[:, :, None]
         collided = robot_hits.any(axis=2) | obstacle_hits.any(axis=2)
-        min_sep = np.minimum(
-            rr_gap.min(axis=2, initial=np.inf), ro_gap.min(axis=2, initial=np.inf)
-        )
+        min_sep = np.minimum(rr_gap.min(axis=2, initial=np.inf), ro_gap.min(axis=2, initial=np.inf))
         min_sep = np.where(acted, min_sep, np.inf)
 
         goal_before = np.linalg.norm(w.goal - old_pos, axis=-1)

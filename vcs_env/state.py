@@ -61,7 +61,12 @@ class WorldState:
     def copy(self) -> WorldState:
         """A deep copy (arrays copied)."""
         return dataclasses.replace(
-            self, **{f.name: getattr(self, f.name).copy() for f in dataclasses.fields(self) if isinstance(getattr(self, f.name), np.ndarray)}
+            self,
+            **{
+                f.name: getattr(self, f.name).copy()
+                for f in dataclasses.fields(self)
+                if isinstance(getattr(self, f.name), np.ndarray)
+            },
         )
 
     def world(self, b: int) -> WorldState:

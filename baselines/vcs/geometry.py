@@ -146,7 +146,9 @@ def static_collision_time(s: np.ndarray, delta: np.ndarray, d: float, r: float) 
     return np.where(inside, t, np.inf)
 
 
-def column_speed_interval(u: np.ndarray, apex: np.ndarray, n: np.ndarray, l: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def column_speed_interval(
+    u: np.ndarray, apex: np.ndarray, n: np.ndarray, l: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Speeds ``s >= 0`` with ``s u - apex`` inside the open cone (n, l): one interval per
     column of the VCS (the cone is convex, §2.9).
 

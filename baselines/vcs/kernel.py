@@ -30,8 +30,27 @@ N_PARAMS = 25
 R_HRVO, R_RVO, R_VO = 0, 1, 2
 # Neighbour record columns (float64 scratch array).
 (
-    F_PX, F_PY, F_D, F_R0, F_REFF, F_APX, F_APY, F_SCALE, F_JAX, F_JAY, F_JSCALE, F_OVL, F_HX, F_HY,
-    F_TC0, F_TH, F_BOUND, F_JBOUND, F_VJX, F_VJY, F_IDX,
+    F_PX,
+    F_PY,
+    F_D,
+    F_R0,
+    F_REFF,
+    F_APX,
+    F_APY,
+    F_SCALE,
+    F_JAX,
+    F_JAY,
+    F_JSCALE,
+    F_OVL,
+    F_HX,
+    F_HY,
+    F_TC0,
+    F_TH,
+    F_BOUND,
+    F_JBOUND,
+    F_VJX,
+    F_VJY,
+    F_IDX,
 ) = range(21)
 N_FIELDS = 21
 
@@ -125,8 +144,23 @@ def collision_time(nb, vx, vy):
 
 @njit(cache=True)
 def setup_neighbors(
-    b, i, pos, heading, speed, radius, active, present, obs_pos, obs_vel, obs_radius, pref_comm, prm, r_ca, dt,
-    nbs, order,
+    b,
+    i,
+    pos,
+    heading,
+    speed,
+    radius,
+    active,
+    present,
+    obs_pos,
+    obs_vel,
+    obs_radius,
+    pref_comm,
+    prm,
+    r_ca,
+    dt,
+    nbs,
+    order,
 ):
     """Fill the neighbour records of robot i in world b (everything but T_need/T_h). Returns the
     number of neighbours; ``order`` lists them nearest surface first."""
@@ -342,7 +376,11 @@ def need_unicycle(nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, 
         while nr < nv and math.ceil(abs(v_max_r * rows[nr] / (nv - 1) - v_r) / dv1 - 1e-9) <= lev:
             nr += 1
         nc = nc_prev
-        while nc < nth and 0 <= cols[nc] < nth and math.ceil(abs(-math.pi + 2.0 * math.pi * cols[nc] / nth) / dth1 - 1e-9) <= lev:
+        while (
+            nc < nth
+            and 0 <= cols[nc] < nth
+            and math.ceil(abs(-math.pi + 2.0 * math.pi * cols[nc] / nth) / dth1 - 1e-9) <= lev
+        ):
             t = cols[nc]
             ccos[t] = math.cos(th_r - math.pi + 2.0 * math.pi * t / nth)
             csin[t] = math.sin(th_r - math.pi + 2.0 * math.pi * t / nth)
@@ -368,7 +406,9 @@ def need_unicycle(nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, 
 
 
 @njit(cache=True)
-def set_horizons(nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols):
+def set_horizons(
+    nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols
+):
     """T_need and the horizon T_h = min(T_max, T_need + T_m) of every neighbour (§2.7), and
     the pruning bounds. T_need is the least reach time over a coarse grid of the VCS domain of
     the points outside the neighbour's untruncated cone (0 if the current velocity is)."""
@@ -387,7 +427,9 @@ def set_horizons(nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspee
         # Levels beyond (T_max - T_m) / dt all give T_h = T_max.
         lmax = int(math.ceil((tmax - prm[P_TM]) / dt - 1e-9))
         if holo:
-            build_coarse(v_r, th_r, v_max_r, dv1, dth1, holo, int(prm[P_CNV]), int(prm[P_CNTH]), cspeed, ccol, cstep, ccos, csin)
+            build_coarse(
+                v_r, th_r, v_max_r, dv1, dth1, holo, int(prm[P_CNV]), int(prm[P_CNTH]), cspeed, ccol, cstep, ccos, csin
+            )
             todo = npend
             for c in range(1, cspeed.shape[0]):  # sorted by reach steps: the first hit is the least
                 col = ccol[c]
@@ -401,8 +443,24 @@ def set_horizons(nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspee
                 if todo == 0:
                     break
         else:
-            need_unicycle(nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, int(prm[P_CNV]), int(prm[P_CNTH]),
-                          lmax, rows, cols, ccos, csin)
+            need_unicycle(
+                nbs,
+                pending,
+                npend,
+                need,
+                v_r,
+                th_r,
+                v_max_r,
+                dv1,
+                dth1,
+                int(prm[P_CNV]),
+                int(prm[P_CNTH]),
+                lmax,
+                rows,
+                cols,
+                ccos,
+                csin,
+            )
     for q in range(count):
         nb = nbs[q]
         if fixed >= 0.0:  # classic VO (inf) or a fixed horizon
@@ -459,7 +517,10 @@ def goal_term(ctx, dv, dth, vx, vy):
     """J_g in [0, 1]: distance to the goal point, in the VCS (``goal_metric="vcs"``) or in
     velocity space (``"velocity"``: |v - v_pref| / (2 v_max), the RVO distance) (§2.12)."""
     if ctx[C_GVCS] > 0.5:
-        return math.sqrt(((dv - ctx[C_GV]) / ctx[C_VMAX]) ** 2 + (wrap(dth - ctx[C_GTH]) / math.pi) ** 2) * 0.7071067811865476
+        return (
+            math.sqrt(((dv - ctx[C_GV]) / ctx[C_VMAX]) ** 2 + (wrap(dth - ctx[C_GTH]) / math.pi) ** 2)
+            * 0.7071067811865476
+        )
     return math.sqrt((vx - ctx[C_PVX]) ** 2 + (vy - ctx[C_PVY]) ** 2) / (2.0 * ctx[C_VMAX])
 
 
@@ -478,7 +539,11 @@ def cost_parts(ctx, dv, dth, vx, vy, steps, bound):
     if j >= bound:
         return j
     if ctx[C_HPREV] > 0.5:
-        j += ctx[C_WH] * math.sqrt(((dv - ctx[C_PDV]) / v_max) ** 2 + (wrap(dth - ctx[C_PDTH]) / math.pi) ** 2) * 0.7071067811865476
+        j += (
+            ctx[C_WH]
+            * math.sqrt(((dv - ctx[C_PDV]) / v_max) ** 2 + (wrap(dth - ctx[C_PDTH]) / math.pi) ** 2)
+            * 0.7071067811865476
+        )
     return j
 
 
@@ -629,9 +694,34 @@ def candidate(c, ngrid, nv, nth, full, lo_v, hi_v, half, gv, gth, g1v, g1th, v_r
 
 @njit(cache=True)
 def plan_batch(
-    pos, heading, speed, radius, v_max, a_max, omega_max, active, present, obs_pos, obs_vel, obs_radius,
-    vpref, pref_comm, no_safety, prev, has_prev, prm, r_ca, dt, holo,
-    out_target, out_cost, out_fallback, out_k, out_tstar, out_threats, out_g1,
+    pos,
+    heading,
+    speed,
+    radius,
+    v_max,
+    a_max,
+    omega_max,
+    active,
+    present,
+    obs_pos,
+    obs_vel,
+    obs_radius,
+    vpref,
+    pref_comm,
+    no_safety,
+    prev,
+    has_prev,
+    prm,
+    r_ca,
+    dt,
+    holo,
+    out_target,
+    out_cost,
+    out_fallback,
+    out_k,
+    out_tstar,
+    out_threats,
+    out_g1,
 ):
     """Plan every active robot of every world (spec §2.14). Outputs per robot: the target VCS
     point (dv*, dtheta*), its cost J, whether the fallback was used, the window size k*, the
@@ -681,7 +771,9 @@ def plan_batch(
                 out_tstar[b, i] = INF
                 out_threats[b, i] = 0
                 continue
-            ctx = robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo)
+            ctx = robot_context(
+                b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo
+            )
             v_r = ctx[C_VR]
             th_r = ctx[C_TH]
             vmax = ctx[C_VMAX]
@@ -691,10 +783,45 @@ def plan_batch(
             vrx = v_r * math.cos(th_r)
             vry = v_r * math.sin(th_r)
             count = setup_neighbors(
-                b, i, pos, heading, speed, radius, active, present, obs_pos, obs_vel, obs_radius, pref_comm, prm,
-                r_ca, dt, nbs, order,
+                b,
+                i,
+                pos,
+                heading,
+                speed,
+                radius,
+                active,
+                present,
+                obs_pos,
+                obs_vel,
+                obs_radius,
+                pref_comm,
+                prm,
+                r_ca,
+                dt,
+                nbs,
+                order,
             )
-            set_horizons(nbs, count, v_r, th_r, vmax, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols)
+            set_horizons(
+                nbs,
+                count,
+                v_r,
+                th_r,
+                vmax,
+                dv1,
+                dth1,
+                holo,
+                dt,
+                prm,
+                cspeed,
+                ccol,
+                cstep,
+                ccos,
+                csin,
+                pending,
+                need,
+                rows,
+                cols,
+            )
             # Threats: current course collides within the horizon (§2.7); window from the first (§2.10).
             tstar = INF
             threats = 0
@@ -763,8 +890,20 @@ def plan_batch(
             for c in range(ngrid, ngrid + 3):
                 dv, dth = candidate(c, ngrid, nv, nth, full, lo_v, hi_v, half, gv, gth, g1v, g1th, v_r, vmax)
                 s = v_r + dv
-                j = consider(nbs, adm, na, js, nj, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth),
-                             reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r), best)
+                j = consider(
+                    nbs,
+                    adm,
+                    na,
+                    js,
+                    nj,
+                    ctx,
+                    dv,
+                    dth,
+                    s * math.cos(th_r + dth),
+                    s * math.sin(th_r + dth),
+                    reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r),
+                    best,
+                )
                 if j < best:
                     best = j
                     bdv = dv
@@ -866,9 +1005,13 @@ def plan_batch(
                         continue
                     s = v_r + dv
                     if prm[P_FALLBACK] > 0.5:
-                        j = violation_cost(nbs, adm, na, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa)
+                        j = violation_cost(
+                            nbs, adm, na, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa
+                        )
                     else:
-                        j = fallback_cost(nbs, count, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa)
+                        j = fallback_cost(
+                            nbs, count, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa
+                        )
                     if j < best:
                         best = j
                         bdv = dv
@@ -884,8 +1027,34 @@ def plan_batch(
 
 @njit(cache=True)
 def evaluate_points(
-    b, i, pos, heading, speed, radius, v_max, a_max, omega_max, active, present, obs_pos, obs_vel, obs_radius,
-    vpref, pref_comm, no_safety, prev, has_prev, prm, r_ca, dt, holo, cand_dv, cand_dth, out_ok, out_cost, out_horizon,
+    b,
+    i,
+    pos,
+    heading,
+    speed,
+    radius,
+    v_max,
+    a_max,
+    omega_max,
+    active,
+    present,
+    obs_pos,
+    obs_vel,
+    obs_radius,
+    vpref,
+    pref_comm,
+    no_safety,
+    prev,
+    has_prev,
+    prm,
+    r_ca,
+    dt,
+    holo,
+    cand_dv,
+    cand_dth,
+    out_ok,
+    out_cost,
+    out_horizon,
 ):
     """Admissibility and cost of arbitrary VCS points for robot i of world b (tests, plots).
     ``out_horizon`` receives the horizon T_h of each sensed object (robots first, then
@@ -908,10 +1077,45 @@ def evaluate_points(
     v_r = ctx[C_VR]
     th_r = ctx[C_TH]
     count = setup_neighbors(
-        b, i, pos, heading, speed, radius, active, present, obs_pos, obs_vel, obs_radius, pref_comm, prm, r_ca, dt,
-        nbs, order,
+        b,
+        i,
+        pos,
+        heading,
+        speed,
+        radius,
+        active,
+        present,
+        obs_pos,
+        obs_vel,
+        obs_radius,
+        pref_comm,
+        prm,
+        r_ca,
+        dt,
+        nbs,
+        order,
     )
-    set_horizons(nbs, count, v_r, th_r, ctx[C_VMAX], ctx[C_DV1], ctx[C_DTH1], holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols)
+    set_horizons(
+        nbs,
+        count,
+        v_r,
+        th_r,
+        ctx[C_VMAX],
+        ctx[C_DV1],
+        ctx[C_DTH1],
+        holo,
+        dt,
+        prm,
+        cspeed,
+        ccol,
+        cstep,
+        ccos,
+        csin,
+        pending,
+        need,
+        rows,
+        cols,
+    )
     vrx = v_r * math.cos(th_r)
     vry = v_r * math.sin(th_r)
     adm = np.zeros(n + m, dtype=np.int64)

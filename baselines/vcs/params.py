@@ -118,9 +118,24 @@ class VCSParams:
     """Sensing radius [m]; None uses the world's."""
 
     def __post_init__(self) -> None:
-        for name in ("delta_min", "delta_s", "eps_overlap", "t_margin", "tau_s", "perturbation", "stall_speed",
-                     "stall_goal_margin", "stall_time", "detour_time", "w_goal", "w_safety", "w_change",
-                     "w_reach", "w_hysteresis", "w_bias"):
+        for name in (
+            "delta_min",
+            "delta_s",
+            "eps_overlap",
+            "t_margin",
+            "tau_s",
+            "perturbation",
+            "stall_speed",
+            "stall_goal_margin",
+            "stall_time",
+            "detour_time",
+            "w_goal",
+            "w_safety",
+            "w_change",
+            "w_reach",
+            "w_hysteresis",
+            "w_bias",
+        ):
             _positive(name, getattr(self, name), allow_zero=True)
         if not isinstance(self.buffer_share, (int, float)) or not 0.0 <= self.buffer_share <= 1.0:
             raise ValueError(f"VCSParams.buffer_share must be in [0, 1], got {self.buffer_share!r}")
@@ -128,11 +143,18 @@ class VCSParams:
             _positive(name, getattr(self, name))
         if isinstance(self.horizon, str):
             if self.horizon not in HORIZONS:
-                raise ValueError(f"VCSParams.horizon must be one of {HORIZONS} or a number of seconds, got {self.horizon!r}")
+                raise ValueError(
+                    f"VCSParams.horizon must be one of {HORIZONS} or a number of seconds, got {self.horizon!r}"
+                )
         else:
             _positive("horizon", self.horizon)
-        for name, choices in (("window", WINDOWS), ("cost", COSTS), ("reciprocity", RECIPROCITIES),
-                              ("fallback", FALLBACKS), ("goal_metric", GOAL_METRICS)):
+        for name, choices in (
+            ("window", WINDOWS),
+            ("cost", COSTS),
+            ("reciprocity", RECIPROCITIES),
+            ("fallback", FALLBACKS),
+            ("goal_metric", GOAL_METRICS),
+        ):
             if getattr(self, name) not in choices:
                 raise ValueError(f"VCSParams.{name} must be one of {choices}, got {getattr(self, name)!r}")
         for name in ("n_v", "n_theta", "n_theta_full", "coarse_n_v", "coarse_n_theta"):

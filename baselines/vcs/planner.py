@@ -27,8 +27,9 @@ def param_vector(p: VCSParams) -> np.ndarray:
     prm[kernel.P_HORIZON] = p.horizon_value
     prm[kernel.P_TAU_S] = p.tau_s
     prm[kernel.P_KAPPA] = p.kappa
-    (prm[kernel.P_WG], prm[kernel.P_WS], prm[kernel.P_WC], prm[kernel.P_WR], prm[kernel.P_WH],
-     prm[kernel.P_WB]) = p.weights
+    (prm[kernel.P_WG], prm[kernel.P_WS], prm[kernel.P_WC], prm[kernel.P_WR], prm[kernel.P_WH], prm[kernel.P_WB]) = (
+        p.weights
+    )
     prm[kernel.P_NV] = p.n_v
     prm[kernel.P_NTH] = p.n_theta
     prm[kernel.P_NTH_FULL] = p.n_theta_full
@@ -62,8 +63,18 @@ class _Memory:
     @classmethod
     def empty(cls, B: int, n: int) -> _Memory:
         z2, z1, zb = np.zeros((B, n, 2)), np.zeros((B, n)), np.zeros((B, n), dtype=bool)
-        return cls(np.full(B, -1, dtype=np.int64), np.zeros(B, dtype=np.uint64), z2, zb, z1, z1.copy(),
-                   z2.copy(), zb.copy(), z1.copy(), z1.copy())
+        return cls(
+            np.full(B, -1, dtype=np.int64),
+            np.zeros(B, dtype=np.uint64),
+            z2,
+            zb,
+            z1,
+            z1.copy(),
+            z2.copy(),
+            zb.copy(),
+            z1.copy(),
+            z1.copy(),
+        )
 
     def sync(self, world: WorldState) -> None:
         """Move last period's output into this period's input, or clear it on a new episode."""
@@ -71,8 +82,12 @@ class _Memory:
         advance = ~fresh & (world.steps == self.step + 1)
         same = ~fresh & (world.steps == self.step)
         clear = ~(advance | same)
-        for a, b in ((self.prev_in, self.prev_out), (self.has_prev_in, self.has_prev_out),
-                     (self.stall_in, self.stall_out), (self.detour_in, self.detour_out)):
+        for a, b in (
+            (self.prev_in, self.prev_out),
+            (self.has_prev_in, self.has_prev_out),
+            (self.stall_in, self.stall_out),
+            (self.detour_in, self.detour_out),
+        ):
             a[advance] = b[advance]
             a[clear] = 0
         self.step = world.steps.copy()
@@ -127,7 +142,9 @@ class VCSPlanner(Planner):
             push = p.perturbation * world.v_max[..., None] * np.stack((np.cos(psi), np.sin(psi)), -1)
             own = own + np.where((d_goal > world.r_goal)[..., None], push, 0.0)
         # Stall handling (§2.13): after stall_time [s] slow and away from the goal, detour.
-        stalled = (world.speed < p.stall_speed * world.v_max) & (d_goal > world.r_goal + p.stall_goal_margin) & world.active
+        stalled = (
+            (world.speed < p.stall_speed * world.v_max) & (d_goal > world.r_goal + p.stall_goal_margin) & world.active
+        )
         start = (mem.detour_in <= 0) & stalled & (mem.stall_in + world.dt >= p.stall_time - 1e-9)
         detour = (mem.detour_in > 0) | start
         own = np.where(detour[..., None], rotate(own, np.full((B, n), p.detour_angle)), own)
@@ -137,8 +154,14 @@ class VCSPlanner(Planner):
 
     # -------------------------------------------------------------------- plan
     def plan(self, world: WorldState) -> np.ndarray:
-        key = (world.key.tobytes(), world.steps.tobytes(), world.pos.tobytes(), world.active.tobytes(),
-               world.obs_pos.tobytes(), world.speed.tobytes())
+        key = (
+            world.key.tobytes(),
+            world.steps.tobytes(),
+            world.pos.tobytes(),
+            world.active.tobytes(),
+            world.obs_pos.tobytes(),
+            world.speed.tobytes(),
+        )
         if key == self._cache_key:
             return self._cache_target.copy()
         B, n = world.batch_size, world.n_robots
@@ -156,10 +179,34 @@ class VCSPlanner(Planner):
         out_threats = np.zeros((B, n), dtype=np.int64)
         out_g1 = np.zeros((B, n, 2))
         kernel.plan_batch(
-            world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
-            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
-            own, comm, detour, mem.prev_in, mem.has_prev_in, self._prm, float(r_ca), float(world.dt),
-            bool(world.holonomic), out_target, out_cost, out_fallback, out_k, out_tstar, out_threats, out_g1,
+            world.pos,
+            world.heading,
+            world.speed,
+            world.radius,
+            world.v_max,
+            world.a_max,
+            world.omega_max,
+            world.active,
+            world.present,
+            world.obs_pos,
+            world.obs_vel,
+            world.obs_radius,
+            own,
+            comm,
+            detour,
+            mem.prev_in,
+            mem.has_prev_in,
+            self._prm,
+            float(r_ca),
+            float(world.dt),
+            bool(world.holonomic),
+            out_target,
+            out_cost,
+            out_fallback,
+            out_k,
+            out_tstar,
+            out_threats,
+            out_g1,
         )
         # Residual of the target after this period's saturated command (for J_h next period).
         dv, dth = out_target[..., 0], out_target[..., 1]
@@ -176,8 +223,14 @@ class VCSPlanner(Planner):
         target[..., 1] = np.where(world.active, target[..., 1], world.heading)
         cap = sum(self.params.weights) + 1.0
         self.last = {
-            "target": out_target, "cost": np.minimum(out_cost, cap), "fallback": out_fallback, "k": out_k,
-            "t_star": out_tstar, "threats": out_threats, "goal_step": out_g1, "detour": detour,
+            "target": out_target,
+            "cost": np.minimum(out_cost, cap),
+            "fallback": out_fallback,
+            "k": out_k,
+            "t_star": out_tstar,
+            "threats": out_threats,
+            "goal_step": out_g1,
+            "detour": detour,
         }
         self._cache_key, self._cache_target = key, target
         return target.copy()
@@ -205,9 +258,33 @@ class VCSPlanner(Planner):
         horizon = np.zeros(world.n_robots + world.n_obstacles)
         r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
         kernel.evaluate_points(
-            b, i, world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
-            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius, own, comm, detour,
-            mem.prev_in, mem.has_prev_in, self._prm, float(r_ca), float(world.dt), bool(world.holonomic),
-            dv, dth, ok, cost, horizon,
+            b,
+            i,
+            world.pos,
+            world.heading,
+            world.speed,
+            world.radius,
+            world.v_max,
+            world.a_max,
+            world.omega_max,
+            world.active,
+            world.present,
+            world.obs_pos,
+            world.obs_vel,
+            world.obs_radius,
+            own,
+            comm,
+            detour,
+            mem.prev_in,
+            mem.has_prev_in,
+            self._prm,
+            float(r_ca),
+            float(world.dt),
+            bool(world.holonomic),
+            dv,
+            dth,
+            ok,
+            cost,
+            horizon,
         )
         return ok, cost, horizon

@@ -1,0 +1,141 @@
+"""Conformance with the PettingZoo and Gymnasium APIs, through their own checkers."""
+
+import pickle
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from pettingzoo.test import api_test, max_cycles_test, parallel_api_test, parallel_seed_test, render_test
+from pettingzoo.utils.conversions import parallel_to_aec
+
+import vcs_env
+from vcs_env.scenario import SCENARIOS
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_parallel_api(name):
+    parallel_api_test(vcs_env.parallel_env(scenario=name, max_cycles=60), num_cycles=200)
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_parallel_seed(name):
+    parallel_seed_test(lambda: vcs_env.parallel_env(scenario=name), num_cycles=60)
+
+
+def test_aec_api():
+    api_test(vcs_env.env(scenario="crowd", max_cycles=50), num_cycles=100)
+
+
+def test_max_cycles():
+    max_cycles_test(vcs_env)
+
+
+def test_render_modes():
+    render_test(lambda render_mode=None: vcs_env.env(scenario="dynamic", render_mode=render_mode))
+    env = vcs_env.parallel_env(scenario="circle", render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 5  # something is drawn
+    env.close()
+
+
+def test_spaces_are_identical_objects_and_unknown_agents_raise():
+    env = vcs_env.parallel_env(scenario="circle", n_robots=3)
+    assert env.observation_space("robot_0") is env.observation_space("robot_2")
+    assert env.action_space("robot_1") is env.action_space("robot_1")
+    with pytest.raises(ValueError, match="unknown agent"):
+        env.action_space("robot_7")
+
+
+def test_bad_actions_raise_clear_errors():
+    env = vcs_env.parallel_env(scenario="swap")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="robot_0.*finite"):
+        env.step({"robot_0": np.array([np.nan, 0.0]), "robot_1": np.zeros(2)})
+    with pytest.raises(ValueError, match="robot_1.*shape"):
+        env.step({"robot_0": np.zeros(2), "robot_1": np.zeros(3)})
+    with pytest.raises(ValueError, match="missing actions"):
+        env.step({"robot_0": np.zeros(2)})
+    with pytest.raises(ValueError, match="unknown agent"):
+        env.step({"robot_0": np.zeros(2), "robot_1": np.zeros(2), "robot_9": np.zeros(2)})
+    with pytest.raises(ValueError, match="dict"):
+        env.step([np.zeros(2), np.zeros(2)])
+
+
+def test_info_events_and_state():
+    env = vcs_env.parallel_env(scenario="swap", expert="straight")
+    obs, infos = env.reset(seed=3)
+    assert infos["robot_0"]["expert_action"].shape == (2,)
+    assert env.state_space.contains(env.state())
+    _, rew, _, _, infos = env.step({a: np.zeros(2) for a in env.agents})
+    info = infos["robot_0"]
+    assert set(info) >= {"reward_terms", "reached_goal", "collided_with", "min_separation", "expert_action"}
+    terms = info["reward_terms"]
+    w = env.scenario.rewards.as_dict()
+    assert rew["robot_0"] == pytest.approx(sum(w[k] * v for k, v in terms.items()))
+
+
+def test_pickle_round_trip():
+    env = vcs_env.parallel_env(scenario="crowd", n_obstacles=3)
+    clone = pickle.loads(pickle.dumps(env))
+    a, _ = env.reset(seed=5)
+    b, _ = clone.reset(seed=5)
+    for k in a:
+        np.testing.assert_array_equal(a[k], b[k])
+
+
+@pytest.mark.parametrize("env_id", sorted(vcs_env.GYM_IDS))
+def test_gymnasium_check_env(env_id):
+    env = gym.make(env_id, render_mode="rgb_array")
+    check_env(env.unwrapped)
+    env.close()
+
+
+def test_gym_make_overrides_and_vector_envs():
+    env = gym.make("vcs_env/Navigation-v0", scenario="crowd", n_obstacles=2, others="straight")
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    obs, reward, term, trunc, info = env.step(env.action_space.sample())
+    assert "reward_terms" in info
+    env.close()
+    vec = gym.make_vec(
+        "vcs_env/Swap-v0", num_envs=2, vectorization_mode="async", vector_kwargs={"context": "spawn"}, others="straight"
+    )
+    obs, _ = vec.reset(seed=1)
+    assert obs.shape == (2, vec.single_observation_space.shape[0])
+    vec.step(np.zeros((2, 2), dtype=np.float32))
+    vec.close()
+
+
+def test_gym_env_seeding_is_reproducible():
+    def rollout(seed):
+        env = gym.make("vcs_env/Crossing-v0", others="vcs")
+        obs, _ = env.reset(seed=seed)
+        out = [obs]
+        for _ in range(20):
+            obs, *_ = env.step(np.array([0.5, 0.1], dtype=np.float32))
+            out.append(obs)
+        return np.array(out)
+
+    np.testing.assert_array_equal(rollout(7), rollout(7))
+
+
+def test_aec_env_via_parallel_to_aec_runs():
+    env = parallel_to_aec(vcs_env.parallel_env(scenario="swap"))
+    env.reset(seed=0)
+    for _ in env.agent_iter(max_iter=20):
+        _, _, term, trunc, _ = env.last()
+        env.step(None if term or trunc else np.zeros(2, dtype=np.float32))
+
+
+def test_pettingzoo_registry():
+    import pettingzoo
+
+    env = pettingzoo.make("parallel", vcs_env.PZ_ID, scenario="swap", max_cycles=5)
+    assert env.metadata["name"] == "vcs_nav_v0" and env.max_cycles == 5
+    env.reset(seed=0)
+    aec = pettingzoo.make("aec", vcs_env.PZ_ID, scenario="swap")
+    aec.reset(seed=0)
+    assert aec.agent_selection == "robot_0"

@@ -1,0 +1,238 @@
+"""Simulator semantics: swept collisions, arrival, parking, collision modes, obstacle motion."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vcs_env
+from vcs_env.engine import NavEngine
+from vcs_env.obstacles import MOTION_MODELS, Trajectory
+from vcs_env.scenario import CustomLayout, ObstacleTrajectory
+from vcs_env.sim import Simulator
+
+
+def custom(starts, goals, headings=None, speeds=None, obstacles=(), **kw):
+    layout = CustomLayout(start=starts, goal=goals, heading=headings, speed=speeds, obstacles=obstacles)
+    return vcs_env.make_scenario("custom", n_robots=len(starts), n_obstacles=len(obstacles), custom=layout, **kw)
+
+
+def test_discs_passing_through_each_other_within_one_step_collide():
+    # Two fast robots 0.6 m apart head-on at 3 m/s each, dt = 0.2: they swap sides within one
+    # step, and their end positions are 0.6 m apart again (no overlap at either end).
+    fast = vcs_env.RobotSpec(v_max=3.0, radius=0.2)
+    s = custom(((-0.3, 0.0), (0.3, 0.0)), ((10.0, 0.0), (-10.0, 0.0)), speeds=(3.0, 3.0), dt=0.2, robot=fast)
+    sim = Simulator(s)
+    sim.reset([0])
+    ev = sim.step(np.zeros((1, 2, 2)))
+    assert np.linalg.norm(sim.world.pos[0, 0] - sim.world.pos[0, 1]) == pytest.approx(0.6)
+    assert ev.collided.all()
+    assert ev.robot_hits[0, 0, 1] and ev.robot_hits[0, 1, 0]
+    assert ev.min_separation[0, 0] == pytest.approx(-0.4)
+
+
+def test_near_miss_is_not_a_collision():
+    # Same crossing with a lateral offset of radius sum + 1 cm.
+    fast = vcs_env.RobotSpec(v_max=3.0, radius=0.2)
+    s = custom(((-0.3, 0.0), (0.3, 0.41)), ((10.0, 0.0), (-10.0, 0.41)), speeds=(3.0, 3.0), dt=0.2, robot=fast)
+    sim = Simulator(s)
+    sim.reset([0])
+    ev = sim.step(np.zeros((1, 2, 2)))
+    assert not ev.collided.any()
+    assert ev.min_separation[0, 0] == pytest.approx(0.01)
+
+
+def test_robot_obstacle_swept_collision_and_names():
+    obstacle = ObstacleTrajectory(times=(0.0, 1.0), positions=((1.0, -1.0), (1.0, 1.0)), radius=0.2)
+    s = custom(((0.0, 0.0),), ((5.0, 0.0),), speeds=(1.0,), obstacles=(obstacle,))
+    env = vcs_env.parallel_env(scenario=s)
+    env.reset(seed=0)
+    hit = None
+    for _ in range(20):
+        _, rew, term, _, info = env.step({"robot_0": np.zeros(2)})
+        if info["robot_0"]["collided_with"]:
+            hit = info["robot_0"]
+            break
+    assert hit is not None and hit["collided_with"] == ["obstacle_0"]
+    assert hit["reward_terms"]["collision"] == -1.0
+    assert term["robot_0"] and not env.agents  # terminate mode ends the robot's episode
+
+
+def test_continue_mode_keeps_driving_and_reports_every_contact_step():
+    # Robot 0 at 1 m/s runs into robot 1, 2 cm away and standing.
+    s = custom(((0.0, 0.0), (0.52, 0.0)), ((5.0, 0.0), (0.52, 5.0)), speeds=(1.0, 0.0), on_collision="continue")
+    eng = NavEngine(s)
+    eng.reset([0])
+    for _ in range(3):
+        res = eng.step(np.zeros((1, 2, 2)))
+        assert res.events.collided.all() and not res.terminated.any()
+        assert res.terms["collision"][0].tolist() == [-1.0, -1.0]
+    assert eng.world.active.all() and eng.world.collided.all()
+    assert eng.world.pos[0, 0, 0] == pytest.approx(0.3)
+
+
+def test_arrival_is_swept_and_robot_parks():
+    # 1 m/s straight at a goal at x = 1.05: the 10th step passes within r_goal = 0.1 of it.
+    s = custom(((0.0, 0.0), (-3.0, 2.0)), ((1.05, 0.0), (3.0, 2.0)), speeds=(1.0, 0.0), r_goal=0.1)
+    eng = NavEngine(s)
+    eng.reset([0])
+    steps = 0
+    while steps < 15:
+        res = eng.step(np.zeros((1, 2, 2)))
+        steps += 1
+        if res.terminated[0, 0]:
+            break
+    assert steps == 10 and res.events.reached[0, 0] and res.terms["arrival"][0, 0] == 1.0
+    parked = eng.world.pos[0, 0].copy()
+    res = eng.step(np.ones((1, 2, 2)))  # actions of a finished robot are ignored
+    np.testing.assert_array_equal(eng.world.pos[0, 0], parked)
+    assert eng.world.speed[0, 0] == 0.0 and not res.terminated[0, 0] and res.reward[0, 0] == 0.0
+    assert eng.world.present[0, 0]  # still an obstacle for the others
+
+
+def test_park_finished_false_removes_arrived_robots():
+    s = custom(((0.0, 0.0), (2.0, 0.0)), ((0.5, 0.0), (-3.0, 0.0)), speeds=(1.0, 0.0), park_finished=False)
+    eng = NavEngine(s)
+    eng.reset([0])
+    for _ in range(6):
+        eng.step(np.zeros((1, 2, 2)))
+    assert eng.world.reached[0, 0] and not eng.world.present[0, 0]
+    # Robot 1 drives through where robot 0 stopped without a collision.
+    for _ in range(40):
+        res = eng.step(np.array([[[0.0, 0.0], [1.0, 0.0]]]))
+        assert not res.events.collided[0, 1]
+
+
+def test_truncation_at_max_steps():
+    s = custom(((0.0, 0.0),), ((50.0, 0.0),), max_steps=7)
+    eng = NavEngine(s)
+    eng.reset([0])
+    for k in range(7):
+        res = eng.step(np.zeros((1, 1, 2)))
+        assert res.truncated[0, 0] == (k == 6)
+
+
+def test_step_before_reset_and_bad_actions_raise():
+    sim = Simulator(vcs_env.make_scenario("swap"))
+    with pytest.raises(RuntimeError, match="reset"):
+        sim.step(np.zeros((1, 2, 2)))
+    sim.reset([0])
+    with pytest.raises(ValueError, match="shape"):
+        sim.step(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="finite"):
+        sim.step(np.full((1, 2, 2), np.nan))
+
+
+# --------------------------------------------------------------------------- obstacles
+def run_obstacles(scenario, steps, seed=0):
+    sim = Simulator(scenario)
+    sim.reset([seed])
+    out = [sim.world.obs_pos[0].copy()]
+    vel = []
+    for _ in range(steps):
+        sim.step(np.zeros((1, scenario.n_robots, 2)))
+        out.append(sim.world.obs_pos[0].copy())
+        vel.append(sim.world.obs_vel[0].copy())
+    return np.array(out), np.array(vel), sim
+
+
+def test_motion_models_are_registered():
+    assert set(MOTION_MODELS) == {"static", "constant", "patrol", "arbitrary", "stop_and_go"}
+
+
+def test_static_and_constant_velocity_obstacles():
+    s = vcs_env.make_scenario("random", n_robots=2, n_obstacles=4, obstacle_motion="static")
+    pos, _, _ = run_obstacles(s, 10)
+    np.testing.assert_array_equal(pos[0], pos[-1])
+    s = vcs_env.make_scenario(
+        "random", n_robots=2, n_obstacles=4, obstacle_motion="constant", obstacle_speed=(0.3, 0.6)
+    )
+    pos, vel, _ = run_obstacles(s, 10)
+    speed = np.linalg.norm(vel, axis=-1)
+    assert np.all((speed >= 0.3 - 1e-12) & (speed <= 0.6 + 1e-12))
+    np.testing.assert_allclose(pos[-1] - pos[0], 10 * 0.1 * vel[0], atol=1e-12)
+
+
+def test_patrol_lands_on_its_waypoints_and_turns_back():
+    s = vcs_env.make_scenario("random", n_robots=1, n_obstacles=3, obstacle_motion="patrol", obstacle_speed=(0.5, 0.5))
+    pos, vel, sim = run_obstacles(s, 400)
+    wp = sim.motion_params["waypoints"][0]  # (m, 2, 2): start, target
+    for k in range(3):
+        d_target = np.linalg.norm(pos[:, k] - wp[k, 1], axis=-1)
+        d_start = np.linalg.norm(pos[1:, k] - wp[k, 0], axis=-1)
+        assert d_target.min() < 1e-9 and d_start.min() < 1e-9  # went there and came back
+    assert np.all(np.linalg.norm(vel, axis=-1) <= 0.5 + 1e-9)
+
+
+def test_arbitrary_motion_keeps_speed_and_bounded_turn_rate():
+    s = vcs_env.make_scenario("dynamic", bounce=False, turn_rate=0.6, turn_period=2.0)
+    _, vel, _ = run_obstacles(s, 100)
+    speed = np.linalg.norm(vel, axis=-1)
+    np.testing.assert_allclose(speed, speed[0][None].repeat(len(speed), 0), atol=1e-12)
+    ang = np.unwrap(np.arctan2(vel[..., 1], vel[..., 0]), axis=0)
+    rate = np.abs(np.diff(ang, axis=0)) / 0.1
+    assert rate.max() <= 0.6 + 1e-9
+    # Piecewise constant: the rate changes at most once every 2 s (20 steps).
+    changes = np.abs(np.diff(np.diff(ang, axis=0), axis=0)) > 1e-9
+    assert changes.sum(axis=0).max() <= 100 // 20 + 1
+
+
+def test_stop_and_go_alternates():
+    s = vcs_env.make_scenario(
+        "random",
+        n_robots=1,
+        n_obstacles=2,
+        obstacle_motion="stop_and_go",
+        go_time=(1.0, 1.0),
+        stop_time=(0.5, 0.5),
+        obstacle_speed=(0.4, 0.4),
+    )
+    _, vel, _ = run_obstacles(s, 30)
+    moving = np.linalg.norm(vel, axis=-1) > 0
+    # 1 s moving (10 steps), 0.5 s stopped (5 steps), ...
+    np.testing.assert_array_equal(moving[:, 0], ([True] * 10 + [False] * 5) * 2)
+
+
+def test_bounce_keeps_obstacles_in_the_arena():
+    s = vcs_env.make_scenario(
+        "dynamic", n_obstacles=8, arena_half_size=4.0, obstacle_speed=(0.8, 1.0), n_robots=2, max_steps=600
+    )
+    pos, _, sim = run_obstacles(s, 600)
+    r = sim.world.obs_radius[0]
+    assert np.all(np.abs(pos) <= 4.0 - r[None, :, None] + 1e-9)
+
+
+def test_scripted_trajectory_hits_its_waypoints():
+    traj = ObstacleTrajectory(times=(0.0, 2.0, 3.0), positions=((0.0, 5.0), (2.0, 5.0), (2.0, 4.0)))
+    s = custom(((0.0, 0.0),), ((9.0, 0.0),), obstacles=(traj,))
+    assert isinstance(vcs_env.obstacles.make_motion(s), Trajectory)
+    pos, _, _ = run_obstacles(s, 40)
+    np.testing.assert_allclose(pos[10, 0], [1.0, 5.0], atol=1e-12)
+    np.testing.assert_allclose(pos[20, 0], [2.0, 5.0], atol=1e-12)
+    np.testing.assert_allclose(pos[25, 0], [2.0, 4.5], atol=1e-12)
+    np.testing.assert_allclose(pos[40, 0], [2.0, 4.0], atol=1e-12)  # held after the last waypoint
+
+
+def test_observation_sees_nearest_objects_in_robot_frame():
+    # Robot at the origin facing +y; a robot 1 m ahead, an obstacle 2 m to its right, a robot
+    # out of sensing range.
+    obstacle = ObstacleTrajectory(times=(0.0,), positions=((2.0, 0.0),), radius=0.3)
+    s = custom(
+        ((0.0, 0.0), (0.0, 1.0), (0.0, -9.0)),
+        ((0.0, 5.0), (0.0, 6.0), (0.0, -15.0)),
+        headings=(math.pi / 2, 0.0, 0.0),
+        obstacles=(obstacle,),
+        r_ca=6.0,
+        n_neighbors=3,
+    )
+    env = vcs_env.parallel_env(scenario=s)
+    obs, _ = env.reset(seed=0)
+    o = obs["robot_0"]
+    assert env.observation_space("robot_0").contains(o)
+    nb = o[8:].reshape(3, 8)
+    assert nb[0, 0] == 1 and nb[0, 7] == 1  # nearest: the robot ahead
+    np.testing.assert_allclose(nb[0, 1:3], [1.0 / 6.0, 0.0], atol=1e-6)  # +x of the robot frame
+    assert nb[1, 0] == 1 and nb[1, 7] == 0  # then the obstacle
+    np.testing.assert_allclose(nb[1, 1:3], [0.0, -2.0 / 6.0], atol=1e-6)  # to the right
+    assert nb[2, 0] == 0 and np.all(nb[2] == 0)  # padding: the third robot is out of range
+    np.testing.assert_allclose(o[2:4], [1.0, 0.0], atol=1e-6)  # goal straight ahead
