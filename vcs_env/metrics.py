@@ -39,9 +39,27 @@ def heading_change(ep: Episode) -> np.ndarray:
     return np.abs(d).sum(axis=0)
 
 
+def driving_steps(ep: Episode) -> np.ndarray:
+    """Steps a robot drove through ``(T, n)`` bool: active at the start and still active after.
+
+    The step on which a robot stops (arrives, or crashes under ``on_collision="terminate"``)
+    is left out: the simulator sets the speed of a stopped robot to 0 at once, a parking
+    jump (e.g. 0.5 m/s in one 0.1 s step) that no controller commanded and that would
+    otherwise dominate jerk and count as a speed reversal.
+    """
+    after = np.zeros_like(ep.acted)
+    after[:-1] = ep.acted[1:]
+    if ep.steps:
+        # Last step: still active unless it arrived or touched something then (a contact in
+        # the last step of a "continue" episode drops one sample; harmless).
+        after[-1] = ep.acted[-1] & (ep.reached_step != ep.steps) & ~ep.collided[-1]
+    return ep.acted & after
+
+
 def speed_reversals(ep: Episode) -> np.ndarray:
-    """How often each robot switched between speeding up and slowing down ``(n,)``."""
-    dv = np.diff(ep.speed, axis=0)
+    """How often each robot switched between speeding up and slowing down ``(n,)``, over the
+    steps it drove (:func:`driving_steps`)."""
+    dv = np.where(driving_steps(ep), np.diff(ep.speed, axis=0), 0.0)
     sign = np.where(np.abs(dv) > REVERSAL_EPS, np.sign(dv), 0.0)
     out = np.zeros(ep.n_robots, dtype=np.int64)
     for i in range(ep.n_robots):
@@ -51,12 +69,17 @@ def speed_reversals(ep: Episode) -> np.ndarray:
 
 
 def mean_jerk(ep: Episode) -> np.ndarray:
-    """Mean absolute jerk of the speed profile while driving, per robot ``(n,)`` [m/s^3]."""
-    if ep.steps < 3:
+    """Mean absolute jerk of the speed profile while driving, per robot ``(n,)`` [m/s^3].
+
+    Jerk of step pair (t, t+1) is ``|dv[t+1] - dv[t]| / dt^2``; it counts when the robot drove
+    through both steps (:func:`driving_steps`). 0 for a robot without such a pair.
+    """
+    if ep.steps < 2:
         return np.zeros(ep.n_robots)
     acc = np.diff(ep.speed, axis=0) / ep.dt
     jerk = np.abs(np.diff(acc, axis=0)) / ep.dt
-    mask = ep.acted[1:]
+    driving = driving_steps(ep)
+    mask = driving[:-1] & driving[1:]
     return np.where(mask.any(axis=0), (jerk * mask).sum(axis=0) / np.maximum(mask.sum(axis=0), 1), 0.0)
 
 
@@ -126,7 +149,9 @@ def wilson_interval(successes: float, n: int, z: float = 1.96) -> tuple[float, f
     return (max(0.0, centre - half), min(1.0, centre + half))
 
 
-def aggregate(rows: Sequence[Mapping[str, float]], solved_mask: Sequence[bool] | None = None) -> dict[str, dict[str, float]]:
+def aggregate(
+    rows: Sequence[Mapping[str, float]], solved_mask: Sequence[bool] | None = None
+) -> dict[str, dict[str, float]]:
     """Mean and 95 % interval of every metric over episodes.
 
     Rates use the Wilson interval; other metrics the normal interval of the mean over the
