@@ -1,0 +1,208 @@
+"""Named, versioned evaluation suites: a fixed scenario and a fixed list of seeds.
+
+A number reported for ``circle-16-v0`` can be reproduced by anyone with one command::
+
+    vcs-env evaluate --suite circle-16-v0 --policy vcs
+
+========================== ======== =============================================================
+suite                      episodes content
+========================== ======== =============================================================
+``circle-8-v0``            100      8 robots to the antipodes of a circle of radius 5 m
+``circle-16-v0``           100      16 robots, circle radius 6 m
+``circle-24-v0``           50       24 robots, circle radius 7 m
+``swap-v0``                100      6 robots = 3 head-on pairs on lanes 1.2 m apart, 10 m long
+``crossing-v0``            100      two groups of 4 crossing at 90 degrees, 10 m long
+``crowd-5-v0``             100      1 robot among 5 non-reactive obstacles (CrowdNav circle
+                                    crossing, radius 4 m, constant velocity 0.5-1 m/s)
+``crowd-20-v0``            100      1 robot among 20 non-reactive obstacles, radius 6 m
+``dynamic-v0``             100      4 robots, random starts and goals, among 6 obstacles on
+                                    arbitrary (random-turning, wall-bouncing) trajectories
+========================== ======== =============================================================
+
+Every suite has a ``-smoke`` variant (``circle-16-v0-smoke``, ...) for CI: its first 3 seeds,
+and fewer robots where the full suite is big (``circle-24-v0-smoke`` has 12). Smoke numbers
+are not results; they only show that a policy runs.
+
+Conventions:
+
+* **Collisions are counted, not ended** (``on_collision="continue"``). With ``"terminate"`` a
+  robot that touches anything stops and becomes a parked obstacle; the rest of its episode is
+  lost (does it still arrive? how often does it touch again?) and the other robots then face
+  a different problem, so two planners would no longer be scored on the same situations. An
+  episode with any contact still counts as a collision (:mod:`vcs_env.metrics`).
+* Circle, swap and crossing starts carry 0.1 m of jitter: without it every seed gives the same
+  layout, and a deterministic planner would play one episode 100 times.
+* Robots: radius 0.25 m, v_max 1 m/s, a_max 0.5 m/s^2, omega_max pi/2 rad/s (unicycle), dt 0.1 s.
+  Time limits: 60 s (600 steps); crowd-5 30 s, crowd-20 40 s. Crowd bodies spawn 0.2 m apart
+  (CrowdNav's discomfort distance), the others 0.3 m.
+* Scenarios are written out field by field (not derived from :data:`~vcs_env.scenario.SCENARIOS`,
+  whose presets may be retuned).
+
+**Versioning.** A suite's content (scenario, seeds) and the simulator semantics it relies on
+never change under the same name. Any change that can alter an episode means a new version
+(``circle-16-v1``), and the old one stays for old numbers. :attr:`Suite.fingerprint` hashes the
+content; ``tests/test_evaluate.py`` pins it so an accidental change fails loudly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+
+from .scenario import RobotSpec, Scenario
+
+SMOKE_SEEDS = 3
+"""Episodes in a ``-smoke`` suite."""
+SMOKE_SUFFIX = "-smoke"
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A fixed set of episodes: one scenario, one seed per episode."""
+
+    name: str
+    """Versioned name, e.g. ``circle-16-v0``."""
+    scenario: Scenario
+    """The episode family; evaluation runs it unchanged."""
+    seeds: tuple[int, ...]
+    """One reset seed per episode, in report order."""
+    description: str = ""
+    """One line for humans."""
+
+    def __post_init__(self) -> None:
+        seeds = tuple(int(s) for s in self.seeds)
+        if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
+            raise ValueError(f"suite {self.name!r}: seeds must be distinct non-negative integers, at least one")
+        object.__setattr__(self, "seeds", seeds)
+        if not isinstance(self.scenario, Scenario):
+            raise ValueError(f"suite {self.name!r}: scenario must be a Scenario, got {type(self.scenario).__name__}")
+
+    @property
+    def n_episodes(self) -> int:
+        return len(self.seeds)
+
+    @property
+    def is_smoke(self) -> bool:
+        return self.name.endswith(SMOKE_SUFFIX)
+
+    @property
+    def fingerprint(self) -> str:
+        """First 16 hex digits of the SHA-256 of the suite's content (scenario fields and seeds)."""
+        content = {"scenario": dataclasses.asdict(self.scenario), "seeds": list(self.seeds)}
+        blob = json.dumps(content, sort_keys=True, default=repr).encode()
+        return hashlib.sha256(blob).hexdigest()[:16]
+
+
+def _seeds(count: int, base: int = 1000) -> tuple[int, ...]:
+    return tuple(range(base, base + count))
+
+
+_ROBOT = RobotSpec(radius=0.25, v_max=1.0, a_max=0.5, omega_max=math.pi / 2, holonomic=False)
+_COMMON = dict(
+    robot=_ROBOT,
+    dt=0.1,
+    r_goal=0.1,
+    r_ca=6.0,
+    n_neighbors=8,
+    min_separation=0.3,
+    on_collision="continue",
+    park_finished=True,
+)
+
+
+def _circle(n: int, radius: float) -> Scenario:
+    return Scenario(kind="circle", n_robots=n, layout_radius=radius, jitter=0.1, max_steps=600, **_COMMON)
+
+
+def _crowd(m: int, radius: float, max_steps: int) -> Scenario:
+    # Bodies spawn 0.2 m apart, CrowdNav's discomfort distance (0.3 m cannot place 20 obstacles
+    # on a 6 m circle for every seed).
+    common = {**_COMMON, "min_separation": 0.2}
+    return Scenario(
+        kind="crowd",
+        n_robots=1,
+        n_obstacles=m,
+        layout_radius=radius,
+        obstacle_motion="constant",
+        obstacle_radius=(0.3, 0.3),
+        obstacle_speed=(0.5, 1.0),
+        max_steps=max_steps,
+        **common,
+    )
+
+
+def _build() -> dict[str, Suite]:
+    full = [
+        Suite("circle-8-v0", _circle(8, 5.0), _seeds(100), "8 robots swap to the antipodes of a 5 m circle"),
+        Suite("circle-16-v0", _circle(16, 6.0), _seeds(100), "16 robots swap to the antipodes of a 6 m circle"),
+        Suite("circle-24-v0", _circle(24, 7.0), _seeds(50), "24 robots swap to the antipodes of a 7 m circle"),
+        Suite(
+            "swap-v0",
+            Scenario(
+                kind="swap", n_robots=6, layout_radius=5.0, lane_spacing=1.2, jitter=0.1, max_steps=600, **_COMMON
+            ),
+            _seeds(100),
+            "3 head-on pairs on parallel lanes 1.2 m apart",
+        ),
+        Suite(
+            "crossing-v0",
+            Scenario(
+                kind="crossing", n_robots=8, layout_radius=5.0, lane_spacing=1.2, jitter=0.1, max_steps=600, **_COMMON
+            ),
+            _seeds(100),
+            "two groups of 4 robots crossing at 90 degrees",
+        ),
+        Suite("crowd-5-v0", _crowd(5, 4.0, 300), _seeds(100), "1 robot among 5 non-reactive obstacles (CrowdNav)"),
+        Suite("crowd-20-v0", _crowd(20, 6.0, 400), _seeds(100), "1 robot among 20 non-reactive obstacles"),
+        Suite(
+            "dynamic-v0",
+            Scenario(
+                kind="dynamic",
+                n_robots=4,
+                n_obstacles=6,
+                arena_half_size=6.0,
+                obstacle_motion="arbitrary",
+                bounce=True,
+                obstacle_radius=(0.2, 0.4),
+                obstacle_speed=(0.2, 0.6),
+                turn_rate=0.6,
+                turn_period=2.0,
+                max_steps=600,
+                **_COMMON,
+            ),
+            _seeds(100),
+            "4 robots among 6 obstacles on random-turning, wall-bouncing trajectories",
+        ),
+    ]
+    smoke_robots = {"circle-24-v0": 12}
+    out: dict[str, Suite] = {}
+    for s in full:
+        out[s.name] = s
+        scenario = s.scenario
+        if s.name in smoke_robots:
+            scenario = dataclasses.replace(scenario, n_robots=smoke_robots[s.name])
+        out[s.name + SMOKE_SUFFIX] = Suite(
+            s.name + SMOKE_SUFFIX, scenario, s.seeds[:SMOKE_SEEDS], f"CI smoke variant of {s.name}"
+        )
+    return out
+
+
+SUITES: dict[str, Suite] = _build()
+"""Every suite by name; built once here and never mutated elsewhere."""
+
+
+def get_suite(name_or_suite: str | Suite) -> Suite:
+    """A suite by name (or the given suite); ``ValueError`` listing the names if unknown."""
+    if isinstance(name_or_suite, Suite):
+        return name_or_suite
+    if name_or_suite not in SUITES:
+        raise ValueError(f"unknown suite {name_or_suite!r}; suites are {sorted(SUITES)}")
+    return SUITES[name_or_suite]
+
+
+def suite_names(smoke: bool | None = None) -> list[str]:
+    """Suite names in definition order: all, only full (``smoke=False``) or only smoke ones."""
+    return [k for k, s in SUITES.items() if smoke is None or s.is_smoke == smoke]
