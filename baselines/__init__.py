@@ -9,6 +9,16 @@ from vcs_env.planning import Planner
 from .straight import StraightPlanner
 
 
+def _sampling_vo(method: str) -> Callable[..., Planner]:
+    def make(**kw):
+        from .vo import SamplingVOPlanner  # lazy, like the VCS planner: numba loads on first use
+
+        return SamplingVOPlanner(method, **kw)
+
+    make.__doc__ = f"A ``{method}`` :class:`baselines.vo.SamplingVOPlanner`."
+    return make
+
+
 def _vcs(**kw):
     from .vcs import VCSPlanner
 
@@ -18,6 +28,9 @@ def _vcs(**kw):
 PLANNERS: dict[str, Callable[..., Planner]] = {
     "straight": StraightPlanner,
     "vcs": _vcs,
+    "vo": _sampling_vo("vo"),
+    "rvo": _sampling_vo("rvo"),
+    "hrvo": _sampling_vo("hrvo"),
 }
 """Planner name -> factory (keyword arguments go to the planner)."""
 
