@@ -19,6 +19,12 @@ def _sampling_vo(method: str) -> Callable[..., Planner]:
     return make
 
 
+def _orca(**kw):
+    from .orca import OrcaPlanner  # needs the optional pyrvo (extra "orca")
+
+    return OrcaPlanner(**kw)
+
+
 def _vcs(**kw):
     from .vcs import VCSPlanner
 
@@ -31,6 +37,7 @@ PLANNERS: dict[str, Callable[..., Planner]] = {
     "vo": _sampling_vo("vo"),
     "rvo": _sampling_vo("rvo"),
     "hrvo": _sampling_vo("hrvo"),
+    "orca": _orca,
 }
 """Planner name -> factory (keyword arguments go to the planner)."""
 
