@@ -1,0 +1,331 @@
+"""Evaluation: metrics on hand-made episodes, suites, the harness (planners, predictors,
+checkpoints), fair comparison and the ``evaluate`` / ``compare`` commands."""
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from agents.evaluate import compare, evaluate
+from baselines import PLANNERS
+from vcs_env import cli, metrics
+from vcs_env.observations import observation_space
+from vcs_env.rollout import Episode
+from vcs_env.suites import SMOKE_SEEDS, SUITES, Suite, get_suite, suite_names
+
+
+# --------------------------------------------------------------------------- hand-made episodes
+def make_episode(pos, speed=None, heading=None, reached_step=None, dt=1.0, goal=None):
+    """One robot's recorded episode from positions ``(T+1, 2)`` [m] (``n = 1``, no obstacles)."""
+    pos = np.asarray(pos, dtype=np.float64)[:, None, :]
+    T = len(pos) - 1
+    step = np.diff(pos, axis=0)
+    if heading is None:
+        h = np.arctan2(step[..., 1], step[..., 0])
+        heading = np.concatenate((h[:1], h))
+    if speed is None:
+        v = np.linalg.norm(step, axis=-1) / dt
+        speed = np.concatenate((np.zeros((1, 1)), v))
+    heading = np.asarray(heading, dtype=np.float64).reshape(T + 1, 1)
+    speed = np.asarray(speed, dtype=np.float64).reshape(T + 1, 1)
+    goal = pos[-1] if goal is None else np.asarray(goal, dtype=np.float64).reshape(1, 2)
+    reached = T if reached_step is None else reached_step
+    acted = (np.arange(T) < (reached if reached >= 0 else T))[:, None]
+    return Episode(
+        seed=0,
+        dt=dt,
+        radius=np.array([0.25]),
+        goal=goal,
+        obs_radius=np.zeros(0),
+        pos=pos,
+        heading=heading,
+        speed=speed,
+        obs_pos=np.zeros((T + 1, 0, 2)),
+        actions=np.zeros((T, 1, 2)),
+        acted=acted,
+        collided=np.zeros((T, 1), dtype=bool),
+        robot_contact=np.zeros((T, 1), dtype=bool),
+        obstacle_contact=np.zeros((T, 1), dtype=bool),
+        min_separation=np.where(acted, 1.0, np.inf),
+        reached_step=np.array([reached]),
+        straight_time=np.linalg.norm(goal - pos[0], axis=-1) / 1.0,
+    )
+
+
+def test_straight_path_has_ratio_one():
+    ep = make_episode([(x, 0.0) for x in range(11)])  # 10 m in 10 s
+    m = metrics.episode_metrics(ep)
+    assert m["path_ratio"] == pytest.approx(1.0)
+    assert m["path_length"] == pytest.approx(10.0)
+    assert m["time_to_goal"] == pytest.approx(10.0)
+    assert m["extra_time"] == pytest.approx(0.0)
+    assert m["heading_change"] == pytest.approx(0.0)
+    assert m["success"] == 1.0 and m["collision"] == m["timeout"] == m["deadlock"] == 0.0
+
+
+def test_right_angle_detour_has_known_ratio_and_heading_change():
+    # 3 m east then 4 m north: 7 m driven for a 5 m straight line; one quarter turn.
+    ep = make_episode([(0, 0), (1, 0), (2, 0), (3, 0), (3, 1), (3, 2), (3, 3), (3, 4)])
+    m = metrics.episode_metrics(ep)
+    assert m["path_length"] == pytest.approx(7.0)
+    assert m["path_ratio"] == pytest.approx(7.0 / 5.0)
+    assert metrics.heading_change(ep)[0] == pytest.approx(math.pi / 2)
+
+
+def test_heading_change_across_the_pi_boundary():
+    # 3.0 rad -> -3.0 rad is a 0.283 rad left turn through pi, not a 6 rad turn.
+    ep = make_episode([(0, 0), (1, 0), (2, 0)], heading=[3.0, -3.0, -3.0], speed=[0, 1, 1])
+    assert metrics.heading_change(ep)[0] == pytest.approx(2 * math.pi - 6.0)
+
+
+def test_speed_reversals_of_a_known_profile():
+    # dv = +, +, 0, -, +, -  ->  3 switches between speeding up and slowing down.
+    speed = [0.0, 0.5, 1.0, 1.0, 0.5, 1.0, 0.5]
+    ep = make_episode([(x, 0.0) for x in range(7)], speed=speed, reached_step=-1)
+    assert metrics.speed_reversals(ep)[0] == 3
+
+
+def test_parking_jump_on_arrival_is_not_driving():
+    # Constant acceleration, then the simulator zeroes the speed of the arrived robot: no
+    # commanded jerk, no reversal.
+    speed = [0.0, 0.1, 0.2, 0.3, 0.4, 0.0]
+    ep = make_episode([(0.1 * x * x / 2, 0.0) for x in range(6)], speed=speed, dt=0.1)
+    assert not metrics.driving_steps(ep)[-1, 0]
+    assert metrics.mean_jerk(ep)[0] == pytest.approx(0.0, abs=1e-9)
+    assert metrics.speed_reversals(ep)[0] == 0
+
+
+def test_robot_that_never_moves_is_a_deadlock():
+    still = np.zeros(201)  # 20 s without moving, 5 m from the goal
+    ep = make_episode(np.zeros((201, 2)), speed=still, heading=still, reached_step=-1, dt=0.1, goal=(5.0, 0.0))
+    m = metrics.episode_metrics(ep)
+    assert m["deadlock"] == 1.0 and m["success"] == m["timeout"] == 0.0
+    assert math.isnan(m["time_to_goal"]) and m["arrived_fraction"] == 0.0
+
+
+def test_wilson_interval():
+    lo, hi = metrics.wilson_interval(5, 10)
+    assert (lo, hi) == pytest.approx((0.2366, 0.7634), abs=1e-4)
+    assert metrics.wilson_interval(0, 10)[0] == 0.0 and metrics.wilson_interval(10, 10)[1] == 1.0
+    assert 0.0 < metrics.wilson_interval(0, 10)[1] < 0.3
+    for k, n in ((0, 5), (3, 7), (99, 100)):
+        lo, hi = metrics.wilson_interval(k, n)
+        assert 0.0 <= lo <= k / n <= hi <= 1.0
+    assert np.diff(metrics.wilson_interval(50, 100)) < np.diff(metrics.wilson_interval(5, 10))
+    assert all(math.isnan(x) for x in metrics.wilson_interval(0, 0))
+
+
+def test_aggregate_takes_time_over_the_solved_mask_only():
+    rows = [
+        {"success": 1.0, "time_to_goal": 10.0, "jerk": 1.0},
+        {"success": 1.0, "time_to_goal": 12.0, "jerk": 1.0},
+        {"success": 0.0, "time_to_goal": 50.0, "jerk": 4.0},
+    ]
+    agg = metrics.aggregate(rows, solved_mask=[True, True, False])
+    assert agg["time_to_goal"]["mean"] == pytest.approx(11.0) and agg["time_to_goal"]["n"] == 2
+    assert agg["success"]["mean"] == pytest.approx(2 / 3) and agg["success"]["n"] == 3
+    assert agg["jerk"]["mean"] == pytest.approx(2.0)
+
+
+# --------------------------------------------------------------------------- suites
+FINGERPRINTS = {
+    "circle-8-v0": "ed883d121ce71df4",
+    "circle-16-v0": "e0bfebba614a3bb7",
+    "circle-24-v0": "b4f7ee2c4666361e",
+    "swap-v0": "3f027a8b607bd4b8",
+    "crossing-v0": "c57ebfcb7c3ca536",
+    "crowd-5-v0": "da508bb1ccbe803c",
+    "crowd-20-v0": "d058c166c0502a14",
+    "dynamic-v0": "7807d1e035719215",
+}
+
+
+def test_suites_are_fixed_and_versioned():
+    assert set(suite_names(smoke=False)) == set(FINGERPRINTS)
+    changed = {k: SUITES[k].fingerprint for k, v in FINGERPRINTS.items() if SUITES[k].fingerprint != v}
+    assert not changed, (
+        f"suite content changed: {changed}. If episodes can differ, add a new version (e.g. -v1) and keep "
+        "the old one; if not (e.g. a new Scenario field with a neutral default), update FINGERPRINTS."
+    )
+    for name in FINGERPRINTS:
+        full, smoke = SUITES[name], SUITES[name + "-smoke"]
+        assert full.scenario.on_collision == "continue" and smoke.scenario.on_collision == "continue"
+        assert smoke.is_smoke and not full.is_smoke
+        assert smoke.seeds == full.seeds[:SMOKE_SEEDS]
+        assert smoke.scenario.n_robots <= 16
+    assert SUITES["crowd-20-v0"].scenario.n_obstacles == 20
+    assert SUITES["circle-24-v0"].scenario.n_robots == 24 and SUITES["circle-24-v0"].n_episodes == 50
+    with pytest.raises(ValueError, match="unknown suite"):
+        get_suite("circle-9-v0")
+    with pytest.raises(ValueError, match="seeds"):
+        Suite("x", SUITES["swap-v0"].scenario, (1, 1))
+
+
+def test_every_seed_of_every_suite_can_be_placed():
+    from vcs_env.engine import NavEngine
+
+    for name in suite_names(smoke=False):
+        suite = SUITES[name]
+        NavEngine(suite.scenario, suite.n_episodes).reset(list(suite.seeds))  # raises if a layout fails
+
+
+# --------------------------------------------------------------------------- planners x smoke suites
+@pytest.mark.parametrize("planner", sorted(PLANNERS))
+def test_every_planner_runs_every_smoke_suite(planner):
+    if planner == "orca":
+        pytest.importorskip("pyrvo", reason="the 'orca' planner needs the orca extra (pyrvo)")
+    for name in suite_names(smoke=True):
+        res = evaluate(planner, name, progress=False)
+        assert len(res.rows) == SMOKE_SEEDS, name
+        assert res.decisions > 0 and res.seconds_per_decision >= 0.0
+        for key in ("success", "collision", "timeout", "deadlock"):
+            assert 0.0 <= res.summary[key]["mean"] <= 1.0
+        outcomes = [r["success"] + r["collision"] + r["timeout"] + r["deadlock"] for r in res.rows]
+        assert outcomes == [1.0] * SMOKE_SEEDS, (planner, name)
+
+
+# --------------------------------------------------------------------------- predictors
+class DriveForward:
+    """A PolicyPredictor that only speeds up; records the observation shapes it was given."""
+
+    def __init__(self):
+        self.shapes = []
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=False):
+        obs = np.asarray(observation)
+        self.shapes.append(obs.shape)
+        actions = np.zeros((*obs.shape[:-1], 2), dtype=np.float32)
+        actions[..., 0] = 1.0
+        return actions, state
+
+
+def test_evaluate_accepts_any_predict_object():
+    suite = get_suite("swap-v0-smoke")
+    policy = DriveForward()
+    res = evaluate(policy, suite, progress=False)
+    assert res.policy == "DriveForward"
+    n, dim = suite.scenario.n_robots, observation_space(suite.scenario).shape[0]
+    # All robots of all worlds in one call (plus a short one-world warm-up before timing).
+    assert (SMOKE_SEEDS * n, dim) in policy.shapes and set(policy.shapes) <= {(n, dim), (SMOKE_SEEDS * n, dim)}
+    # Starts face the goals: driving straight ahead arrives, through the oncoming robot.
+    assert res.summary["arrived_fraction"]["mean"] == 1.0
+    assert res.summary["robot_collision"]["mean"] == 1.0
+
+
+def test_predictor_with_wrong_spaces_or_actions_is_rejected():
+    import gymnasium
+
+    wrong = DriveForward()
+    wrong.observation_space = gymnasium.spaces.Box(-1, 1, (5,))
+    with pytest.raises(ValueError, match="observations of shape"):
+        evaluate(wrong, "swap-v0-smoke", progress=False)
+
+    class ThreeActions(DriveForward):
+        def predict(self, observation, state=None, episode_start=None, deterministic=False):
+            return np.zeros((len(observation), 3)), state
+
+    with pytest.raises(ValueError, match="actions of shape"):
+        evaluate(ThreeActions(), "swap-v0-smoke", progress=False)
+    with pytest.raises(ValueError, match="a policy must be"):
+        evaluate(42, "swap-v0-smoke", progress=False)
+
+
+def test_module_does_not_import_torch():
+    code = "import sys, agents.evaluate; sys.exit(int('torch' in sys.modules or 'stable_baselines3' in sys.modules))"
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+# --------------------------------------------------------------------------- checkpoints
+def test_bad_checkpoint_paths_give_clear_errors(tmp_path):
+    with pytest.raises(ValueError, match="does not exist"):
+        evaluate(tmp_path / "missing.zip", "swap-v0-smoke", progress=False)
+    pytest.importorskip("stable_baselines3")
+    bad = tmp_path / "bad.zip"
+    bad.write_bytes(b"not a zip file")
+    with pytest.raises(ValueError, match="could not load"):
+        evaluate(str(bad), "swap-v0-smoke", progress=False)
+
+
+def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):
+    pytest.importorskip("stable_baselines3")
+    import gymnasium
+    from stable_baselines3 import PPO
+
+    class SpacesOnly(gymnasium.Env):
+        def __init__(self, obs_space):
+            self.observation_space = obs_space
+            self.action_space = gymnasium.spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+
+    suite = get_suite("crowd-5-v0-smoke")
+    good = PPO("MlpPolicy", SpacesOnly(observation_space(suite.scenario)), n_steps=8, batch_size=8, device="cpu")
+    good.save(tmp_path / "good.zip")
+    res = evaluate(str(tmp_path / "good.zip"), suite, progress=False)
+    assert res.policy == "good" and len(res.rows) == SMOKE_SEEDS
+
+    other = gymnasium.spaces.Box(-1.0, 1.0, (16,), dtype=np.float32)
+    PPO("MlpPolicy", SpacesOnly(other), n_steps=8, batch_size=8, device="cpu").save(tmp_path / "other.zip")
+    with pytest.raises(ValueError, match=r"expects observations of shape \(16,\)"):
+        evaluate(tmp_path / "other.zip", suite, progress=False)
+
+
+# --------------------------------------------------------------------------- compare
+def test_compare_uses_episodes_every_policy_solved():
+    comp = compare({"a": "vcs", "b": "straight"}, "crossing-v0-smoke", progress=False)
+    solved = comp.results["a"].solved & comp.results["b"].solved
+    assert np.array_equal(comp.solved_by_all, solved)
+    for name, res in comp.results.items():
+        expected = metrics.aggregate(res.rows, solved_mask=solved)
+        assert comp.summaries[name]["time_to_goal"]["n"] == expected["time_to_goal"]["n"] == int(solved.sum())
+        assert comp.summaries[name]["success"] == res.summary["success"]
+    with pytest.raises(ValueError, match="distinct names"):
+        compare(["straight", "straight"], "crossing-v0-smoke", progress=False)
+    with pytest.raises(ValueError, match="two policies"):
+        compare([DriveForward(), DriveForward()], "crossing-v0-smoke", progress=False)
+
+
+def test_progress_counter_without_tqdm(monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "tqdm", None)  # as if the train extra were not installed
+    monkeypatch.setitem(sys.modules, "tqdm.auto", None)
+    evaluate("straight", "swap-v0-smoke", batch_size=2, progress=True)
+    assert "straight on swap-v0-smoke: 3/3 episodes" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- command line
+def test_cli_evaluate_writes_json(tmp_path, capsys):
+    out = tmp_path / "out.json"
+    args = ["evaluate", "--suite", "circle-8-v0-smoke", "--policy", "vcs", "--json", str(out), "--no-progress"]
+    assert cli.main(args) == 0
+    assert "success" in capsys.readouterr().out
+    data = json.loads(out.read_text())
+    assert data["suite"] == "circle-8-v0-smoke" and data["policy"] == "vcs"
+    assert len(data["episodes"]) == SMOKE_SEEDS and data["summary"]["success"]["mean"] == 1.0
+
+
+def test_cli_compare_writes_report(tmp_path):
+    out = tmp_path / "report"
+    args = ["compare", "--suite", "dynamic-v0-smoke", "--policies", "vcs,straight", "--out", str(out)]
+    assert cli.main([*args, "--episode", "1", "--no-progress"]) == 0
+    md = (out / "results.md").read_text()
+    assert md.count("| vcs |") == 2 and md.count("| straight |") == 2  # main table and percentiles
+    assert "robot-obstacle" in md and "ms/decision" in md
+    data = json.loads((out / "results.json").read_text())
+    assert set(data["policies"]) == {"vcs", "straight"}
+    for name in ("bar_success.png", "bar_extra_time.png", "trajectory_vcs_ep1.png", "trajectory_straight_ep1.png"):
+        assert (out / name).stat().st_size > 0, name
+
+
+def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):
+    base = ["evaluate", "--suite", "swap-v0-smoke", "--no-progress", "--policy"]
+    assert cli.main([*base, "no-such-planner"]) == 2
+    assert "unknown planner 'no-such-planner'" in capsys.readouterr().err
+    assert cli.main([*base, str(tmp_path / "missing.zip")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert cli.main(["evaluate", "--suite", "nope-v0", "--policy", "vcs"]) == 2
+    assert "unknown suite" in capsys.readouterr().err
+    if "orca" in PLANNERS:
+        monkeypatch.setitem(sys.modules, "pyrvo", None)  # as if the orca extra were not installed
+        assert cli.main([*base, "orca"]) == 2
+        assert "pip install 'vcs-env[orca]'" in capsys.readouterr().err
