@@ -509,6 +509,10 @@ def markdown_table(comparison: Comparison) -> str:
     s = comparison.suite
     n_all, n_solved = s.n_episodes, int(comparison.solved_by_all.sum())
     pct_head = " | ".join(f"p{q}" for q in EXTRA_TIME_PERCENTILES)
+    if n_solved == 0:
+        never = [k for k, r in comparison.results.items() if not r.solved.any()]
+        hint = f" ({', '.join(never)} solved none: leave it out to compare times)" if never else ""
+        lines += ["", f"No episode was solved by every policy, so there are no time or path statistics{hint}."]
     pct_rows = [
         f"| {name} | " + " | ".join(_fmt(p[f"p{q}"]) for q in EXTRA_TIME_PERCENTILES) + " |"
         for name, p in comparison.extra_time_percentiles.items()
