@@ -24,8 +24,8 @@ INF = np.inf
 P_DELTA_MIN, P_DELTA_S, P_EPS, P_TMAX, P_TM, P_HORIZON, P_TAU_S, P_KAPPA = 0, 1, 2, 3, 4, 5, 6, 7
 P_WG, P_WS, P_WC, P_WR, P_WH, P_WB = 8, 9, 10, 11, 12, 13
 P_NV, P_NTH, P_NTH_FULL, P_CNV, P_CNTH, P_ONE_STEP, P_RECIP, P_MARGIN = 14, 15, 16, 17, 18, 19, 20, 21
-P_FALLBACK, P_SHARE, P_GMETRIC = 22, 23, 24
-N_PARAMS = 25
+P_GMETRIC, P_TM_ROBOT = 22, 23
+N_PARAMS = 24
 # Reciprocity codes.
 R_HRVO, R_RVO, R_VO = 0, 1, 2
 # Neighbour record columns (float64 scratch array).
@@ -51,8 +51,9 @@ R_HRVO, R_RVO, R_VO = 0, 1, 2
     F_VJX,
     F_VJY,
     F_IDX,
-) = range(21)
-N_FIELDS = 21
+    F_MOVER,
+) = range(22)
+N_FIELDS = 22
 
 
 @njit(cache=True)
@@ -161,9 +162,11 @@ def setup_neighbors(
     dt,
     nbs,
     order,
+    detour,
 ):
     """Fill the neighbour records of robot i in world b (everything but T_need/T_h). Returns the
-    number of neighbours; ``order`` lists them nearest surface first."""
+    number of neighbours; ``order`` lists them nearest surface first. During a stall detour
+    the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up."""
     n = pos.shape[1]
     m = obs_pos.shape[1]
     px0 = pos[b, i, 0]
@@ -184,10 +187,12 @@ def setup_neighbors(
                 vjx = speed[b, j] * math.cos(heading[b, j])
                 vjy = speed[b, j] * math.sin(heading[b, j])
                 is_robot = recip != R_VO
+                mover = 1.0
             else:  # parked or crashed robots are static obstacles
                 vjx = 0.0
                 vjy = 0.0
                 is_robot = False
+                mover = 0.0
         else:
             k = j - n
             qx = obs_pos[b, k, 0] - px0
@@ -196,6 +201,7 @@ def setup_neighbors(
             vjx = obs_vel[b, k, 0]
             vjy = obs_vel[b, k, 1]
             is_robot = False
+            mover = 0.0
         d = math.sqrt(qx * qx + qy * qy)
         if d > r_ca:
             continue
@@ -208,17 +214,16 @@ def setup_neighbors(
         nb[F_VJX] = vjx
         nb[F_VJY] = vjy
         nb[F_IDX] = j
+        nb[F_MOVER] = mover  # an active robot (whatever the reciprocity rule)
         # Current-course time to collision with the physical radius (§2.6).
         tc0 = tau(qx, qy, vrx - vjx, vry - vjy, r0)
         nb[F_TC0] = tc0
         # Size regulation: buffer grows with the collision-time and collision-distance factors.
         kt = 0.0 if tc0 == INF else min(max((prm[P_TMAX] - tc0) / prm[P_TMAX], 0.0), 1.0)
         kd = min(max(1.0 - (d - r0) / r_ca, 0.0), 1.0)
-        reff = r0 + prm[P_DELTA_MIN] + prm[P_DELTA_S] * max(kt, kd)
+        reff = r0 + prm[P_DELTA_MIN] + (0.0 if detour else prm[P_DELTA_S] * max(kt, kd))
         if d <= reff:
-            # Inside the buffer: keep the cone defined while not truly colliding; the cone uses
-            # a share of the remaining gap (share 1 = the spec's d - eps: a near half-plane).
-            reff = max(r0, min(d - prm[P_EPS], r0 + prm[P_SHARE] * (d - r0)))
+            reff = max(r0, d - prm[P_EPS])  # keep the cone defined while not truly colliding
         nb[F_REFF] = reff
         # Relative velocity used by J_s: passive v - v_j; robots 2 v - v_R - v_j = 2 (v - m_j).
         if is_robot:
@@ -467,7 +472,7 @@ def set_horizons(
             th = fixed
         else:
             t_need = tmax if need[q] < 0.0 else min(need[q] * dt, tmax)
-            th = min(tmax, t_need + prm[P_TM])
+            th = min(tmax, t_need + (prm[P_TM_ROBOT] if nb[F_MOVER] > 0.5 else prm[P_TM]))
         nb[F_TH] = th
         # Pruning: every candidate has |w| <= scale (v_max + |apex|), so tau >= gap / that.
         if nb[F_OVL] > 0.5:
@@ -597,33 +602,6 @@ def fallback_cost(nbs, count, ctx, dv, dth, vx, vy, kappa):
         if tc < tmin:
             tmin = tc
     return kappa / max(tmin, 1e-9) + goal_term(ctx, dv, dth, vx, vy)
-
-
-@njit(cache=True)
-def violation_cost(nbs, adm, na, ctx, dv, dth, vx, vy, kappa):
-    """Least-violation fallback: the largest normalized violation of a truncated forbidden
-    set, ``(T_h - tau) / T_h`` (``kappa / (kappa + tau)`` for an infinite horizon), plus a
-    small goal term to break ties. The analogue of ORCA's fallback, which minimizes the
-    largest penetration of its half-planes when they have no common point."""
-    worst = 0.0
-    for q in range(na):
-        nb = nbs[adm[q]]
-        if nb[F_OVL] > 0.5:
-            pen = nb[F_HX] * (vx - nb[F_APX]) + nb[F_HY] * (vy - nb[F_APY])
-            v = 1.0 + pen / (2.0 * ctx[C_VMAX]) if pen > 0.0 else 0.0
-        else:
-            sc = nb[F_SCALE]
-            t = tau(nb[F_PX], nb[F_PY], sc * (vx - nb[F_APX]), sc * (vy - nb[F_APY]), nb[F_REFF])
-            th = nb[F_TH]
-            if t > th:
-                v = 0.0
-            elif th == INF:
-                v = kappa / (kappa + t)
-            else:
-                v = (th - t) / th
-        if v > worst:
-            worst = v
-    return worst + 0.1 * goal_term(ctx, dv, dth, vx, vy)
 
 
 @njit(cache=True)
@@ -800,6 +778,7 @@ def plan_batch(
                 dt,
                 nbs,
                 order,
+                no_safety[b, i],
             )
             set_horizons(
                 nbs,
@@ -1004,14 +983,9 @@ def plan_batch(
                     if holo and c < ngrid and reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r) > k:
                         continue
                     s = v_r + dv
-                    if prm[P_FALLBACK] > 0.5:
-                        j = violation_cost(
-                            nbs, adm, na, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa
-                        )
-                    else:
-                        j = fallback_cost(
-                            nbs, count, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa
-                        )
+                    j = fallback_cost(
+                        nbs, count, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa
+                    )
                     if j < best:
                         best = j
                         bdv = dv
@@ -1094,6 +1068,7 @@ def evaluate_points(
         dt,
         nbs,
         order,
+        no_safety[b, i],
     )
     set_horizons(
         nbs,

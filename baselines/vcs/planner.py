@@ -24,6 +24,7 @@ def param_vector(p: VCSParams) -> np.ndarray:
     prm[kernel.P_EPS] = p.eps_overlap
     prm[kernel.P_TMAX] = p.t_max
     prm[kernel.P_TM] = p.t_margin
+    prm[kernel.P_TM_ROBOT] = p.t_margin_robots
     prm[kernel.P_HORIZON] = p.horizon_value
     prm[kernel.P_TAU_S] = p.tau_s
     prm[kernel.P_KAPPA] = p.kappa
@@ -38,8 +39,6 @@ def param_vector(p: VCSParams) -> np.ndarray:
     prm[kernel.P_ONE_STEP] = 1.0 if p.window == "one_step" else 0.0
     prm[kernel.P_RECIP] = {"hrvo": kernel.R_HRVO, "rvo": kernel.R_RVO, "vo": kernel.R_VO}[p.reciprocity]
     prm[kernel.P_MARGIN] = p.window_margin_steps
-    prm[kernel.P_FALLBACK] = 1.0 if p.fallback == "least_violation" else 0.0
-    prm[kernel.P_SHARE] = p.buffer_share
     prm[kernel.P_GMETRIC] = 1.0 if p.goal_metric == "vcs" else 0.0
     return prm
 
