@@ -1,0 +1,277 @@
+"""SB3 ``VecEnv`` over one batched :class:`~vcs_env.engine.NavEngine`: one slot per (world, robot).
+
+Parameter sharing: one SB3 policy acts for every robot. ``B`` worlds of ``n`` robots give
+``num_envs = B * n`` slots; slot ``j = b * n + i`` is robot ``i`` of world ``b``. A ``step``
+is ONE batched engine call for all worlds (no loop over envs).
+
+Semantics of a slot (a robot's episode inside its world's episode):
+
+* **live**: while the robot is active, the slot sees the robot's observation ``(D,)`` and its
+  reward, and its action drives the robot.
+* **end**: on the step the robot terminates (goal, or a crash under
+  ``on_collision="terminate"``) or is truncated (the world reached ``max_steps``), the slot
+  returns ``done=True`` with ``info["terminal_observation"]`` (the robot's last observation),
+  ``info["TimeLimit.truncated"]`` (True only for a time-out, so SB3 bootstraps the value of
+  the terminal observation), ``info["episode"] = {"r", "l", "t", "success", "collision",
+  "reached", "time_to_goal"}`` and ``info["is_success"]`` (SB3's ``ep_info_buffer`` and
+  ``ep_success_buffer`` then work without a ``VecMonitor``).
+* **padding**: after its robot ended and until its world resets (other robots still drive),
+  the slot returns an all-zero observation, zero reward, ``done=False`` and
+  ``info["padding"] = True``; its actions are ignored (the engine ignores inactive robots).
+  Real observations are never all-zero (index 4 holds ``v_max / V_REF > 0``), so the policy
+  can tell padding apart.
+* **world reset**: when no robot of a world is active any more (or ``max_steps`` is reached)
+  the world auto-resets in the same call. Padding slots of that world then return ``done=True``
+  (closing the padding segment without bootstrapping: ``TimeLimit.truncated=False``,
+  ``terminal_observation`` = zeros, no ``episode`` info), and every slot of the world returns
+  the first observation of the new episode.
+
+Seeding: ``seed(s)`` (what ``PPO(seed=s)`` calls) makes the next ``reset()`` seed world ``b``
+with ``s + b``; later auto-resets continue each world's random stream, so a run is a pure
+function of the seed. ``reset()`` without a pending seed reseeds nothing (continuing
+streams, or fresh entropy on the very first reset).
+
+Rewards are the scenario's weighted terms (``scenario.rewards``); ``vcs_imitation`` /
+``vcs_potential`` shaping switches on through those weights (the engine then attaches the VCS
+expert). :meth:`expert_actions` gives the expert's action for the current observation of every
+slot when an expert is attached (DAgger).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+
+from vcs_env.engine import NavEngine
+from vcs_env.observations import observation_space
+from vcs_env.scenario import Scenario
+
+
+class NavVecEnv(VecEnv):
+    """``B`` worlds x ``n`` robots as ``B * n`` SB3 slots sharing one policy (module docstring).
+
+    Args:
+        scenario: the episode family (its ``rewards`` are the training reward).
+        n_worlds: number of worlds ``B`` stepped together.
+        action_mode: ``"delta"`` or ``"absolute"`` (:mod:`vcs_env.dynamics`).
+        expert: planner (or name) whose actions :meth:`expert_actions` reports; needed by, and
+            defaulting to ``"vcs"`` for, the ``vcs_*`` shaping weights.
+        gamma: discount of potential-based shaping (use the learner's gamma).
+        max_steps: overrides ``scenario.max_steps``.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        n_worlds: int = 8,
+        action_mode: str = "delta",
+        expert=None,
+        gamma: float = 0.99,
+        max_steps: int | None = None,
+    ):
+        if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < 1:
+            raise ValueError(f"n_worlds must be an integer >= 1, got {n_worlds!r}")
+        self.scenario = scenario
+        self.engine = NavEngine(scenario, int(n_worlds), action_mode, expert=expert, gamma=gamma, max_steps=max_steps)
+        self.n_worlds = int(n_worlds)
+        self.n_robots = scenario.n_robots
+        self.render_mode = None
+        obs_space = observation_space(scenario)
+        act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        super().__init__(self.n_worlds * self.n_robots, obs_space, act_space)
+        B, n = self.n_worlds, self.n_robots
+        self._obs = np.zeros((B, n, obs_space.shape[0]), dtype=np.float32)
+        self._live = np.zeros((B, n), dtype=bool)  # slot's robot still in its episode
+        self._ep_return = np.zeros((B, n))
+        self._ep_len = np.zeros((B, n), dtype=np.int64)
+        self._collided = np.zeros((B, n), dtype=bool)
+        self._actions: np.ndarray | None = None
+        self._t0 = time.time()
+
+    # ---------------------------------------------------------------- helpers
+    @property
+    def dt(self) -> float:
+        return self.scenario.dt
+
+    def _slot_view(self, x: np.ndarray) -> np.ndarray:
+        """``(B, n, ...)`` -> ``(B * n, ...)``."""
+        return x.reshape(self.num_envs, *x.shape[2:])
+
+    def expert_actions(self) -> np.ndarray:
+        """Expert actions ``(num_envs, 2)`` for the current observations (zeros on padding)."""
+        expert = self.engine.expert_action
+        if expert is None:
+            raise ValueError("this NavVecEnv has no expert; pass expert='vcs' (or use vcs_* shaping weights)")
+        return self._slot_view(np.where(self._live[..., None], expert, 0.0)).astype(np.float32)
+
+    def live_mask(self) -> np.ndarray:
+        """``(num_envs,)`` bool: slots whose current observation is a real robot (not padding)."""
+        return self._slot_view(self._live).copy()
+
+    def _start_episodes(self, worlds: np.ndarray) -> None:
+        self._live[worlds] = True
+        self._ep_return[worlds] = 0.0
+        self._ep_len[worlds] = 0
+        self._collided[worlds] = False
+
+    # ------------------------------------------------------------------- API
+    def reset(self) -> np.ndarray:
+        """Reset every world; returns observations ``(B * n, D)`` float32."""
+        base = self._seeds[0]
+        seeds = None if base is None else [int(base) + b for b in range(self.n_worlds)]
+        obs = self.engine.reset(seeds)
+        self._reset_seeds()
+        self._reset_options()
+        self._obs[:] = obs
+        self._start_episodes(np.arange(self.n_worlds))
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        return self._slot_view(self._obs).copy()
+
+    def reset_worlds(self, seeds: Sequence[int]) -> np.ndarray:
+        """Reset world ``b`` with ``seeds[b]`` (a fixed evaluation list); returns ``(B * n, D)``."""
+        if len(seeds) != self.n_worlds:
+            raise ValueError(f"need one seed per world ({self.n_worlds}), got {len(seeds)}")
+        self._reset_seeds()
+        self._obs[:] = self.engine.reset([int(s) for s in seeds])
+        self._start_episodes(np.arange(self.n_worlds))
+        return self._slot_view(self._obs).copy()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions, dtype=np.float64).reshape(self.n_worlds, self.n_robots, 2)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        if self._actions is None:
+            raise RuntimeError("step_wait() without step_async()")
+        n = self.n_robots
+        live_before = self._live.copy()
+        # Padding rows: the engine ignores inactive robots, but NaN from a policy must not reach it.
+        actions = np.where(live_before[..., None], self._actions, 0.0)
+        self._actions = None
+        res = self.engine.step(actions, autoreset=True)
+        ended = res.ended  # (B,) worlds reset this step
+        robot_done = live_before & (res.terminated | res.truncated)
+        reward = np.where(live_before, res.reward, 0.0)
+        self._ep_return += reward
+        self._ep_len += live_before
+        self._collided |= res.events.collided
+        # Observation each slot ended on (before an auto-reset of its world).
+        last_obs = res.obs if res.final_obs is None else np.where(ended[:, None, None], res.final_obs, res.obs)
+        padding_end = ended[:, None] & ~live_before
+        dones = robot_done | padding_end
+
+        infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        now = round(time.time() - self._t0, 6)
+        for b, i in zip(*np.nonzero(robot_done)):
+            reached = bool(res.events.reached[b, i])
+            collided = bool(self._collided[b, i])
+            truncated = bool(res.truncated[b, i] and not res.terminated[b, i])
+            length = int(self._ep_len[b, i])
+            success = reached and not collided
+            infos[b * n + i] = {
+                "terminal_observation": last_obs[b, i].copy(),
+                "TimeLimit.truncated": truncated,
+                "is_success": success,
+                "episode": {
+                    "r": float(self._ep_return[b, i]),
+                    "l": length,
+                    "t": now,
+                    "success": float(success),
+                    "collision": float(collided),
+                    "reached": float(reached),
+                    "time_to_goal": length * self.dt if reached else float("nan"),
+                },
+            }
+        zero = np.zeros(self.observation_space.shape, dtype=np.float32)
+        for b, i in zip(*np.nonzero(~live_before)):
+            info = infos[b * n + i]
+            info["padding"] = True
+            if padding_end[b, i]:
+                info["terminal_observation"] = zero.copy()
+                info["TimeLimit.truncated"] = False
+
+        self._live &= ~robot_done
+        if ended.any():
+            self._start_episodes(np.flatnonzero(ended))
+        obs = np.where(self._live[..., None], res.obs, 0.0).astype(np.float32)
+        self._obs[:] = obs
+        return (
+            self._slot_view(obs).copy(),
+            self._slot_view(reward).astype(np.float32),
+            self._slot_view(dones).copy(),
+            infos,
+        )
+
+    def close(self) -> None:
+        pass
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None] * self.num_envs
+
+    # Attribute access: every slot shares this one object.
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self, attr_name) for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        setattr(self, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
+        method = getattr(self, method_name)
+        return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+def run_first_episodes(
+    act: Callable[[NavVecEnv, np.ndarray], np.ndarray],
+    scenario: Scenario,
+    seeds: Sequence[int],
+    expert=None,
+    action_mode: str = "delta",
+) -> dict[str, Any]:
+    """Play one episode per seed (all worlds at once) and score it from the per-robot infos.
+
+    Args:
+        act: ``act(venv, obs (B * n, D)) -> actions (B * n, 2)``, e.g. a deterministic policy
+            or ``lambda v, o: v.expert_actions()`` (with ``expert="vcs"``).
+        scenario: the episode family, unchanged.
+        seeds: one reset seed per episode (world).
+
+    Returns:
+        Rates over episodes (``episode_success``: every robot arrived without touching anything,
+        ``episode_collision``: some robot touched something), over robots (``robot_success``,
+        ``robot_collision``), ``time_to_goal`` (mean over robots that arrived [s]),
+        ``return`` (mean per-robot return), ``episodes``, and the per-robot arrays
+        (``success``, ``collision``, ``time``: ``(episodes, n)``).
+    """
+    venv = NavVecEnv(scenario, len(seeds), action_mode, expert=expert)
+    B, n = venv.n_worlds, venv.n_robots
+    obs = venv.reset_worlds(seeds)
+    first: list[dict | None] = [None] * venv.num_envs
+    while any(f is None for f in first):
+        obs, _, _, infos = venv.step(np.asarray(act(venv, obs), dtype=np.float32))
+        for j, info in enumerate(infos):
+            if first[j] is None and "episode" in info:
+                first[j] = info["episode"]
+    success = np.array([f["success"] for f in first], dtype=bool).reshape(B, n)
+    collision = np.array([f["collision"] for f in first], dtype=bool).reshape(B, n)
+    ttg = np.array([f["time_to_goal"] for f in first], dtype=np.float64).reshape(B, n)
+    ret = np.array([f["r"] for f in first], dtype=np.float64)
+    reached = np.isfinite(ttg)
+    return {
+        "episodes": B,
+        "episode_success": float(success.all(axis=1).mean()),
+        "episode_collision": float(collision.any(axis=1).mean()),
+        "robot_success": float(success.mean()),
+        "robot_collision": float(collision.mean()),
+        "time_to_goal": float(ttg[reached].mean()) if reached.any() else float("nan"),
+        "return": float(ret.mean()),
+        "success": success,
+        "collision": collision,
+        "time": ttg,
+    }
