@@ -1,0 +1,185 @@
+"""Save and load policy checkpoints with clear errors.
+
+A checkpoint is an SB3 PPO ``.zip`` plus a JSON file beside it with the same stem
+(``runs/x/model.zip`` + ``runs/x/model.json``): the typed config that produced it, the scenario
+(field by field), the observation size and what kind of run wrote it (``ppo``, ``bc``). Both
+``vcs-env train --init/--resume`` and the evaluation harness load through :func:`load_model`,
+which turns every failure into a :class:`CheckpointError` naming the file and the problem:
+missing file, not a zip / truncated / unreadable, or a policy trained for another observation
+space (e.g. another ``n_neighbors``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vcs_env.observations import observation_space
+from vcs_env.scenario import Scenario
+
+
+class CheckpointError(ValueError):
+    """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
+
+
+def config_path(checkpoint: str | os.PathLike) -> Path:
+    """The JSON file beside a checkpoint (``model.zip`` -> ``model.json``)."""
+    p = Path(checkpoint)
+    return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
+
+
+def _jsonable(x: Any) -> Any:
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return {k: _jsonable(v) for k, v in dataclasses.asdict(x).items()}
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.floating, float)):
+        return None if not math.isfinite(float(x)) else float(x)
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    return x
+
+
+def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario: Scenario, **extra: Any) -> Path:
+    """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its metadata JSON beside it.
+
+    Args:
+        kind: what produced it (``"ppo"``, ``"bc"``).
+        config: the run's config dataclass (saved field by field).
+        scenario: the scenario the policy observes (defines the observation space).
+        extra: more JSON-able entries (timesteps, evaluation results, wall time ...).
+
+    Returns:
+        The ``.zip`` path.
+    """
+    path = Path(path)
+    if path.suffix != ".zip":
+        path = path.with_name(path.name + ".zip")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    model.save(str(path))
+    meta = {
+        "kind": kind,
+        "observation_dim": int(observation_space(scenario).shape[0]),
+        "num_timesteps": int(getattr(model, "num_timesteps", 0)),
+        "config": _jsonable(config),
+        "scenario": _jsonable(scenario),
+        **_jsonable(extra),
+    }
+    config_path(path).write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
+    return path
+
+
+def read_metadata(checkpoint: str | os.PathLike) -> dict[str, Any]:
+    """The JSON beside a checkpoint; ``{}`` if there is none (a plain SB3 zip is still loadable)."""
+    p = config_path(resolve(checkpoint))
+    if not p.exists():
+        return {}
+    try:
+        return json.loads(p.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise CheckpointError(f"checkpoint metadata {p} is not valid JSON: {e}") from None
+
+
+def resolve(checkpoint: str | os.PathLike) -> Path:
+    """The existing ``.zip`` path of a checkpoint (the suffix may be left out)."""
+    p = Path(checkpoint)
+    if p.is_file():
+        return p
+    if p.suffix != ".zip" and p.with_name(p.name + ".zip").is_file():
+        return p.with_name(p.name + ".zip")
+    if p.is_dir() and (p / "model.zip").is_file():
+        return p / "model.zip"
+    raise CheckpointError(
+        f"checkpoint not found: {str(p)!r} (expected an SB3 .zip file, or a run directory with model.zip)"
+    )
+
+
+def _describe(space) -> str:
+    shape = getattr(space, "shape", None)
+    return f"{type(space).__name__}{tuple(shape) if shape is not None else ''}"
+
+
+def check_observation_space(saved_space, scenario: Scenario, where: str) -> None:
+    """Raise :class:`CheckpointError` unless ``saved_space`` is the scenario's observation space."""
+    expected = observation_space(scenario)
+    same = (
+        getattr(saved_space, "shape", None) == expected.shape
+        and np.array_equal(np.asarray(saved_space.low), expected.low)
+        and np.array_equal(np.asarray(saved_space.high), expected.high)
+    )
+    if not same:
+        raise CheckpointError(
+            f"checkpoint {where} was trained for observation space {_describe(saved_space)}, but scenario "
+            f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {_describe(expected)} "
+            f"(observation size = 8 + 8 * n_neighbors); use a checkpoint trained for this observation layout"
+        )
+
+
+def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, env=None, device: str = "cpu"):
+    """Load an SB3 PPO checkpoint, checking it first.
+
+    Args:
+        checkpoint: path to the ``.zip`` (suffix optional) or a run directory holding ``model.zip``.
+        scenario: if given, the policy's observation space must be this scenario's.
+        env: optional VecEnv to attach (for continuing training).
+        device: torch device.
+
+    Raises:
+        CheckpointError: missing, corrupt, or trained for another observation space.
+    """
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    path = resolve(checkpoint)
+    if not zipfile.is_zipfile(path):
+        raise CheckpointError(f"checkpoint {str(path)!r} is corrupt: not a zip archive (an SB3 .zip is expected)")
+    try:
+        data, params, _ = load_from_zip_file(path, device=device, print_system_info=False)
+    except Exception as e:  # truncated members, bad pickles, bad tensors ...
+        raise CheckpointError(f"checkpoint {str(path)!r} is corrupt or unreadable: {type(e).__name__}: {e}") from None
+    if not data or "observation_space" not in data or not params or "policy" not in params:
+        raise CheckpointError(
+            f"checkpoint {str(path)!r} is not an SB3 policy checkpoint (no observation space or policy weights)"
+        )
+    if scenario is not None:
+        check_observation_space(data["observation_space"], scenario, repr(str(path)))
+    try:
+        return PPO.load(str(path), env=env, device=device)
+    except Exception as e:
+        raise CheckpointError(f"checkpoint {str(path)!r} could not be loaded: {type(e).__name__}: {e}") from None
+
+
+def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario) -> dict[str, Any]:
+    """Copy the policy weights of ``checkpoint`` into ``model.policy`` (``train --init``).
+
+    The architecture must match (same ``net_arch``); a mismatch raises :class:`CheckpointError`
+    naming the differing tensors. Returns the checkpoint's metadata.
+    """
+    src = load_model(checkpoint, scenario)
+    theirs, ours = src.policy.state_dict(), model.policy.state_dict()
+    diff = sorted(
+        k for k in set(theirs) | set(ours) if k not in theirs or k not in ours or theirs[k].shape != ours[k].shape
+    )
+    if diff:
+
+        def shape(d, k):
+            return tuple(d[k].shape) if k in d else "missing"
+
+        detail = ", ".join(f"{k}: {shape(theirs, k)} vs {shape(ours, k)}" for k in diff[:4])
+        raise CheckpointError(
+            f"checkpoint {str(checkpoint)!r} has another policy architecture than this run "
+            f"(checkpoint vs run: {detail}); use the same --net-arch"
+        )
+    model.policy.load_state_dict(theirs)
+    return read_metadata(checkpoint)

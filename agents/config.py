@@ -1,0 +1,146 @@
+"""Typed run configs shared by the ``agents`` commands, and their command-line flags.
+
+Every config is a dataclass whose fields carry a docstring (cleanrl style); :func:`add_config_args`
+turns the fields into ``--flags`` whose help is that docstring, so the config, its JSON copy
+beside a checkpoint and ``--help`` never disagree. No torch import here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import dataclasses
+import functools
+import inspect
+import textwrap
+import types
+import typing
+from dataclasses import dataclass
+from typing import Any
+
+SHAPING = ("none", "vcs_imitation", "vcs_potential")
+DEFAULT_SHAPING_WEIGHT = {"vcs_imitation": 0.1, "vcs_potential": 10.0}
+"""Default weight of each shaping term. ``vcs_imitation`` is in [-1, 0] per step (a random action
+scores about -0.4), so 0.1 makes it comparable to ``progress`` (~0.08 per step at full speed).
+``vcs_potential`` = gamma phi(s') - phi(s) with phi = -(expert's cost) ~ -0.2 at the start, so
+it needs a larger weight to matter."""
+
+
+@dataclass
+class ScenarioConfig:
+    """Which scenario a run uses: a preset and a few overrides, plus optional VCS shaping."""
+
+    scenario: str = "circle"
+    """Scenario preset name: circle, swap, crossing, random, crowd, dynamic, custom."""
+    n_robots: int | None = None
+    """Number of robots n (None: the preset's)."""
+    n_obstacles: int | None = None
+    """Number of obstacles m (None: the preset's)."""
+    max_steps: int | None = None
+    """Episode step limit (None: the preset's)."""
+    jitter: float | None = None
+    """Uniform noise on start positions [m] for circle/swap/crossing (None: the preset's, 0 for
+    circle, i.e. one fixed layout; the evaluation suites use 0.1)."""
+    on_collision: str | None = None
+    """terminate or continue (None: the preset's, terminate)."""
+    shaping: str = "none"
+    """Reward shaping from the VCS expert: none, vcs_imitation or vcs_potential."""
+    shaping_weight: float | None = None
+    """Weight of the shaping term (None: DEFAULT_SHAPING_WEIGHT of the chosen shaping)."""
+
+
+def build_scenario(cfg: ScenarioConfig):
+    """The :class:`~vcs_env.scenario.Scenario` of a config (preset + overrides + shaping weight)."""
+    from vcs_env.scenario import make_scenario
+
+    if cfg.shaping not in SHAPING:
+        raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
+    over: dict[str, Any] = {}
+    for name in ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision"):
+        value = getattr(cfg, name)
+        if value is not None:
+            over[name] = value
+    if cfg.shaping != "none":
+        weight = DEFAULT_SHAPING_WEIGHT[cfg.shaping] if cfg.shaping_weight is None else cfg.shaping_weight
+        over["rewards"] = {cfg.shaping: float(weight)}
+    return make_scenario(cfg.scenario, **over)
+
+
+@functools.cache
+def field_docs(cls: type) -> dict[str, str]:
+    """``{field: docstring}`` from the string literal under each field of a dataclass (and its bases)."""
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        if not dataclasses.is_dataclass(klass):
+            continue
+        tree = ast.parse(textwrap.dedent(inspect.getsource(klass)))
+        body = tree.body[0].body
+        for node, nxt in zip(body, body[1:]):
+            if (
+                isinstance(node, ast.AnnAssign)
+                and isinstance(node.target, ast.Name)
+                and isinstance(nxt, ast.Expr)
+                and isinstance(nxt.value, ast.Constant)
+                and isinstance(nxt.value.value, str)
+            ):
+                docs[node.target.id] = " ".join(nxt.value.value.split())
+    return docs
+
+
+def _base_type(tp) -> tuple[Any, bool]:
+    """(scalar type, optional) of an annotation like ``int | None`` or ``tuple[int, ...]``."""
+    optional = False
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        optional = len(args) < len(typing.get_args(tp))
+        tp = args[0]
+    return tp, optional
+
+
+def _parse_none(conv):
+    def parse(text: str):
+        return None if text.lower() == "none" else conv(text)
+
+    parse.__name__ = getattr(conv, "__name__", "value")
+    return parse
+
+
+def add_config_args(parser: argparse.ArgumentParser, cls: type, skip: tuple[str, ...] = ()) -> None:
+    """Add one ``--field-name`` flag per field of dataclass ``cls``; defaults are ``None`` (=
+    "not given") so :func:`config_from_args` can tell given flags from defaults."""
+    hints = typing.get_type_hints(cls)
+    docs = field_docs(cls)
+    for f in dataclasses.fields(cls):
+        if f.name in skip:
+            continue
+        flag = "--" + f.name.replace("_", "-")
+        tp, optional = _base_type(hints[f.name])
+        default = f.default if f.default is not dataclasses.MISSING else f.default_factory()  # type: ignore[misc]
+        help_text = f"{docs.get(f.name, '')} (default: {default})".replace("%", "%%")
+        if tp is bool:
+            parser.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction, default=None, help=help_text)
+        elif typing.get_origin(tp) is tuple:
+            (item, *_rest) = typing.get_args(tp)
+            parser.add_argument(flag, dest=f.name, type=item, nargs="+", default=None, help=help_text)
+        else:
+            conv = _parse_none(tp) if optional else tp
+            parser.add_argument(flag, dest=f.name, type=conv, default=None, help=help_text)
+
+
+def config_from_args(cls: type, args: argparse.Namespace, base: Any = None):
+    """A ``cls`` instance: flags given on the command line replace ``base`` (or the defaults)."""
+    cfg = base if base is not None else cls()
+    changes = {}
+    for f in dataclasses.fields(cls):
+        value = getattr(args, f.name, None)
+        if value is not None:
+            changes[f.name] = tuple(value) if isinstance(value, list) else value
+    return dataclasses.replace(cfg, **changes)
+
+
+def config_from_dict(cls: type, data: dict[str, Any]):
+    """A ``cls`` instance from its JSON form (unknown keys are ignored, lists become tuples)."""
+    names = {f.name for f in dataclasses.fields(cls)}
+    kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items() if k in names}
+    return cls(**kw)

@@ -1,0 +1,305 @@
+"""PPO with one policy shared by all robots (``vcs-env train``), cleanrl style.
+
+One typed :class:`TrainConfig` (a docstring per field = the ``--help`` of its flag), one flat
+:func:`train`. A run directory holds::
+
+    <out>/model.zip, model.json           final policy + config/scenario/results (JSON)
+    <out>/best_model.zip, best_model.json policy of the best periodic evaluation
+    <out>/checkpoints/model_<steps>.zip   periodic checkpoints (+ JSON), resumable (--resume)
+    <out>/eval.jsonl                      one line per periodic evaluation
+    <out>/tb/                             TensorBoard logs (rollout/*, train/*, eval/*)
+
+Periodic evaluation plays ``eval_episodes`` fixed seeds (``eval_seed``, ``eval_seed + 1``, ...)
+with deterministic actions on the training scenario and logs episode and robot success and
+collision rates and the mean time to goal, from the VecEnv's own per-robot episode infos.
+
+Example::
+
+    vcs-env train --scenario circle --n-robots 8 --jitter 0.1 --timesteps 2000000 --seed 0
+    vcs-env train --scenario crowd --timesteps 1000000 --shaping vcs_potential
+    vcs-env train --scenario crowd --init runs/bc_crowd/model.zip   # warm start from behaviour cloning
+    vcs-env train --resume runs/ppo_circle/checkpoints/model_500000.zip --timesteps 3000000
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .config import ScenarioConfig, add_config_args, build_scenario, config_from_args, config_from_dict
+
+
+@dataclass
+class PolicyConfig:
+    """The PPO actor-critic shared by ``train`` and ``bc`` (so a BC checkpoint can seed PPO)."""
+
+    net_arch: tuple[int, ...] = (128, 128)
+    """Hidden layer sizes of the (separate) policy and value MLPs."""
+    log_std_init: float = -0.5
+    """Initial log standard deviation of the Gaussian policy (state independent); actions are
+    in [-1, 1], so std 0.6 explores without saturating most actions."""
+
+
+@dataclass
+class TrainConfig(PolicyConfig, ScenarioConfig):
+    """Everything a ``vcs-env train`` run depends on; saved as JSON beside every checkpoint."""
+
+    timesteps: int = 1_000_000
+    """Total environment steps, counted per robot (one slot step = one timestep)."""
+    seed: int = 0
+    """Seed of PPO (torch, numpy, action space) and of the training worlds (world b: seed + b)."""
+    n_worlds: int = 16
+    """Worlds stepped together; the VecEnv has n_worlds * n_robots slots."""
+    n_steps: int = 128
+    """Rollout length per slot between PPO updates (buffer = n_steps * n_worlds * n_robots)."""
+    batch_size: int = 2048
+    """PPO minibatch size."""
+    n_epochs: int = 10
+    """PPO epochs per update."""
+    learning_rate: float = 3e-4
+    """Adam learning rate (constant)."""
+    gamma: float = 0.99
+    """Discount factor (also used by vcs_potential shaping)."""
+    gae_lambda: float = 0.95
+    """GAE lambda."""
+    clip_range: float = 0.2
+    """PPO clipping parameter."""
+    ent_coef: float = 0.0
+    """Entropy bonus coefficient."""
+    vf_coef: float = 0.5
+    """Value loss coefficient."""
+    max_grad_norm: float = 0.5
+    """Gradient norm clip."""
+    target_kl: float | None = None
+    """Stop an update's epochs early when the approximate KL exceeds this (None: never)."""
+    init: str | None = None
+    """Checkpoint (e.g. from vcs-env bc) whose policy weights start the run (same net_arch)."""
+    out: str = "runs/ppo"
+    """Run directory (model.zip, model.json, checkpoints/, eval.jsonl, tb/)."""
+    eval_freq: int = 100_000
+    """Evaluate every this many timesteps (0: only at the end)."""
+    eval_episodes: int = 20
+    """Episodes (worlds) per periodic evaluation."""
+    eval_seed: int = 100_000
+    """First seed of the fixed evaluation list (disjoint from the suites' 1000..)."""
+    checkpoint_freq: int = 500_000
+    """Save a resumable checkpoint every this many timesteps (0: never)."""
+    progress_bar: bool = True
+    """Show SB3's progress bar (needs tqdm and rich, the train extra)."""
+    tensorboard: bool = True
+    """Write TensorBoard logs under <out>/tb."""
+
+
+def ppo_kwargs(cfg: TrainConfig) -> dict[str, Any]:
+    """Keyword arguments of ``stable_baselines3.PPO`` from a config."""
+    return dict(
+        n_steps=cfg.n_steps,
+        batch_size=cfg.batch_size,
+        n_epochs=cfg.n_epochs,
+        learning_rate=cfg.learning_rate,
+        gamma=cfg.gamma,
+        gae_lambda=cfg.gae_lambda,
+        clip_range=cfg.clip_range,
+        ent_coef=cfg.ent_coef,
+        vf_coef=cfg.vf_coef,
+        max_grad_norm=cfg.max_grad_norm,
+        target_kl=cfg.target_kl,
+        policy_kwargs=policy_kwargs(cfg),
+    )
+
+
+def policy_kwargs(cfg: PolicyConfig) -> dict[str, Any]:
+    return dict(net_arch=dict(pi=list(cfg.net_arch), vf=list(cfg.net_arch)), log_std_init=cfg.log_std_init)
+
+
+def deterministic_act(policy):
+    """``act(venv, obs)`` for :func:`agents.vec_env.run_first_episodes` from an SB3 policy."""
+
+    def act(venv, obs):
+        return policy.predict(obs, deterministic=True)[0]
+
+    return act
+
+
+def scalar_results(res: dict[str, Any]) -> dict[str, float]:
+    return {k: v for k, v in res.items() if isinstance(v, (int, float))}
+
+
+def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from .checkpoint import save_model
+    from .vec_env import run_first_episodes
+
+    eval_seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
+
+    class RunCallback(BaseCallback):
+        """Robot-level rates of the training episodes, periodic evaluation, checkpoints."""
+
+        def __init__(self):
+            super().__init__()
+            self.last_eval = self.last_ckpt = None
+            self.best: tuple | None = None
+            self.history: list[dict[str, Any]] = []
+
+        def _on_training_start(self) -> None:
+            self.last_eval = self.last_ckpt = self.num_timesteps
+
+        def _on_rollout_end(self) -> None:
+            buf = [e for e in self.model.ep_info_buffer if "success" in e]
+            if buf:
+                n = len(buf)
+                self.logger.record("rollout/robot_success_rate", sum(e["success"] for e in buf) / n)
+                self.logger.record("rollout/robot_collision_rate", sum(e["collision"] for e in buf) / n)
+
+        def evaluate(self) -> dict[str, Any]:
+            t0 = time.time()
+            res = scalar_results(run_first_episodes(deterministic_act(self.model.policy), scenario, eval_seeds))
+            res.update(
+                timesteps=int(self.num_timesteps),
+                wall_time=round(time.time() - t_start, 1),
+                eval_seconds=round(time.time() - t0, 2),
+            )
+            for k in ("episode_success", "episode_collision", "robot_success", "robot_collision", "time_to_goal"):
+                self.logger.record(f"eval/{k}", res[k])
+            self.history.append(res)
+            with open(out / "eval.jsonl", "a") as f:
+                f.write(json.dumps(res) + "\n")
+            print(
+                f"[eval @ {res['timesteps']:>9d}] success {res['episode_success']:.2f} (robots "
+                f"{res['robot_success']:.3f}) collision {res['episode_collision']:.2f} (robots "
+                f"{res['robot_collision']:.3f}) time-to-goal {res['time_to_goal']:.2f} s  [{res['wall_time']:.0f} s]",
+                flush=True,
+            )
+            # Best = most successful episodes, then fewest collisions, then fastest.
+            key = (res["episode_success"], res["robot_success"], -res["robot_collision"], -res["time_to_goal"])
+            if self.best is None or key > self.best:
+                self.best = key
+                save_model(self.model, out / "best_model.zip", "ppo", cfg, scenario, evaluation=res)
+            return res
+
+        def _on_rollout_start(self) -> None:
+            # Called after the previous update, so the evaluated policy includes it.
+            self.num_timesteps = self.model.num_timesteps
+            if cfg.eval_freq > 0 and self.num_timesteps - self.last_eval >= cfg.eval_freq:
+                self.last_eval = self.num_timesteps
+                self.evaluate()
+            if cfg.checkpoint_freq > 0 and self.num_timesteps - self.last_ckpt >= cfg.checkpoint_freq:
+                self.last_ckpt = self.num_timesteps
+                save_model(
+                    self.model,
+                    out / "checkpoints" / f"model_{self.num_timesteps}.zip",
+                    "ppo",
+                    cfg,
+                    scenario,
+                    wall_time=round(time.time() - t_start, 1),
+                )
+
+        def _on_step(self) -> bool:
+            return True
+
+    return RunCallback()
+
+
+def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
+    """Train (or resume) a shared PPO policy; returns the final evaluation and paths."""
+    from .checkpoint import resolve
+
+    scenario = build_scenario(cfg)
+    if cfg.init and resume:
+        raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
+    if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1:
+        raise ValueError("timesteps must be >= 0, n_worlds and eval_episodes >= 1")
+    for path in (cfg.init, resume):  # fail fast, before the slow torch import
+        if path:
+            resolve(path)
+
+    import torch
+
+    torch.set_num_threads(1)
+    from stable_baselines3 import PPO
+
+    from .checkpoint import load_model, load_policy_weights, save_model
+    from .vec_env import NavVecEnv
+
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t_start = time.time()
+    venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
+    tb = str(out / "tb") if cfg.tensorboard else None
+    if resume:
+        model = load_model(resume, scenario, env=venv)
+        model.tensorboard_log = tb
+        model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
+        print(f"resumed {resume} at {model.num_timesteps} timesteps")
+    else:
+        model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **ppo_kwargs(cfg))
+        if cfg.init:
+            meta = load_policy_weights(model, cfg.init, scenario)
+            print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
+    (out / "config.json").write_text(json.dumps(dataclasses.asdict(cfg), indent=2) + "\n")
+    remaining = cfg.timesteps - model.num_timesteps
+    callback = _callbacks(cfg, scenario, out, t_start)
+    print(
+        f"training {scenario.kind} (n={scenario.n_robots}, m={scenario.n_obstacles}) shaping={cfg.shaping}: "
+        f"{venv.num_envs} slots, {remaining} timesteps -> {out}",
+        flush=True,
+    )
+    if remaining > 0:
+        model.learn(
+            total_timesteps=remaining,
+            callback=callback,
+            progress_bar=cfg.progress_bar,
+            tb_log_name="ppo",
+            reset_num_timesteps=not resume,
+        )
+    if getattr(callback, "model", None) is None:  # learn() did not run (budget already reached)
+        if not hasattr(model, "_logger"):
+            from stable_baselines3.common.logger import configure
+
+            model.set_logger(configure(None, []))
+        callback.init_callback(model)
+    callback.num_timesteps = model.num_timesteps
+    final = callback.evaluate()
+    model.logger.dump(model.num_timesteps)
+    wall = round(time.time() - t_start, 1)
+    path = save_model(
+        model, out / "model.zip", "ppo", cfg, scenario, evaluation=final, wall_time=wall, history=callback.history
+    )
+    print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
+    return {"model": str(path), "evaluation": final, "wall_time": wall}
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    base = None
+    if args.resume:
+        from .checkpoint import read_metadata
+
+        saved = read_metadata(args.resume).get("config")
+        if saved is None:
+            raise ValueError(f"cannot resume {args.resume!r}: no config JSON beside it (expected a vcs-env checkpoint)")
+        base = dataclasses.replace(config_from_dict(TrainConfig, saved), init=None)
+    cfg = config_from_args(TrainConfig, args, base)
+    train(cfg, resume=args.resume)
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser(
+        "train",
+        help="train a PPO policy shared by all robots",
+        description=__doc__.split("\n\n")[0],
+    )
+    add_config_args(p, TrainConfig)
+    p.add_argument(
+        "--resume",
+        default=None,
+        help="continue a run from this checkpoint (its config JSON is reused; "
+        "flags given here override it, e.g. --timesteps for the new total)",
+    )
+    p.set_defaults(func=cmd_train)
