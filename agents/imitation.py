@@ -1,0 +1,495 @@
+"""Imitation of the VCS expert: expert datasets, behaviour cloning and DAgger (``vcs-env collect``,
+``vcs-env bc``), into the same SB3 PPO actor-critic that ``vcs-env train --init`` fine-tunes.
+
+**Dataset** (``.npz``, written by :func:`collect`, numpy only). Rows are robot-steps, grouped by
+robot trajectory (one robot's part of one episode), in time order:
+
+================== =============== ==========================================================
+key                shape / dtype   meaning
+================== =============== ==========================================================
+observations       (N, D) float32  the robot's observation (:mod:`vcs_env.observations`)
+actions            (N, 2) float32  the expert's action for that observation (delta units)
+rewards            (N,) float32    reward of the step taken (scenario weights, no shaping)
+episode_starts     (N,) bool       first row of a trajectory
+traj_start         (K + 1,) int64  trajectory k = rows traj_start[k] : traj_start[k + 1]
+traj_seed          (K,) int64      reset seed of the episode the trajectory belongs to
+traj_robot         (K,) int64      robot index i
+traj_reached       (K,) bool       the robot arrived
+traj_collided      (K,) bool       the robot touched something
+traj_truncated     (K,) bool       the episode hit max_steps before the robot ended
+meta               () str          JSON: format, scenario config and fields, seeds, planner,
+                                   executed policy, observation_dim
+================== =============== ==========================================================
+
+In expert datasets the executed actions are the expert's; in DAgger data the executed actions
+came from the learner (mixed with the expert with probability beta) and ``actions`` are still
+the expert's labels for the visited states.
+
+**Behaviour cloning** (:func:`bc_fit`) maximises the Gaussian log-likelihood of the expert
+actions under the PPO policy (``loss="nll"``, default). The policy's std is state independent,
+so the optimal mean is the same as with MSE; the likelihood also fits ``log_std`` to the
+residual error, which is the right exploration scale for PPO fine-tuning afterwards (floored
+at ``min_log_std``). ``loss="mse"`` fits only the mean and leaves ``log_std`` at its initial
+value. The value head is fitted at the same time to the discounted returns of the dataset's
+trajectories (``value_coef``), so PPO does not start from a random critic. Both heads are
+separate MLPs, so the value fit does not disturb the actor.
+
+**DAgger** (``--dagger-iters K``): after BC, K rounds of: play ``dagger_episodes`` episodes
+where each robot executes the expert's action with probability ``beta_k = dagger_beta *
+0.5**k`` and the learner's deterministic action otherwise, label every visited state with the
+expert action (``NavEngine.expert_action``), add the states to the dataset and continue
+training on the union.
+
+Example::
+
+    vcs-env collect --scenario crowd --episodes 200 --seed 0 --out data/crowd_expert.npz
+    vcs-env bc --data data/crowd_expert.npz --epochs 30 --dagger-iters 3 --out runs/bc_crowd
+    vcs-env train --scenario crowd --init runs/bc_crowd/model.zip
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .config import ScenarioConfig, add_config_args, build_scenario, config_from_args, config_from_dict
+
+DATASET_FORMAT = "vcs-env-expert-v1"
+
+Actor = Callable[[np.ndarray], np.ndarray]
+"""``actor(obs (N, D) float32) -> actions (N, 2)`` (e.g. a deterministic policy)."""
+
+
+# ----------------------------------------------------------------------------- data
+@dataclass
+class CollectConfig(ScenarioConfig):
+    """``vcs-env collect``: expert rollouts into a dataset."""
+
+    episodes: int = 100
+    """Number of episodes (seeds seed, seed + 1, ...)."""
+    seed: int = 0
+    """First episode seed."""
+    n_worlds: int = 32
+    """Worlds stepped together."""
+    planner: str = "vcs"
+    """Expert planner name."""
+    out: str = "data/expert.npz"
+    """Dataset path (.npz)."""
+
+
+def play(
+    scenario,
+    seeds: Sequence[int],
+    actor: Actor | None = None,
+    beta: float = 1.0,
+    rng: np.random.Generator | None = None,
+    n_worlds: int = 32,
+    expert: str = "vcs",
+) -> dict[str, np.ndarray]:
+    """Play one episode per seed, labelling every active robot-step with the expert's action.
+
+    Args:
+        scenario: the episode family.
+        seeds: one reset seed per episode.
+        actor: the executed policy; None executes the expert.
+        beta: per robot-step probability of executing the expert's action instead of ``actor``'s.
+        rng: draws the beta mixing (needed when ``actor`` is given and ``0 < beta < 1``).
+        n_worlds: worlds stepped together.
+        expert: the labelling planner.
+
+    Returns:
+        The dataset arrays of the module docstring (without ``meta``).
+    """
+    from vcs_env.engine import NavEngine
+
+    seeds = [int(s) for s in seeds]
+    rng = rng if rng is not None else np.random.default_rng(0)
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("obs", "act", "rew", "key", "step")}
+    traj: dict[tuple[int, int], dict[str, Any]] = {}
+    for c0 in range(0, len(seeds), n_worlds):
+        chunk = seeds[c0 : c0 + n_worlds]
+        engine = NavEngine(scenario, len(chunk), expert=expert)
+        obs = engine.reset(chunk)
+        world = engine.world
+        B, n = world.batch_size, world.n_robots
+        running = np.ones(B, dtype=bool)
+        while running.any():
+            recording = world.active & running[:, None]
+            label = engine.expert_action
+            action = label
+            if actor is not None:
+                own = np.asarray(actor(obs.reshape(B * n, -1)), dtype=np.float64).reshape(B, n, 2)
+                action = np.where((rng.random((B, n)) < beta)[..., None], label, own)
+            steps = world.steps.copy()
+            res = engine.step(action)
+            b_idx, i_idx = np.nonzero(recording)
+            parts["obs"].append(obs[b_idx, i_idx])
+            parts["act"].append(label[b_idx, i_idx].astype(np.float32))
+            parts["rew"].append(res.reward[b_idx, i_idx].astype(np.float32))
+            parts["key"].append((c0 + b_idx) * n + i_idx)
+            parts["step"].append(steps[b_idx])
+            ended_robot = recording & (res.terminated | res.truncated)
+            for b, i in zip(*np.nonzero(ended_robot)):
+                traj[(c0 + b) * n + i] = {
+                    "seed": chunk[b],
+                    "robot": i,
+                    "reached": bool(world.reached[b, i]),
+                    "collided": bool(world.collided[b, i]),
+                    "truncated": bool(res.truncated[b, i]),
+                }
+            obs = res.obs
+            running &= world.active.any(axis=1) & (world.steps < engine.max_steps)
+    key = np.concatenate(parts["key"])
+    order = np.lexsort((np.concatenate(parts["step"]), key))
+    key = key[order]
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    keys = key[starts]
+    info = [traj[int(k)] for k in keys]
+    episode_starts = np.zeros(len(key), dtype=bool)
+    episode_starts[starts] = True
+    return {
+        "observations": np.concatenate(parts["obs"])[order].astype(np.float32),
+        "actions": np.concatenate(parts["act"])[order],
+        "rewards": np.concatenate(parts["rew"])[order],
+        "episode_starts": episode_starts,
+        "traj_start": np.r_[starts, len(key)].astype(np.int64),
+        "traj_seed": np.array([t["seed"] for t in info], dtype=np.int64),
+        "traj_robot": np.array([t["robot"] for t in info], dtype=np.int64),
+        "traj_reached": np.array([t["reached"] for t in info], dtype=bool),
+        "traj_collided": np.array([t["collided"] for t in info], dtype=bool),
+        "traj_truncated": np.array([t["truncated"] for t in info], dtype=bool),
+    }
+
+
+def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **data, meta=np.array(json.dumps(meta)))
+    return path
+
+
+def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """``(arrays, meta)`` of a dataset; ``ValueError`` naming the problem if it is not one."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"dataset not found: {str(path)!r} (make one with vcs-env collect)")
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            data = {k: f[k] for k in f.files}
+    except Exception as e:
+        raise ValueError(f"dataset {str(path)!r} is not a readable .npz file: {type(e).__name__}: {e}") from None
+    missing = {"observations", "actions", "traj_start", "meta"} - set(data)
+    if missing:
+        raise ValueError(f"dataset {str(path)!r} lacks {sorted(missing)} (not a vcs-env collect dataset)")
+    meta = json.loads(str(data.pop("meta")))
+    if meta.get("format") != DATASET_FORMAT:
+        raise ValueError(f"dataset {str(path)!r} has format {meta.get('format')!r}, expected {DATASET_FORMAT!r}")
+    return data, meta
+
+
+def concat_datasets(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    out = {k: np.concatenate((a[k], b[k])) for k in a if k != "traj_start"}
+    out["traj_start"] = np.concatenate((a["traj_start"][:-1], b["traj_start"] + a["traj_start"][-1]))
+    return out
+
+
+def discounted_returns(rewards: np.ndarray, traj_start: np.ndarray, gamma: float) -> np.ndarray:
+    """Return-to-go ``(N,)`` of every row within its trajectory (0 after the last row)."""
+    out = np.zeros(len(rewards), dtype=np.float64)
+    for s, e in zip(traj_start[:-1], traj_start[1:]):
+        g = 0.0
+        for t in range(e - 1, s - 1, -1):
+            g = rewards[t] + gamma * g
+            out[t] = g
+    return out
+
+
+def collect(cfg: CollectConfig) -> Path:
+    """Run the expert on ``cfg.episodes`` seeds and save the dataset; returns its path."""
+    from vcs_env.observations import observation_dim
+
+    if cfg.episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
+    scenario = build_scenario(cfg)
+    seeds = list(range(cfg.seed, cfg.seed + cfg.episodes))
+    t0 = time.time()
+    data = play(scenario, seeds, n_worlds=cfg.n_worlds, expert=cfg.planner)
+    meta = {
+        "format": DATASET_FORMAT,
+        "config": dataclasses.asdict(cfg),
+        "scenario": json.loads(json.dumps(dataclasses.asdict(scenario), default=repr)),
+        "seeds": seeds,
+        "planner": cfg.planner,
+        "executed": "expert",
+        "action_mode": "delta",
+        "observation_dim": observation_dim(scenario),
+    }
+    path = save_dataset(cfg.out, data, meta)
+    K = len(data["traj_seed"])
+    print(
+        f"collected {len(data['actions'])} robot-steps, {K} robot trajectories from {len(seeds)} episodes "
+        f"(arrived {data['traj_reached'].mean():.3f}, collided {data['traj_collided'].mean():.3f}) "
+        f"in {time.time() - t0:.1f} s -> {path}"
+    )
+    return path
+
+
+# ------------------------------------------------------------------------------- BC
+def bc_fit(
+    policy,
+    obs: np.ndarray,
+    actions: np.ndarray,
+    returns: np.ndarray | None = None,
+    epochs: int = 20,
+    batch_size: int = 256,
+    lr: float = 1e-3,
+    loss: str = "nll",
+    value_coef: float = 0.5,
+    seed: int = 0,
+) -> list[float]:
+    """Fit an SB3 ``ActorCriticPolicy`` to expert pairs (module docstring).
+
+    Args:
+        policy: the PPO policy (trained in place).
+        obs: ``(N, D)`` observations.
+        actions: ``(N, 2)`` expert actions in [-1, 1].
+        returns: ``(N,)`` discounted returns for the value head (None: actor only).
+        loss: ``"nll"`` (Gaussian log-likelihood) or ``"mse"`` (squared error of the mean).
+
+    Returns:
+        Mean training loss per epoch.
+    """
+    import torch as th
+
+    if loss not in ("nll", "mse"):
+        raise ValueError(f"loss must be nll or mse, got {loss!r}")
+    g = th.Generator().manual_seed(seed)
+    obs_t = th.as_tensor(obs, dtype=th.float32)
+    act_t = th.as_tensor(actions, dtype=th.float32)
+    ret_t = None if returns is None else th.as_tensor(returns, dtype=th.float32)
+    opt = th.optim.Adam(policy.parameters(), lr=lr)
+    policy.set_training_mode(True)
+    history = []
+    for _ in range(epochs):
+        perm = th.randperm(len(obs_t), generator=g)
+        total = 0.0
+        for k in range(0, len(perm), batch_size):
+            idx = perm[k : k + batch_size]
+            if loss == "nll":
+                values, log_prob, _ = policy.evaluate_actions(obs_t[idx], act_t[idx])
+                actor_loss = -log_prob.mean()
+            else:
+                dist = policy.get_distribution(obs_t[idx])
+                actor_loss = ((dist.distribution.mean - act_t[idx]) ** 2).sum(-1).mean()
+                values = policy.predict_values(obs_t[idx])
+            total_loss = actor_loss
+            if ret_t is not None and value_coef > 0:
+                total_loss = total_loss + value_coef * ((values.flatten() - ret_t[idx]) ** 2).mean()
+            opt.zero_grad()
+            total_loss.backward()
+            opt.step()
+            total += total_loss.item() * len(idx)
+        history.append(total / len(obs_t))
+    policy.set_training_mode(False)
+    return history
+
+
+def action_error(policy, obs: np.ndarray, actions: np.ndarray) -> float:
+    """Mean Euclidean distance between the policy's deterministic actions and ``actions``."""
+    pred = policy.predict(obs, deterministic=True)[0]
+    return float(np.linalg.norm(pred - actions, axis=-1).mean())
+
+
+@dataclass
+class BCConfig:
+    """``vcs-env bc``: behaviour cloning (and optional DAgger) into a PPO actor-critic."""
+
+    data: str = "data/expert.npz"
+    """Expert dataset from vcs-env collect (its scenario is the policy's scenario)."""
+    out: str = "runs/bc"
+    """Run directory (model.zip + model.json)."""
+    seed: int = 0
+    """Seed of the policy initialisation, minibatch order and DAgger mixing."""
+    net_arch: tuple[int, ...] = (128, 128)
+    """Hidden layer sizes of the policy and value MLPs (must match train's --net-arch for --init)."""
+    log_std_init: float = -0.5
+    """Initial log std of the Gaussian policy (kept as is by loss=mse)."""
+    loss: str = "nll"
+    """nll (Gaussian log-likelihood, also fits log_std) or mse (mean only)."""
+    min_log_std: float = -1.6
+    """Floor on log_std after training (std 0.2) so PPO fine-tuning still explores."""
+    epochs: int = 20
+    """Passes over the (initial) dataset."""
+    batch_size: int = 256
+    """Minibatch size."""
+    learning_rate: float = 1e-3
+    """Adam learning rate."""
+    value_coef: float = 0.5
+    """Weight of the value-head regression on discounted returns (0: actor only)."""
+    gamma: float = 0.99
+    """Discount of those returns (use PPO's)."""
+    val_fraction: float = 0.1
+    """Fraction of episodes held out to report the action error on unseen states."""
+    dagger_iters: int = 0
+    """DAgger rounds after BC (0: plain BC)."""
+    dagger_episodes: int = 50
+    """Episodes played per DAgger round."""
+    dagger_beta: float = 0.5
+    """Probability of executing the expert in the first round (halved every round)."""
+    dagger_epochs: int = 5
+    """Passes over the aggregated dataset after each round."""
+    dagger_seed: int = 50_000
+    """First episode seed of the DAgger rounds (disjoint from collect's)."""
+    eval_episodes: int = 20
+    """Episodes of the closed-loop evaluation after BC and each DAgger round (0: none)."""
+    eval_seed: int = 100_000
+    """First seed of that evaluation (the same list as train's periodic evaluation)."""
+
+
+def _split(data: dict[str, np.ndarray], frac: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Row masks (train, held-out), holding out whole episodes (seeds)."""
+    seeds = np.unique(data["traj_seed"])
+    n_val = int(round(frac * len(seeds))) if len(seeds) > 1 else 0
+    val_seeds = np.random.default_rng(seed).permutation(seeds)[:n_val]
+    lengths = np.diff(data["traj_start"])
+    row_seed = np.repeat(data["traj_seed"], lengths)
+    val = np.isin(row_seed, val_seeds)
+    return ~val, val
+
+
+def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
+    """BC (+ DAgger) per ``cfg``; saves ``<out>/model.zip``; returns errors, evaluations, paths."""
+    import torch
+
+    torch.set_num_threads(1)
+    from stable_baselines3 import PPO
+
+    from .checkpoint import save_model
+    from .train import PolicyConfig, deterministic_act, policy_kwargs, scalar_results
+    from .vec_env import NavVecEnv, run_first_episodes
+
+    t_start = time.time()
+    data, meta = load_dataset(cfg.data)
+    scen_cfg = config_from_dict(ScenarioConfig, meta["config"])
+    scen_cfg = dataclasses.replace(scen_cfg, shaping="none", shaping_weight=None)
+    scenario = build_scenario(scen_cfg)
+    if meta.get("observation_dim") != data["observations"].shape[1]:
+        raise ValueError(f"dataset {cfg.data!r}: observation_dim in meta does not match the arrays")
+    venv = NavVecEnv(scenario, 1)  # spaces only
+    pcfg = PolicyConfig(net_arch=cfg.net_arch, log_std_init=cfg.log_std_init)
+    model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=policy_kwargs(pcfg))
+    policy = model.policy
+    train_rows, val_rows = _split(data, cfg.val_fraction, cfg.seed)
+    returns = discounted_returns(data["rewards"], data["traj_start"], cfg.gamma)
+    X, Y, R = data["observations"], data["actions"], returns
+    Xv, Yv = X[val_rows], Y[val_rows]
+    report: dict[str, Any] = {"rows": int(train_rows.sum()), "held_out_rows": int(val_rows.sum())}
+    if len(Xv):
+        report["held_out_error_init"] = action_error(policy, Xv, Yv)
+
+    def fit(rows: np.ndarray, epochs: int, seed: int) -> list[float]:
+        hist = bc_fit(
+            policy,
+            X[rows],
+            Y[rows],
+            R[rows] if cfg.value_coef > 0 else None,
+            epochs=epochs,
+            batch_size=cfg.batch_size,
+            lr=cfg.learning_rate,
+            loss=cfg.loss,
+            value_coef=cfg.value_coef,
+            seed=seed,
+        )
+        with torch.no_grad():
+            policy.log_std.clamp_(min=cfg.min_log_std)
+        return hist
+
+    eval_seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
+
+    def closed_loop(tag: str) -> dict[str, float] | None:
+        if not eval_seeds:
+            return None
+        res = scalar_results(run_first_episodes(deterministic_act(policy), scenario, eval_seeds))
+        print(
+            f"[{tag}] closed loop on {len(eval_seeds)} episodes: success {res['episode_success']:.2f} "
+            f"(robots {res['robot_success']:.3f}) collision {res['episode_collision']:.2f} "
+            f"time-to-goal {res['time_to_goal']:.2f} s",
+            flush=True,
+        )
+        return res
+
+    losses = fit(train_rows, cfg.epochs, cfg.seed)
+    report["bc_losses"] = losses
+    if len(Xv):
+        report["held_out_error"] = action_error(policy, Xv, Yv)
+        print(
+            f"[bc] {cfg.epochs} epochs on {report['rows']} rows: loss {losses[0]:.3f} -> {losses[-1]:.3f}, "
+            f"held-out action error {report['held_out_error_init']:.3f} -> {report['held_out_error']:.3f}"
+        )
+    report["evaluations"] = [{"stage": "bc", **(closed_loop("bc") or {})}]
+
+    rng = np.random.default_rng(cfg.seed)
+    dagger_steps = 0
+    for k in range(cfg.dagger_iters):
+        beta = cfg.dagger_beta * 0.5**k
+        seeds = range(cfg.dagger_seed + k * cfg.dagger_episodes, cfg.dagger_seed + (k + 1) * cfg.dagger_episodes)
+        new = play(scenario, seeds, actor=lambda o: policy.predict(o, deterministic=True)[0], beta=beta, rng=rng)
+        dagger_steps += len(new["actions"])
+        new_ret = discounted_returns(new["rewards"], new["traj_start"], cfg.gamma)
+        data = concat_datasets(data, new)
+        X, Y, R = data["observations"], data["actions"], np.concatenate((R, new_ret))
+        train_rows = np.concatenate((train_rows, np.ones(len(new["actions"]), dtype=bool)))
+        fit(train_rows, cfg.dagger_epochs, cfg.seed + k + 1)
+        msg = f"[dagger {k + 1}/{cfg.dagger_iters}] beta {beta:.3f}: +{len(new['actions'])} rows"
+        msg += f" ({train_rows.sum()} total)"
+        if len(Xv):
+            msg += f", held-out action error {action_error(policy, Xv, Yv):.3f}"
+        print(msg, flush=True)
+        res = closed_loop(f"dagger {k + 1}") or {}
+        report["evaluations"].append({"stage": f"dagger{k + 1}", "beta": beta, **res})
+    report["dagger_env_steps"] = dagger_steps
+    if len(Xv):
+        report["held_out_error"] = action_error(policy, Xv, Yv)
+    report["log_std"] = policy.log_std.detach().numpy().tolist()
+    wall = round(time.time() - t_start, 1)
+    path = save_model(
+        model,
+        Path(cfg.out) / "model.zip",
+        "bc",
+        cfg,
+        scenario,
+        dataset=str(cfg.data),
+        dataset_meta={k: meta[k] for k in ("config", "planner", "executed") if k in meta},
+        report=report,
+        wall_time=wall,
+    )
+    print(f"saved {path} ({wall:.0f} s)")
+    return {"model": str(path), **report, "wall_time": wall}
+
+
+# ------------------------------------------------------------------------------ CLI
+def cmd_collect(args: argparse.Namespace) -> int:
+    collect(config_from_args(CollectConfig, args))
+    return 0
+
+
+def cmd_bc(args: argparse.Namespace) -> int:
+    behaviour_clone(config_from_args(BCConfig, args))
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser("collect", help="record VCS expert rollouts into a dataset (.npz)")
+    add_config_args(p, CollectConfig)
+    p.set_defaults(func=cmd_collect)
+    p = sub.add_parser("bc", help="behaviour cloning (and DAgger) of the expert into a PPO policy")
+    add_config_args(p, BCConfig)
+    p.set_defaults(func=cmd_bc)
