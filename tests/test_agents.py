@@ -1,0 +1,215 @@
+"""agents/: the SB3 VecEnv adapter, checkpoints, behaviour cloning, and CLI smoke runs (cleanrl style)."""
+
+import json
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+import torch  # noqa: E402
+
+torch.set_num_threads(1)
+
+from agents.checkpoint import CheckpointError, load_model, load_policy_weights  # noqa: E402
+from agents.vec_env import NavVecEnv, run_first_episodes  # noqa: E402
+from vcs_env import CustomLayout, NavEngine, make_scenario  # noqa: E402
+
+
+def two_robot_scenario(max_steps=15):
+    """robot_0 starts 0.3 m from its goal (arrives after 9 full-throttle steps), robot_1 is 5 m
+    away (still driving when the world times out after ``max_steps``)."""
+    layout = CustomLayout(start=((0.0, 0.0), (0.0, 3.0)), goal=((0.3, 0.0), (5.0, 3.0)))
+    return make_scenario("custom", custom=layout, n_robots=2, n_obstacles=0, max_steps=max_steps)
+
+
+FULL_THROTTLE = np.array([1.0, 0.0], dtype=np.float32)
+
+
+def test_early_finisher_padding_truncation_and_autoreset():
+    s = two_robot_scenario()
+    venv = NavVecEnv(s, n_worlds=2)
+    assert venv.num_envs == 4
+    obs0 = venv.reset()
+    assert obs0.shape == (4, venv.observation_space.shape[0]) and obs0.dtype == np.float32
+    ref = NavEngine(s, 1)  # the same episode stepped directly, without auto-reset
+    ref_obs = ref.reset()
+    np.testing.assert_array_equal(obs0[:2], ref_obs[0])
+    actions = np.tile(FULL_THROTTLE, (4, 1))
+    arrived_at = None
+    for t in range(1, 16):
+        obs, rew, done, infos = venv.step(actions)
+        ref_obs = ref.step(np.tile(FULL_THROTTLE, (1, 2, 1))).obs
+        for w in (0, 1):  # both worlds play the same (deterministic) episode
+            j0, j1 = 2 * w, 2 * w + 1
+            if arrived_at is None and done[j0]:
+                arrived_at = t
+                info = infos[j0]
+                assert info["TimeLimit.truncated"] is False and info["is_success"] is True
+                np.testing.assert_array_equal(info["terminal_observation"], ref_obs[0, 0])
+                assert info["episode"]["l"] == t and info["episode"]["success"] == 1.0
+                assert info["episode"]["time_to_goal"] == pytest.approx(t * s.dt)
+                assert not done[j1]
+            if arrived_at is not None and t > arrived_at and t < 15:  # padding slot
+                assert not done[j0] and rew[j0] == 0.0 and infos[j0]["padding"]
+                assert not obs[j0].any()
+            if t < 15:
+                np.testing.assert_array_equal(obs[j1], ref_obs[0, 1])
+                assert not done[j1]
+        if t == 15:  # world time-out: robot_1 truncated, padding segment closed, auto-reset
+            assert done.all()
+            for w in (0, 1):
+                j0, j1 = 2 * w, 2 * w + 1
+                assert infos[j1]["TimeLimit.truncated"] is True and infos[j1]["is_success"] is False
+                np.testing.assert_array_equal(infos[j1]["terminal_observation"], ref_obs[0, 1])
+                assert infos[j1]["episode"]["l"] == 15
+                assert infos[j0]["TimeLimit.truncated"] is False and "episode" not in infos[j0]
+                assert not infos[j0]["terminal_observation"].any()
+            np.testing.assert_array_equal(obs, obs0)  # first observation of the new episode
+    assert arrived_at == 9
+    venv.step(actions)  # the new episode runs
+    assert venv.live_mask().all()
+
+
+def test_seed_controls_worlds_and_resets_continue_streams():
+    s = make_scenario("crowd")
+    venv = NavVecEnv(s, n_worlds=3)
+    venv.seed(7)
+    obs = venv.reset()
+    np.testing.assert_array_equal(obs, NavEngine(s, 3).reset([7, 8, 9]).reshape(3, -1))
+    again = venv.reset()  # no new seed: each world continues its stream
+    assert not np.array_equal(obs, again)
+    venv.seed(7)
+    np.testing.assert_array_equal(venv.reset(), obs)
+
+
+def _small_ppo(seed, timesteps=256):
+    from stable_baselines3 import PPO
+
+    s = make_scenario("crowd", max_steps=20)
+    model = PPO(
+        "MlpPolicy",
+        NavVecEnv(s, n_worlds=4),
+        n_steps=32,
+        batch_size=64,
+        n_epochs=2,
+        seed=seed,
+        device="cpu",
+        policy_kwargs=dict(net_arch=[16, 16]),
+    )
+    model.learn(timesteps)
+    return model
+
+
+def test_ppo_same_seed_identical_weights_and_episode_infos():
+    a, b, c = _small_ppo(0), _small_ppo(0), _small_ppo(1)
+    pa, pb, pc = (m.policy.state_dict() for m in (a, b, c))
+    assert all(torch.equal(pa[k], pb[k]) for k in pa)
+    assert not all(torch.equal(pa[k], pc[k]) for k in pa)
+    # Per-robot episode infos reach SB3's buffers (20-step episodes, 256 steps on 4 slots).
+    assert len(a.ep_info_buffer) >= 4
+    assert {"r", "l", "t", "success", "collision"} <= set(a.ep_info_buffer[0])
+    assert len(a.ep_success_buffer) == len(a.ep_info_buffer)
+
+
+def test_run_first_episodes_scores_the_expert():
+    res = run_first_episodes(lambda v, o: v.expert_actions(), make_scenario("crowd"), [1000, 1001], expert="vcs")
+    assert res["episodes"] == 2 and res["success"].shape == (2, 1)
+    assert 0.0 <= res["episode_success"] <= 1.0 and res["time_to_goal"] > 8.0  # straight line: 8 m at 1 m/s
+
+
+def test_bc_lowers_held_out_action_error():
+    from stable_baselines3 import PPO
+
+    from agents.imitation import action_error, bc_fit, discounted_returns, play
+
+    s = make_scenario("crowd")
+    train = play(s, range(0, 24), n_worlds=24)
+    held_out = play(s, range(500, 506), n_worlds=6)
+    model = PPO("MlpPolicy", NavVecEnv(s, 1), seed=0, device="cpu", policy_kwargs=dict(net_arch=[64, 64]))
+    before = action_error(model.policy, held_out["observations"], held_out["actions"])
+    returns = discounted_returns(train["rewards"], train["traj_start"], 0.99)
+    losses = bc_fit(model.policy, train["observations"], train["actions"], returns, epochs=15, seed=0)
+    after = action_error(model.policy, held_out["observations"], held_out["actions"])
+    assert losses[-1] < losses[0]
+    assert after < 0.8 * before, (before, after)  # the bang-bang expert leaves an error floor near 0.35
+
+
+def test_dataset_layout_groups_robot_trajectories():
+    from agents.imitation import play
+
+    s = make_scenario("circle", n_robots=3, max_steps=40)
+    d = play(s, [3, 4], n_worlds=2)
+    K = len(d["traj_seed"])
+    assert K == 6 and d["traj_start"][0] == 0 and d["traj_start"][-1] == len(d["actions"])
+    assert np.flatnonzero(d["episode_starts"]).tolist() == d["traj_start"][:-1].tolist()
+    assert sorted(zip(d["traj_seed"].tolist(), d["traj_robot"].tolist())) == [(a, i) for a in (3, 4) for i in range(3)]
+    assert d["traj_truncated"].all()  # 40 steps are too few to cross the circle
+    assert np.all(np.abs(d["actions"]) <= 1.0)
+
+
+def test_checkpoint_errors_are_clear(tmp_path):
+    from stable_baselines3 import PPO
+
+    s = make_scenario("crowd")
+    with pytest.raises(CheckpointError, match="not found"):
+        load_model(tmp_path / "nope.zip", s)
+    bad = tmp_path / "bad.zip"
+    bad.write_bytes(b"definitely not a zip")
+    with pytest.raises(CheckpointError, match="corrupt"):
+        load_model(bad, s)
+    small = make_scenario("crowd", n_neighbors=2)
+    model = PPO("MlpPolicy", NavVecEnv(small, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
+    model.save(tmp_path / "k2.zip")
+    with pytest.raises(CheckpointError, match=r"observation space Box\(24,\).*Box\(72,\)"):
+        load_model(tmp_path / "k2.zip", s)
+    assert load_model(tmp_path / "k2", small).observation_space.shape == (24,)
+    truncated = tmp_path / "truncated.zip"
+    with zipfile.ZipFile(tmp_path / "k2.zip") as src, zipfile.ZipFile(truncated, "w") as dst:
+        dst.writestr("data", src.read("data"))
+        dst.writestr("policy.pth", src.read("policy.pth")[:50])
+    with pytest.raises(CheckpointError, match="corrupt or unreadable"):
+        load_model(truncated, small)
+    other = PPO("MlpPolicy", NavVecEnv(small, 1), device="cpu", policy_kwargs=dict(net_arch=[16]))
+    with pytest.raises(CheckpointError, match="another policy architecture"):
+        load_policy_weights(other, tmp_path / "k2.zip", small)
+
+
+def test_cli_modules_do_not_import_torch():
+    code = (
+        "import sys, vcs_env.cli as c; c.build_parser(); "
+        "sys.exit('torch' in sys.modules or 'stable_baselines3' in sys.modules)"
+    )
+    assert subprocess.run([sys.executable, "-c", code]).returncode == 0
+
+
+def vcs_env_cli(command: str, cwd, expect: int = 0) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, "-m", "vcs_env.cli", *command.split()]
+    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == expect, proc.stdout + proc.stderr
+    return proc
+
+
+def test_smoke_collect_bc_train_resume(tmp_path):
+    """Tiny budgets end to end: expert data -> BC + 1 DAgger round -> PPO from BC -> resume."""
+    out = vcs_env_cli("collect --scenario crowd --episodes 6 --out d.npz", tmp_path).stdout
+    assert "collected" in out
+    vcs_env_cli("bc --data d.npz --epochs 2 --dagger-iters 1 --dagger-episodes 2 --eval-episodes 2 --out bc", tmp_path)
+    assert json.loads((tmp_path / "bc/model.json").read_text())["kind"] == "bc"
+    common = "--scenario crowd --n-worlds 4 --n-steps 32 --batch-size 64 --n-epochs 1 --eval-episodes 2"
+    out = vcs_env_cli(
+        f"train {common} --eval-freq 128 --checkpoint-freq 128 --timesteps 256 --init bc/model.zip --out ppo", tmp_path
+    ).stdout
+    assert "initialised the policy" in out and "[eval @" in out
+    meta = json.loads((tmp_path / "ppo/model.json").read_text())
+    assert meta["num_timesteps"] == 256 and meta["config"]["init"] == "bc/model.zip"
+    assert (tmp_path / "ppo/checkpoints/model_128.zip").exists() and list((tmp_path / "ppo/tb").iterdir())
+    out = vcs_env_cli(
+        "train --resume ppo/checkpoints/model_128.zip --timesteps 384 --out ppo2 --no-progress-bar", tmp_path
+    )
+    assert "resumed" in out.stdout
+    assert json.loads((tmp_path / "ppo2/model.json").read_text())["num_timesteps"] == 384
+    bad = vcs_env_cli("train --scenario crowd --init missing.zip --out x", tmp_path, expect=2)
+    assert "checkpoint not found" in bad.stderr
