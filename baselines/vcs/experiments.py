@@ -24,15 +24,22 @@ WEAK = RobotSpec(a_max=0.3, omega_max=0.6)
 """The spec's weak dynamics (a_max 0.3 m/s^2, omega_max 0.6 rad/s)."""
 
 
-def _scenario(starts, goals, obstacles, r_ca, max_time=60.0, robot: RobotSpec | None = None, speeds=None,
-              headings=None) -> Scenario:
-    layout = CustomLayout(
-        start=starts, goal=goals, heading=headings, speed=speeds, obstacles=tuple(obstacles)
-    )
+def _scenario(
+    starts, goals, obstacles, r_ca, max_time=60.0, robot: RobotSpec | None = None, speeds=None, headings=None
+) -> Scenario:
+    layout = CustomLayout(start=starts, goal=goals, heading=headings, speed=speeds, obstacles=tuple(obstacles))
     return Scenario(
-        kind="custom", n_robots=len(starts), n_obstacles=len(obstacles), custom=layout, r_ca=r_ca,
-        max_steps=int(round(max_time / DT)), on_collision="continue", r_goal=0.1, dt=DT,
-        robot=robot if robot is not None else RobotSpec(), min_separation=0.0,
+        kind="custom",
+        n_robots=len(starts),
+        n_obstacles=len(obstacles),
+        custom=layout,
+        r_ca=r_ca,
+        max_steps=int(round(max_time / DT)),
+        on_collision="continue",
+        r_goal=0.1,
+        dt=DT,
+        robot=robot if robot is not None else RobotSpec(),
+        min_separation=0.0,
     )
 
 
@@ -72,8 +79,15 @@ def corridor_obstacles(seed: int, turning: bool, count: int = 6, horizon: float 
 
 def cf_scenario(seed: int, turning: bool = False, robot: RobotSpec | None = None) -> Scenario:
     """CF1 (straight movers) / CF2 (arbitrary trajectories): goal (22, 0), r_ca 8 m, v0 1 m/s."""
-    return _scenario(((0.0, 0.0),), ((22.0, 0.0),), corridor_obstacles(seed, turning), r_ca=8.0,
-                     robot=robot, speeds=(1.0,), headings=(0.0,))
+    return _scenario(
+        ((0.0, 0.0),),
+        ((22.0, 0.0),),
+        corridor_obstacles(seed, turning),
+        r_ca=8.0,
+        robot=robot,
+        speeds=(1.0,),
+        headings=(0.0,),
+    )
 
 
 def circle_scenario(n: int, radius: float, max_time: float = 150.0) -> Scenario:
@@ -85,14 +99,28 @@ def circle_scenario(n: int, radius: float, max_time: float = 150.0) -> Scenario:
 
 def crossing_scenario() -> Scenario:
     """IN1: 90 degree crossing; A (0, 0) -> (12, 0), B (6, -6) -> (6, 6), both at 1 m/s."""
-    return _scenario(((0.0, 0.0), (6.0, -6.0)), ((12.0, 0.0), (6.0, 6.0)), (), r_ca=8.0, max_time=40.0,
-                     speeds=(1.0, 1.0), headings=(0.0, math.pi / 2))
+    return _scenario(
+        ((0.0, 0.0), (6.0, -6.0)),
+        ((12.0, 0.0), (6.0, 6.0)),
+        (),
+        r_ca=8.0,
+        max_time=40.0,
+        speeds=(1.0, 1.0),
+        headings=(0.0, math.pi / 2),
+    )
 
 
 def head_on_scenario(offset: float) -> Scenario:
     """IN2: head-on swap along the x axis; B is offset laterally by ``offset`` [m]."""
-    return _scenario(((0.0, 0.0), (12.0, offset)), ((12.0, 0.0), (0.0, offset)), (), r_ca=8.0, max_time=40.0,
-                     speeds=(1.0, 1.0), headings=(0.0, math.pi))
+    return _scenario(
+        ((0.0, 0.0), (12.0, offset)),
+        ((12.0, 0.0), (0.0, offset)),
+        (),
+        r_ca=8.0,
+        max_time=40.0,
+        speeds=(1.0, 1.0),
+        headings=(0.0, math.pi),
+    )
 
 
 def onset_scenario() -> Scenario:
@@ -111,8 +139,15 @@ def phantom_scenario() -> Scenario:
 
 def big_obstacle_scenario() -> Scenario:
     """FS2: static obstacle of radius 1.5 m at (6, 0), goal (14, 0), weak dynamics, r_ca 8 m."""
-    return _scenario(((0.0, 0.0),), ((14.0, 0.0),), [_sampled(np.array([[6.0, 0.0]]), 1.5)], r_ca=8.0,
-                     robot=WEAK, speeds=(1.0,), headings=(0.0,))
+    return _scenario(
+        ((0.0, 0.0),),
+        ((14.0, 0.0),),
+        [_sampled(np.array([[6.0, 0.0]]), 1.5)],
+        r_ca=8.0,
+        robot=WEAK,
+        speeds=(1.0,),
+        headings=(0.0,),
+    )
 
 
 @dataclass
@@ -138,11 +173,12 @@ class Run:
         return bool(self.arrived.all() and not self.collided)
 
 
-def run(scenario: Scenario, planner: VCSPlanner | None = None, check_window: bool = False) -> Run:
-    """Drive every robot of ``scenario`` with ``planner`` (default VCS) and record a :class:`Run`."""
+def run(scenario: Scenario, planner: VCSPlanner | None = None, check_window: bool = False, seed: int = 0) -> Run:
+    """Drive every robot of ``scenario`` with ``planner`` (default VCS) and record a :class:`Run`.
+    The layouts are fixed; ``seed`` only changes the planner's symmetry-breaking noise."""
     planner = planner if planner is not None else VCSPlanner()
     eng = NavEngine(scenario)
-    eng.reset([0])
+    eng.reset([seed])
     w = eng.world
     n = w.n_robots
     pos = [w.pos[0].copy()]
@@ -185,9 +221,18 @@ def run(scenario: Scenario, planner: VCSPlanner | None = None, check_window: boo
     pos = np.array(pos)
     path = np.linalg.norm(np.diff(pos, axis=0), axis=-1).sum(axis=0)
     return Run(
-        collided=collided, arrived=~np.isnan(arrived_at), time=arrived_at, path=path, min_sep=min_sep,
-        fallbacks=fallbacks, pos=pos, heading_change=heading_change, heading_flips=flips, onset_step=onset,
-        onset_tc=onset_tc, window_ok=window_ok,
+        collided=collided,
+        arrived=~np.isnan(arrived_at),
+        time=arrived_at,
+        path=path,
+        min_sep=min_sep,
+        fallbacks=fallbacks,
+        pos=pos,
+        heading_change=heading_change,
+        heading_flips=flips,
+        onset_step=onset,
+        onset_tc=onset_tc,
+        window_ok=window_ok,
     )
 
 

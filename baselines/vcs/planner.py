@@ -13,6 +13,7 @@ from vcs_env.state import WorldState
 
 from ..common import preferred_velocity
 from . import kernel
+from .geometry import velocity_to_vcs
 from .params import VCSParams
 
 
@@ -109,8 +110,8 @@ class VCSPlanner(Planner):
 
     After each call, ``last`` holds per-robot diagnostics ``(B, n)``: ``fallback`` (no
     admissible candidate), ``k`` (window steps), ``t_star`` (first threat time [s]),
-    ``threats``, ``target`` (dv*, dtheta*) ``(B, n, 2)``, ``goal_step`` (the one-step-clipped
-    goal point) ``(B, n, 2)``, ``cost`` and ``detour``.
+    ``threats``, ``target`` (dv*, dtheta*) ``(B, n, 2)``, ``goal_point`` G and ``goal_step`` (G
+    clipped to the one-step window) ``(B, n, 2)``, ``cost`` and ``detour``.
     """
 
     name = "vcs"
@@ -229,6 +230,7 @@ class VCSPlanner(Planner):
             "t_star": out_tstar,
             "threats": out_threats,
             "goal_step": out_g1,
+            "goal_point": np.stack(velocity_to_vcs(own, world.speed, world.heading), axis=-1),
             "detour": detour,
         }
         self._cache_key, self._cache_target = key, target

@@ -1,0 +1,179 @@
+"""The paper's picture of one decision: the Velocity Change Space of one robot at one instant.
+
+:func:`plot_decision` draws, side by side, the VCS plane (direction change vs speed change)
+with each object's forbidden region, the domain, the multi-step window ``W_k*``, the one-step
+window, the goal point ``G`` and the chosen point ``p*``; and its velocity-space twin. The
+forbidden regions are computed by :func:`object_forbidden_masks`, the numpy reference of the
+planner kernel's forbidden sets (tests check that both agree).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from vcs_env.state import WorldState
+
+from ..common import preferred_velocity
+from . import geometry as G
+from .planner import VCSPlanner
+
+
+def object_forbidden_masks(
+    world: WorldState, planner: VCSPlanner, b: int, i: int, vel: np.ndarray, horizon: np.ndarray
+) -> dict[int, np.ndarray]:
+    """Which candidate velocities each sensed object forbids, from the numpy geometry.
+
+    Args:
+        world: the state.
+        planner: supplies the parameters (size regulation, reciprocity).
+        b, i: world and robot.
+        vel: candidate velocities ``(k, 2)`` [m/s].
+        horizon: the horizon T_h of each object ``(n + m,)`` [s] (``VCSPlanner.evaluate``).
+
+    Returns:
+        ``{object index: (k,) bool}``; robots first (index j), then obstacles (n + k).
+    """
+    p = planner.params
+    pref = preferred_velocity(world)[b]
+    v_r = world.vel[b, i]
+    r_ca = world.r_ca if p.r_ca is None else p.r_ca
+    out = {}
+    objects = [(j, True) for j in range(world.n_robots) if j != i and world.present[b, j]]
+    objects += [(k, False) for k in range(world.n_obstacles)]
+    for j, is_robot in objects:
+        pos = world.pos[b, j] if is_robot else world.obs_pos[b, j]
+        v_j = (world.vel[b, j] if world.active[b, j] else np.zeros(2)) if is_robot else world.obs_vel[b, j]
+        r0 = world.radius[b, i] + (world.radius[b, j] if is_robot else world.obs_radius[b, j])
+        rel = pos - world.pos[b, i]
+        d = float(np.linalg.norm(rel))
+        if d > r_ca:
+            continue
+        idx = j if is_robot else world.n_robots + j
+        reciprocal = bool(is_robot and world.active[b, j] and p.reciprocity != "vo")
+        if d <= r0:  # overlap: the half-plane rule (§2.4)
+            apex, p_hat = G.overlap_apex(rel, np.array(r0), v_r, v_j, world.dt, np.array(reciprocal))
+            out[idx] = (vel - apex) @ p_hat > 0.0
+            continue
+        # Size regulation (§2.6).
+        tc0 = G.time_to_collision(rel, v_r - v_j, r0)
+        kt = 0.0 if np.isinf(tc0) else float(np.clip((p.t_max - tc0) / p.t_max, 0, 1))
+        kd = float(np.clip(1 - (d - r0) / r_ca, 0, 1))
+        reff = r0 + p.delta_min + p.delta_s * max(kt, kd)
+        if d <= reff:
+            reff = max(r0, d - p.eps_overlap)
+        if reciprocal and p.reciprocity == "hrvo":
+            apex = G.hrvo_apex(rel, np.array(reff), v_r, v_j, pref[i], pref[j])
+        elif reciprocal:
+            apex = G.rvo_apex(v_r, v_j)
+        else:
+            apex = v_j
+        k = len(vel)
+        scale = np.full(k, 2.0 if reciprocal else 1.0)
+        out[idx] = G.forbidden(vel, np.broadcast_to(rel, vel.shape), apex, scale, np.full(k, reff), horizon[idx])
+    return out
+
+
+def plot_decision(
+    world: WorldState, b: int = 0, i: int = 0, planner: VCSPlanner | None = None, axes=None, resolution: int = 181
+):
+    """Draw robot ``i``'s decision in world ``b`` (see the module docstring).
+
+    Args:
+        world: the state (plan with the same planner first if it carries memory).
+        b, i: world and robot.
+        planner: the VCS planner (a fresh default one if None).
+        axes: two matplotlib axes (VCS plane, velocity space), or None for a new figure.
+        resolution: grid points per axis.
+
+    Returns:
+        The matplotlib figure.
+    """
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Rectangle
+
+    planner = planner if planner is not None else VCSPlanner()
+    planner.plan(world)
+    info = planner.last
+    v_r, th_r, v_max = world.speed[b, i], world.heading[b, i], world.v_max[b, i]
+    dv = np.linspace(-v_r, v_max - v_r, resolution)
+    dth = np.linspace(-math.pi, math.pi, 2 * resolution)
+    DV, DTH = np.meshgrid(dv, dth, indexing="ij")
+    ok, _, horizon = planner.evaluate(world, b, i, DV.ravel(), DTH.ravel())
+    vel = G.vcs_to_velocity(DV.ravel(), DTH.ravel(), v_r, th_r)
+    masks = object_forbidden_masks(world, planner, b, i, vel, horizon)
+
+    if axes is None:
+        fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    else:
+        fig = axes[0].figure
+    ax, axv = axes
+    cmap = plt.get_cmap("tab10")
+    for c, (idx, mask) in enumerate(sorted(masks.items())):
+        if not mask.any():
+            continue
+        name = f"robot_{idx}" if idx < world.n_robots else f"obstacle_{idx - world.n_robots}"
+        color = cmap(c % 10)
+        grid = mask.reshape(DV.shape)
+        ax.contourf(DTH, DV, grid.astype(float), levels=[0.5, 1.5], colors=[color], alpha=0.35)
+        ax.plot([], [], color=color, lw=6, alpha=0.5, label=f"forbidden: {name} (T_h {horizon[idx]:.1f} s)")
+        axv.scatter(vel[mask, 0], vel[mask, 1], s=2, color=color, alpha=0.25)
+    # Domain, windows, points.
+    k = int(info["k"][b, i])
+    dth1 = world.omega_max[b, i] * world.dt
+    lo, hi, half = G.window(k, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], world.dt)
+    ax.add_patch(
+        Rectangle(
+            (-half, lo), 2 * half, hi - lo, fill=False, ls="--", lw=1.5, color="k", label=f"window W_{k} (k* = {k})"
+        )
+    )
+    lo1, hi1, _ = G.window(1, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], world.dt)
+    ax.add_patch(
+        Rectangle((-dth1, lo1), 2 * dth1, hi1 - lo1, fill=False, lw=1.5, color="tab:green", label="one-step window W_1")
+    )
+    pref = preferred_velocity(world)[b, i]
+    g_dv, g_dth = G.velocity_to_vcs(pref, v_r, th_r)
+    target = info["target"][b, i]
+    ax.plot(g_dth, g_dv, marker="*", ms=14, color="gold", mec="k", ls="", label="goal point G")
+    ax.plot(
+        target[1],
+        target[0],
+        marker="o",
+        ms=9,
+        color="tab:red",
+        mec="k",
+        ls="",
+        label="chosen p*" + (" (fallback)" if info["fallback"][b, i] else ""),
+    )
+    ax.plot(0, 0, marker="+", ms=12, color="k", ls="", label="current velocity")
+    ax.set_xlim(-math.pi, math.pi)
+    ax.set_ylim(-v_r, v_max - v_r)
+    ax.set_xlabel("direction change [rad]")
+    ax.set_ylabel("speed change [m/s]")
+    ax.set_title(f"VCS of robot_{i} at t = {world.time[b]:.1f} s")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7)
+    # Velocity-space twin.
+    circle = np.linspace(0, 2 * math.pi, 200)
+    axv.plot(v_max * np.cos(circle), v_max * np.sin(circle), color="0.5", lw=1)
+    ring = np.array(
+        [
+            [s * math.cos(th_r + a), s * math.sin(th_r + a)]
+            for s in np.linspace(max(0, v_r + lo), v_r + hi, 20)
+            for a in np.linspace(-half, half, 40)
+        ]
+    )
+    axv.scatter(ring[:, 0], ring[:, 1], s=1, color="k", alpha=0.3, label="window (velocities)")
+    chosen = G.vcs_to_velocity(np.array(target[0]), np.array(target[1]), v_r, th_r)
+    axv.plot(*world.vel[b, i], marker="+", ms=12, color="k", ls="", label="current velocity")
+    axv.plot(*pref, marker="*", ms=14, color="gold", mec="k", ls="", label="preferred velocity")
+    axv.plot(*chosen, marker="o", ms=9, color="tab:red", mec="k", ls="", label="chosen velocity")
+    axv.set_aspect("equal")
+    axv.set_xlim(-1.1 * v_max, 1.1 * v_max)
+    axv.set_ylim(-1.1 * v_max, 1.1 * v_max)
+    axv.set_xlabel("v_x [m/s]")
+    axv.set_ylabel("v_y [m/s]")
+    axv.set_title("velocity space")
+    axv.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=7)
+    fig.tight_layout()
+    return fig

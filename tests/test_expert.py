@@ -1,0 +1,85 @@
+"""The VCS expert solves the presets, and plugs into the env as expert and reward shaper."""
+
+import numpy as np
+import pytest
+
+import vcs_env
+from vcs_env.engine import NavEngine
+from vcs_env.metrics import episode_metrics
+from vcs_env.rollout import planner_controller, run_episodes
+from vcs_env.scenario import SCENARIOS
+
+# Presets the expert does not solve on every seed, with the reason (MiniGrid keeps such a list).
+KNOWN_EXCEPTIONS = {
+    "crowd": (
+        0.9,
+        "passive obstacles ignore the robot and move at up to its top speed; the adaptive (un-conservative) "
+        "horizon sometimes lets the robot be cornered (crowd-5-v0: 93 of 100 episodes solved)",
+    ),
+    "random": (
+        0.9,
+        "two robots crossing beside a parked one can dance: the threat disappears for a step, both "
+        "re-plan with the full window and turn back into each other (seed 11: 19 of 20 solved)",
+    ),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_expert_solves_every_preset(name):
+    scenario = vcs_env.make_scenario(name, on_collision="continue")
+    episodes = run_episodes(scenario, planner_controller(vcs_env.make_planner("vcs")), range(20))
+    rows = [episode_metrics(e) for e in episodes]
+    success = np.mean([r["success"] for r in rows])
+    required = KNOWN_EXCEPTIONS.get(name, (1.0, ""))[0]
+    assert success >= required, f"{name}: {success:.2f} < {required}"
+    assert all(r["deadlock"] == 0 for r in rows)
+
+
+def test_expert_action_in_info_drives_the_env_like_the_planner():
+    """Following info["expert_action"] reproduces the planner's own rollout exactly."""
+    scenario = vcs_env.make_scenario("circle", n_robots=6, on_collision="continue")
+    env = vcs_env.parallel_env(scenario=scenario, expert="vcs")
+    obs, infos = env.reset(seed=4)
+    positions = []
+    while env.agents:
+        obs, _, _, _, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+        positions.append(env.world.pos[0].copy())
+    ep = run_episodes(scenario, planner_controller(vcs_env.make_planner("vcs")), [4])[0]
+    np.testing.assert_allclose(np.array(positions), ep.pos[1:], atol=1e-6)  # float32 actions
+
+
+def test_imitation_shaping_is_zero_for_the_expert_and_negative_otherwise():
+    scenario = vcs_env.make_scenario("swap", rewards={"vcs_imitation": 1.0})
+    eng = NavEngine(scenario)
+    eng.reset([0])
+    for _ in range(10):
+        res = eng.step(eng.expert_action.astype(np.float64))
+        assert np.all(np.abs(res.terms["vcs_imitation"]) < 1e-6)
+    res = eng.step(-eng.expert_action.astype(np.float64) + 0.5)
+    assert np.all(res.terms["vcs_imitation"] < 0) and np.all(res.terms["vcs_imitation"] >= -1)
+
+
+def test_potential_shaping_telescopes():
+    """With gamma = 1 the potential terms of an episode sum to phi(end) - phi(start) = -phi(s0):
+    the shaping changes no policy's ranking (Ng et al. 1999)."""
+    scenario = vcs_env.make_scenario("crowd", rewards={"vcs_potential": 1.0})
+    eng = NavEngine(scenario, gamma=1.0)
+    eng.reset([2])
+    phi0 = eng.expert.potential(eng.world).copy()
+    total = np.zeros_like(phi0)
+    rng = np.random.default_rng(0)
+    while eng.world.active.any() and eng.world.steps[0] < 300:
+        act = eng.expert_action.astype(np.float64) + rng.normal(0, 0.3, size=eng.expert_action.shape)
+        res = eng.step(act)
+        total += res.terms["vcs_potential"]
+    ended = ~eng.world.active
+    assert ended.all()
+    # Truncated robots keep phi(s_T); terminated ones end at 0.
+    phi_end = np.where(eng.world.reached | eng.world.collided, 0.0, eng.expert.potential(eng.world))
+    np.testing.assert_allclose(total, phi_end - phi0, atol=1e-9)
+    assert np.all(phi0 < 0)
+
+
+def test_unknown_planner_names_raise():
+    with pytest.raises(ValueError, match="unknown planner"):
+        vcs_env.parallel_env(scenario="swap", expert="teleport")

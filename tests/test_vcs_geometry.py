@@ -1,0 +1,192 @@
+"""VCS geometry, spec §4.0 (U1-U7): vectorized reference functions against scalar twins and
+brute force, and the numba planner kernel against the numpy reference."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vcs_env
+from baselines.vcs import VCSPlanner, kernel
+from baselines.vcs import geometry as G
+from vcs_env.dynamics import integrate
+from vcs_env.engine import NavEngine
+
+
+def scalar_tau(px, py, wx, wy, r):
+    """Scalar twin of the time to collision (spec §2.2)."""
+    c = px * px + py * py - r * r
+    if c <= 0:
+        return 0.0
+    a, b = wx * wx + wy * wy, wx * px + wy * py
+    d = b * b - a * c
+    if a <= 0 or b <= 0 or d < 0:
+        return math.inf
+    return (b - math.sqrt(d)) / a
+
+
+def random_pairs(rng, k):
+    """Relative positions outside the combined radius, velocities, radii."""
+    r = rng.uniform(0.3, 1.0, size=k)
+    ang = rng.uniform(-math.pi, math.pi, size=k)
+    d = r + rng.uniform(0.05, 5.0, size=k)
+    p = d[:, None] * np.stack((np.cos(ang), np.sin(ang)), -1)
+    w = rng.uniform(-2, 2, size=(k, 2))
+    return p, w, r
+
+
+def test_u1_tau_numba_and_numpy_match_the_scalar_twin(rng):
+    p, w, r = random_pairs(rng, 2000)
+    vec = G.time_to_collision(p, w, r)
+    for k in range(2000):
+        ref = scalar_tau(p[k, 0], p[k, 1], w[k, 0], w[k, 1], r[k])
+        assert kernel.tau(p[k, 0], p[k, 1], w[k, 0], w[k, 1], r[k]) == ref
+        assert (vec[k] == ref) or abs(vec[k] - ref) < 1e-12
+        # tau_within(T) <=> tau <= T (finite)
+        for horizon in (0.5, 2.0, math.inf):
+            assert kernel.tau_within(p[k, 0], p[k, 1], w[k, 0], w[k, 1], r[k], horizon) == (
+                math.isfinite(ref) and ref <= horizon
+            )
+
+
+def test_u2_cone_membership_equals_finite_tau(rng):
+    """U2: the det-sign cone test agrees with finiteness of tau on 2000 random cases."""
+    p, w, r = random_pairs(rng, 2000)
+    _, alpha, n, l = G.cone(p, r)
+    assert np.all((alpha > 0) & (alpha < math.pi / 2))
+    inside = G.in_cone(w, n, l)
+    finite = np.isfinite(G.time_to_collision(p, w, r))
+    np.testing.assert_array_equal(inside, finite)
+    assert 0.05 < inside.mean() < 0.95  # both outcomes are exercised
+
+
+def test_u3_hrvo_apex_lies_on_both_side_lines(rng):
+    """U3: the apex lies on the VO side line and on the RVO side line, both branches."""
+    p, _, r = random_pairs(rng, 500)
+    v_r = rng.uniform(-1, 1, size=(500, 2))
+    v_j = rng.uniform(-1, 1, size=(500, 2))
+    pref_r = rng.uniform(-1, 1, size=(500, 2))
+    pref_j = rng.uniform(-1, 1, size=(500, 2))
+    apex = G.hrvo_apex(p, r, v_r, v_j, pref_r, pref_j)
+    _, _, n, l = G.cone(p, r)
+    m = G.rvo_apex(v_r, v_j)
+    left = G.det(p, pref_r - pref_j) > 0
+    assert left.any() and (~left).any()
+    # Passing left: right side from the VO (through v_j along n), left side from the RVO.
+    vo_dir = np.where(left[:, None], n, l)
+    rvo_dir = np.where(left[:, None], l, n)
+    res_vo = np.abs(G.det(apex - v_j, vo_dir))
+    res_rvo = np.abs(G.det(apex - m, rvo_dir))
+    scale = 1 + np.abs(apex).max(axis=1)
+    assert np.all(res_vo / scale < 1e-9) and np.all(res_rvo / scale < 1e-9)
+
+
+def test_u3_snape_else_branch_sign_error_is_real(rng):
+    """Spec §2.17: the reference code's `else` formula does not land on the RVO side line;
+    our explicit intersection does (guards against porting it)."""
+    p, _, r = random_pairs(rng, 200)
+    v_r = rng.uniform(-1, 1, size=(200, 2))
+    v_j = rng.uniform(-1, 1, size=(200, 2))
+    _, alpha, n, l = G.cone(p, r)
+    m = G.rvo_apex(v_r, v_j)
+    s_code = 0.5 * G.det(v_r - v_j, n) / np.sin(2 * alpha)  # snape/HRVO `else` branch
+    apex_code = v_j + s_code[:, None] * l
+    off = np.abs(G.det(apex_code - m, n)) > 1e-6
+    assert off.mean() > 0.9
+
+
+def test_u4_static_closed_form_matches_tau(rng):
+    """U4: t_c(s, delta) = (d cos(delta) - sqrt(r^2 - d^2 sin^2(delta))) / s vs tau."""
+    for _ in range(300):
+        d, r = rng.uniform(1.0, 5.0), rng.uniform(0.3, 0.9)
+        phi = rng.uniform(-math.pi, math.pi)
+        s, delta = rng.uniform(0.05, 2.0), rng.uniform(-math.pi, math.pi)
+        p = d * np.array([math.cos(phi), math.sin(phi)])
+        v = s * np.array([math.cos(phi + delta), math.sin(phi + delta)])
+        ref = G.time_to_collision(p, v, r)
+        got = G.static_collision_time(np.array(s), np.array(delta), d, r)
+        assert (np.isinf(ref) and np.isinf(got)) or abs(got - ref) < 1e-9
+
+
+def test_u5_column_speed_interval_matches_dense_sampling(rng):
+    """U5: per direction, the speeds inside a translated cone form one interval."""
+    speeds = np.linspace(0, 4, 4001)
+    for _ in range(200):
+        p, _, r = random_pairs(rng, 1)
+        apex = rng.uniform(-1, 1, size=2)
+        _, _, n, l = G.cone(p[0], r[0])
+        th = rng.uniform(-math.pi, math.pi)
+        u = np.array([math.cos(th), math.sin(th)])
+        lo, hi = G.column_speed_interval(u, apex, n, l)
+        inside = G.in_cone(speeds[:, None] * u - apex, n, l)
+        if inside.any():
+            assert float(lo) == pytest.approx(speeds[inside].min(), abs=0.02)
+            top = speeds[inside].max()
+            assert (top > 3.99 and float(hi) >= 3.99) or float(hi) == pytest.approx(top, abs=0.02)
+        else:
+            assert not float(lo) < float(hi) or float(lo) >= 3.99
+
+
+def test_u6_vcs_maps_round_trip(rng):
+    v_r = rng.uniform(0, 1, size=1000)
+    th_r = rng.uniform(-math.pi, math.pi, size=1000)
+    dv = rng.uniform(-1, 1, size=1000)
+    dv = np.where(v_r + dv > 1e-3, dv, 0.5 - v_r)
+    dth = rng.uniform(-math.pi + 1e-9, math.pi, size=1000)
+    back_dv, back_dth = G.velocity_to_vcs(G.vcs_to_velocity(dv, dth, v_r, th_r), v_r, th_r)
+    assert np.max(np.abs(back_dv - dv)) < 1e-12
+    assert np.max(np.abs(G.wrap_angle(back_dth - dth))) < 1e-12
+
+
+def test_u7_windows_are_rectangles_reached_by_the_saturated_ramp(rng):
+    """U7: W_1 is the one-step rectangle; every point of W_k is reached in <= k steps."""
+    s = vcs_env.make_scenario("circle", n_robots=1)
+    eng = NavEngine(s)
+    eng.reset([0])
+    w = eng.world
+    for _ in range(60):
+        v0 = rng.uniform(0, 1)
+        k = int(rng.integers(1, 8))
+        lo, hi, half = G.window(k, v0, 1.0, 0.5, math.pi / 2, 0.1)
+        if k == 1:
+            assert (lo, hi, half) == (max(-v0, -0.05), min(1 - v0, 0.05), pytest.approx(math.pi / 20))
+        dv, dth = rng.uniform(lo, hi), rng.uniform(-half, half)
+        steps = int(G.reach_steps(np.array(dv), np.array(dth), 0.5, math.pi / 2, 0.1))
+        assert steps <= k
+        w.speed[:] = v0
+        w.heading[:] = 0.0
+        w.pos[:] = 0.0
+        target = np.array([[[v0 + dv, dth]]])
+        for _ in range(steps):  # the saturated per-step ramp toward the target
+            act = vcs_env.dynamics.target_to_action(w, target)
+            w.speed, w.heading, w.pos = integrate(w, act.astype(np.float64))
+        # (actions are float32: reached up to their rounding)
+        assert w.speed[0, 0] == pytest.approx(v0 + dv, abs=1e-6)
+        assert w.heading[0, 0] == pytest.approx(dth, abs=1e-6)
+
+
+@pytest.mark.parametrize("reciprocity", ["hrvo", "rvo", "vo"])
+def test_kernel_admissibility_matches_numpy_reference(reciprocity):
+    """The numba kernel's forbidden sets equal the numpy reference built from geometry.py
+    (size regulation, HRVO/RVO/VO apexes, truncation at each object's horizon)."""
+    scenario = vcs_env.make_scenario("dynamic", n_robots=6, n_obstacles=6, r_ca=6.0)
+    eng = NavEngine(scenario)
+    eng.reset([3])
+    planner = VCSPlanner(reciprocity=reciprocity)
+    for _ in range(25):
+        eng.step(planner.act(eng.world))
+    w = eng.world
+    from baselines.vcs.plot import object_forbidden_masks
+
+    rng = np.random.default_rng(0)
+    checked = 0
+    for i in np.flatnonzero(w.active[0]):
+        dv = rng.uniform(-w.speed[0, i], 1 - w.speed[0, i], size=400)
+        dth = rng.uniform(-math.pi, math.pi, size=400)
+        ok, _, horizon = planner.evaluate(w, 0, i, dv, dth)
+        v = G.vcs_to_velocity(dv, dth, w.speed[0, i], w.heading[0, i])
+        masks = object_forbidden_masks(w, planner, 0, i, v, horizon)
+        forbidden = np.any(list(masks.values()), axis=0) if masks else np.zeros(400, dtype=bool)
+        np.testing.assert_array_equal(ok, ~forbidden)
+        checked += len(masks)
+    assert checked > 10
