@@ -217,7 +217,7 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
             return ansi(self.engine.world)
         if self._renderer is None:
             self._renderer = Renderer(
-                self.scenario.world_extent + 0.5, mode=self.render_mode, fps=self.metadata["render_fps"]
+                self.scenario.view_extent, mode=self.render_mode, fps=self.metadata["render_fps"]
             )
         return self._renderer.draw(self.engine.world)
 

@@ -106,7 +106,7 @@ def _run_batch(scenario, controller, seeds, action_mode, max_steps, render_world
     if render_worlds:
         from .render import Renderer
 
-        renderers = {b: Renderer(scenario.world_extent + 0.5, size=render_size) for b in render_worlds}
+        renderers = {b: Renderer(scenario.view_extent, size=render_size) for b in render_worlds}
     frames = {b: [] for b in render_worlds}
     radius, goal, obs_radius = w.radius.copy(), w.goal.copy(), w.obs_radius.copy()
     start_pos = w.pos.copy()

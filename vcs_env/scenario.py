@@ -341,13 +341,32 @@ class Scenario:
 
     @property
     def world_extent(self) -> float:
-        """Half size of a square that holds every start, goal and spawned obstacle [m]."""
+        """A generous half size of the area of an episode [m]; sets the goal-distance scale of
+        the observations (``vcs_env.observations``), so it is kept stable across versions."""
         if self.kind == "custom":
-            pts = [c for p in self.custom.start + self.custom.goal for c in p]
-            pts += [c for o in self.custom.obstacles for p in o.positions for c in p]
-            return max(1.0, max(abs(c) for c in pts) + R_REF)
+            return self._custom_extent()
         reach = self.circle_radius + self.jitter + self.lane_spacing * self.n_robots / 2
         return max(self.arena_half_size, reach)
+
+    @property
+    def view_extent(self) -> float:
+        """Half size of the square drawn by the renderers [m]: the starts, goals and spawn area."""
+        if self.kind == "custom":
+            return self._custom_extent()
+        if self.kind in ("random", "dynamic"):
+            return self.arena_half_size + 0.5
+        spread = (self.n_robots / 2 if self.kind == "swap" else math.ceil(self.n_robots / 2)) * self.lane_spacing / 2
+        half = self.circle_radius + self.jitter + (0.5 if self.kind == "crowd" else 0.0)
+        if self.kind in ("swap", "crossing"):
+            half = max(half, spread)
+        if self.n_obstacles and self.kind != "crowd":
+            half = max(half, self.arena_half_size)
+        return half + self.robot.radius + 0.5
+
+    def _custom_extent(self) -> float:
+        pts = [c for p in self.custom.start + self.custom.goal for c in p]
+        pts += [c for o in self.custom.obstacles for p in o.positions for c in p]
+        return max(1.0, max(abs(c) for c in pts) + R_REF)
 
     def with_robot(self, **changes) -> Scenario:
         """Copy with some RobotSpec fields replaced (``s.with_robot(v_max=2.0)``)."""
