@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--episodes must be >= 1")
     try:
         return int(args.func(args) or 0)
-    except ValueError as e:  # bad scenario parameters, unknown names: a message, not a traceback
+    except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message
         print(f"vcs-env {args.command}: error: {e}", file=sys.stderr)
         return 2
 
