@@ -43,6 +43,9 @@ class ScenarioConfig:
     circle, i.e. one fixed layout; the evaluation suites use 0.1)."""
     on_collision: str | None = None
     """terminate or continue (None: the preset's, terminate)."""
+    rewards: str | None = None
+    """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
+    time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential)."""
     shaping: str = "none"
     """Reward shaping from the VCS expert: none, vcs_imitation or vcs_potential."""
     shaping_weight: float | None = None
@@ -60,10 +63,33 @@ def build_scenario(cfg: ScenarioConfig):
         value = getattr(cfg, name)
         if value is not None:
             over[name] = value
+    weights = parse_weights(cfg.rewards)
     if cfg.shaping != "none":
         weight = DEFAULT_SHAPING_WEIGHT[cfg.shaping] if cfg.shaping_weight is None else cfg.shaping_weight
-        over["rewards"] = {cfg.shaping: float(weight)}
+        weights[cfg.shaping] = float(weight)
+    if weights:
+        over["rewards"] = weights
     return make_scenario(cfg.scenario, **over)
+
+
+def parse_weights(text: str | None) -> dict[str, float]:
+    """``"time=2,collision=20"`` -> ``{"time": 2.0, "collision": 20.0}`` (names checked)."""
+    from vcs_env.scenario import RewardWeights
+
+    if not text:
+        return {}
+    names = [f.name for f in dataclasses.fields(RewardWeights)]
+    out = {}
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in names:
+            raise ValueError(f"rewards must be name=weight pairs with names in {names}, got {item!r}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ValueError(f"rewards: weight of {name!r} must be a number, got {value!r}") from None
+    return out
 
 
 @functools.cache

@@ -198,13 +198,16 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     assert "collected" in out
     vcs_env_cli("bc --data d.npz --epochs 2 --dagger-iters 1 --dagger-episodes 2 --eval-episodes 2 --out bc", tmp_path)
     assert json.loads((tmp_path / "bc/model.json").read_text())["kind"] == "bc"
-    common = "--scenario crowd --n-worlds 4 --n-steps 32 --batch-size 64 --n-epochs 1 --eval-episodes 2"
+    common = (
+        "--scenario crowd --rewards time=1 --n-worlds 4 --n-steps 32 --batch-size 64 --n-epochs 1 --eval-episodes 2"
+    )
     out = vcs_env_cli(
         f"train {common} --eval-freq 128 --checkpoint-freq 128 --timesteps 256 --init bc/model.zip --out ppo", tmp_path
     ).stdout
     assert "initialised the policy" in out and "[eval @" in out
     meta = json.loads((tmp_path / "ppo/model.json").read_text())
     assert meta["num_timesteps"] == 256 and meta["config"]["init"] == "bc/model.zip"
+    assert meta["scenario"]["rewards"]["time"] == 1.0
     assert (tmp_path / "ppo/checkpoints/model_128.zip").exists() and list((tmp_path / "ppo/tb").iterdir())
     out = vcs_env_cli(
         "train --resume ppo/checkpoints/model_128.zip --timesteps 384 --out ppo2 --no-progress-bar", tmp_path
