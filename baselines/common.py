@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vcs_env.planning import Planner
 from vcs_env.state import WorldState
 
 
@@ -45,3 +46,23 @@ def goal_heading(world: WorldState) -> np.ndarray:
     e = world.goal - world.pos
     d = np.sqrt(np.einsum("...i,...i->...", e, e))
     return np.where(d > 1e-9, np.arctan2(e[..., 1], e[..., 0]), world.heading)
+
+
+def hold_inactive(world: WorldState, target: np.ndarray) -> np.ndarray:
+    """Targets ``(B, n, 2)`` with robots that are done held still (speed 0, current heading)."""
+    target[..., 0] = np.where(world.active, target[..., 0], 0.0)
+    target[..., 1] = np.where(world.active, target[..., 1], world.heading)
+    return target
+
+
+class VelocityPlanner(Planner):
+    """A planner that chooses a desired velocity; the target keeps the goal heading when the
+    velocity is zero, and robots that are done stay put."""
+
+    def desired_velocity(self, world: WorldState) -> np.ndarray:
+        """Desired velocity of every robot ``(B, n, 2)`` [m/s]."""
+        raise NotImplementedError
+
+    def plan(self, world: WorldState) -> np.ndarray:
+        target = velocity_to_target(world, self.desired_velocity(world), goal_heading(world))
+        return hold_inactive(world, target)

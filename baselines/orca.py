@@ -39,10 +39,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcs_env.planning import Planner
 from vcs_env.state import WorldState
 
-from .common import goal_heading, preferred_velocity, velocity_to_target
+from .common import VelocityPlanner, preferred_velocity
 
 TIME_HORIZON = 5.0
 """Default ORCA time horizon for other agents [s]."""
@@ -62,13 +61,11 @@ def import_pyrvo():
     try:
         import pyrvo
     except ImportError as e:
-        raise ImportError(
-            "the 'orca' planner needs the RVO2 bindings pyrvo: pip install 'vcs-env[orca]'"
-        ) from e
+        raise ImportError("the 'orca' planner needs the RVO2 bindings pyrvo: pip install 'vcs-env[orca]'") from e
     return pyrvo
 
 
-class OrcaPlanner(Planner):
+class OrcaPlanner(VelocityPlanner):
     """ORCA (RVO2 2.0.3 via ``pyrvo``) over what each robot senses (module docstring).
 
     Args:
@@ -127,8 +124,13 @@ class OrcaPlanner(Planner):
                 v = (float(world.obs_vel[b, k, 0]), float(world.obs_vel[b, k, 1]))
                 a = sim.add_agent(
                     (float(world.obs_pos[b, k, 0]), float(world.obs_pos[b, k, 1])),
-                    0.0, n + m, self.time_horizon, TIME_HORIZON_OBST, float(world.obs_radius[b, k]),
-                    float(np.hypot(*v)) + 1e-3, v,
+                    0.0,
+                    n + m,
+                    self.time_horizon,
+                    TIME_HORIZON_OBST,
+                    float(world.obs_radius[b, k]),
+                    float(np.hypot(*v)) + 1e-3,
+                    v,
                 )
                 sim.set_agent_pref_velocity(a, v)
             sim.do_step()
@@ -136,11 +138,3 @@ class OrcaPlanner(Planner):
                 if world.active[b, i]:
                     out[b, i] = sim.get_agent_velocity(a).to_tuple()
         return out
-
-    def plan(self, world: WorldState) -> np.ndarray:
-        vel = self.desired_velocity(world)
-        target = velocity_to_target(world, vel, goal_heading(world))
-        # Robots that are done stay put.
-        target[..., 0] = np.where(world.active, target[..., 0], 0.0)
-        target[..., 1] = np.where(world.active, target[..., 1], world.heading)
-        return target

@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcs_env.planning import Planner
 from vcs_env.state import WorldState
 
-from .common import goal_heading, preferred_velocity, velocity_to_target
+from .common import VelocityPlanner, preferred_velocity
 
 
-class StraightPlanner(Planner):
+class StraightPlanner(VelocityPlanner):
     """Preferred velocity toward the goal, ignoring everything else."""
 
     name = "straight"
 
-    def plan(self, world: WorldState) -> np.ndarray:
-        return velocity_to_target(world, preferred_velocity(world), goal_heading(world))
+    def desired_velocity(self, world: WorldState) -> np.ndarray:
+        return preferred_velocity(world)

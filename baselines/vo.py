@@ -42,10 +42,9 @@ import numpy as np
 from numba import njit
 
 from vcs_env import noise
-from vcs_env.planning import Planner
 from vcs_env.state import WorldState
 
-from .common import goal_heading, preferred_velocity, velocity_to_target
+from .common import VelocityPlanner, preferred_velocity
 from .vcs.geometry import hrvo_apex, rvo_apex
 from .vcs.kernel import tau, tau_within
 
@@ -124,8 +123,25 @@ def threatened(rec, order, count, vx, vy, horizon):
 
 @njit(cache=True)
 def choose(
-    pos, vel, radius, v_max, active, present, obs_pos, obs_vel, obs_radius, pref, uniforms, apexes, reciprocal,
-    r_ca, weight, store, out_vel, out_cand, out_pen,
+    pos,
+    vel,
+    radius,
+    v_max,
+    active,
+    present,
+    obs_pos,
+    obs_vel,
+    obs_radius,
+    pref,
+    uniforms,
+    apexes,
+    reciprocal,
+    r_ca,
+    weight,
+    store,
+    out_vel,
+    out_cand,
+    out_pen,
 ):
     """Least-penalty candidate of every active robot of every world (module docstring).
 
@@ -245,7 +261,7 @@ def choose(
                     out_vel[b, i, 1] = vy
 
 
-class SamplingVOPlanner(Planner):
+class SamplingVOPlanner(VelocityPlanner):
     """RVO Library-style sampling planner, batched over worlds and robots (module docstring).
 
     Args:
@@ -258,12 +274,15 @@ class SamplingVOPlanner(Planner):
 
     name = "sampling-vo"  # replaced by the method name per instance
 
-    def __init__(self, method: str = "rvo", n_samples: int = N_SAMPLES, weight: float = SAFETY_WEIGHT,
-                 r_ca: float | None = None):
+    def __init__(
+        self, method: str = "rvo", n_samples: int = N_SAMPLES, weight: float = SAFETY_WEIGHT, r_ca: float | None = None
+    ):
         if method not in METHODS:
             raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}")
-        if isinstance(n_samples, bool) or not isinstance(n_samples, (int, np.integer)) or not (
-            1 <= n_samples <= MAX_SAMPLES
+        if (
+            isinstance(n_samples, bool)
+            or not isinstance(n_samples, (int, np.integer))
+            or not (1 <= n_samples <= MAX_SAMPLES)
         ):
             raise ValueError(f"n_samples must be an int in [1, {MAX_SAMPLES}], got {n_samples!r}")
         if not (isinstance(weight, (int, float, np.number)) and np.isfinite(weight) and weight > 0.0):
@@ -285,10 +304,25 @@ class SamplingVOPlanner(Planner):
         out_pen = np.full(shape, np.nan)
         r_ca = world.r_ca if self.r_ca is None else self.r_ca
         choose(
-            world.pos, world.vel, world.radius, world.v_max, world.active, world.present, world.obs_pos,
-            world.obs_vel, world.obs_radius, pref, sample_uniforms(world, self.n_samples),
-            pair_apexes(world, self.method, pref), self.method != "vo", float(r_ca), self.weight, store,
-            out_vel, out_cand, out_pen,
+            world.pos,
+            world.vel,
+            world.radius,
+            world.v_max,
+            world.active,
+            world.present,
+            world.obs_pos,
+            world.obs_vel,
+            world.obs_radius,
+            pref,
+            sample_uniforms(world, self.n_samples),
+            pair_apexes(world, self.method, pref),
+            self.method != "vo",
+            float(r_ca),
+            self.weight,
+            store,
+            out_vel,
+            out_cand,
+            out_pen,
         )
         return out_vel, out_cand, out_pen
 
@@ -305,12 +339,3 @@ class SamplingVOPlanner(Planner):
         """
         _, cand, pen = self._run(world, True)
         return cand, pen
-
-    def plan(self, world: WorldState) -> np.ndarray:
-        vel = self.desired_velocity(world)
-        target = velocity_to_target(world, vel, goal_heading(world))
-        # Robots that are done stay put.
-        target[..., 0] = np.where(world.active, target[..., 0], 0.0)
-        target[..., 1] = np.where(world.active, target[..., 1], world.heading)
-        return target
-

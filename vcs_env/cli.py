@@ -24,8 +24,12 @@ def scenario_from_args(args: argparse.Namespace):
     from vcs_env.scenario import make_scenario
 
     over = {}
-    for flag, field in (("n_robots", "n_robots"), ("n_obstacles", "n_obstacles"), ("max_steps", "max_steps"),
-                        ("on_collision", "on_collision")):
+    for flag, field in (
+        ("n_robots", "n_robots"),
+        ("n_obstacles", "n_obstacles"),
+        ("max_steps", "max_steps"),
+        ("on_collision", "on_collision"),
+    ):
         value = getattr(args, flag, None)
         if value is not None:
             over[field] = value
@@ -47,8 +51,12 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     render = list(range(len(seeds))) if (args.gif or args.video) else []
     episodes = run_episodes(scenario, planner_controller(planner), seeds, render_worlds=render)
     rows = []
-    print(f"scenario={args.scenario} robots={scenario.n_robots} obstacles={scenario.n_obstacles} planner={args.planner}")
-    print(f"{'seed':>5} {'success':>7} {'collided':>8} {'arrived':>7} {'time[s]':>8} {'path[m]':>8} {'min_sep[m]':>10} {'ms/dec':>7}")
+    print(
+        f"scenario={args.scenario} robots={scenario.n_robots} obstacles={scenario.n_obstacles} planner={args.planner}"
+    )
+    header = ("seed", "success", "collided", "arrived", "time[s]", "path[m]", "min_sep[m]", "ms/dec")
+    widths = (5, 7, 8, 7, 8, 8, 10, 7)
+    print(" ".join(f"{h:>{w}}" for h, w in zip(header, widths)))
     for ep in episodes:
         m = episode_metrics(ep)
         collided_robots = int((ep.robot_contact | ep.obstacle_contact).any(axis=0).sum())
@@ -75,7 +83,9 @@ def cmd_rollout(args: argparse.Namespace) -> int:
         from vcs_env.render import plot_trajectories
 
         ep = episodes[0]
-        ax = plot_trajectories(ep.pos, ep.goal, ep.radius, ep.obs_pos, ep.obs_radius, title=f"{args.planner} seed {ep.seed}")
+        ax = plot_trajectories(
+            ep.pos, ep.goal, ep.radius, ep.obs_pos, ep.obs_radius, title=f"{args.planner} seed {ep.seed}"
+        )
         ax.figure.savefig(args.plot, dpi=120, bbox_inches="tight")
         plt.close(ax.figure)
         print(f"wrote {args.plot}")

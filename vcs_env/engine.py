@@ -42,6 +42,23 @@ class StepResult:
     final_obs: np.ndarray | None = None  # (B, n, D) last obs of the worlds auto-reset this step
     ended: np.ndarray | None = None  # (B,) bool, worlds auto-reset this step
 
+    def info(self, i: int, b: int = 0) -> dict:
+        """The API ``info`` of robot ``i`` in world ``b``: unweighted ``reward_terms``,
+        ``reached_goal``, ``collided_with`` (``robot_j`` / ``obstacle_k`` names),
+        ``min_separation`` [m] and, with an expert, ``expert_action``."""
+        ev = self.events
+        hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, i])]
+        hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, i])]
+        out = {
+            "reward_terms": {name: float(v[b, i]) for name, v in self.terms.items()},
+            "reached_goal": bool(ev.reached[b, i]),
+            "collided_with": hits,
+            "min_separation": float(ev.min_separation[b, i]),
+        }
+        if self.expert_action is not None:
+            out["expert_action"] = self.expert_action[b, i]
+        return out
+
 
 class NavEngine:
     """Batched episodes of one scenario.

@@ -11,11 +11,11 @@ from gymnasium import spaces
 from .engine import NavEngine, RewardFn
 from .observations import observation_space
 from .planning import Planner, make_planner
-from .render import Renderer, ansi
+from .render import Renderer, RenderMixin
 from .scenario import Scenario, make_scenario
 
 
-class VcsNavEnv(gym.Env):
+class VcsNavEnv(RenderMixin, gym.Env):
     """One learning robot among planner-driven robots and passive obstacles
     (``vcs_env/Navigation-v0``).
 
@@ -67,7 +67,6 @@ class VcsNavEnv(gym.Env):
         self.observation_space = observation_space(self.scenario)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._renderer: Renderer | None = None
-        self._obstacle_names = [f"obstacle_{k}" for k in range(self.scenario.n_obstacles)]
 
     @property
     def world(self):
@@ -102,34 +101,7 @@ class VcsNavEnv(gym.Env):
             actions = np.zeros((1, 1, 2))
         actions[0, 0] = arr
         res = self.engine.step(actions)
-        ev = res.events
-        hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[0, 0])]
-        hits += [self._obstacle_names[k] for k in np.flatnonzero(ev.obstacle_hits[0, 0])]
-        info = {
-            "reward_terms": {k: float(v[0, 0]) for k, v in res.terms.items()},
-            "reached_goal": bool(ev.reached[0, 0]),
-            "collided_with": hits,
-            "min_separation": float(ev.min_separation[0, 0]),
-        }
-        if res.expert_action is not None:
-            info["expert_action"] = res.expert_action[0, 0]
+        info = res.info(0)
         if self.render_mode == "human":
             self.render()
         return res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0, 0]), bool(res.truncated[0, 0]), info
-
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode= to gym.make")
-            return None
-        if self.render_mode == "ansi":
-            return ansi(self.engine.world)
-        if self._renderer is None:
-            self._renderer = Renderer(
-                self.scenario.view_extent, mode=self.render_mode, fps=self.metadata["render_fps"]
-            )
-        return self._renderer.draw(self.engine.world)
-
-    def close(self):
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None

@@ -13,11 +13,11 @@ from pettingzoo.utils.conversions import parallel_to_aec
 from .engine import NavEngine, RewardFn
 from .observations import observation_space, state_space, state_vector
 from .planning import Planner
-from .render import Renderer, ansi
+from .render import Renderer, RenderMixin
 from .scenario import Scenario, make_scenario
 
 
-class VcsNavParallelEnv(ParallelEnv, EzPickle):
+class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     """Multi-robot navigation among moving obstacles (``vcs_nav_v0``).
 
     ## Description
@@ -116,7 +116,6 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
         self._act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.state_space = state_space(self.scenario)
         self._renderer: Renderer | None = None
-        self._obstacle_names = [f"obstacle_{k}" for k in range(self.scenario.n_obstacles)]
 
     # PettingZoo's tests set env.max_cycles directly.
     @property
@@ -180,7 +179,6 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
             raise ValueError(f"missing actions for live agents {missing}")
         live = list(self.agents)
         res = self.engine.step(batch)
-        ev = res.events
         obs, rew, term, trunc, infos = {}, {}, {}, {}, {}
         for agent in live:
             i = self.agent_index[agent]
@@ -188,17 +186,7 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
             rew[agent] = float(res.reward[0, i])
             term[agent] = bool(res.terminated[0, i])
             trunc[agent] = bool(res.truncated[0, i])
-            hits = [self.possible_agents[j] for j in np.flatnonzero(ev.robot_hits[0, i])]
-            hits += [self._obstacle_names[k] for k in np.flatnonzero(ev.obstacle_hits[0, i])]
-            info = {
-                "reward_terms": {k: float(v[0, i]) for k, v in res.terms.items()},
-                "reached_goal": bool(ev.reached[0, i]),
-                "collided_with": hits,
-                "min_separation": float(ev.min_separation[0, i]),
-            }
-            if res.expert_action is not None:
-                info["expert_action"] = res.expert_action[0, i]
-            infos[agent] = info
+            infos[agent] = res.info(i)
         self.agents = [a for a in live if not (term[a] or trunc[a])]
         if self.render_mode == "human":
             self.render()
@@ -206,25 +194,6 @@ class VcsNavParallelEnv(ParallelEnv, EzPickle):
 
     def state(self) -> np.ndarray:
         return state_vector(self.engine.world)[0]
-
-    def render(self):
-        if self.render_mode is None:
-            import gymnasium
-
-            gymnasium.logger.warn("render() called without a render_mode; pass render_mode= to the env")
-            return None
-        if self.render_mode == "ansi":
-            return ansi(self.engine.world)
-        if self._renderer is None:
-            self._renderer = Renderer(
-                self.scenario.view_extent, mode=self.render_mode, fps=self.metadata["render_fps"]
-            )
-        return self._renderer.draw(self.engine.world)
-
-    def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
 
 
 def parallel_env(**kwargs) -> VcsNavParallelEnv:

@@ -121,6 +121,28 @@ class Renderer:
         self._screen = None
 
 
+class RenderMixin:
+    """``render()`` and ``close()`` of the API adapters, which provide ``render_mode``,
+    ``scenario``, ``engine``, ``metadata`` and ``_renderer``."""
+
+    def render(self):
+        if self.render_mode is None:
+            import gymnasium
+
+            gymnasium.logger.warn("render() called without a render_mode; pass render_mode= to the env")
+            return None
+        if self.render_mode == "ansi":
+            return ansi(self.engine.world)
+        if self._renderer is None:
+            self._renderer = Renderer(self.scenario.view_extent, mode=self.render_mode, fps=self.metadata["render_fps"])
+        return self._renderer.draw(self.engine.world)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
 def ansi(world: WorldState) -> str:
     """A one-line-per-robot text view of world 0."""
     lines = [f"t={world.time[0]:.1f}s"]

@@ -111,7 +111,9 @@ def _run_batch(scenario, controller, seeds, action_mode, max_steps, render_world
     radius, goal, obs_radius = w.radius.copy(), w.goal.copy(), w.obs_radius.copy()
     start_pos = w.pos.copy()
     rec = {k: [getattr(w, k).copy()] for k in ("pos", "heading", "speed", "obs_pos")}
-    steps: dict[str, list[np.ndarray]] = {k: [] for k in ("actions", "acted", "collided", "robot_contact", "obstacle_contact", "min_separation")}
+    steps: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("actions", "acted", "collided", "robot_contact", "obstacle_contact", "min_separation")
+    }
     reached_step = np.full((B, n), -1, dtype=np.int64)
     end_step = np.zeros(B, dtype=np.int64)
     compute = np.zeros(B)

@@ -11,7 +11,7 @@ from vcs_env.geometry import rotate, wrap_angle
 from vcs_env.planning import Planner
 from vcs_env.state import WorldState
 
-from ..common import preferred_velocity
+from ..common import hold_inactive, preferred_velocity
 from . import kernel
 from .geometry import velocity_to_vcs
 from .params import VCSParams
@@ -152,6 +152,16 @@ class VCSPlanner(Planner):
         mem.stall_out = np.where(stalled & ~detour, mem.stall_in + world.dt, 0.0)
         return own, pref, detour
 
+    def _kernel_inputs(self, world: WorldState, own, comm, detour) -> tuple:
+        """The world, preferred velocities, memory and parameters, in the kernels' order."""
+        mem = self._mem
+        r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
+        return (
+            world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
+            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius, own, comm, detour,
+            mem.prev_in, mem.has_prev_in, self._prm, float(r_ca), float(world.dt), bool(world.holonomic),
+        )  # fmt: skip
+
     # -------------------------------------------------------------------- plan
     def plan(self, world: WorldState) -> np.ndarray:
         key = (
@@ -170,7 +180,6 @@ class VCSPlanner(Planner):
         mem = self._mem
         mem.sync(world)
         own, comm, detour = self._inputs(world)
-        r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
         out_target = np.zeros((B, n, 2))
         out_cost = np.zeros((B, n))
         out_fallback = np.zeros((B, n), dtype=np.bool_)
@@ -179,27 +188,7 @@ class VCSPlanner(Planner):
         out_threats = np.zeros((B, n), dtype=np.int64)
         out_g1 = np.zeros((B, n, 2))
         kernel.plan_batch(
-            world.pos,
-            world.heading,
-            world.speed,
-            world.radius,
-            world.v_max,
-            world.a_max,
-            world.omega_max,
-            world.active,
-            world.present,
-            world.obs_pos,
-            world.obs_vel,
-            world.obs_radius,
-            own,
-            comm,
-            detour,
-            mem.prev_in,
-            mem.has_prev_in,
-            self._prm,
-            float(r_ca),
-            float(world.dt),
-            bool(world.holonomic),
+            *self._kernel_inputs(world, own, comm, detour),
             out_target,
             out_cost,
             out_fallback,
@@ -218,9 +207,7 @@ class VCSPlanner(Planner):
             cmd_dv, cmd_dth = np.clip(dv, -dv1, dv1), np.clip(dth, -dth1, dth1)
             mem.prev_out = np.stack((dv - cmd_dv, wrap_angle(dth - cmd_dth)), axis=-1)
         mem.has_prev_out = world.active.copy()
-        target = np.stack((world.speed + dv, wrap_angle(world.heading + dth)), axis=-1)
-        target[..., 0] = np.where(world.active, target[..., 0], 0.0)
-        target[..., 1] = np.where(world.active, target[..., 1], world.heading)
+        target = hold_inactive(world, np.stack((world.speed + dv, wrap_angle(world.heading + dth)), axis=-1))
         cap = sum(self.params.weights) + 1.0
         self.last = {
             "target": out_target,
@@ -250,38 +237,16 @@ class VCSPlanner(Planner):
             ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (n + m,) [s] per sensed object.
         """
         self.plan(world)  # memory and inputs of this state
-        mem = self._mem
         own, comm, detour = self._inputs(world)
         dv = np.ascontiguousarray(dv, dtype=np.float64).ravel()
         dth = np.ascontiguousarray(dth, dtype=np.float64).ravel()
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
         cost = np.zeros(dv.shape[0])
         horizon = np.zeros(world.n_robots + world.n_obstacles)
-        r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
         kernel.evaluate_points(
             b,
             i,
-            world.pos,
-            world.heading,
-            world.speed,
-            world.radius,
-            world.v_max,
-            world.a_max,
-            world.omega_max,
-            world.active,
-            world.present,
-            world.obs_pos,
-            world.obs_vel,
-            world.obs_radius,
-            own,
-            comm,
-            detour,
-            mem.prev_in,
-            mem.has_prev_in,
-            self._prm,
-            float(r_ca),
-            float(world.dt),
-            bool(world.holonomic),
+            *self._kernel_inputs(world, own, comm, detour),
             dv,
             dth,
             ok,
