@@ -651,6 +651,45 @@ def robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safet
 
 
 @njit(cache=True)
+def neighbour_work(n, m, prm):
+    """Work arrays of :func:`prepare_robot` for ``n`` robots and ``m`` obstacles."""
+    ctotal = int(prm[P_CNV]) * int(prm[P_CNTH]) + 1
+    return (
+        np.zeros((n + m, N_FIELDS)),  # nbs: neighbour records
+        np.zeros(n + m, dtype=np.int64),  # order: nearest surface first
+        np.empty(ctotal),  # cspeed, ccol, cstep: sorted coarse grid (holonomic)
+        np.empty(ctotal, dtype=np.int64),
+        np.empty(ctotal),
+        np.empty(int(prm[P_CNTH])),  # ccos, csin: coarse column directions
+        np.empty(int(prm[P_CNTH])),
+        np.empty(n + m, dtype=np.int64),  # pending: cones holding the current velocity
+        np.empty(n + m),  # need: T_need / dt per neighbour
+        np.empty(int(prm[P_CNV]), dtype=np.int64),  # rows, cols: coarse grid by level
+        np.empty(int(prm[P_CNTH]), dtype=np.int64),
+    )
+
+
+@njit(cache=True)
+def prepare_robot(
+    b, i, pos, heading, speed, radius, v_max, a_max, omega_max, active, present, obs_pos, obs_vel, obs_radius,
+    vpref, pref_comm, no_safety, prev, has_prev, prm, r_ca, dt, holo, work,
+):  # fmt: skip
+    """Robot i of world b: its context vector and its neighbour records with horizons (§2.6-2.7).
+    Returns ``(ctx, count)``; the records are in ``work[0]``, ordered by ``work[1]``."""
+    nbs, order, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols = work
+    ctx = robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo)
+    count = setup_neighbors(
+        b, i, pos, heading, speed, radius, active, present, obs_pos, obs_vel, obs_radius, pref_comm, prm, r_ca, dt,
+        nbs, order, no_safety[b, i],
+    )  # fmt: skip
+    set_horizons(
+        nbs, count, ctx[C_VR], ctx[C_TH], ctx[C_VMAX], ctx[C_DV1], ctx[C_DTH1], holo, dt, prm, cspeed, ccol, cstep,
+        ccos, csin, pending, need, rows, cols,
+    )  # fmt: skip
+    return ctx, count
+
+
+@njit(cache=True)
 def candidate(c, ngrid, nv, nth, full, lo_v, hi_v, half, gv, gth, g1v, g1th, v_r, vmax):
     """Candidate c of the point search (§2.11): the window grid, then G (clipped to the domain
     D), the origin (keep the current velocity) and the one-step-clipped G."""
@@ -707,18 +746,8 @@ def plan_batch(
     B = pos.shape[0]
     n = pos.shape[1]
     m = obs_pos.shape[1]
-    nbs = np.zeros((n + m, N_FIELDS))
-    order = np.zeros(n + m, dtype=np.int64)
-    ctotal = int(prm[P_CNV]) * int(prm[P_CNTH]) + 1
-    cspeed = np.empty(ctotal)
-    ccol = np.empty(ctotal, dtype=np.int64)
-    cstep = np.empty(ctotal)
-    ccos = np.empty(int(prm[P_CNTH]))
-    csin = np.empty(int(prm[P_CNTH]))
-    pending = np.empty(n + m, dtype=np.int64)
-    need = np.empty(n + m)
-    rows = np.empty(int(prm[P_CNV]), dtype=np.int64)
-    cols = np.empty(int(prm[P_CNTH]), dtype=np.int64)
+    work = neighbour_work(n, m, prm)
+    nbs, order = work[0], work[1]
     nv = int(prm[P_NV])
     margin = prm[P_MARGIN]
     gmax = nv * max(int(prm[P_NTH]), int(prm[P_NTH_FULL]))
@@ -749,9 +778,10 @@ def plan_batch(
                 out_tstar[b, i] = INF
                 out_threats[b, i] = 0
                 continue
-            ctx = robot_context(
-                b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo
-            )
+            ctx, count = prepare_robot(
+                b, i, pos, heading, speed, radius, v_max, a_max, omega_max, active, present, obs_pos, obs_vel,
+                obs_radius, vpref, pref_comm, no_safety, prev, has_prev, prm, r_ca, dt, holo, work,
+            )  # fmt: skip
             v_r = ctx[C_VR]
             th_r = ctx[C_TH]
             vmax = ctx[C_VMAX]
@@ -760,47 +790,6 @@ def plan_batch(
             kmax = ctx[C_KMAX]
             vrx = v_r * math.cos(th_r)
             vry = v_r * math.sin(th_r)
-            count = setup_neighbors(
-                b,
-                i,
-                pos,
-                heading,
-                speed,
-                radius,
-                active,
-                present,
-                obs_pos,
-                obs_vel,
-                obs_radius,
-                pref_comm,
-                prm,
-                r_ca,
-                dt,
-                nbs,
-                order,
-                no_safety[b, i],
-            )
-            set_horizons(
-                nbs,
-                count,
-                v_r,
-                th_r,
-                vmax,
-                dv1,
-                dth1,
-                holo,
-                dt,
-                prm,
-                cspeed,
-                ccol,
-                cstep,
-                ccos,
-                csin,
-                pending,
-                need,
-                rows,
-                cols,
-            )
             # Threats: current course collides within the horizon (§2.7); window from the first (§2.10).
             tstar = INF
             threats = 0
@@ -1035,62 +1024,14 @@ def evaluate_points(
     obstacles, in index order; inf when not sensed)."""
     n = pos.shape[1]
     m = obs_pos.shape[1]
-    nbs = np.zeros((n + m, N_FIELDS))
-    order = np.zeros(n + m, dtype=np.int64)
-    ctotal = int(prm[P_CNV]) * int(prm[P_CNTH]) + 1
-    cspeed = np.empty(ctotal)
-    ccol = np.empty(ctotal, dtype=np.int64)
-    cstep = np.empty(ctotal)
-    ccos = np.empty(int(prm[P_CNTH]))
-    csin = np.empty(int(prm[P_CNTH]))
-    pending = np.empty(n + m, dtype=np.int64)
-    need = np.empty(n + m)
-    rows = np.empty(int(prm[P_CNV]), dtype=np.int64)
-    cols = np.empty(int(prm[P_CNTH]), dtype=np.int64)
-    ctx = robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo)
+    work = neighbour_work(n, m, prm)
+    nbs, order = work[0], work[1]
+    ctx, count = prepare_robot(
+        b, i, pos, heading, speed, radius, v_max, a_max, omega_max, active, present, obs_pos, obs_vel, obs_radius,
+        vpref, pref_comm, no_safety, prev, has_prev, prm, r_ca, dt, holo, work,
+    )  # fmt: skip
     v_r = ctx[C_VR]
     th_r = ctx[C_TH]
-    count = setup_neighbors(
-        b,
-        i,
-        pos,
-        heading,
-        speed,
-        radius,
-        active,
-        present,
-        obs_pos,
-        obs_vel,
-        obs_radius,
-        pref_comm,
-        prm,
-        r_ca,
-        dt,
-        nbs,
-        order,
-        no_safety[b, i],
-    )
-    set_horizons(
-        nbs,
-        count,
-        v_r,
-        th_r,
-        ctx[C_VMAX],
-        ctx[C_DV1],
-        ctx[C_DTH1],
-        holo,
-        dt,
-        prm,
-        cspeed,
-        ccol,
-        cstep,
-        ccos,
-        csin,
-        pending,
-        need,
-        rows,
-        cols,
-    )
     vrx = v_r * math.cos(th_r)
     vry = v_r * math.sin(th_r)
     adm = np.zeros(n + m, dtype=np.int64)
