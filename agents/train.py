@@ -62,7 +62,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     n_epochs: int = 10
     """PPO epochs per update."""
     learning_rate: float = 3e-4
-    """Adam learning rate (constant)."""
+    """Adam learning rate (at the start, see lr_schedule)."""
+    lr_schedule: str = "constant"
+    """constant, or linear: decays to 0 at the end of the run (of this learn() call when resuming)."""
     gamma: float = 0.99
     """Discount factor (also used by vcs_potential shaping)."""
     gae_lambda: float = 0.95
@@ -101,7 +103,7 @@ def ppo_kwargs(cfg: TrainConfig) -> dict[str, Any]:
         n_steps=cfg.n_steps,
         batch_size=cfg.batch_size,
         n_epochs=cfg.n_epochs,
-        learning_rate=cfg.learning_rate,
+        learning_rate=learning_rate(cfg),
         gamma=cfg.gamma,
         gae_lambda=cfg.gae_lambda,
         clip_range=cfg.clip_range,
@@ -111,6 +113,16 @@ def ppo_kwargs(cfg: TrainConfig) -> dict[str, Any]:
         target_kl=cfg.target_kl,
         policy_kwargs=policy_kwargs(cfg),
     )
+
+
+def learning_rate(cfg: TrainConfig):
+    """SB3 learning rate: a number, or a function of the remaining progress (1 -> 0)."""
+    if cfg.lr_schedule == "constant":
+        return cfg.learning_rate
+    if cfg.lr_schedule == "linear":
+        lr0 = cfg.learning_rate
+        return lambda progress_remaining: lr0 * progress_remaining
+    raise ValueError(f"lr_schedule must be constant or linear, got {cfg.lr_schedule!r}")
 
 
 def policy_kwargs(cfg: PolicyConfig) -> dict[str, Any]:
