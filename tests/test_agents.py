@@ -73,6 +73,19 @@ def test_early_finisher_padding_truncation_and_autoreset():
     assert venv.live_mask().all()
 
 
+def test_head_on_collision_ends_both_slots_with_collision_flag():
+    s = make_scenario("circle", n_robots=2, layout_radius=1.0, max_steps=50)  # on_collision="terminate"
+    venv = NavVecEnv(s, n_worlds=1)
+    venv.reset()
+    for _ in range(50):
+        _, rew, done, infos = venv.step(np.tile(FULL_THROTTLE, (2, 1)))
+        if done.any():
+            break
+    assert done.all() and (rew < -5).all()  # collision weight 10
+    for info in infos:
+        assert info["episode"]["collision"] == 1.0 and not info["is_success"] and not info["TimeLimit.truncated"]
+
+
 def test_seed_controls_worlds_and_resets_continue_streams():
     s = make_scenario("crowd")
     venv = NavVecEnv(s, n_worlds=3)
