@@ -1,0 +1,64 @@
+"""Where the time goes: ``cProfile`` of a few hot loops, top functions by own time."""
+
+from __future__ import annotations
+
+import cProfile
+import os
+import pstats
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from .timing import Step
+
+TOP = 8
+"""Functions listed per profile."""
+
+
+def profile(step: Step, calls: int, top: int = TOP) -> dict:
+    """Run ``step`` ``calls`` times under cProfile (after one untimed call).
+
+    Returns ``{"seconds_per_call": s, "rows": [(function, own seconds per call, share of
+    total, calls per step call)]}``; numba kernels appear as one opaque row each.
+    """
+    step()
+    prof = cProfile.Profile()
+    t0 = time.perf_counter()
+    prof.enable()
+    for _ in range(calls):
+        step()
+    prof.disable()
+    wall = time.perf_counter() - t0
+    stats = pstats.Stats(prof)
+    total = sum(v[2] for v in stats.stats.values()) or 1.0
+    rows = []
+    for (path, line, func), (_, ncalls, tottime, _, _) in sorted(
+        stats.stats.items(), key=lambda kv: kv[1][2], reverse=True
+    )[:top]:
+        where = func if path == "~" else f"{_short(path)}:{line}({func})"
+        rows.append((where, tottime / calls, tottime / total, ncalls / calls))
+    return {"seconds_per_call": wall / calls, "rows": rows}
+
+
+REPO = str(Path(__file__).resolve().parents[1]) + os.sep
+
+
+def _short(path: str) -> str:
+    """A path relative to the repository or to site-packages."""
+    if path.startswith(REPO):
+        return path[len(REPO) :]
+    parts = path.split(os.sep)
+    if "site-packages" in parts:
+        return "/".join(parts[parts.index("site-packages") + 1 :])
+    return "/".join(parts[-2:])
+
+
+def run(cases: dict[str, tuple[Callable[[], Step], int]]) -> dict[str, dict]:
+    """Profile every ``name -> (builder, calls)``; errors are reported, not raised."""
+    out = {}
+    for name, (build, calls) in cases.items():
+        try:
+            out[name] = profile(build(), calls)
+        except Exception as e:
+            out[name] = {"error": f"{type(e).__name__}: {e}"}
+    return out

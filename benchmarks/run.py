@@ -1,0 +1,572 @@
+"""``python -m benchmarks`` / ``vcs-env bench``: our env, planner and training throughput measured
+side by side with real peers (PettingZoo MPE, VMAS, RVO2 ORCA via pyrvo) in one run.
+
+Writes a Markdown report (``--out``, default ``benchmarks/RESULTS.md``) and the raw numbers as
+JSON next to it (same name, ``.json``). ``--quick`` uses tiny sizes (the smoke test); its
+numbers mean nothing. Peers come from the ``bench`` extra (``pip install 'vcs-env[bench]'``); a
+peer that cannot be imported is reported as missing, with the reason.
+
+Sections: 1. env throughput (random actions), 2. planner throughput, 3. PPO training
+throughput, 4. scaling exponents, 5. profiles (where the time goes). Units: robot-steps per
+second for envs and training, robot-decisions per second (and microseconds per decision) for
+planners.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import math
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from . import env_bench, peers, planner_bench, profile_bench, train_bench
+from .timing import Budget, fit_exponent, machine_info, ratio, side_by_side
+
+DEFAULT_OUT = Path(__file__).resolve().parent / "RESULTS.md"
+
+
+@dataclass
+class Sizes:
+    """Everything the run's cost depends on."""
+
+    env_robots: tuple[int, ...] = (4, 10, 32)
+    """Agent counts n of the env throughput section."""
+    env_batches: tuple[int, ...] = (1, 16, 64, 256)
+    """Batch sizes B (worlds) of the batched env contestants."""
+    env_budget: Budget = field(default_factory=Budget)
+    planner_robots: tuple[int, ...] = (4, 8, 16, 32, 64)
+    """Robot counts of the circle and constant-density planner sets."""
+    planner_batches: tuple[int, ...] = (1, 16)
+    """Batch sizes of the circle planner set."""
+    planner_names: tuple[str, ...] = ("vcs", "orca", "pyrvo_raw", "vo", "hrvo")
+    snapshots: int = 6
+    """World states per configuration (evenly spaced over the approach)."""
+    horizon_scale: float = 1.0
+    """Snapshots span this fraction of the time to reach the circle's centre."""
+    density_horizon: int = 40
+    """Steps of the constant-density rollouts."""
+    neighbour_robots: int = 32
+    """Robots of the neighbourhood-size set (circle, B = 1)."""
+    neighbour_r_ca: tuple[float, ...] = (1.0, 2.0, 4.0, 8.0, 16.0)
+    """Sensing radii [m] of the neighbourhood-size set."""
+    planner_budget: Budget = field(default_factory=lambda: Budget(warmup=1, min_time=0.3, min_calls=6, repeats=3))
+    scaling_robots: tuple[int, ...] = (4, 8, 16, 32, 64)
+    """Robot counts of our env's scaling sweep."""
+    scaling_batches: tuple[int, ...] = (1, 64)
+    scaling_budget: Budget = field(default_factory=lambda: Budget(warmup=2, min_time=0.2, min_calls=3, repeats=3))
+    train: train_bench.TrainSizes = field(default_factory=train_bench.TrainSizes)
+    profile_calls: int = 200
+    """Calls per cProfile run (planner profiles use a tenth)."""
+
+
+def quick_sizes() -> Sizes:
+    tiny = Budget(warmup=1, min_time=0.0, min_calls=1, repeats=1)
+    return Sizes(
+        env_robots=(4,),
+        env_batches=(1, 4),
+        env_budget=tiny,
+        planner_robots=(4, 8),
+        planner_batches=(1, 4),
+        snapshots=2,
+        horizon_scale=0.1,
+        density_horizon=4,
+        neighbour_robots=4,
+        neighbour_r_ca=(2.0, 6.0),
+        planner_budget=Budget(warmup=1, min_time=0.0, min_calls=2, repeats=1),
+        scaling_robots=(4, 8),
+        scaling_batches=(1,),
+        scaling_budget=tiny,
+        train=train_bench.TrainSizes(n_robots=4, n_worlds=2, n_steps=16, batch_size=32, n_epochs=1, repeats=1),
+        profile_calls=10,
+    )
+
+
+def _results(res: dict) -> dict:
+    return {name: r.as_dict() for name, r in res.items()}
+
+
+def _log(msg: str) -> None:
+    print(f"[bench {time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
+
+
+# ---------------------------------------------------------------------------------- sections
+def env_section(sz: Sizes) -> dict:
+    single, batched = [], []
+    for n in sz.env_robots:
+        _log(f"env n={n} B=1 pettingzoo vs mpe")
+        single.append({"n": n, "results": _results(side_by_side(env_bench.single_builders(n), sz.env_budget))})
+        for B in sz.env_batches:
+            _log(f"env n={n} B={B} engine, vecenv vs vmas")
+            res = side_by_side(env_bench.batched_builders(n, B), sz.env_budget)
+            batched.append({"n": n, "B": B, "results": _results(res)})
+    return {"single": single, "batched": batched}
+
+
+def planner_section(sz: Sizes) -> dict:
+    bud = sz.planner_budget
+    circle = []
+    for n in sz.planner_robots:
+        sc = planner_bench.circle_scenario(n)
+        horizon = max(1, int(round(sz.horizon_scale * planner_bench.circle_horizon(sc))))
+        _log(f"planner circle n={n}: VCS rollout of {horizon} steps for the snapshots")
+        states = planner_bench.snapshots(sc, sz.snapshots, horizon)
+        for B in sz.planner_batches:
+            batch = planner_bench.batch(states, B)
+            _log(f"planner circle n={n} B={B}")
+            res = side_by_side(planner_bench.builders(batch, sz.planner_names), bud)
+            circle.append(_planner_entry(batch, res, n=n, B=B))
+    neighbours = []
+    n = sz.neighbour_robots
+    sc = planner_bench.circle_scenario(n)
+    horizon = max(1, int(round(sz.horizon_scale * planner_bench.circle_horizon(sc))))
+    _log(f"planner neighbours n={n}: rollout")
+    base = planner_bench.batch(planner_bench.snapshots(sc, sz.snapshots, horizon), 1)
+    for r in sz.neighbour_r_ca:
+        batch = planner_bench.with_r_ca(base, r)
+        _log(f"planner neighbours n={n} r_ca={r}")
+        res = side_by_side(planner_bench.builders(batch, ("vcs", "orca", "pyrvo_raw", "hrvo")), bud)
+        neighbours.append(_planner_entry(batch, res, n=n, B=1, r_ca=r))
+    density = []
+    B = max(sz.planner_batches)
+    for n in sz.planner_robots:
+        sc = planner_bench.density_scenario(n)
+        _log(f"planner density n={n}: rollout")
+        batch = planner_bench.batch(planner_bench.snapshots(sc, sz.snapshots, sz.density_horizon), B)
+        res = side_by_side(planner_bench.builders(batch, ("vcs", "orca", "pyrvo_raw", "hrvo")), bud)
+        density.append(_planner_entry(batch, res, n=n, B=B, r_ca=sc.r_ca))
+    return {"circle": circle, "neighbours": neighbours, "density": density}
+
+
+def _planner_entry(batch, res, **keys) -> dict:
+    decisions = [int(w.active.sum()) for w in batch]
+    return {
+        **keys,
+        "mean_neighbours": planner_bench.mean_neighbours(batch),
+        "decisions_per_call": sum(decisions) / len(decisions),
+        "results": _results(res),
+    }
+
+
+def scaling_section(sz: Sizes) -> dict:
+    rows = []
+    for n in sz.scaling_robots:
+        builders = {"pettingzoo": lambda n=n: env_bench.pettingzoo_env(n)}
+        for B in sz.scaling_batches:
+            builders[f"engine_B{B}"] = lambda n=n, B=B: env_bench.engine_env(n, B)
+        _log(f"scaling n={n}")
+        rows.append({"n": n, "results": _results(side_by_side(builders, sz.scaling_budget))})
+    return {"rows": rows}
+
+
+def profile_section(sz: Sizes) -> dict:
+    c = sz.profile_calls
+    n_env = max(sz.env_robots[0], min(10, max(sz.env_robots)))
+    n_plan = 16 if 16 in sz.planner_robots else sz.planner_robots[-1]
+    B_big = max(sz.env_batches)
+    sc = planner_bench.circle_scenario(n_plan)
+    horizon = max(1, int(round(sz.horizon_scale * planner_bench.circle_horizon(sc))))
+    states = planner_bench.batch(planner_bench.snapshots(sc, sz.snapshots, horizon), 1)
+    cases = {
+        f"pettingzoo env, n={n_env}, B=1": (lambda: env_bench.pettingzoo_env(n_env), c),
+        f"engine, n={n_env}, B={B_big}": (lambda: env_bench.engine_env(n_env, B_big), max(2, c // 10)),
+        f"vcs planner, circle n={n_plan}, B=1": (lambda: planner_bench.planner_step("vcs", states), max(2, c // 10)),
+        f"orca planner, circle n={n_plan}, B=1": (lambda: planner_bench.planner_step("orca", states), max(2, c // 10)),
+    }
+    _log("profiles")
+    return profile_bench.run(cases)
+
+
+# ------------------------------------------------------------------------------------ targets
+def _rate(entry: dict, name: str) -> float:
+    r = entry["results"].get(name)
+    return float("nan") if r is None else r["median_rate"]
+
+
+def targets(data: dict) -> list[dict]:
+    """The issue's targets with the measured ratios."""
+    out = []
+    env = data.get("env")
+    if env:
+        ratios = {e["n"]: ratio(_rate(e, "pettingzoo"), _rate(e, "mpe")) for e in env["single"]}
+        out.append(_target("PettingZoo env (B = 1) >= 2x MPE simple_spread robot-steps/s, equal agent count",
+                           ratios, lambda x: x >= 2.0, "n={}"))
+        for ours in ("engine", "vecenv"):
+            ratios = {(e["n"], e["B"]): ratio(_rate(e, ours), _rate(e, "vmas")) for e in env["batched"]}
+            out.append(_target(f"batched env ({ours}) >= VMAS-CPU robot-steps/s, equal batch size and agent count",
+                               ratios, lambda x: x >= 1.0, "n={0[0]},B={0[1]}"))
+    pl = data.get("planner")
+    if pl:
+        at16 = [e for e in pl["circle"] if e["n"] == 16] or [e for e in pl["circle"] if e["n"] == max(
+            x["n"] for x in pl["circle"])]
+        for ref in ("orca", "pyrvo_raw"):
+            # time per decision of VCS over that of ORCA = rate(ORCA) / rate(VCS)
+            ratios = {(e["n"], e["B"]): ratio(_rate(e, ref), _rate(e, "vcs")) for e in at16}
+            label = "our orca planner" if ref == "orca" else "raw RVO2 do_step (lower bound)"
+            out.append(_target(f"VCS time/decision <= 10x ORCA's at 16 robots, vs {label} (ratio = VCS/ORCA time)",
+                               ratios, lambda x: x <= 10.0, "n={0[0]},B={0[1]}"))
+        dens = pl["density"]
+        ns = [e["n"] for e in dens]
+        step_cost = [e["decisions_per_call"] / _rate(e, "vcs") for e in dens]
+        p = fit_exponent(ns, step_cost)
+        out.append(_target("VCS near-linear in robots at a fixed neighbourhood (exponent of time per world-step "
+                           "vs n at constant density <= 1.2)", {"exponent": p}, lambda x: x <= 1.2, "{}"))
+    tr = data.get("training")
+    if tr:
+        base = tr["none"]["median_rate"]
+        ratios = {v: ratio(tr[v]["median_rate"], base) for v in tr if v != "none"}
+        out.append(_target("expert-shaped PPO >= 2/3 of unshaped PPO's agent-steps/s", ratios,
+                           lambda x: x >= 2.0 / 3.0, "{}"))
+    return out
+
+
+def _target(text: str, ratios: dict, ok, key_fmt: str) -> dict:
+    vals = {key_fmt.format(k): v for k, v in ratios.items()}
+    finite = [v for v in vals.values() if math.isfinite(v)]
+    if not finite:
+        met = "not measured"
+    elif len(finite) < len(vals):
+        met = "partly measured: " + ("yes" if all(ok(v) for v in finite) else "no")
+    else:
+        met = "yes" if all(ok(v) for v in finite) else ("no" if not any(ok(v) for v in finite) else "partly")
+    return {"target": text, "ratios": vals, "met": met}
+
+
+# ------------------------------------------------------------------------------------- report
+def _k(x: float) -> str:
+    """A rate for a table: 3 significant digits with k/M suffix."""
+    if not math.isfinite(x):
+        return "-"
+    for div, suf in ((1e6, "M"), (1e3, "k")):
+        if abs(x) >= div:
+            return f"{x / div:.3g}{suf}"
+    return f"{x:.3g}"
+
+
+def _x(x: float) -> str:
+    return "-" if not math.isfinite(x) else f"{x:.2f}x"
+
+
+def _us(rate: float) -> str:
+    return "-" if not (math.isfinite(rate) and rate > 0) else f"{1e6 / rate:.3g}"
+
+
+def _cell(entry: dict, name: str, fmt=_k) -> str:
+    r = entry["results"].get(name)
+    if r is None:
+        return "-"
+    if r["status"] != "ok":
+        return r["status"].split(":")[0]  # missing / error, reasons listed below the table
+    return fmt(r["median_rate"])
+
+
+def _problems(entries: list[dict]) -> list[str]:
+    seen = {}
+    for e in entries:
+        for name, r in e["results"].items():
+            if r["status"] != "ok":
+                seen.setdefault((name, r["status"]), True)
+    return [""] + [f"- `{name}`: {status}" for name, status in seen] if seen else []
+
+
+def render(data: dict) -> str:
+    meta, m = data["meta"], data["meta"]["machine"]
+    L = [
+        "# Benchmarks: vcs-env against real peers, measured side by side",
+        "",
+        f"Generated by `{meta['command']}` on {meta['date']} (commit `{meta['commit']}`), "
+        f"{meta['wall_seconds']:.0f} s. Raw numbers: `{meta['json']}`." + (
+            " **Quick run: tiny sizes, the numbers mean nothing.**" if meta["quick"] else ""),
+        "",
+        "## Machine",
+        "",
+        "| | |",
+        "|---|---|",
+        f"| CPU | {m['cpu']} |",
+        f"| cores | {m['logical_cores']} logical, {m['usable_cores']} usable by this process |",
+        f"| load average (1, 5, 15 min) at start / end | {_load(m['load_average'])} / "
+        f"{_load(meta['load_average_end'])} |",
+        f"| OS | {m['platform']} |",
+        f"| Python | {m['python']} |",
+        "| packages | " + ", ".join(f"{k} {v}" for k, v in m["packages"].items()) + " |",
+        f"| torch threads | {meta['torch_threads']} (VMAS and PPO; our env is single-threaded numpy/numba) |",
+        f"| repeats | median of {meta['repeats']} side-by-side repeats per number (ours and the peers measured in "
+        "turn, so load changes on the shared machine hit all alike) |",
+        "",
+        "The machine is shared with other jobs (see the load average), so absolute rates are noisy; "
+        "the ratios, measured in the same rounds, are the robust part.",
+        "",
+        "## Peers",
+        "",
+        "| peer | what | status |",
+        "|---|---|---|",
+    ]
+    for mod, what in peers.PEERS.items():
+        L.append(f"| `{mod}` | {what} | {data['peers'].get(mod, '-')} |")
+    L += ["", "## Targets (issue 6)", "", "| target | measured ratio | met |", "|---|---|---|"]
+    for t in data["targets"]:
+        vals = ", ".join(f"{k}: {_x(v) if 'exponent' not in k else f'{v:.2f}'}" for k, v in t["ratios"].items())
+        L.append(f"| {t['target']} | {vals} | **{t['met']}** |")
+    if "env" in data:
+        L += _render_env(data["env"])
+    if "planner" in data:
+        L += _render_planner(data["planner"])
+    if "training" in data:
+        L += _render_training(data["training"], data["meta"]["train_sizes"])
+    L += _render_scaling(data)
+    if "profiles" in data:
+        L += _render_profiles(data["profiles"])
+    L += ["", "## Method", ""]
+    for mod in (env_bench, planner_bench, train_bench):
+        L += [f"**{mod.__name__}**", "", mod.__doc__.strip(), ""]
+    return "\n".join(L) + "\n"
+
+
+def _load(x) -> str:
+    return "-" if not x else ", ".join(f"{v:.2f}" for v in x)
+
+
+def _render_env(env: dict) -> list[str]:
+    L = ["", "## 1. Env throughput (random actions, no planner)", "",
+         f"Robot-steps per second (median); our worlds have {env_bench.N_OBSTACLES} moving obstacles, "
+         f"episodes of {env_bench.EPISODE_STEPS} steps with resets included.", "",
+         "### PettingZoo parallel API, B = 1", "",
+         "| robots n | ours (vcs_nav_v0) | MPE simple_spread | ours / MPE |", "|---|---|---|---|"]
+    for e in env["single"]:
+        L.append(f"| {e['n']} | {_cell(e, 'pettingzoo')} | {_cell(e, 'mpe')} | "
+                 f"{_x(ratio(_rate(e, 'pettingzoo'), _rate(e, 'mpe')))} |")
+    L += _problems(env["single"])
+    L += ["", "### Batched: B worlds in one call", "",
+          "| n | B | ours: NavEngine | ours: SB3 VecEnv | VMAS navigation (CPU) | engine / VMAS | VecEnv / VMAS |",
+          "|---|---|---|---|---|---|---|"]
+    for e in env["batched"]:
+        L.append(f"| {e['n']} | {e['B']} | {_cell(e, 'engine')} | {_cell(e, 'vecenv')} | {_cell(e, 'vmas')} | "
+                 f"{_x(ratio(_rate(e, 'engine'), _rate(e, 'vmas')))} | "
+                 f"{_x(ratio(_rate(e, 'vecenv'), _rate(e, 'vmas')))} |")
+    L += _problems(env["batched"])
+    return L
+
+
+PLANNER_LABELS = {
+    "vcs": "VCS",
+    "orca": "ORCA (orca planner)",
+    "pyrvo_raw": "RVO2 do_step only",
+    "vo": "VO (ours)",
+    "rvo": "RVO (ours)",
+    "hrvo": "HRVO (ours)",
+}
+
+
+def _planner_table(entries: list[dict], keys: list[str], names: list[str]) -> list[str]:
+    head = keys + ["neighbours"] + [f"{PLANNER_LABELS[nm]} us/dec" for nm in names] + ["VCS / ORCA time",
+                                                                                       "VCS / do_step time"]
+    L = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for e in entries:
+        row = [str(e[k]) for k in keys] + [f"{e['mean_neighbours']:.1f}"]
+        row += [_cell(e, nm, _us) for nm in names]
+        row += [_x(ratio(_rate(e, "orca"), _rate(e, "vcs"))), _x(ratio(_rate(e, "pyrvo_raw"), _rate(e, "vcs")))]
+        L.append("| " + " | ".join(row) + " |")
+    return L + _problems(entries)
+
+
+def _render_planner(pl: dict) -> list[str]:
+    names = [nm for nm in PLANNER_LABELS if any(nm in e["results"] for e in pl["circle"])]
+    L = ["", "## 2. Planner throughput", "",
+         "Microseconds per robot-decision (median; lower is better), every planner on the same snapshots. "
+         "`neighbours` = mean number of robots and obstacles within r_ca of a planning robot. "
+         "`VCS / ORCA time` = VCS's time per decision over ORCA's.", "",
+         "### Circle, against robot count", ""]
+    L += _planner_table(pl["circle"], ["n", "B"], names)
+    L += ["", "VCS decisions per second: " + ", ".join(
+        f"n={e['n']},B={e['B']}: {_cell(e, 'vcs')}" for e in pl["circle"]) + ".", ""]
+    nb = pl["neighbours"]
+    names_nb = [nm for nm in PLANNER_LABELS if any(nm in e["results"] for e in nb)]
+    L += ["### Against neighbour count (circle, varying r_ca [m])", ""]
+    L += _planner_table(nb, ["n", "B", "r_ca"], names_nb)
+    L += ["", "Fitted exponent of time per decision vs mean neighbours: " + ", ".join(
+        f"{PLANNER_LABELS[nm]} {fit_exponent([e['mean_neighbours'] for e in nb], [1 / _rate(e, nm) for e in nb]):.2f}"
+        for nm in names_nb) + ".", ""]
+    de = pl["density"]
+    names_de = [nm for nm in PLANNER_LABELS if any(nm in e["results"] for e in de)]
+    L += ["### Constant density (random starts and goals, one robot per 9 m^2, r_ca = 3 m)", ""]
+    L += _planner_table(de, ["n", "B"], names_de)
+    return L
+
+
+def _render_training(tr: dict, sizes: dict) -> list[str]:
+    L = ["", "## 3. Training throughput (PPO, torch on 1 thread)", "",
+         f"circle, {sizes['n_robots']} robots, {sizes['n_worlds']} worlds ({sizes['n_robots'] * sizes['n_worlds']} "
+         f"slots), n_steps {sizes['n_steps']}, minibatch {sizes['batch_size']}, {sizes['n_epochs']} epochs, "
+         f"{sizes['rollouts']} rollout(s) + update(s) per measurement.", "",
+         "| variant | agent-steps/s | vs no shaping | time collecting rollouts |", "|---|---|---|---|"]
+    base = tr.get("none", {}).get("median_rate", float("nan"))
+    for v, r in tr.items():
+        if r["status"] != "ok":
+            L.append(f"| {v} | {r['status']} | - | - |")
+            continue
+        frac = sorted(r["collect_fraction"])[len(r["collect_fraction"]) // 2]
+        L.append(f"| {v} | {_k(r['median_rate'])} | {_x(ratio(r['median_rate'], base))} | {100 * frac:.0f}% |")
+    return L
+
+
+def _render_scaling(data: dict) -> list[str]:
+    L = ["", "## 4. Scaling: time per step against robot count", "",
+         "Exponent p of a log-log least-squares fit, time per world-step ~ n^p (p = 1 is linear).", "",
+         "| what | n | time per step [ms] | exponent p |", "|---|---|---|---|"]
+
+    def row(label, ns, secs):
+        p = fit_exponent(ns, secs)
+        cells = ", ".join(f"{1e3 * s:.3g}" if math.isfinite(s) else "-" for s in secs)
+        L.append(f"| {label} | {', '.join(map(str, ns))} | {cells} | {p:.2f} |")
+
+    sc = data.get("scaling")
+    if sc:
+        names = list(sc["rows"][0]["results"])
+        for nm in names:
+            ns = [r["n"] for r in sc["rows"]]
+            B = int(nm.split("_B")[1]) if "_B" in nm else 1
+            row(f"ours: {nm.replace('_B', ', B=')} ({env_bench.N_OBSTACLES} obstacles)", ns,
+                [B * r["n"] / _rate(r, nm) for r in sc["rows"]])
+    env = data.get("env")
+    if env:
+        ns = [e["n"] for e in env["single"]]
+        for nm, label in (("pettingzoo", "ours: pettingzoo"), ("mpe", "MPE simple_spread")):
+            row(label, ns, [e["n"] / _rate(e, nm) for e in env["single"]])
+        for B in sorted({e["B"] for e in env["batched"]}):
+            es = [e for e in env["batched"] if e["B"] == B]
+            for nm, label in (("engine", "ours: engine"), ("vmas", "VMAS navigation")):
+                row(f"{label}, B={B}", [e["n"] for e in es], [B * e["n"] / _rate(e, nm) for e in es])
+    pl = data.get("planner")
+    if pl:
+        for key, label in (("circle", "circle"), ("density", "constant density")):
+            for B in sorted({e["B"] for e in pl[key]}):
+                es = [e for e in pl[key] if e["B"] == B]
+                for nm in ("vcs", "orca", "pyrvo_raw", "hrvo"):
+                    if any(nm in e["results"] for e in es):
+                        row(f"planner {PLANNER_LABELS[nm]}, {label}, B={B}", [e["n"] for e in es],
+                            [e["decisions_per_call"] / _rate(e, nm) for e in es])
+    return L
+
+
+def _render_profiles(profiles: dict) -> list[str]:
+    L = ["", "## 5. Where the time goes (cProfile, own time per call)", ""]
+    for name, p in profiles.items():
+        L.append(f"**{name}**" + (f": {1e3 * p['seconds_per_call']:.3g} ms per call (under the profiler)"
+                                  if "rows" in p else f": {p.get('error')}"))
+        if "rows" in p:
+            L += ["", "| function | own ms per call | share | calls per call |", "|---|---|---|---|"]
+            for fn, sec, share, calls in p["rows"]:
+                L.append(f"| `{fn}` | {1e3 * sec:.3g} | {100 * share:.0f}% | {calls:.3g} |")
+        L.append("")
+    return L
+
+
+# ---------------------------------------------------------------------------------------- CLI
+SECTIONS = ("env", "planner", "training", "scaling", "profiles")
+
+
+def _commit() -> str:
+    try:
+        root = Path(__file__).resolve().parents[1]
+        sha = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
+                             timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return (sha or "unknown") + ("+dirty" if dirty else "")
+    except Exception:
+        return "unknown"
+
+
+def run(quick: bool = False, out: Path | str = DEFAULT_OUT, sections=SECTIONS, command: str = "") -> dict:
+    """Run the benchmarks and write ``out`` (Markdown) and ``out`` with ``.json``; returns the data."""
+    out = Path(out)
+    sz = quick_sizes() if quick else Sizes()
+    t0 = time.perf_counter()
+    machine = machine_info()
+    threads = peers.torch_single_thread()
+    data: dict = {"peers": peers.status()}
+    if "env" in sections:
+        data["env"] = env_section(sz)
+    if "planner" in sections:
+        data["planner"] = planner_section(sz)
+    if "training" in sections:
+        _log("training")
+        data["training"] = {k: r.as_dict() for k, r in train_bench.run(sz.train).items()}
+    if "scaling" in sections:
+        data["scaling"] = scaling_section(sz)
+    if "profiles" in sections:
+        data["profiles"] = profile_section(sz)
+    data["targets"] = targets(data)
+    json_path = out.with_suffix(".json")
+    data["meta"] = {
+        "command": command or "python -m benchmarks" + (" --quick" if quick else ""),
+        "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "commit": _commit(),
+        "quick": quick,
+        "machine": machine,
+        "load_average_end": machine_info()["load_average"],
+        "torch_threads": threads,
+        "repeats": sorted({sz.env_budget.repeats, sz.planner_budget.repeats, sz.train.repeats}),
+        "budgets": {"env": asdict(sz.env_budget), "planner": asdict(sz.planner_budget),
+                    "scaling": asdict(sz.scaling_budget)},
+        "train_sizes": asdict(sz.train),
+        "wall_seconds": time.perf_counter() - t0,
+        "json": json_path.name,
+    }
+    out.parent.mkdir(parents=True, exist_ok=True)
+    json_path.write_text(json.dumps(data, indent=1, default=_jsonable) + "\n")
+    out.write_text(render(data))
+    _log(f"wrote {out} and {json_path} in {data['meta']['wall_seconds']:.0f} s")
+    return data
+
+
+def _jsonable(x):
+    if isinstance(x, tuple):
+        return list(x)
+    return str(x)
+
+
+def _command_line() -> str:
+    prog = Path(sys.argv[0]).name
+    prog = "python -m benchmarks" if prog == "__main__.py" else prog
+    return " ".join([prog, *sys.argv[1:]])
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quick", action="store_true", help="tiny sizes (smoke test; the numbers mean nothing)")
+    p.add_argument("--out", default=str(DEFAULT_OUT), help="Markdown report path; the JSON goes next to it")
+    p.add_argument("--sections", default=",".join(SECTIONS),
+                   help=f"comma-separated subset of {','.join(SECTIONS)}")
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
+    unknown = sorted(set(sections) - set(SECTIONS))
+    if unknown:
+        raise ValueError(f"unknown sections {unknown}; choose from {list(SECTIONS)}")
+    data = run(args.quick, args.out, sections, command=_command_line())
+    for t in data["targets"]:
+        print(f"{t['met']:>14}  {t['target']}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser("bench", help="benchmark env, planners and training against MPE, VMAS and RVO2",
+                       description=__doc__.split("\n\n")[0])
+    add_arguments(p)
+    p.set_defaults(func=cmd_bench)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.split("\n\n")[0])
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        return cmd_bench(args)
+    except ValueError as e:
+        print(f"benchmarks: error: {e}", file=sys.stderr)
+        return 2

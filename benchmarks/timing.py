@@ -1,0 +1,184 @@
+"""Timing primitives shared by the benchmarks: the measuring loop, side-by-side repeats, fits,
+and a description of the machine.
+
+Every benchmark is a set of *contestants* (ours and the peers) measured on one configuration.
+A contestant is built once (set-up is never timed) and gives a ``step()`` callable that does one
+unit of work and returns how many robot-steps (or robot-decisions) it did. The contestants of a
+configuration are measured in turn, repeat after repeat (ours, peer, ours, peer, ...), so a
+change of load on the shared machine hits all of them alike; the reported rate is the median
+over repeats.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import platform
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from importlib import metadata
+
+import numpy as np
+
+Step = Callable[[], "int | tuple[int, float]"]
+"""One unit of work. Returns the robot-steps (or decisions) done, or ``(units, seconds)`` when
+it times itself (for lower bounds that exclude untimed restore work)."""
+
+
+@dataclass
+class Budget:
+    """How long one measurement runs."""
+
+    warmup: int = 2
+    """Untimed calls before timing (JIT loading, caches, first allocation)."""
+    min_time: float = 0.3
+    """A measurement runs at least this long [s] ..."""
+    min_calls: int = 3
+    """... and at least this many calls."""
+    repeats: int = 3
+    """Measurements per contestant; the median is reported."""
+
+
+@dataclass
+class Result:
+    """Outcome of one contestant on one configuration."""
+
+    status: str = "ok"
+    """``ok``, ``missing: <reason>`` (the peer cannot be imported) or ``error: <reason>``."""
+    rates: list[float] = field(default_factory=list)
+    """Units per second [1/s] of every repeat."""
+    calls: list[int] = field(default_factory=list)
+    """Timed calls of every repeat."""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok" and bool(self.rates)
+
+    @property
+    def rate(self) -> float:
+        """Median units per second [1/s] (NaN if not measured)."""
+        return statistics.median(self.rates) if self.ok else float("nan")
+
+    def as_dict(self) -> dict:
+        return {"status": self.status, "median_rate": self.rate, "rates": self.rates, "calls": self.calls}
+
+
+def measure(step: Step, budget: Budget) -> tuple[float, int]:
+    """Units per second [1/s] of ``step`` and the number of timed calls."""
+    for _ in range(budget.warmup):
+        step()
+    units, timed, calls = 0, 0.0, 0
+    t0 = time.perf_counter()
+    while True:
+        out = step()
+        calls += 1
+        if isinstance(out, tuple):
+            units += out[0]
+            timed += out[1]
+        else:
+            units += out
+        wall = time.perf_counter() - t0
+        if calls >= budget.min_calls and wall >= budget.min_time:
+            break
+    seconds = timed if timed > 0 else wall
+    return units / seconds, calls
+
+
+def side_by_side(builders: dict[str, Callable[[], Step]], budget: Budget) -> dict[str, Result]:
+    """Build every contestant, then measure them in turn for ``budget.repeats`` rounds.
+
+    A builder raises :class:`Missing` when its peer is not installed, any other exception
+    marks the contestant as ``error`` (with the message); both are reported, never skipped.
+    """
+    results: dict[str, Result] = {}
+    steps: dict[str, Step] = {}
+    for name, build in builders.items():
+        try:
+            steps[name] = build()
+            results[name] = Result()
+        except Missing as e:
+            results[name] = Result(status=f"missing: {e}")
+        except Exception as e:  # a peer that breaks is a result too
+            results[name] = Result(status=f"error: {type(e).__name__}: {e}")
+    for _ in range(budget.repeats):
+        for name, step in steps.items():
+            if results[name].status != "ok":
+                continue
+            try:
+                rate, calls = measure(step, budget)
+            except Exception as e:
+                results[name].status = f"error: {type(e).__name__}: {e}"
+                continue
+            results[name].rates.append(rate)
+            results[name].calls.append(calls)
+    return results
+
+
+class Missing(Exception):
+    """A peer package cannot be imported (the message says why)."""
+
+
+def fit_exponent(x, y) -> float:
+    """Least-squares slope of ``log y`` against ``log x`` (``y ~ x^p``); NaN with < 2 points."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if keep.sum() < 2:
+        return float("nan")
+    return float(np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)[0])
+
+
+def ratio(a: float, b: float) -> float:
+    """``a / b`` or NaN."""
+    if not (math.isfinite(a) and math.isfinite(b)) or b == 0:
+        return float("nan")
+    return a / b
+
+
+PACKAGES = (
+    "vcs-env",
+    "numpy",
+    "numba",
+    "gymnasium",
+    "pettingzoo",
+    "torch",
+    "stable-baselines3",
+    "mpe2",
+    "vmas",
+    "pyrvo",
+    "pygame",
+)
+
+
+def machine_info() -> dict:
+    """CPU model and cores, OS, Python and package versions, load average."""
+    cpu = platform.processor() or "unknown"
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:
+        usable = os.cpu_count()
+    versions = {}
+    for name in PACKAGES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = "not installed"
+    return {
+        "cpu": cpu,
+        "logical_cores": os.cpu_count(),
+        "usable_cores": usable,
+        "platform": platform.platform(),
+        "python": sys.version.split()[0],
+        "packages": versions,
+        "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
+    }
