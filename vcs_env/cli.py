@@ -96,7 +96,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMAND_MODULES = ("vcs_env.cli", "agents.evaluate", "agents.train", "agents.imitation")
+COMMAND_MODULES = ("vcs_env.cli", "agents.evaluate", "agents.train", "agents.imitation", "benchmarks.run")
 """Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers
 and sets ``func``. They must not import torch or stable-baselines3 at module level (the CLI
 imports them all to build ``--help``); heavy imports go inside the command functions."""

@@ -1,0 +1,100 @@
+"""Smoke test of the benchmarks: every section runs with tiny sizes (``--quick``) so the code
+cannot rot. No timing is asserted; peers that are not installed are reported as missing and do
+not fail the test, but our own contestants must run and a peer that is installed must work."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from benchmarks import peers
+from benchmarks.run import SECTIONS, _target
+from benchmarks.timing import Budget, Missing, fit_exponent, side_by_side
+
+ROOT = Path(__file__).resolve().parents[1]
+OURS = {"pettingzoo", "engine", "vcs", "vo", "hrvo"}
+PEERS = {"mpe": "mpe2", "vmas": "vmas", "orca": "pyrvo", "pyrvo_raw": "pyrvo", "vecenv": None}
+
+
+@pytest.fixture(scope="module")
+def quick(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench") / "RESULTS.md"
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "benchmarks", "--quick", "--out", str(out)],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return out, json.loads(out.with_suffix(".json").read_text())
+
+
+def _contestants(data):
+    for e in data["env"]["single"] + data["env"]["batched"]:
+        yield from e["results"].items()
+    for key in ("circle", "neighbours", "density"):
+        for e in data["planner"][key]:
+            yield from e["results"].items()
+    for r in data["scaling"]["rows"]:
+        yield from r["results"].items()
+
+
+def test_quick_run_writes_report_and_json(quick):
+    out, data = quick
+    text = out.read_text()
+    for heading in ("## Machine", "## Peers", "## Targets", "## 1. Env", "## 2. Planner", "## 3. Training",
+                    "## 4. Scaling", "## 5. Where the time goes"):
+        assert heading in text
+    assert set(SECTIONS) <= set(data) | {"profiles"}
+    assert data["meta"]["quick"] and data["meta"]["machine"]["cpu"]
+    assert data["targets"] and all(t["met"] for t in data["targets"])
+
+
+def test_ours_measured_peers_measured_or_missing(quick):
+    _, data = quick
+    status = data["peers"]
+    for name, r in _contestants(data):
+        base = name.split("_B")[0]
+        if base in OURS:
+            assert r["status"] == "ok" and r["median_rate"] > 0, (name, r["status"])
+        else:
+            assert r["status"] == "ok" or r["status"].startswith("missing"), (name, r["status"])
+            module = PEERS.get(base)
+            if module and status[module].startswith("ok"):
+                assert r["status"] == "ok", (name, r["status"])
+    for v, r in data["training"].items():
+        assert r["status"] == "ok" or r["status"].startswith("missing"), (v, r["status"])
+    for name, p in data["profiles"].items():
+        assert "rows" in p or "orca" in name, (name, p)
+
+
+def test_missing_peer_is_reported_not_skipped():
+    def broken():
+        raise Missing("no such package")
+
+    res = side_by_side({"ours": lambda: (lambda: 3), "peer": broken}, Budget(warmup=0, min_time=0, min_calls=1,
+                                                                            repeats=2))
+    assert res["ours"].ok and len(res["ours"].rates) == 2
+    assert res["peer"].status == "missing: no such package" and math.isnan(res["peer"].rate)
+    with pytest.raises(Missing, match="bench"):
+        peers.require("surely_not_a_module_xyz")
+
+
+def test_fit_exponent_and_target():
+    n = [4, 8, 16, 32]
+    assert fit_exponent(n, [x**1.5 for x in n]) == pytest.approx(1.5)
+    assert math.isnan(fit_exponent([4], [1.0]))
+    t = _target("t", {1: 3.0, 2: float("nan")}, lambda x: x >= 2, "{}")
+    assert t["met"].startswith("partly measured")
+
+
+def test_cli_has_bench_command():
+    from vcs_env.cli import build_parser
+
+    args = build_parser().parse_args(["bench", "--quick", "--out", "x.md"])
+    assert args.quick and args.out == "x.md"
