@@ -18,17 +18,17 @@ TOP = 8
 def profile(step: Step, calls: int, top: int = TOP) -> dict:
     """Run ``step`` ``calls`` times under cProfile (after one untimed call).
 
-    Returns ``{"seconds_per_call": s, "rows": [(function, own seconds per call, share of
+    Returns ``{"seconds_per_call": CPU s, "rows": [(function, own seconds per call, share of
     total, calls per step call)]}``; numba kernels appear as one opaque row each.
     """
     step()
     prof = cProfile.Profile()
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     prof.enable()
     for _ in range(calls):
         step()
     prof.disable()
-    wall = time.perf_counter() - t0
+    cpu = time.process_time() - t0
     stats = pstats.Stats(prof)
     total = sum(v[2] for v in stats.stats.values()) or 1.0
     rows = []
@@ -37,7 +37,7 @@ def profile(step: Step, calls: int, top: int = TOP) -> dict:
     )[:top]:
         where = func if path == "~" else f"{_short(path)}:{line}({func})"
         rows.append((where, tottime / calls, tottime / total, ncalls / calls))
-    return {"seconds_per_call": wall / calls, "rows": rows}
+    return {"seconds_per_call": cpu / calls, "rows": rows}
 
 
 REPO = str(Path(__file__).resolve().parents[1]) + os.sep

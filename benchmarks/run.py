@@ -296,6 +296,8 @@ def render(data: dict) -> str:
         f"| torch threads | {meta['torch_threads']} (VMAS and PPO; our env is single-threaded numpy/numba) |",
         f"| repeats | median of {meta['repeats']} side-by-side repeats per number (ours and the peers measured in "
         "turn, so load changes on the shared machine hit all alike) |",
+        f"| clock | rates per CPU second of the benchmark process (`time.process_time`); it got {_cpu_share(data)} "
+        "of a core on average (wall rate / CPU rate); wall-clock rates are in the JSON |",
         "",
         "The machine is shared with other jobs (see the load average), so absolute rates are noisy; "
         "the ratios, measured in the same rounds, are the robust part.",
@@ -326,13 +328,37 @@ def render(data: dict) -> str:
     return "\n".join(L) + "\n"
 
 
+def _cpu_share(data: dict) -> str:
+    shares = []
+    for r in _all_results(data):
+        for c, w in zip(r.get("rates", []), r.get("wall_rates", [])):
+            if c > 0 and w > 0:
+                shares.append(w / c)
+    if not shares:
+        return "-"
+    shares.sort()
+    return f"{100 * shares[len(shares) // 2]:.0f}%"
+
+
+def _all_results(data: dict):
+    env = data.get("env", {})
+    for e in env.get("single", []) + env.get("batched", []):
+        yield from e["results"].values()
+    for entries in data.get("planner", {}).values():
+        for e in entries:
+            yield from e["results"].values()
+    for e in data.get("scaling", {}).get("rows", []):
+        yield from e["results"].values()
+    yield from data.get("training", {}).values()
+
+
 def _load(x) -> str:
     return "-" if not x else ", ".join(f"{v:.2f}" for v in x)
 
 
 def _render_env(env: dict) -> list[str]:
     L = ["", "## 1. Env throughput (random actions, no planner)", "",
-         f"Robot-steps per second (median); our worlds have {env_bench.N_OBSTACLES} moving obstacles, "
+         f"Robot-steps per CPU second (median); our worlds have {env_bench.N_OBSTACLES} moving obstacles, "
          f"episodes of {env_bench.EPISODE_STEPS} steps with resets included.", "",
          "### PettingZoo parallel API, B = 1", "",
          "| robots n | ours (vcs_nav_v0) | MPE simple_spread | ours / MPE |", "|---|---|---|---|"]
@@ -376,7 +402,7 @@ def _planner_table(entries: list[dict], keys: list[str], names: list[str]) -> li
 def _render_planner(pl: dict) -> list[str]:
     names = [nm for nm in PLANNER_LABELS if any(nm in e["results"] for e in pl["circle"])]
     L = ["", "## 2. Planner throughput", "",
-         "Microseconds per robot-decision (median; lower is better), every planner on the same snapshots. "
+         "CPU microseconds per robot-decision (median; lower is better), every planner on the same snapshots. "
          "`neighbours` = mean number of robots and obstacles within r_ca of a planning robot. "
          "`VCS / ORCA time` = VCS's time per decision over ORCA's.", "",
          "### Circle, against robot count", ""]
@@ -402,7 +428,7 @@ def _render_training(tr: dict, sizes: dict) -> list[str]:
          f"circle, {sizes['n_robots']} robots, {sizes['n_worlds']} worlds ({sizes['n_robots'] * sizes['n_worlds']} "
          f"slots), n_steps {sizes['n_steps']}, minibatch {sizes['batch_size']}, {sizes['n_epochs']} epochs, "
          f"{sizes['rollouts']} rollout(s) + update(s) per measurement.", "",
-         "| variant | agent-steps/s | vs no shaping | time collecting rollouts |", "|---|---|---|---|"]
+         "| variant | agent-steps per CPU second | vs no shaping | time collecting rollouts |", "|---|---|---|---|"]
     base = tr.get("none", {}).get("median_rate", float("nan"))
     for v, r in tr.items():
         if r["status"] != "ok":
@@ -416,7 +442,7 @@ def _render_training(tr: dict, sizes: dict) -> list[str]:
 def _render_scaling(data: dict) -> list[str]:
     L = ["", "## 4. Scaling: time per step against robot count", "",
          "Exponent p of a log-log least-squares fit, time per world-step ~ n^p (p = 1 is linear).", "",
-         "| what | n | time per step [ms] | exponent p |", "|---|---|---|---|"]
+         "| what | n | CPU time per step [ms] | exponent p |", "|---|---|---|---|"]
 
     def row(label, ns, secs):
         p = fit_exponent(ns, secs)
@@ -429,16 +455,16 @@ def _render_scaling(data: dict) -> list[str]:
         for nm in names:
             ns = [r["n"] for r in sc["rows"]]
             B = int(nm.split("_B")[1]) if "_B" in nm else 1
-            row(f"ours: {nm.replace('_B', ', B=')} ({env_bench.N_OBSTACLES} obstacles)", ns,
+            row(f"ours: {nm.replace('_B', ', B=')} (sweep)", ns,
                 [B * r["n"] / _rate(r, nm) for r in sc["rows"]])
     env = data.get("env")
     if env:
         ns = [e["n"] for e in env["single"]]
-        for nm, label in (("pettingzoo", "ours: pettingzoo"), ("mpe", "MPE simple_spread")):
+        for nm, label in (("pettingzoo", "ours: pettingzoo (section 1)"), ("mpe", "MPE simple_spread")):
             row(label, ns, [e["n"] / _rate(e, nm) for e in env["single"]])
         for B in sorted({e["B"] for e in env["batched"]}):
             es = [e for e in env["batched"] if e["B"] == B]
-            for nm, label in (("engine", "ours: engine"), ("vmas", "VMAS navigation")):
+            for nm, label in (("engine", "ours: engine (section 1)"), ("vmas", "VMAS navigation")):
                 row(f"{label}, B={B}", [e["n"] for e in es], [B * e["n"] / _rate(e, nm) for e in es])
     pl = data.get("planner")
     if pl:

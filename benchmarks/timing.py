@@ -7,6 +7,12 @@ unit of work and returns how many robot-steps (or robot-decisions) it did. The c
 configuration are measured in turn, repeat after repeat (ours, peer, ours, peer, ...), so a
 change of load on the shared machine hits all of them alike; the reported rate is the median
 over repeats.
+
+Rates are per CPU second of the benchmark process (``time.process_time``), not per wall
+second: the machine is shared with other jobs, and CPU time does not count the time the
+process waits for a core. Everything measured runs on one thread (numpy, numba kernels,
+RVO2, torch set to one thread), so CPU time is the work done. Wall-clock rates are kept too
+(``wall_rates``), and their ratio to the CPU rates is the share of a core the process got.
 """
 
 from __future__ import annotations
@@ -25,7 +31,7 @@ import numpy as np
 
 Step = Callable[[], "int | tuple[int, float]"]
 """One unit of work. Returns the robot-steps (or decisions) done, or ``(units, seconds)`` when
-it times itself (for lower bounds that exclude untimed restore work)."""
+it times the part that counts itself (for lower bounds that exclude untimed restore work)."""
 
 
 @dataclass
@@ -35,7 +41,7 @@ class Budget:
     warmup: int = 2
     """Untimed calls before timing (JIT loading, caches, first allocation)."""
     min_time: float = 0.3
-    """A measurement runs at least this long [s] ..."""
+    """A measurement runs at least this long [s of wall time] ..."""
     min_calls: int = 3
     """... and at least this many calls."""
     repeats: int = 3
@@ -49,7 +55,9 @@ class Result:
     status: str = "ok"
     """``ok``, ``missing: <reason>`` (the peer cannot be imported) or ``error: <reason>``."""
     rates: list[float] = field(default_factory=list)
-    """Units per second [1/s] of every repeat."""
+    """Units per CPU second [1/s] of every repeat."""
+    wall_rates: list[float] = field(default_factory=list)
+    """Units per wall-clock second [1/s] of every repeat."""
     calls: list[int] = field(default_factory=list)
     """Timed calls of every repeat."""
 
@@ -63,28 +71,36 @@ class Result:
         return statistics.median(self.rates) if self.ok else float("nan")
 
     def as_dict(self) -> dict:
-        return {"status": self.status, "median_rate": self.rate, "rates": self.rates, "calls": self.calls}
+        return {
+            "status": self.status,
+            "median_rate": self.rate,
+            "rates": self.rates,
+            "wall_rates": self.wall_rates,
+            "calls": self.calls,
+        }
 
 
-def measure(step: Step, budget: Budget) -> tuple[float, int]:
-    """Units per second [1/s] of ``step`` and the number of timed calls."""
+def measure(step: Step, budget: Budget) -> tuple[float, float, int]:
+    """Units per CPU second and per wall second [1/s] of ``step``, and the timed calls."""
     for _ in range(budget.warmup):
         step()
-    units, timed, calls = 0, 0.0, 0
-    t0 = time.perf_counter()
+    units, self_timed, calls = 0, 0.0, 0
+    c0, t0 = time.process_time(), time.perf_counter()
     while True:
         out = step()
         calls += 1
         if isinstance(out, tuple):
             units += out[0]
-            timed += out[1]
+            self_timed += out[1]
         else:
             units += out
         wall = time.perf_counter() - t0
         if calls >= budget.min_calls and wall >= budget.min_time:
             break
-    seconds = timed if timed > 0 else wall
-    return units / seconds, calls
+    cpu = time.process_time() - c0
+    if self_timed > 0:  # the step timed only the part that counts
+        wall = cpu = self_timed
+    return units / max(cpu, 1e-9), units / max(wall, 1e-9), calls
 
 
 def side_by_side(builders: dict[str, Callable[[], Step]], budget: Budget) -> dict[str, Result]:
@@ -108,11 +124,12 @@ def side_by_side(builders: dict[str, Callable[[], Step]], budget: Budget) -> dic
             if results[name].status != "ok":
                 continue
             try:
-                rate, calls = measure(step, budget)
+                rate, wall_rate, calls = measure(step, budget)
             except Exception as e:
                 results[name].status = f"error: {type(e).__name__}: {e}"
                 continue
             results[name].rates.append(rate)
+            results[name].wall_rates.append(wall_rate)
             results[name].calls.append(calls)
     return results
 
