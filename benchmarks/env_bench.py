@@ -41,11 +41,17 @@ POOL = 16
 
 
 def our_scenario(n: int, n_obstacles: int = N_OBSTACLES):
-    """``dynamic`` preset with ``n`` robots and ``n_obstacles`` moving obstacles."""
+    """``dynamic`` preset with ``n`` robots and ``n_obstacles`` moving obstacles; its 6 m arena
+    half size grows as ``6 sqrt(n / 32)`` [m] beyond 32 robots, which it cannot hold."""
     from vcs_env.scenario import make_scenario
 
     return make_scenario(
-        "dynamic", n_robots=n, n_obstacles=n_obstacles, on_collision="continue", max_steps=EPISODE_STEPS
+        "dynamic",
+        n_robots=n,
+        n_obstacles=n_obstacles,
+        arena_half_size=6.0 * max(1.0, math.sqrt(n / 32.0)),
+        on_collision="continue",
+        max_steps=EPISODE_STEPS,
     )
 
 
