@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from .timing import Step
+from .timing import Missing, Step
 
 TOP = 8
 """Functions listed per profile."""
@@ -75,6 +75,8 @@ def run(cases: dict[str, tuple[Callable[[], Step], int]]) -> dict[str, dict]:
     for name, (build, calls) in cases.items():
         try:
             out[name] = profile(build(), calls)
+        except Missing as e:
+            out[name] = {"error": f"missing: {e}"}
         except Exception as e:
             out[name] = {"error": f"{type(e).__name__}: {e}"}
     return out

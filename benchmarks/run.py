@@ -165,14 +165,16 @@ def scaling_section(sz: Sizes) -> dict:
 
 def profile_section(sz: Sizes) -> dict:
     c = sz.profile_calls
-    n_env = max(sz.env_robots[0], min(10, max(sz.env_robots)))
+    n_small = min(sz.env_robots)  # where the B = 1 env is closest to MPE
+    n_env = max(n_small, min(10, max(sz.env_robots)))
     n_plan = 16 if 16 in sz.planner_robots else sz.planner_robots[-1]
     B_big = max(sz.env_batches)
     sc = planner_bench.circle_scenario(n_plan)
     horizon = max(1, int(round(sz.horizon_scale * planner_bench.circle_horizon(sc))))
     states = planner_bench.batch(planner_bench.snapshots(sc, sz.snapshots, horizon), 1)
     cases = {
-        f"pettingzoo env, n={n_env}, B=1": (lambda: env_bench.pettingzoo_env(n_env), c),
+        f"pettingzoo env, n={n_small}, B=1": (lambda: env_bench.pettingzoo_env(n_small), c),
+        f"MPE simple_spread, n={n_small}": (lambda: env_bench.mpe_env(n_small), c),
         f"engine, n={n_env}, B={B_big}": (lambda: env_bench.engine_env(n_env, B_big), max(2, c // 10)),
         f"vcs planner, circle n={n_plan}, B=1": (lambda: planner_bench.planner_step("vcs", states), max(2, c // 2)),
         f"orca planner, circle n={n_plan}, B=1": (lambda: planner_bench.planner_step("orca", states), max(2, c // 2)),

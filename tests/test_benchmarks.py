@@ -70,7 +70,7 @@ def test_ours_measured_peers_measured_or_missing(quick):
     for v, r in data["training"].items():
         assert r["status"] == "ok" or r["status"].startswith("missing"), (v, r["status"])
     for name, p in data["profiles"].items():
-        assert "rows" in p or "orca" in name, (name, p)
+        assert "rows" in p or "orca" in name or "MPE" in name, (name, p)
 
 
 def test_missing_peer_is_reported_not_skipped():
