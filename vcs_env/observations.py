@@ -35,7 +35,6 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-from .geometry import rotate
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
 
@@ -62,88 +61,83 @@ def goal_scale(scenario: Scenario) -> float:
     return 2.0 * scenario.world_extent
 
 
-def neighbor_objects(world: WorldState) -> tuple[np.ndarray, ...]:
-    """All objects a robot may sense: the robots first, then the obstacles.
+def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` nearest sensed objects of every robot, nearest surface first (ties by index).
+
+    Objects are the robots still in the world (not the robot itself) and the obstacles whose
+    centres lie within ``r_ca``.
 
     Returns:
-        pos ``(B, n+m, 2)``, vel ``(B, n+m, 2)``, radius ``(B, n+m)``, is_robot ``(B, n+m)``,
-        present ``(B, n+m)`` bool.
+        features ``(B, n, k, 7)``: relative position x, y and relative velocity x, y in the
+        robot's frame [m, m/s], radius [m], gap [m], is-robot flag; and the valid mask
+        ``(B, n, k)`` bool (padding slots are all zero).
     """
     B, n, m = world.batch_size, world.n_robots, world.n_obstacles
-    pos = np.concatenate((world.pos, world.obs_pos), axis=1)
+    pos = np.concatenate((world.pos, world.obs_pos), axis=1)  # (B, N, 2), robots first
     vel = np.concatenate((world.vel, world.obs_vel), axis=1)
     radius = np.concatenate((world.radius, world.obs_radius), axis=1)
-    is_robot = np.concatenate((np.ones((B, n)), np.zeros((B, m))), axis=1)
     present = np.concatenate((world.present, np.ones((B, m), dtype=bool)), axis=1)
-    return pos, vel, radius, is_robot, present
-
-
-def nearest_neighbors(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The ``k`` nearest sensed objects of every robot (by surface gap; ties by index).
-
-    Returns:
-        index ``(B, n, k)`` into the object list of :func:`neighbor_objects`, valid mask
-        ``(B, n, k)`` bool, gap ``(B, n, k)`` [m].
-    """
-    pos, _, radius, _, present = neighbor_objects(world)
-    n = world.n_robots
-    rel = pos[:, None, :, :] - world.pos[:, :, None, :]  # (B, n, n+m, 2)
-    dist = np.sqrt(np.einsum("...i,...i->...", rel, rel))
-    gap = dist - radius[:, None, :] - world.radius[:, :, None]
-    sensed = present[:, None, :] & (dist <= world.r_ca)
+    rel = pos[:, None] - world.pos[:, :, None]  # (B, n, N, 2)
+    rvel = vel[:, None] - world.vel[:, :, None]
+    dist = np.sqrt(rel[..., 0] ** 2 + rel[..., 1] ** 2)
+    gap = dist - radius[:, None] - world.radius[:, :, None]
+    sensed = present[:, None] & (dist <= world.r_ca)
     sensed[:, np.arange(n), np.arange(n)] = False
     key = np.where(sensed, gap, np.inf)
     total = key.shape[-1]
     kk = min(k, total)
     if kk < total:
         part = np.argpartition(key, kk - 1, axis=-1)[..., :kk]
-        order = np.argsort(np.take_along_axis(key, part, axis=-1), axis=-1, kind="stable")
-        idx = np.take_along_axis(part, order, axis=-1)
+        idx = np.take_along_axis(part, np.argsort(np.take_along_axis(key, part, -1), -1, kind="stable"), -1)
     else:
         idx = np.argsort(key, axis=-1, kind="stable")
-    sel = np.take_along_axis(key, idx, axis=-1)
-    valid = np.isfinite(sel)
-    sel_gap = np.where(valid, sel, 0.0)
+    # Every object's features in each robot's frame, then one gather of the k nearest.
+    c = np.cos(world.heading)[..., None]
+    s = np.sin(world.heading)[..., None]
+    feats = np.empty((B, n, total, 7))
+    feats[..., 0] = c * rel[..., 0] + s * rel[..., 1]
+    feats[..., 1] = -s * rel[..., 0] + c * rel[..., 1]
+    feats[..., 2] = c * rvel[..., 0] + s * rvel[..., 1]
+    feats[..., 3] = -s * rvel[..., 0] + c * rvel[..., 1]
+    feats[..., 4] = radius[:, None]
+    feats[..., 5] = gap
+    feats[..., 6] = np.arange(total) < n
+    sel = np.take_along_axis(feats, idx[..., None], axis=2)
+    valid = np.isfinite(np.take_along_axis(key, idx, axis=-1))
+    sel *= valid[..., None]
     if kk < k:  # fewer objects than slots: pad
-        pad = [(0, 0), (0, 0), (0, k - kk)]
-        idx, valid, sel_gap = np.pad(idx, pad), np.pad(valid, pad), np.pad(sel_gap, pad)
-    return idx, valid, sel_gap
+        sel = np.pad(sel, [(0, 0), (0, 0), (0, k - kk), (0, 0)])
+        valid = np.pad(valid, [(0, 0), (0, 0), (0, k - kk)])
+    return sel, valid
 
 
 def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     """Observations of every robot ``(B, n, D)`` float32, inside :func:`observation_space`."""
     k = scenario.n_neighbors
     B, n = world.batch_size, world.n_robots
-    ego = np.empty((B, n, EGO_DIM))
-    ego[..., 0] = world.speed / world.v_max
-    to_goal = rotate(world.goal - world.pos, -world.heading)
-    d_goal = np.sqrt(np.einsum("...i,...i->...", to_goal, to_goal))
-    ego[..., 1] = np.minimum(d_goal / goal_scale(scenario), 1.0)
-    safe = np.maximum(d_goal, 1e-12)
-    ego[..., 2] = np.where(d_goal > 1e-12, to_goal[..., 0] / safe, 1.0)
-    ego[..., 3] = np.where(d_goal > 1e-12, to_goal[..., 1] / safe, 0.0)
-    ego[..., 4] = world.v_max / V_REF
-    ego[..., 5] = world.a_max / A_REF
-    ego[..., 6] = world.omega_max / OMEGA_REF
-    ego[..., 7] = world.radius / R_REF
-
-    pos, vel, radius, is_robot, _ = neighbor_objects(world)
-    idx, valid, gap = nearest_neighbors(world, k)
-    n_obj = pos.shape[1]
-    nb = np.zeros((B, n, k, NEIGHBOR_DIM))
-    if n_obj:
-        sel_pos = np.take_along_axis(pos[:, None, :, :], idx[..., None], axis=2)
-        sel_vel = np.take_along_axis(vel[:, None, :, :], idx[..., None], axis=2)
-        head = world.heading[..., None]
-        nb[..., 0] = 1.0
-        nb[..., 1:3] = rotate(sel_pos - world.pos[:, :, None, :], -head) / world.r_ca
-        nb[..., 3:5] = rotate(sel_vel - world.vel[:, :, None, :], -head) / (2.0 * V_REF)
-        nb[..., 5] = np.take_along_axis(radius[:, None, :], idx, axis=2) / R_REF
-        nb[..., 6] = np.clip(gap / world.r_ca, -1.0, 1.0)
-        nb[..., 7] = np.take_along_axis(is_robot[:, None, :], idx, axis=2)
-        nb *= valid[..., None]
-    out = np.concatenate((ego, nb.reshape(B, n, k * NEIGHBOR_DIM)), axis=-1)
-    # Rounding can push |x| a hair above 1 (e.g. an object exactly at r_ca); keep the space exact.
+    out = np.empty((B, n, EGO_DIM + k * NEIGHBOR_DIM))
+    c, s = np.cos(world.heading), np.sin(world.heading)
+    gx, gy = world.goal[..., 0] - world.pos[..., 0], world.goal[..., 1] - world.pos[..., 1]
+    d_goal = np.sqrt(gx * gx + gy * gy)
+    far = d_goal > 1e-12
+    safe = np.where(far, d_goal, 1.0)
+    out[..., 0] = world.speed / world.v_max
+    out[..., 1] = np.minimum(d_goal / goal_scale(scenario), 1.0)
+    out[..., 2] = np.where(far, (c * gx + s * gy) / safe, 1.0)  # goal bearing in the robot frame
+    out[..., 3] = np.where(far, (-s * gx + c * gy) / safe, 0.0)
+    out[..., 4] = world.v_max / V_REF
+    out[..., 5] = world.a_max / A_REF
+    out[..., 6] = world.omega_max / OMEGA_REF
+    out[..., 7] = world.radius / R_REF
+    feats, valid = sense(world, k)
+    nb = out[..., EGO_DIM:].reshape(B, n, k, NEIGHBOR_DIM)
+    nb[..., 0] = valid
+    nb[..., 1:3] = feats[..., 0:2] / world.r_ca
+    nb[..., 3:5] = feats[..., 2:4] / (2.0 * V_REF)
+    nb[..., 5] = feats[..., 4] / R_REF
+    nb[..., 6] = feats[..., 5] / world.r_ca
+    nb[..., 7] = feats[..., 6]
+    # Gaps beyond +-r_ca and rounding (an object exactly at r_ca) are clipped into the space.
     return np.clip(out, -1.0, 1.0).astype(np.float32)
 
 
