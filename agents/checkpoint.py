@@ -16,6 +16,7 @@ import json
 import math
 import os
 import zipfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -35,19 +36,23 @@ def config_path(checkpoint: str | os.PathLike) -> Path:
     return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
 
 
-def _jsonable(x: Any) -> Any:
+def jsonable(x: Any) -> Any:
+    """Nested copy for strict JSON: dataclasses as dicts, numpy scalars and arrays as Python
+    numbers and lists, NaN and inf as ``None``."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return {k: _jsonable(v) for k, v in dataclasses.asdict(x).items()}
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
+        return jsonable(dataclasses.asdict(x))
+    if isinstance(x, Mapping):
+        return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.floating, float)):
-        return None if not math.isfinite(float(x)) else float(x)
+        return [jsonable(v) for v in x]
     if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
+        return jsonable(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
     return x
 
 
@@ -72,9 +77,9 @@ def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario:
         "kind": kind,
         "observation_dim": int(observation_space(scenario).shape[0]),
         "num_timesteps": int(getattr(model, "num_timesteps", 0)),
-        "config": _jsonable(config),
-        "scenario": _jsonable(scenario),
-        **_jsonable(extra),
+        "config": jsonable(config),
+        "scenario": jsonable(scenario),
+        **jsonable(extra),
     }
     config_path(path).write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
     return path
@@ -110,19 +115,30 @@ def _describe(space) -> str:
     return f"{type(space).__name__}{tuple(shape) if shape is not None else ''}"
 
 
-def check_observation_space(saved_space, scenario: Scenario, where: str) -> None:
-    """Raise :class:`CheckpointError` unless ``saved_space`` is the scenario's observation space."""
+def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
+    """Raise :class:`CheckpointError` unless ``space`` is the per-robot observation Box of ``scenario``.
+
+    Args:
+        space: a Gymnasium space (a checkpoint's or a policy object's ``observation_space``).
+        scenario: the scenario the policy will observe.
+        what: how to name the policy in the message (``"checkpoint 'runs/x/model.zip'"``).
+    """
     expected = observation_space(scenario)
-    same = (
-        getattr(saved_space, "shape", None) == expected.shape
-        and np.array_equal(np.asarray(saved_space.low), expected.low)
-        and np.array_equal(np.asarray(saved_space.high), expected.high)
+    shape = getattr(space, "shape", None)
+    low, high = getattr(space, "low", None), getattr(space, "high", None)
+    same_shape = shape is not None and tuple(shape) == expected.shape
+    same_bounds = (
+        not same_shape
+        or low is None
+        or high is None
+        or (np.allclose(low, expected.low) and np.allclose(high, expected.high))
     )
-    if not same:
+    if not (same_shape and same_bounds):
+        bounds = "" if not same_shape else " with other bounds"
         raise CheckpointError(
-            f"checkpoint {where} was trained for observation space {_describe(saved_space)}, but scenario "
+            f"{what} was made for observation space {_describe(space)}{bounds}, but scenario "
             f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {_describe(expected)} "
-            f"(observation size = 8 + 8 * n_neighbors); use a checkpoint trained for this observation layout"
+            f"(observation size = 8 + 8 * n_neighbors); use a policy trained for this observation layout"
         )
 
 
@@ -153,7 +169,7 @@ def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, 
             f"checkpoint {str(path)!r} is not an SB3 policy checkpoint (no observation space or policy weights)"
         )
     if scenario is not None:
-        check_observation_space(data["observation_space"], scenario, repr(str(path)))
+        check_observation_space(data["observation_space"], scenario, f"checkpoint {str(path)!r}")
     try:
         return PPO.load(str(path), env=env, device=device)
     except Exception as e:

@@ -24,7 +24,7 @@ Command line (registered in :data:`vcs_env.cli.COMMAND_MODULES`)::
     vcs-env compare --suite crowd-5-v0 --policies vcs,straight,runs/ppo/model.zip --out results/
 
 This module imports neither torch nor stable-baselines3 at import time; loading a checkpoint
-does, inside :func:`load_checkpoint`.
+does, inside :func:`load_checkpoint` (through :func:`agents.checkpoint.load_model`).
 """
 
 from __future__ import annotations
@@ -44,12 +44,13 @@ from typing import Any
 import numpy as np
 
 from vcs_env.metrics import RATE_METRICS, aggregate, episode_metrics
-from vcs_env.observations import observation_space
 from vcs_env.planning import Planner, make_planner
 from vcs_env.rollout import Controller, Episode, planner_controller, run_episodes
 from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 from vcs_env.suites import Suite, get_suite, suite_names
+
+from .checkpoint import check_observation_space, jsonable, load_model
 
 DEFAULT_BATCH = 25
 """Worlds stepped together. Smaller batches waste less time on worlds that already ended
@@ -107,30 +108,6 @@ def is_checkpoint_spec(spec: Any) -> bool:
     return spec not in PLANNERS and (os.path.isfile(spec) or os.path.isfile(spec + ".zip"))
 
 
-def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
-    """Raise ``ValueError`` unless ``space`` is the per-robot observation Box of ``scenario``.
-
-    Args:
-        space: a Gymnasium space (e.g. ``model.observation_space``).
-        scenario: the scenario the policy will be run on.
-        what: how to name the policy in the message.
-    """
-    expected = observation_space(scenario)
-    shape = getattr(space, "shape", None)
-    if shape is None or tuple(shape) != expected.shape:
-        raise ValueError(
-            f"{what} expects observations of shape {shape}, but this suite gives {expected.shape} "
-            f"(8 ego features + {scenario.n_neighbors} neighbours x 8; see vcs_env.observations)"
-        )
-    low, high = getattr(space, "low", None), getattr(space, "high", None)
-    if (
-        low is not None
-        and high is not None
-        and not (np.allclose(low, expected.low) and np.allclose(high, expected.high))
-    ):
-        raise ValueError(f"{what} has observation bounds that differ from this suite's observation space")
-
-
 def _check_action_space(space: Any, what: str) -> None:
     shape = getattr(space, "shape", None)
     if shape is not None and tuple(shape) != (2,):
@@ -141,38 +118,26 @@ def load_checkpoint(path: str | os.PathLike, scenario: Scenario):
     """Load a stable-baselines3 PPO checkpoint on the CPU and check it fits ``scenario``.
 
     Args:
-        path: the ``.zip`` file (SB3's convention of leaving out ``.zip`` also works).
+        path: the ``.zip`` file (the suffix may be left out) or a run directory with ``model.zip``.
         scenario: the scenario whose observation space the model must take.
 
     Returns:
         The loaded ``stable_baselines3.PPO`` model (a ``PolicyPredictor``).
 
     Raises:
-        ValueError: the file is missing or not a PPO checkpoint, or its spaces do not fit.
+        agents.checkpoint.CheckpointError: (a ``ValueError``) the file is missing, corrupt or not
+            a PPO checkpoint, or its spaces do not fit.
         ImportError: stable-baselines3 is not installed.
     """
-    p = Path(path)
-    if not p.is_file() and p.suffix != ".zip" and p.with_name(p.name + ".zip").is_file():
-        p = p.with_name(p.name + ".zip")
-    if not p.exists():
-        raise ValueError(f"checkpoint {str(path)!r} does not exist")
-    if not p.is_file():
-        raise ValueError(f"checkpoint {str(path)!r} is not a file")
     try:
-        from stable_baselines3 import PPO
+        import stable_baselines3  # noqa: F401
     except ImportError as e:
         raise ImportError(
-            f"loading the checkpoint {str(p)!r} needs stable-baselines3; install it with: "
+            f"loading the checkpoint {str(path)!r} needs stable-baselines3; install it with: "
             f"pip install 'vcs-env[train]' ({e})"
         ) from None
-    try:
-        model = PPO.load(p, device="cpu")
-    except Exception as e:  # SB3 raises many types for a bad file; all mean the same here
-        raise ValueError(
-            f"could not load {str(p)!r} as a stable-baselines3 PPO checkpoint ({type(e).__name__}: {e})"
-        ) from None
-    check_observation_space(model.observation_space, scenario, f"checkpoint {str(p)!r}")
-    _check_action_space(model.action_space, f"checkpoint {str(p)!r}")
+    model = load_model(path, scenario)
+    _check_action_space(model.action_space, f"checkpoint {str(path)!r}")
     return model
 
 
@@ -299,7 +264,7 @@ class EvalResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (NaN becomes None)."""
-        return _jsonable(
+        return jsonable(
             {
                 "policy": self.policy,
                 "suite": self.suite.name,
@@ -398,7 +363,7 @@ class Comparison:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (NaN becomes None)."""
-        return _jsonable(
+        return jsonable(
             {
                 "suite": self.suite.name,
                 "fingerprint": self.suite.fingerprint,
@@ -465,23 +430,6 @@ def compare(policies: Sequence[Any] | Mapping[str, Any], suite: str | Suite, **k
 
 
 # --------------------------------------------------------------------------- reports
-def _jsonable(x: Any) -> Any:
-    """Nested copy with NaN/inf as None and numpy scalars as Python numbers (strict JSON)."""
-    if isinstance(x, Mapping):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
-    if isinstance(x, (bool, np.bool_)):
-        return bool(x)
-    if isinstance(x, (int, np.integer)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    return x
-
-
 def format_stat(stat: Mapping[str, float], rate: bool, digits: int = 2) -> str:
     """``0.95 [0.89, 0.98]`` for a rate, ``12.30 ± 0.41`` for a mean, ``-`` when undefined."""
     m = stat.get("mean", math.nan)

@@ -220,7 +220,7 @@ def test_predictor_with_wrong_spaces_or_actions_is_rejected():
 
     wrong = DriveForward()
     wrong.observation_space = gymnasium.spaces.Box(-1, 1, (5,))
-    with pytest.raises(ValueError, match="observations of shape"):
+    with pytest.raises(ValueError, match=r"observation space Box\(5,\)"):
         evaluate(wrong, "swap-v0-smoke", progress=False)
 
     class ThreeActions(DriveForward):
@@ -240,12 +240,12 @@ def test_module_does_not_import_torch():
 
 # --------------------------------------------------------------------------- checkpoints
 def test_bad_checkpoint_paths_give_clear_errors(tmp_path):
-    with pytest.raises(ValueError, match="does not exist"):
+    with pytest.raises(ValueError, match="not found"):
         evaluate(tmp_path / "missing.zip", "swap-v0-smoke", progress=False)
     pytest.importorskip("stable_baselines3")
     bad = tmp_path / "bad.zip"
     bad.write_bytes(b"not a zip file")
-    with pytest.raises(ValueError, match="could not load"):
+    with pytest.raises(ValueError, match="corrupt"):
         evaluate(str(bad), "swap-v0-smoke", progress=False)
 
 
@@ -267,7 +267,7 @@ def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):
 
     other = gymnasium.spaces.Box(-1.0, 1.0, (16,), dtype=np.float32)
     PPO("MlpPolicy", SpacesOnly(other), n_steps=8, batch_size=8, device="cpu").save(tmp_path / "other.zip")
-    with pytest.raises(ValueError, match=r"expects observations of shape \(16,\)"):
+    with pytest.raises(ValueError, match=r"observation space Box\(16,\)"):
         evaluate(tmp_path / "other.zip", suite, progress=False)
 
 
@@ -322,7 +322,7 @@ def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):
     assert cli.main([*base, "no-such-planner"]) == 2
     assert "unknown planner 'no-such-planner'" in capsys.readouterr().err
     assert cli.main([*base, str(tmp_path / "missing.zip")]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    assert "not found" in capsys.readouterr().err
     assert cli.main(["evaluate", "--suite", "nope-v0", "--policy", "vcs"]) == 2
     assert "unknown suite" in capsys.readouterr().err
     if "orca" in PLANNERS:
