@@ -185,8 +185,9 @@ def pyrvo_raw_step(states: Sequence) -> Step:
             for k in range(m):
                 p = (float(w.obs_pos[b, k, 0]), float(w.obs_pos[b, k, 1]))
                 v = (float(w.obs_vel[b, k, 0]), float(w.obs_vel[b, k, 1]))
-                a = sim.add_agent(p, 0.0, n + m, TIME_HORIZON, TIME_HORIZON, float(w.obs_radius[b, k]),
-                                  float(np.hypot(*v)) + 1e-3, v)
+                a = sim.add_agent(
+                    p, 0.0, n + m, TIME_HORIZON, TIME_HORIZON, float(w.obs_radius[b, k]), float(np.hypot(*v)) + 1e-3, v
+                )
                 sim.set_agent_pref_velocity(a, v)
                 restore.append((a, p, v))
             sims.append((sim, restore))

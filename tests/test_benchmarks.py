@@ -28,7 +28,11 @@ def quick(tmp_path_factory):
     env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
     proc = subprocess.run(
         [sys.executable, "-m", "benchmarks", "--quick", "--out", str(out)],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=300,
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr[-4000:]
     return out, json.loads(out.with_suffix(".json").read_text())
@@ -47,8 +51,16 @@ def _contestants(data):
 def test_quick_run_writes_report_and_json(quick):
     out, data = quick
     text = out.read_text()
-    for heading in ("## Machine", "## Peers", "## Targets", "## 1. Env", "## 2. Planner", "## 3. Training",
-                    "## 4. Scaling", "## 5. Where the time goes"):
+    for heading in (
+        "## Machine",
+        "## Peers",
+        "## Targets",
+        "## 1. Env",
+        "## 2. Planner",
+        "## 3. Training",
+        "## 4. Scaling",
+        "## 5. Where the time goes",
+    ):
         assert heading in text
     assert set(SECTIONS) <= set(data) | {"profiles"}
     assert data["meta"]["quick"] and data["meta"]["machine"]["cpu"]
@@ -77,8 +89,9 @@ def test_missing_peer_is_reported_not_skipped():
     def broken():
         raise Missing("no such package")
 
-    res = side_by_side({"ours": lambda: (lambda: 3), "peer": broken}, Budget(warmup=0, min_time=0, min_calls=1,
-                                                                            repeats=2))
+    res = side_by_side(
+        {"ours": lambda: lambda: 3, "peer": broken}, Budget(warmup=0, min_time=0, min_calls=1, repeats=2)
+    )
     assert res["ours"].ok and len(res["ours"].rates) == 2
     assert res["peer"].status == "missing: no such package" and math.isnan(res["peer"].rate)
     with pytest.raises(Missing, match="bench"):
