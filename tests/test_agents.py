@@ -1,6 +1,7 @@
 """agents/: the SB3 VecEnv adapter, checkpoints, behaviour cloning, and CLI smoke runs (cleanrl style)."""
 
 import json
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -229,3 +230,23 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     assert json.loads((tmp_path / "ppo2/model.json").read_text())["num_timesteps"] == 384
     bad = vcs_env_cli("train --scenario crowd --init missing.zip --out x", tmp_path, expect=2)
     assert "checkpoint not found" in bad.stderr
+
+    # The study's scorer: a run named <name>_<method>_s<seed> is scored on a suite beside the expert.
+    shutil.copytree(tmp_path / "ppo", tmp_path / "toy_ppo_s3")
+    cmd = "--suite crowd-5-v0-smoke --runs toy_ppo_s3 ppo --json r.json --markdown r.md --figure c.png"
+    proc = subprocess.run(
+        [sys.executable, "-m", "agents.experiments", *cmd.split()],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "skipping ppo" in proc.stdout  # no _s<seed> in the name
+    result = json.loads((tmp_path / "r.json").read_text())
+    (run,) = result["runs"]
+    assert (run["method"], run["seed"], run["timesteps"]) == ("ppo", 3, 256)
+    assert run["curve"]["timesteps"] == [128, 256] and 0.0 <= run["success"] <= 1.0
+    assert 0.0 <= result["expert"]["success"] <= 1.0
+    assert "| ppo | 3 |" in (tmp_path / "r.md").read_text()
+    assert (tmp_path / "c.png").stat().st_size > 1000
