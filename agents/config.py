@@ -22,8 +22,8 @@ SHAPING = ("none", "vcs_imitation", "vcs_potential")
 DEFAULT_SHAPING_WEIGHT = {"vcs_imitation": 0.1, "vcs_potential": 10.0}
 """Default weight of each shaping term. ``vcs_imitation`` is in [-1, 0] per step (a random action
 scores about -0.4), so 0.1 makes it comparable to ``progress`` (~0.08 per step at full speed).
-``vcs_potential`` = gamma phi(s') - phi(s) with phi = -(expert's cost) ~ -0.2 at the start, so
-it needs a larger weight to matter."""
+``vcs_potential`` = phi(s') - phi(s) with phi = -(expert's cost) ~ -0.2 at the start (in
+[-2.7, 0]), so it needs a larger weight to matter."""
 
 
 @dataclass

@@ -66,7 +66,7 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     lr_schedule: str = "constant"
     """constant, or linear: decays to 0 at the end of the run (of this learn() call when resuming)."""
     gamma: float = 0.99
-    """Discount factor (also used by vcs_potential shaping)."""
+    """Discount factor of PPO (vcs_potential shaping is undiscounted, see vcs_env.rewards)."""
     gae_lambda: float = 0.95
     """GAE lambda."""
     clip_range: float = 0.2
@@ -242,7 +242,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.time()
-    venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
+    venv = NavVecEnv(scenario, cfg.n_worlds)
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:
         model = load_model(resume, scenario, env=venv)

@@ -59,12 +59,13 @@ def test_imitation_shaping_is_zero_for_the_expert_and_negative_otherwise():
     assert np.all(res.terms["vcs_imitation"] < 0) and np.all(res.terms["vcs_imitation"] >= -1)
 
 
-def test_potential_shaping_telescopes():
-    """With gamma = 1 the potential terms of an episode sum to phi(end) - phi(start) = -phi(s0):
-    the shaping changes no policy's ranking (Ng et al. 1999)."""
+@pytest.mark.parametrize("seed", [2, 5])
+def test_potential_shaping_telescopes(seed):
+    """The potential terms of an episode (gamma = 1, the default) sum to phi(end) - phi(s0) with
+    phi(end) = 0 at the goal, the floor after a terminating collision, phi(s_T) on a time-out."""
     scenario = vcs_env.make_scenario("crowd", rewards={"vcs_potential": 1.0})
-    eng = NavEngine(scenario, gamma=1.0)
-    eng.reset([2])
+    eng = NavEngine(scenario)
+    eng.reset([seed])
     phi0 = eng.expert.potential(eng.world).copy()
     total = np.zeros_like(phi0)
     rng = np.random.default_rng(0)
@@ -74,10 +75,32 @@ def test_potential_shaping_telescopes():
         total += res.terms["vcs_potential"]
     ended = ~eng.world.active
     assert ended.all()
-    # Truncated robots keep phi(s_T); terminated ones end at 0.
-    phi_end = np.where(eng.world.reached | eng.world.collided, 0.0, eng.expert.potential(eng.world))
+    floor = eng.expert.potential_floor
+    phi_end = np.where(eng.world.collided, floor, np.where(eng.world.reached, 0.0, eng.expert.potential(eng.world)))
     np.testing.assert_allclose(total, phi_end - phi0, atol=1e-9)
-    assert np.all(phi0 < 0)
+    assert np.all(phi0 < 0) and floor == pytest.approx(-2.7)
+
+
+def test_potential_shaping_ranks_goal_above_crash():
+    """An episode that ends in a collision earns negative shaping in total (it ends at the floor),
+    one that reaches the goal positive (it ends at 0, above every state's potential)."""
+    scenario = vcs_env.make_scenario("crowd", rewards={"vcs_potential": 1.0, "collision": 0.0})
+    crashes = goals = 0
+    for seed in range(8):
+        for policy in ("expert", "straight"):
+            eng = NavEngine(scenario)
+            eng.reset([seed])
+            total = 0.0
+            while eng.world.active.any():
+                act = eng.expert_action.astype(np.float64) if policy == "expert" else np.array([[[1.0, 0.0]]])
+                total += eng.step(act).terms["vcs_potential"][0, 0]
+            if eng.world.collided[0, 0]:
+                crashes += 1
+                assert total < 0
+            elif eng.world.reached[0, 0]:
+                goals += 1
+                assert total > 0
+    assert crashes >= 2 and goals >= 6
 
 
 def test_unknown_planner_names_raise():

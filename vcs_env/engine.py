@@ -72,7 +72,8 @@ class NavEngine:
             shaping terms.
         reward_terms: extra named terms ``{name: (weight, fn)}`` (see :data:`RewardFn`).
         obstacle_motion: overrides the scenario's obstacle motion model.
-        gamma: discount used by potential-based shaping.
+        gamma: discount of the ``vcs_potential`` shaping term ``gamma * phi(s') - phi(s)``;
+            1 (default) telescopes over an episode, see :func:`vcs_env.rewards.potential_term`.
         max_steps: overrides ``scenario.max_steps``.
     """
 
@@ -84,7 +85,7 @@ class NavEngine:
         expert: str | Planner | None = None,
         reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
         obstacle_motion=None,
-        gamma: float = 0.99,
+        gamma: float = 1.0,
         max_steps: int | None = None,
     ):
         self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion)
@@ -109,6 +110,11 @@ class NavEngine:
         if expert is None and (self.use_imitation or self.use_potential):
             expert = "vcs"
         self.expert: Planner | None = None if expert is None else make_planner(expert)
+        if self.use_potential and not (hasattr(self.expert, "potential") and hasattr(self.expert, "potential_floor")):
+            raise ValueError(
+                f"vcs_potential shaping needs an expert with potential() and potential_floor (the VCS planner); "
+                f"{getattr(self.expert, 'name', type(self.expert).__name__)!r} has none"
+            )
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"gamma must be in [0, 1], got {gamma}")
         self.gamma = float(gamma)
@@ -171,9 +177,12 @@ class NavEngine:
         if self.use_imitation:
             terms["vcs_imitation"] = imitation_term(np.asarray(actions, dtype=np.float64), prev_expert, events.acted)
         if self.use_potential:
-            # phi = 0 after termination; truncation keeps phi(s') (the value is bootstrapped).
+            # Goal: phi = 0 (best); terminating collision: the floor (worst); truncation keeps phi(s').
             phi_next = self.expert.potential(world)
-            terms["vcs_potential"] = potential_term(self._phi, phi_next, terminated, events.acted, self.gamma)
+            crashed = events.collided & (self.scenario.on_collision == "terminate")
+            terms["vcs_potential"] = potential_term(
+                self._phi, phi_next, events.reached, crashed, events.acted, self.gamma, self.expert.potential_floor
+            )
             self._phi = phi_next
         for name, fn in self.extra_terms.items():
             terms[name] = np.where(events.acted, np.asarray(fn(world, events, actions), dtype=np.float64), 0.0)

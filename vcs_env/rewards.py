@@ -33,10 +33,28 @@ def imitation_term(actions: np.ndarray, expert_actions: np.ndarray, acted: np.nd
     return np.where(acted, -np.sqrt(np.einsum("...i,...i->...", diff, diff)) / (2.0 * np.sqrt(2.0)), 0.0)
 
 
-def potential_term(phi_before: np.ndarray, phi_after: np.ndarray, ended: np.ndarray, acted: np.ndarray, gamma: float):
-    """``gamma * phi(s') - phi(s)``, with ``phi = 0`` at the end of a robot's episode so the
-    shaping is policy invariant (Ng et al. 1999)."""
-    return np.where(acted, gamma * np.where(ended, 0.0, phi_after) - phi_before, 0.0)
+def potential_term(
+    phi_before: np.ndarray,
+    phi_after: np.ndarray,
+    reached: np.ndarray,
+    crashed: np.ndarray,
+    acted: np.ndarray,
+    gamma: float,
+    floor: float,
+):
+    """``gamma * phi(s') - phi(s)`` per robot ``(B, n)``, with ``phi(s')`` replaced at the end of
+    a robot's episode by the best potential, 0, on reaching the goal (``reached``) and by the
+    worst, ``floor`` (< 0), on a collision that ends it (``crashed``); a truncated robot keeps
+    ``phi(s')``.
+
+    With ``gamma = 1`` (the env default) an episode's terms sum to ``phi(s_T) - phi(s_0)``: they
+    rank arriving above timing out above crashing and pay nothing for lingering. With the
+    learner's ``gamma < 1`` the shaping is the policy-invariant one of Ng et al. (1999) but, with
+    ``phi <= 0``, every step pays ``(1 - gamma) |phi(s)|``, most in the worst states; at large
+    weights PPO learns to stay in them until the time limit.
+    """
+    end = np.where(crashed, floor, np.where(reached, 0.0, phi_after))
+    return np.where(acted, gamma * end - phi_before, 0.0)
 
 
 def weighted_sum(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray:

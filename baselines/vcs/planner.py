@@ -224,10 +224,17 @@ class VCSPlanner(Planner):
         return target.copy()
 
     def potential(self, world: WorldState) -> np.ndarray:
-        """Minus the expert's optimal cost J of the state ``(B, n)``, in ``[-(sum w + 1), 0]``
-        (0 for robots that are done); used by ``vcs_potential`` shaping."""
+        """Minus the expert's optimal cost J of the state ``(B, n)``, in
+        ``[potential_floor, 0]`` (0 for robots that are done); used by ``vcs_potential`` shaping."""
         self.plan(world)
         return np.where(world.active, -self.last["cost"], 0.0)
+
+    @property
+    def potential_floor(self) -> float:
+        """The lowest potential, ``-(sum of the cost weights + 1)``: a state where no velocity
+        change is admissible (the fallback's cost is capped there). Shaping gives it to a
+        collision that ends a robot's episode."""
+        return -(float(sum(self.params.weights)) + 1.0)
 
     def evaluate(self, world: WorldState, b: int, i: int, dv: np.ndarray, dth: np.ndarray):
         """Admissibility and cost of arbitrary VCS points of robot ``i`` in world ``b`` at this
