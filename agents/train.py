@@ -66,7 +66,7 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     lr_schedule: str = "constant"
     """constant, or linear: decays to 0 at the end of the run (of this learn() call when resuming)."""
     gamma: float = 0.99
-    """Discount factor of PPO (vcs_potential shaping is undiscounted, see vcs_env.rewards)."""
+    """Discount factor of PPO and of vcs_potential shaping (Ng et al.'s policy-invariant form)."""
     gae_lambda: float = 0.95
     """GAE lambda."""
     clip_range: float = 0.2
@@ -236,13 +236,13 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     torch.set_num_threads(1)
     from stable_baselines3 import PPO
 
-    from .checkpoint import load_model, load_policy_weights, save_model
+    from .checkpoint import load_model, load_policy_weights, read_metadata, save_model
     from .vec_env import NavVecEnv
 
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.time()
-    venv = NavVecEnv(scenario, cfg.n_worlds)
+    venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:
         model = load_model(resume, scenario, env=venv)
@@ -284,6 +284,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         model, out / "model.zip", "ppo", cfg, scenario, evaluation=final, wall_time=wall, history=callback.history
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
+    print(f"reproduce: {read_metadata(path)['command']}")
     return {"model": str(path), "evaluation": final, "wall_time": wall}
 
 

@@ -61,8 +61,8 @@ class NavVecEnv(VecEnv):
         action_mode: ``"delta"`` or ``"absolute"`` (:mod:`vcs_env.dynamics`).
         expert: planner (or name) whose actions :meth:`expert_actions` reports; needed by, and
             defaulting to ``"vcs"`` for, the ``vcs_*`` shaping weights.
-        gamma: discount of the ``vcs_potential`` shaping term (1: telescoping, see
-            :func:`vcs_env.rewards.potential_term`; the learner's gamma gives Ng et al.'s form).
+        gamma: discount of the ``vcs_potential`` shaping term (use the learner's gamma, see
+            :func:`vcs_env.rewards.potential_term`).
         max_steps: overrides ``scenario.max_steps``.
     """
 
@@ -72,7 +72,7 @@ class NavVecEnv(VecEnv):
         n_worlds: int = 8,
         action_mode: str = "delta",
         expert=None,
-        gamma: float = 1.0,
+        gamma: float = 0.99,
         max_steps: int | None = None,
     ):
         if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < 1:

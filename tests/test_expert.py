@@ -61,10 +61,10 @@ def test_imitation_shaping_is_zero_for_the_expert_and_negative_otherwise():
 
 @pytest.mark.parametrize("seed", [2, 5])
 def test_potential_shaping_telescopes(seed):
-    """The potential terms of an episode (gamma = 1, the default) sum to phi(end) - phi(s0) with
+    """With gamma = 1 the potential terms of an episode sum to phi(end) - phi(s0) with
     phi(end) = 0 at the goal, the floor after a terminating collision, phi(s_T) on a time-out."""
     scenario = vcs_env.make_scenario("crowd", rewards={"vcs_potential": 1.0})
-    eng = NavEngine(scenario)
+    eng = NavEngine(scenario, gamma=1.0)
     eng.reset([seed])
     phi0 = eng.expert.potential(eng.world).copy()
     total = np.zeros_like(phi0)
@@ -88,7 +88,7 @@ def test_potential_shaping_ranks_goal_above_crash():
     crashes = goals = 0
     for seed in range(8):
         for policy in ("expert", "straight"):
-            eng = NavEngine(scenario)
+            eng = NavEngine(scenario, gamma=1.0)
             eng.reset([seed])
             total = 0.0
             while eng.world.active.any():

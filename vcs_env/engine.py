@@ -72,8 +72,8 @@ class NavEngine:
             shaping terms.
         reward_terms: extra named terms ``{name: (weight, fn)}`` (see :data:`RewardFn`).
         obstacle_motion: overrides the scenario's obstacle motion model.
-        gamma: discount of the ``vcs_potential`` shaping term ``gamma * phi(s') - phi(s)``;
-            1 (default) telescopes over an episode, see :func:`vcs_env.rewards.potential_term`.
+        gamma: discount of the ``vcs_potential`` shaping term ``gamma * phi(s') - phi(s)``; use
+            the learner's (see :func:`vcs_env.rewards.potential_term`).
         max_steps: overrides ``scenario.max_steps``.
     """
 
@@ -85,7 +85,7 @@ class NavEngine:
         expert: str | Planner | None = None,
         reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
         obstacle_motion=None,
-        gamma: float = 1.0,
+        gamma: float = 0.99,
         max_steps: int | None = None,
     ):
         self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion)

@@ -54,7 +54,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         expert: str | Planner | None = None,
         reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
         obstacle_motion=None,
-        gamma: float = 1.0,
+        gamma: float = 0.99,
         **scenario_overrides,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:

@@ -62,7 +62,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     ``scenario`` (name or Scenario), ``render_mode`` (``human``, ``rgb_array``, ``ansi``),
     ``max_cycles`` (default ``scenario.max_steps``), ``action_mode``, ``expert`` (planner or
     name, e.g. ``"vcs"``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion``,
-    ``gamma`` (discount of the ``vcs_potential`` shaping, 1 by default), and any Scenario field as a keyword override
+    ``gamma`` (discount of the ``vcs_potential`` shaping; the learner's), and any Scenario field as a keyword override
     (``n_robots=16``).
 
     ## Version History
@@ -85,7 +85,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         expert: str | Planner | None = None,
         reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
         obstacle_motion=None,
-        gamma: float = 1.0,
+        gamma: float = 0.99,
         **scenario_overrides,
     ):
         EzPickle.__init__(

@@ -42,16 +42,15 @@ def potential_term(
     gamma: float,
     floor: float,
 ):
-    """``gamma * phi(s') - phi(s)`` per robot ``(B, n)``, with ``phi(s')`` replaced at the end of
-    a robot's episode by the best potential, 0, on reaching the goal (``reached``) and by the
-    worst, ``floor`` (< 0), on a collision that ends it (``crashed``); a truncated robot keeps
-    ``phi(s')``.
+    """``gamma * phi(s') - phi(s)`` per robot ``(B, n)``: potential-based shaping (Ng et al. 1999;
+    with the learner's ``gamma`` it leaves the optimal policy unchanged). At the end of a robot's
+    episode ``phi(s')`` is replaced by the best potential, 0, on reaching the goal (``reached``)
+    and by the worst, ``floor`` (< 0), on a collision that ends it (``crashed``), so ending in a
+    crash never pays; a truncated robot keeps ``phi(s')`` (its value is bootstrapped).
 
-    With ``gamma = 1`` (the env default) an episode's terms sum to ``phi(s_T) - phi(s_0)``: they
-    rank arriving above timing out above crashing and pay nothing for lingering. With the
-    learner's ``gamma < 1`` the shaping is the policy-invariant one of Ng et al. (1999) but, with
-    ``phi <= 0``, every step pays ``(1 - gamma) |phi(s)|``, most in the worst states; at large
-    weights PPO learns to stay in them until the time limit.
+    With ``gamma = 1`` an episode's terms sum to ``phi(s_T) - phi(s_0)``; a learner that
+    discounts then pays ``(1 - gamma) |phi|`` per step, most in crowded states, and with
+    ``vcs_potential`` weight 10 PPO learned to stand still on ``circle`` (measured).
     """
     end = np.where(crashed, floor, np.where(reached, 0.0, phi_after))
     return np.where(acted, gamma * end - phi_before, 0.0)

@@ -116,10 +116,9 @@ class RewardWeights:
     ``progress`` = decrease of the goal distance [m]; ``arrival`` = 1 on the step the goal is
     reached; ``collision`` = -1 on every step the robot touches something; ``time`` = -dt [s];
     ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
-    window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = phi(s') - phi(s) with phi
-    = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a
-    terminating collision (needs an expert; an episode's terms telescope to phi(s_T) - phi(s_0),
-    see :func:`vcs_env.rewards.potential_term`).
+    window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = gamma * phi(s') - phi(s) with
+    phi = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a
+    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`).
     """
 
     progress: float = 1.0
