@@ -25,6 +25,8 @@ import numpy as np
 from vcs_env.observations import observation_space
 from vcs_env.scenario import Scenario
 
+from .config import config_command
+
 
 class CheckpointError(ValueError):
     """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
@@ -59,8 +61,10 @@ def jsonable(x: Any) -> Any:
 def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario: Scenario, **extra: Any) -> Path:
     """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its metadata JSON beside it.
 
+    The JSON also holds ``command``: the ``vcs-env`` line that rebuilds ``config``.
+
     Args:
-        kind: what produced it (``"ppo"``, ``"bc"``).
+        kind: what produced it (``"ppo"`` from ``vcs-env train``, ``"bc"`` from ``vcs-env bc``).
         config: the run's config dataclass (saved field by field).
         scenario: the scenario the policy observes (defines the observation space).
         extra: more JSON-able entries (timesteps, evaluation results, wall time ...).
@@ -78,6 +82,7 @@ def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario:
         "observation_dim": int(observation_space(scenario).shape[0]),
         "num_timesteps": int(getattr(model, "num_timesteps", 0)),
         "config": jsonable(config),
+        "command": config_command({"ppo": "train"}.get(kind, kind), config),
         "scenario": jsonable(scenario),
         **jsonable(extra),
     }

@@ -22,7 +22,7 @@ SHAPING = ("none", "vcs_imitation", "vcs_potential")
 DEFAULT_SHAPING_WEIGHT = {"vcs_imitation": 0.1, "vcs_potential": 10.0}
 """Default weight of each shaping term. ``vcs_imitation`` is in [-1, 0] per step (a random action
 scores about -0.4), so 0.1 makes it comparable to ``progress`` (~0.08 per step at full speed).
-``vcs_potential`` = phi(s') - phi(s) with phi = -(expert's cost) ~ -0.2 at the start (in
+``vcs_potential`` = gamma phi(s') - phi(s) with phi = -(expert's cost) ~ -0.2 at the start (in
 [-2.7, 0]), so it needs a larger weight to matter."""
 
 
@@ -163,6 +163,30 @@ def config_from_args(cls: type, args: argparse.Namespace, base: Any = None):
         if value is not None:
             changes[f.name] = tuple(value) if isinstance(value, list) else value
     return dataclasses.replace(cfg, **changes)
+
+
+def config_command(command: str, cfg: Any, skip: tuple[str, ...] = ("progress_bar", "tensorboard")) -> str:
+    """The ``vcs-env <command>`` line that rebuilds ``cfg`` (the inverse of
+    :func:`config_from_args`): one flag per field that differs from its default.
+
+    Example: ``config_command("train", TrainConfig(n_robots=8))`` -> ``"vcs-env train --n-robots 8"``.
+    """
+    import shlex
+
+    parts = ["vcs-env", command]
+    defaults = type(cfg)()
+    for f in dataclasses.fields(cfg):
+        value = getattr(cfg, f.name)
+        if f.name in skip or value == getattr(defaults, f.name):
+            continue
+        flag = "--" + f.name.replace("_", "-")
+        if isinstance(value, bool):
+            parts.append(flag if value else "--no-" + flag[2:])
+        elif isinstance(value, (tuple, list)):
+            parts += [flag, *(str(v) for v in value)]
+        else:
+            parts += [flag, "none" if value is None else str(value)]
+    return " ".join(shlex.quote(p) for p in parts)
 
 
 def config_from_dict(cls: type, data: dict[str, Any]):

@@ -60,7 +60,14 @@ from typing import Any
 
 import numpy as np
 
-from .config import ScenarioConfig, add_config_args, build_scenario, config_from_args, config_from_dict
+from .config import (
+    ScenarioConfig,
+    add_config_args,
+    build_scenario,
+    config_command,
+    config_from_args,
+    config_from_dict,
+)
 
 DATASET_FORMAT = "vcs-env-expert-v1"
 
@@ -231,6 +238,7 @@ def collect(cfg: CollectConfig) -> Path:
         "executed": "expert",
         "action_mode": "delta",
         "observation_dim": observation_dim(scenario),
+        "command": config_command("collect", cfg),
     }
     path = save_dataset(cfg.out, data, meta)
     K = len(data["traj_seed"])
@@ -472,6 +480,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
         wall_time=wall,
     )
     print(f"saved {path} ({wall:.0f} s)")
+    print(f"reproduce: {config_command('bc', cfg)} (with the dataset of: {meta.get('command', 'vcs-env collect')})")
     return {"model": str(path), **report, "wall_time": wall}
 
 

@@ -218,7 +218,7 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     out = vcs_env_cli(
         f"train {common} --eval-freq 128 --checkpoint-freq 128 --timesteps 256 --init bc/model.zip --out ppo", tmp_path
     ).stdout
-    assert "initialised the policy" in out and "[eval @" in out
+    assert "initialised the policy" in out and "[eval @" in out and "reproduce: vcs-env train --scenario crowd" in out
     meta = json.loads((tmp_path / "ppo/model.json").read_text())
     assert meta["num_timesteps"] == 256 and meta["config"]["init"] == "bc/model.zip"
     assert meta["scenario"]["rewards"]["time"] == 1.0
@@ -250,3 +250,25 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     assert 0.0 <= result["expert"]["success"] <= 1.0
     assert "| ppo | 3 |" in (tmp_path / "r.md").read_text()
     assert (tmp_path / "c.png").stat().st_size > 1000
+
+
+def test_saved_command_rebuilds_the_config():
+    """The ``command`` stored beside a checkpoint parses back to the same config."""
+    import argparse
+    import shlex
+
+    from agents.config import add_config_args, config_command, config_from_args
+    from agents.imitation import BCConfig
+    from agents.train import TrainConfig
+
+    configs = [
+        TrainConfig(scenario="crowd", rewards="collision=30", net_arch=(64, 32), target_kl=0.02, init="a b.zip"),
+        TrainConfig(n_robots=8, jitter=0.1, lr_schedule="linear", shaping="vcs_potential", shaping_weight=1.5),
+        BCConfig(data="d.npz", dagger_iters=4, loss="mse"),
+    ]
+    for cfg in configs:
+        cmd = config_command("train", cfg)
+        parser = argparse.ArgumentParser()
+        add_config_args(parser, type(cfg))
+        assert config_from_args(type(cfg), parser.parse_args(shlex.split(cmd)[2:])) == cfg
+    assert config_command("train", TrainConfig()) == "vcs-env train"
