@@ -62,8 +62,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     ``scenario`` (name or Scenario), ``render_mode`` (``human``, ``rgb_array``, ``ansi``),
     ``max_cycles`` (default ``scenario.max_steps``), ``action_mode``, ``expert`` (planner or
     name, e.g. ``"vcs"``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion``,
-    ``gamma`` (discount of the ``vcs_potential`` shaping; the learner's), and any Scenario field as a keyword override
-    (``n_robots=16``).
+    ``gamma`` (discount of the ``vcs_potential`` shaping; the learner's), and any Scenario
+    field as a keyword override (``n_robots=16``).
 
     ## Version History
     * v0: initial release.

@@ -48,9 +48,9 @@ def potential_term(
     and by the worst, ``floor`` (< 0), on a collision that ends it (``crashed``), so ending in a
     crash never pays; a truncated robot keeps ``phi(s')`` (its value is bootstrapped).
 
-    With ``gamma = 1`` an episode's terms sum to ``phi(s_T) - phi(s_0)``; a learner that
-    discounts then pays ``(1 - gamma) |phi|`` per step, most in crowded states, and with
-    ``vcs_potential`` weight 10 PPO learned to stand still on ``circle`` (measured).
+    With ``gamma = 1`` an episode's terms sum to ``phi(s_T) - phi(s_0)``, but a learner that
+    discounts then pays about ``(1 - gamma) |phi|`` per step, most in crowded states (with
+    weight 10, PPO learned to stand still on ``circle``; measured).
     """
     end = np.where(crashed, floor, np.where(reached, 0.0, phi_after))
     return np.where(acted, gamma * end - phi_before, 0.0)
