@@ -518,14 +518,14 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
     """Bar charts (one per metric of :data:`PLOT_METRICS`, and ms/decision) and, if ``episode``
     is given and kept, one trajectory plot of that episode per policy.
 
+    Figures are drawn without pyplot, so the caller's matplotlib backend (e.g. a notebook's
+    inline one) is left alone and nothing needs a display.
+
     Returns:
         The written PNG files.
     """
     try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+        from matplotlib.figure import Figure
     except ImportError as e:
         raise ImportError(f"plots need matplotlib; install it with: pip install 'vcs-env[render]' ({e})") from None
     from vcs_env.render import plot_trajectories
@@ -553,7 +553,8 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
             ).T
             err = np.nan_to_num(err)
             label = labels.get(metric, metric) + (" (solved by all)" if metric in SOLVED_ONLY else "")
-        fig, ax = plt.subplots(figsize=(max(3.0, 0.9 * len(names) + 1.5), 3.2))
+        fig = Figure(figsize=(max(3.0, 0.9 * len(names) + 1.5), 3.2))
+        ax = fig.subplots()
         ax.bar(range(len(names)), np.nan_to_num(means), yerr=err, capsize=4, color="tab:blue", alpha=0.8)
         ax.set_xticks(
             range(len(names)), names, rotation=30 if len(names) > 4 else 0, ha="right" if len(names) > 4 else "center"
@@ -564,7 +565,6 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
             ax.set_ylim(0, 1.05)
         path = out / f"bar_{metric}.png"
         fig.savefig(path, dpi=100, bbox_inches="tight")
-        plt.close(fig)
         written.append(path)
     if episode is not None:
         seed = comparison.suite.seeds[episode]
@@ -574,17 +574,18 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
                 continue
             row = res.rows[episode]
             outcome = next(k for k in ("success", "collision", "deadlock", "timeout") if row[k] == 1.0)
-            ax = plot_trajectories(
+            fig = Figure(figsize=(6, 6))
+            plot_trajectories(
                 ep.pos,
                 ep.goal,
                 ep.radius,
                 ep.obs_pos,
                 ep.obs_radius,
+                ax=fig.subplots(),
                 title=f"{name}: {comparison.suite.name} episode {episode} (seed {seed}), {outcome}",
             )
             path = out / f"trajectory_{_safe(name)}_ep{episode}.png"
-            ax.figure.savefig(path, dpi=100, bbox_inches="tight")
-            plt.close(ax.figure)
+            fig.savefig(path, dpi=100, bbox_inches="tight")
             written.append(path)
     return written
 

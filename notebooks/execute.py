@@ -22,6 +22,8 @@ def execute(path: Path, write: bool = True) -> nbformat.NotebookNode:
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
     os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    # Figures inline even where MPLBACKEND=Agg is set for headless tests (as in .ci/run).
+    os.environ["MPLBACKEND"] = "module://matplotlib_inline.backend_inline"
     nb = nbformat.read(path, as_version=4)
     NotebookClient(
         nb, timeout=TIMEOUT, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}}
