@@ -116,17 +116,19 @@ def plot_curves(result: dict[str, Any], path: str | Path | None = None, ax=None)
     for r in result["runs"]:
         if r["curve"]["timesteps"]:
             groups[r["method"]].append(r["curve"])
+    lowest = result["expert"]["success"]
     for method, curves in groups.items():
         n = min(len(c["timesteps"]) for c in curves)  # seeds evaluated at the same steps
         x = np.array(curves[0]["timesteps"][:n])
         y = np.array([c["success"][:n] for c in curves])
         (line,) = ax.plot(x, y.mean(0), marker="o", ms=3, label=f"{method} ({len(curves)} seeds)")
         ax.fill_between(x, y.min(0), y.max(0), color=line.get_color(), alpha=0.2)
+        lowest = min(lowest, float(y.min()))
     ex = result["expert"]
     ax.axhline(ex["success"], color="k", ls="--", lw=1, label=f"{ex['name']} expert (suite)")
     ax.set_xlabel("PPO timesteps (robot-steps)")
     ax.set_ylabel("episode success (eval seeds)")
-    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylim(max(0.0, math.floor(10 * lowest) / 10 - 0.05), 1.02)
     ax.set_title(result["suite"])
     ax.legend(fontsize=8, loc="lower right")
     if path is not None:
