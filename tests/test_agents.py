@@ -272,3 +272,16 @@ def test_saved_command_rebuilds_the_config():
         add_config_args(parser, type(cfg))
         assert config_from_args(type(cfg), parser.parse_args(shlex.split(cmd)[2:])) == cfg
     assert config_command("train", TrainConfig()) == "vcs-env train"
+
+
+@pytest.mark.parametrize("name,suite", [("circle8", "circle-8-v0-smoke"), ("crowd5", "crowd-5-v0-smoke")])
+def test_released_policies_load_and_solve_their_smoke_suites(name, suite):
+    """The checkpoints in policies/ still fit the env (observation layout, dynamics): each solves
+    the first episodes of its suite, as it solved all 100 when released (policies/README.md)."""
+    from pathlib import Path
+
+    from agents.evaluate import evaluate
+
+    path = Path(__file__).resolve().parent.parent / "policies" / name / "model.zip"
+    res = evaluate(str(path), suite, progress=False)
+    assert res.summary["success"]["mean"] == 1.0 and res.summary["collision"]["mean"] == 0.0
