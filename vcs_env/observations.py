@@ -105,9 +105,10 @@ def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
     sel = np.take_along_axis(feats, idx[..., None], axis=2)
     valid = np.isfinite(np.take_along_axis(key, idx, axis=-1))
     sel *= valid[..., None]
-    if kk < k:  # fewer objects than slots: pad
-        sel = np.pad(sel, [(0, 0), (0, 0), (0, k - kk), (0, 0)])
-        valid = np.pad(valid, [(0, 0), (0, 0), (0, k - kk)])
+    if kk < k:  # fewer objects than slots: zero padding (np.pad costs more than the rest here)
+        full, full_valid = np.zeros((B, n, k, 7)), np.zeros((B, n, k), dtype=bool)
+        full[:, :, :kk], full_valid[:, :, :kk] = sel, valid
+        return full, full_valid
     return sel, valid
 
 
