@@ -31,7 +31,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .config import ScenarioConfig, add_config_args, build_scenario, config_from_args, config_from_dict
+from .config import (
+    ScenarioConfig,
+    add_config_args,
+    build_scenario,
+    config_command,
+    config_from_args,
+    config_from_dict,
+)
 
 
 @dataclass
@@ -236,7 +243,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     torch.set_num_threads(1)
     from stable_baselines3 import PPO
 
-    from .checkpoint import load_model, load_policy_weights, read_metadata, save_model
+    from .checkpoint import load_model, load_policy_weights, save_model
     from .vec_env import NavVecEnv
 
     out = Path(cfg.out)
@@ -284,7 +291,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         model, out / "model.zip", "ppo", cfg, scenario, evaluation=final, wall_time=wall, history=callback.history
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
-    print(f"reproduce: {read_metadata(path)['command']}")
+    print(f"reproduce: {config_command('train', cfg)}")
     return {"model": str(path), "evaluation": final, "wall_time": wall}
 
 
