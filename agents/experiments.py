@@ -26,6 +26,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from .checkpoint import jsonable
+
 RUN_NAME = re.compile(r"(?:.*_)?(?P<method>[^_]+)_s(?P<seed>\d+)$")
 """``<anything>_<method>_s<seed>``: the method is the last name part without underscores."""
 
@@ -179,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     table = markdown(result)
     print(table)
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        Path(args.json).write_text(json.dumps(jsonable(result), indent=2, allow_nan=False) + "\n")
     if args.markdown:
         Path(args.markdown).write_text(table)
     if args.figure:
