@@ -11,7 +11,8 @@ One typed :class:`TrainConfig` (a docstring per field = the ``--help`` of its fl
 
 Periodic evaluation plays ``eval_episodes`` fixed seeds (``eval_seed``, ``eval_seed + 1``, ...)
 with deterministic actions on the training scenario and logs episode and robot success and
-collision rates and the mean time to goal, from the VecEnv's own per-robot episode infos.
+collision rates and the mean time to goal, from the VecEnv's own per-robot episode infos; with
+``--eval-suite`` it also scores the policy on a named suite with :mod:`agents.evaluate`.
 
 Example::
 
@@ -96,6 +97,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """Episodes (worlds) per periodic evaluation."""
     eval_seed: int = 100_000
     """First seed of the fixed evaluation list (disjoint from the suites' 1000..)."""
+    eval_suite: str | None = None
+    """Also score the policy on this named suite (e.g. crowd-5-v0-smoke) with the evaluation
+    harness at every periodic evaluation (logged as suite/*; not used to pick best_model)."""
     checkpoint_freq: int = 500_000
     """Save a resumable checkpoint every this many timesteps (0: never)."""
     progress_bar: bool = True
@@ -153,6 +157,7 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
     from stable_baselines3.common.callbacks import BaseCallback
 
     from .checkpoint import save_model
+    from .evaluate import evaluate as score_on_suite
     from .vec_env import run_first_episodes
 
     eval_seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
@@ -179,6 +184,14 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
         def evaluate(self) -> dict[str, Any]:
             t0 = time.time()
             res = scalar_results(run_first_episodes(deterministic_act(self.model.policy), scenario, eval_seeds))
+            suite = ""
+            if cfg.eval_suite:
+                summary = score_on_suite(self.model, cfg.eval_suite, progress=False).summary
+                res["suite"] = {k: summary[k]["mean"] for k in ("success", "collision", "time_to_goal")}
+                for k, v in res["suite"].items():
+                    self.logger.record(f"suite/{k}", v)
+                s = res["suite"]
+                suite = f"; {cfg.eval_suite}: success {s['success']:.2f} collision {s['collision']:.2f}"
             res.update(
                 timesteps=int(self.num_timesteps),
                 wall_time=round(time.time() - t_start, 1),
@@ -192,7 +205,8 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
             print(
                 f"[eval @ {res['timesteps']:>9d}] success {res['episode_success']:.2f} (robots "
                 f"{res['robot_success']:.3f}) collision {res['episode_collision']:.2f} (robots "
-                f"{res['robot_collision']:.3f}) time-to-goal {res['time_to_goal']:.2f} s  [{res['wall_time']:.0f} s]",
+                f"{res['robot_collision']:.3f}) time-to-goal {res['time_to_goal']:.2f} s{suite}  "
+                f"[{res['wall_time']:.0f} s]",
                 flush=True,
             )
             # Best = most successful episodes, then fewest collisions, then fastest.
@@ -237,6 +251,10 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     for path in (cfg.init, resume):  # fail fast, before the slow torch import
         if path:
             resolve(path)
+    if cfg.eval_suite:
+        from vcs_env.suites import get_suite
+
+        get_suite(cfg.eval_suite)  # an unknown name raises here, not after the first rollouts
 
     import torch
 

@@ -216,11 +216,14 @@ def test_smoke_collect_bc_train_resume(tmp_path):
         "--scenario crowd --rewards time=1 --n-worlds 4 --n-steps 32 --batch-size 64 --n-epochs 1 --eval-episodes 2"
     )
     out = vcs_env_cli(
-        f"train {common} --eval-freq 128 --checkpoint-freq 128 --timesteps 256 --init bc/model.zip --out ppo", tmp_path
+        f"train {common} --eval-freq 128 --checkpoint-freq 128 --timesteps 256 --init bc/model.zip --out ppo "
+        "--eval-suite crowd-5-v0-smoke",
+        tmp_path,
     ).stdout
     assert "initialised the policy" in out and "[eval @" in out and "reproduce: vcs-env train --scenario crowd" in out
     meta = json.loads((tmp_path / "ppo/model.json").read_text())
     assert meta["num_timesteps"] == 256 and meta["config"]["init"] == "bc/model.zip"
+    assert "crowd-5-v0-smoke: success" in out and 0.0 <= meta["history"][-1]["suite"]["success"] <= 1.0
     assert meta["scenario"]["rewards"]["time"] == 1.0
     assert (tmp_path / "ppo/checkpoints/model_128.zip").exists() and list((tmp_path / "ppo/tb").iterdir())
     out = vcs_env_cli(
@@ -230,6 +233,8 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     assert json.loads((tmp_path / "ppo2/model.json").read_text())["num_timesteps"] == 384
     bad = vcs_env_cli("train --scenario crowd --init missing.zip --out x", tmp_path, expect=2)
     assert "checkpoint not found" in bad.stderr
+    bad = vcs_env_cli("train --scenario crowd --eval-suite crowd-9-v0 --out x", tmp_path, expect=2)
+    assert "unknown suite" in bad.stderr
 
     # The study's scorer: a run named <name>_<method>_s<seed> is scored on a suite beside the expert.
     shutil.copytree(tmp_path / "ppo", tmp_path / "toy_ppo_s3")
