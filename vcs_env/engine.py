@@ -172,14 +172,14 @@ class NavEngine:
         events = self.sim.step(actions)
         world = self.sim.world
         terms = base_terms(events, self.scenario.dt)
-        terminated = events.reached | (events.collided & (self.scenario.on_collision == "terminate"))
+        crashed = events.collided & (self.scenario.on_collision == "terminate")
+        terminated = events.reached | crashed
         truncated = world.active & (world.steps >= self.max_steps)[:, None]
         if self.use_imitation:
             terms["vcs_imitation"] = imitation_term(np.asarray(actions, dtype=np.float64), prev_expert, events.acted)
         if self.use_potential:
             # Goal: phi = 0 (best); terminating collision: the floor (worst); truncation keeps phi(s').
             phi_next = self.expert.potential(world)
-            crashed = events.collided & (self.scenario.on_collision == "terminate")
             terms["vcs_potential"] = potential_term(
                 self._phi, phi_next, events.reached, crashed, events.acted, self.gamma, self.expert.potential_floor
             )
