@@ -25,7 +25,8 @@ P_DELTA_MIN, P_DELTA_S, P_EPS, P_TMAX, P_TM, P_HORIZON, P_TAU_S, P_KAPPA = 0, 1,
 P_WG, P_WS, P_WC, P_WR, P_WH, P_WB = 8, 9, 10, 11, 12, 13
 P_NV, P_NTH, P_NTH_FULL, P_CNV, P_CNTH, P_ONE_STEP, P_RECIP, P_MARGIN = 14, 15, 16, 17, 18, 19, 20, 21
 P_GMETRIC, P_TM_ROBOT = 22, 23
-N_PARAMS = 24
+P_STOP, P_JOINT, P_RAMP, P_ARRIVE, P_LEAST_HARM, P_CROWD = 24, 25, 26, 27, 28, 29
+N_PARAMS = 30
 # Reciprocity codes.
 R_HRVO, R_RVO, R_VO = 0, 1, 2
 # Neighbour record columns (float64 scratch array).
@@ -52,8 +53,16 @@ R_HRVO, R_RVO, R_VO = 0, 1, 2
     F_VJY,
     F_IDX,
     F_MOVER,
-) = range(22)
-N_FIELDS = 22
+    F_KIND,
+    F_STOPK,
+) = range(24)
+N_FIELDS = 24
+# Neighbour kinds (responsibility by kind): a driving robot shares the avoidance (reciprocity);
+# everything else (parked robots, robots arriving at their goal, obstacles) is non-reactive and
+# the robot takes full responsibility; a non-reactive object that does not move is static.
+K_RECIPROCAL, K_MOVER, K_STATIC = 0, 1, 2
+STATIC_SPEED = 1e-6
+"""Below this speed [m/s] a non-reactive object counts as static."""
 
 
 @njit(cache=True)
@@ -129,6 +138,15 @@ def forbidden(nb, vx, vy):
 
 
 @njit(cache=True)
+def forbidden_within(nb, vx, vy, horizon):
+    """Is velocity (vx, vy) inside neighbour nb's forbidden set truncated at ``horizon`` [s]?"""
+    if nb[F_OVL] > 0.5:
+        return nb[F_HX] * (vx - nb[F_APX]) + nb[F_HY] * (vy - nb[F_APY]) > 0.0
+    s = nb[F_SCALE]
+    return tau_within(nb[F_PX], nb[F_PY], s * (vx - nb[F_APX]), s * (vy - nb[F_APY]), nb[F_REFF], horizon)
+
+
+@njit(cache=True)
 def in_untruncated_cone(nb, vx, vy):
     if nb[F_OVL] > 0.5:
         return nb[F_HX] * (vx - nb[F_APX]) + nb[F_HY] * (vy - nb[F_APY]) > 0.0
@@ -157,6 +175,8 @@ def setup_neighbors(
     obs_vel,
     obs_radius,
     pref_comm,
+    v_max,
+    a_max,
     prm,
     r_ca,
     dt,
@@ -166,7 +186,13 @@ def setup_neighbors(
 ):
     """Fill the neighbour records of robot i in world b (everything but T_need/T_h). Returns the
     number of neighbours; ``order`` lists them nearest surface first. During a stall detour
-    the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up."""
+    the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up.
+
+    Responsibility by kind: only a robot that is still driving is reciprocal. A robot within
+    braking distance of its goal (its communicated preferred speed is below its v_max) is about
+    to park, and may stop at any moment (it parks on reaching its goal) or keep going: it gets
+    two records, a non-reactive mover at its current velocity and a static twin, and the robot
+    takes full responsibility for both (vcs-method §2.4). Records: at most ``2 n + m``."""
     n = pos.shape[1]
     m = obs_pos.shape[1]
     px0 = pos[b, i, 0]
@@ -176,9 +202,11 @@ def setup_neighbors(
     vry = v_r * math.sin(heading[b, i])
     recip = int(prm[P_RECIP])
     count = 0
-    for j in range(n + m):
+    for jj in range(n + m + n):
+        twin = jj >= n + m  # the static twin of an arriving robot
+        j = jj - (n + m) if twin else jj
         if j < n:
-            if j == i or not present[b, j]:
+            if j == i or not present[b, j] or (twin and not active[b, j]):
                 continue
             qx = pos[b, j, 0] - px0
             qy = pos[b, j, 1] - py0
@@ -186,7 +214,15 @@ def setup_neighbors(
             if active[b, j]:
                 vjx = speed[b, j] * math.cos(heading[b, j])
                 vjy = speed[b, j] * math.sin(heading[b, j])
-                is_robot = recip != R_VO
+                arriving = prm[P_ARRIVE] > 0.5 and (
+                    pref_comm[b, j, 0] ** 2 + pref_comm[b, j, 1] ** 2 < (v_max[b, j] * (1.0 - 1e-6)) ** 2
+                )
+                if twin:
+                    if not arriving or speed[b, j] <= STATIC_SPEED:
+                        continue
+                    vjx = 0.0
+                    vjy = 0.0
+                is_robot = recip != R_VO and not arriving
                 mover = 1.0
             else:  # parked or crashed robots are static obstacles
                 vjx = 0.0
@@ -215,6 +251,14 @@ def setup_neighbors(
         nb[F_VJY] = vjy
         nb[F_IDX] = j
         nb[F_MOVER] = mover  # an active robot (whatever the reciprocity rule)
+        if is_robot:
+            nb[F_KIND] = K_RECIPROCAL
+        elif vjx * vjx + vjy * vjy > STATIC_SPEED * STATIC_SPEED:
+            nb[F_KIND] = K_MOVER
+        else:
+            nb[F_KIND] = K_STATIC
+        # Static objects: the margin also covers the robot's own stopping time (set_horizons).
+        nb[F_STOPK] = 1.0 / a_max[b, i] if (nb[F_KIND] == K_STATIC and prm[P_STOP] > 0.5) else 0.0
         # Current-course time to collision with the physical radius (§2.6).
         tc0 = tau(qx, qy, vrx - vjx, vry - vjy, r0)
         nb[F_TC0] = tc0
@@ -348,9 +392,25 @@ def build_coarse(v_r, th_r, v_max_r, dv1, dth1, holo, nv, nth, cspeed, ccol, cst
 
 
 @njit(cache=True)
-def need_unicycle(nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, nth, lmax, rows, cols, ccos, csin):
+def escape_open(nbs, blk, nblk, vx, vy, tmax):
+    """Is velocity (vx, vy) an escape that no non-reactive object closes within T_max? A way out
+    of one object's cone that runs into another (a crowd, a row of parked robots) is no way out:
+    the time needed to leave the cone is the time to reach an *open* escape, so the horizon
+    grows where the crowd closes the nearby ones (vcs-method §2.7). ``blk`` lists the
+    non-reactive neighbours (empty when the joint rule is off)."""
+    for q in range(nblk):
+        if forbidden_within(nbs[blk[q]], vx, vy, tmax):
+            return False
+    return True
+
+
+@njit(cache=True)
+def need_unicycle(
+    nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, nth, lmax, rows, cols, ccos, csin, blk, nblk, tmax
+):
     """T_need / dt of the ``pending`` neighbours (whose cone holds the current velocity): the
-    least reach level of a coarse-grid point outside the cone (§2.7).
+    least reach level of a coarse-grid point outside the cone that is an escape (§2.7,
+    :func:`escape_open`).
 
     A unicycle's reach level is max(speed level, turn level), so the points of level <= L are
     the rows of speed level <= L times the columns of turn level <= L. Rows and columns are
@@ -399,9 +459,14 @@ def need_unicycle(nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, 
                     t = cols[ci]
                     vx = sp * ccos[t]
                     vy = sp * csin[t]
+                    free = -1  # is the point an open escape? (computed once, when first needed)
                     for q in range(npend):
                         x = pending[q]
                         if need[x] < 0.0 and not in_untruncated_cone(nbs[x], vx, vy):
+                            if free < 0:
+                                free = 1 if escape_open(nbs, blk, nblk, vx, vy, tmax) else 0
+                            if free == 0:
+                                continue
                             need[x] = lev
                             left_todo -= 1
                     if left_todo == 0:
@@ -412,8 +477,9 @@ def need_unicycle(nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, 
 
 @njit(cache=True)
 def set_horizons(
-    nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols
-):
+    nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols,
+    blk,
+):  # fmt: skip
     """T_need and the horizon T_h = min(T_max, T_need + T_m) of every neighbour (§2.7), and
     the pruning bounds. T_need is the least reach time over a coarse grid of the VCS domain of
     the points outside the neighbour's untruncated cone (0 if the current velocity is)."""
@@ -428,6 +494,27 @@ def set_horizons(
             need[q] = -1.0
             pending[npend] = q
             npend += 1
+    nblk = 0
+    # Contesting movers: non-reactive movers closing on the robot (at its current velocity)
+    # that can reach it within T_max. Each can close the escape from another, so the margin of
+    # every mover is T_m per contesting mover (capped at T_max): a lone mover keeps the
+    # un-conservative T_m, a crowd is watched further ahead (vcs-method §2.7).
+    n_contest = 0
+    vr_x = v_r * math.cos(th_r)
+    vr_y = v_r * math.sin(th_r)
+    for q in range(count):
+        if nbs[q, F_KIND] == K_MOVER and nbs[q, F_MOVER] < 0.5:
+            nb = nbs[q]
+            wx = vr_x - nb[F_VJX]
+            wy = vr_y - nb[F_VJY]
+            closing = (wx * nb[F_PX] + wy * nb[F_PY]) / max(nb[F_D], 1e-12)
+            if closing > 0.0 and nb[F_D] - nb[F_R0] <= closing * tmax:
+                n_contest += 1
+    if prm[P_JOINT] > 0.5:
+        for q in range(count):
+            if nbs[q, F_KIND] != K_RECIPROCAL:
+                blk[nblk] = q
+                nblk += 1
     if npend > 0:
         # Levels beyond (T_max - T_m) / dt all give T_h = T_max.
         lmax = int(math.ceil((tmax - prm[P_TM]) / dt - 1e-9))
@@ -440,9 +527,14 @@ def set_horizons(
                 col = ccol[c]
                 vx = cspeed[c] * ccos[col] if col >= 0 else vrx
                 vy = cspeed[c] * csin[col] if col >= 0 else vry
+                free = -1
                 for q in range(npend):
                     x = pending[q]
                     if need[x] < 0.0 and not in_untruncated_cone(nbs[x], vx, vy):
+                        if free < 0:
+                            free = 1 if escape_open(nbs, blk, nblk, vx, vy, tmax) else 0
+                        if free == 0:
+                            continue
                         need[x] = cstep[c]
                         todo -= 1
                 if todo == 0:
@@ -465,6 +557,9 @@ def set_horizons(
                 cols,
                 ccos,
                 csin,
+                blk,
+                nblk,
+                tmax,
             )
     for q in range(count):
         nb = nbs[q]
@@ -472,7 +567,15 @@ def set_horizons(
             th = fixed
         else:
             t_need = tmax if need[q] < 0.0 else min(need[q] * dt, tmax)
-            th = min(tmax, t_need + (prm[P_TM_ROBOT] if nb[F_MOVER] > 0.5 else prm[P_TM]))
+            if nb[F_MOVER] > 0.5:
+                margin = prm[P_TM_ROBOT]
+            elif nb[F_KIND] == K_MOVER:
+                margin = min(tmax, prm[P_TM] * max(1, n_contest)) if prm[P_CROWD] > 0.5 else prm[P_TM]
+            else:
+                margin = prm[P_TM]
+            if nb[F_STOPK] > 0.0:  # static: the margin covers the robot's own stopping time v_R / a_max
+                margin = max(margin, nb[F_STOPK] * v_r)
+            th = min(tmax, t_need + margin)
         nb[F_TH] = th
         # Pruning: every candidate has |w| <= scale (v_max + |apex|), so tau >= gap / that.
         if nb[F_OVL] > 0.5:
@@ -487,7 +590,8 @@ def set_horizons(
 # Robot context vector (floats) passed to the candidate evaluation.
 C_VR, C_TH, C_VMAX, C_DV1, C_DTH1, C_KMAX, C_PVX, C_PVY, C_WG, C_WS, C_WC, C_WR, C_WH, C_WB = range(14)
 C_HPREV, C_PDV, C_PDTH, C_HOLO, C_TAUS, C_GV, C_GTH, C_GVCS = 14, 15, 16, 17, 18, 19, 20, 21
-N_CTX = 22
+C_RAMP, C_DT, C_RAMP_GAP = 22, 23, 24
+N_CTX = 25
 
 
 @njit(cache=True)
@@ -581,8 +685,60 @@ def cost(nbs, js, nj, ctx, dv, dth, vx, vy, steps):
 
 
 @njit(cache=True)
-def consider(nbs, adm, na, js, nj, ctx, dv, dth, vx, vy, steps, best):
-    """J of a candidate if it is admissible and may beat ``best``, else inf."""
+def ramp_clear(nbs, count, ctx, dv, dth):
+    """Admissible along the way (vcs-method §2.15): the motion that reaches the candidate, speed
+    and heading ramping at the maximal per-step rates (a holonomic velocity along the straight
+    line), keeps clear of every non-reactive neighbour, extrapolated at its velocity. The
+    velocity obstacles judge the end velocity only, as if it were reached at once; a turn that
+    sweeps through a parked robot on the way is caught here. Clear means a gap of at least
+    delta_min / 2, or no smaller than now if the robot is already closer."""
+    if ctx[C_RAMP] < 0.5:
+        return True
+    v_r = ctx[C_VR]
+    th_r = ctx[C_TH]
+    dv1 = ctx[C_DV1]
+    dth1 = ctx[C_DTH1]
+    dt = ctx[C_DT]
+    holo = ctx[C_HOLO] > 0.5
+    vrx = v_r * math.cos(th_r)
+    vry = v_r * math.sin(th_r)
+    steps = reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r)
+    if steps <= 1:
+        return True  # reached within the step: the velocity obstacles judge it
+    s_end = v_r + dv
+    ex = s_end * math.cos(th_r + dth) - vrx
+    ey = s_end * math.sin(th_r + dth) - vry
+    e = math.sqrt(ex * ex + ey * ey)
+    px = 0.0
+    py = 0.0
+    for k in range(1, steps + 1):
+        if holo:
+            f = min(1.0, k * dv1 / max(e, 1e-12))
+            vx = vrx + f * ex
+            vy = vry + f * ey
+        else:
+            sk = v_r + min(max(dv, -k * dv1), k * dv1)
+            tk = th_r + min(max(dth, -k * dth1), k * dth1)
+            vx = sk * math.cos(tk)
+            vy = sk * math.sin(tk)
+        px += vx * dt
+        py += vy * dt
+        t = k * dt
+        for q in range(count):
+            nb = nbs[q]
+            if nb[F_KIND] == K_RECIPROCAL or nb[F_OVL] > 0.5:
+                continue
+            gx = nb[F_PX] + nb[F_VJX] * t - px
+            gy = nb[F_PY] + nb[F_VJY] * t - py
+            clear = min(nb[F_R0] + ctx[C_RAMP_GAP], nb[F_D])
+            if gx * gx + gy * gy < clear * clear:
+                return False
+    return True
+
+
+@njit(cache=True)
+def consider(nbs, adm, na, js, nj, count, ctx, dv, dth, vx, vy, steps, best):
+    """J of a candidate if it is admissible (also along the way) and may beat ``best``, else inf."""
     j = cost_parts(ctx, dv, dth, vx, vy, steps, best)
     if j >= best:
         return INF  # J_s >= 0: cannot win (ties keep the earlier candidate)
@@ -590,17 +746,56 @@ def consider(nbs, adm, na, js, nj, ctx, dv, dth, vx, vy, steps, best):
         return INF
     if ctx[C_WS] > 0.0:
         j += ctx[C_WS] * safety_term(nbs, js, nj, ctx, vx, vy)
+    if j < best and not ramp_clear(nbs, count, ctx, dv, dth):
+        return INF
     return j
 
 
 @njit(cache=True)
-def fallback_cost(nbs, count, ctx, dv, dth, vx, vy, kappa):
-    """RVO-style penalty kappa / t_c + J_g used when nothing is admissible (§2.13)."""
+def fallback_cost(nbs, count, ctx, dv, dth, vx, vy, kappa, least_harm, tmax):
+    """Cost of a candidate when nothing is admissible (§2.13). The RVO-style penalty
+    ``kappa / t_c + J_g`` (t_c: the least time to collision over the neighbours), and with
+    ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
+    half-plane's violation [m/s], weighted kappa / dt), and a candidate that speeds up while it
+    closes faster than now on something it would hit within T_max (or already touches) is
+    refused (inf): braking and turning away remain, and keeping the current velocity always
+    does (vcs-method §2.13)."""
     tmin = INF
+    viol = 0.0
+    v_r = ctx[C_VR]
+    vrx = v_r * math.cos(ctx[C_TH])
+    vry = v_r * math.sin(ctx[C_TH])
+    # The velocity after the first step toward the candidate (what this period commands).
+    if ctx[C_HOLO] > 0.5:
+        ex = vx - vrx
+        ey = vy - vry
+        f = min(1.0, ctx[C_DV1] / max(math.sqrt(ex * ex + ey * ey), 1e-12))
+        v1x = vrx + f * ex
+        v1y = vry + f * ey
+    else:
+        s1 = v_r + min(max(dv, -ctx[C_DV1]), ctx[C_DV1])
+        th1 = ctx[C_TH] + min(max(dth, -ctx[C_DTH1]), ctx[C_DTH1])
+        v1x = s1 * math.cos(th1)
+        v1y = s1 * math.sin(th1)
     for q in range(count):
-        tc = collision_time(nbs[q], vx, vy)
-        if tc < tmin:
-            tmin = tc
+        nb = nbs[q]
+        if least_harm and nb[F_OVL] > 0.5:
+            e = nb[F_HX] * (vx - nb[F_APX]) + nb[F_HY] * (vy - nb[F_APY])
+            if e > viol:
+                viol = e
+            tc = 0.0
+        else:
+            tc = collision_time(nb, vx, vy)
+            if tc < tmin:
+                tmin = tc
+        if least_harm and dv > 1e-12 and (nb[F_OVL] > 0.5 or nb[F_TC0] <= tmax or collision_time(nb, v1x, v1y) <= tmax):
+            # The first step toward the candidate must not close faster on the threat than now.
+            ux = nb[F_PX] / max(nb[F_D], 1e-12)
+            uy = nb[F_PY] / max(nb[F_D], 1e-12)
+            if (v1x - vrx) * ux + (v1y - vry) * uy > 1e-12:
+                return INF  # speeds up toward a threat
+    if least_harm:
+        return kappa / max(tmin, 1e-9) + kappa / ctx[C_DT] * viol + goal_term(ctx, dv, dth, vx, vy)
     return kappa / max(tmin, 1e-9) + goal_term(ctx, dv, dth, vx, vy)
 
 
@@ -647,6 +842,9 @@ def robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safet
         ctx[C_GV] = -v_r
         ctx[C_GTH] = 0.0
     ctx[C_GVCS] = prm[P_GMETRIC]
+    ctx[C_RAMP] = prm[P_RAMP]
+    ctx[C_DT] = dt
+    ctx[C_RAMP_GAP] = 0.5 * prm[P_DELTA_MIN]
     return ctx
 
 
@@ -655,17 +853,18 @@ def neighbour_work(n, m, prm):
     """Work arrays of :func:`prepare_robot` for ``n`` robots and ``m`` obstacles."""
     ctotal = int(prm[P_CNV]) * int(prm[P_CNTH]) + 1
     return (
-        np.zeros((n + m, N_FIELDS)),  # nbs: neighbour records
-        np.zeros(n + m, dtype=np.int64),  # order: nearest surface first
+        np.zeros((2 * n + m, N_FIELDS)),  # nbs: neighbour records (arriving robots have a static twin)
+        np.zeros(2 * n + m, dtype=np.int64),  # order: nearest surface first
         np.empty(ctotal),  # cspeed, ccol, cstep: sorted coarse grid (holonomic)
         np.empty(ctotal, dtype=np.int64),
         np.empty(ctotal),
         np.empty(int(prm[P_CNTH])),  # ccos, csin: coarse column directions
         np.empty(int(prm[P_CNTH])),
-        np.empty(n + m, dtype=np.int64),  # pending: cones holding the current velocity
-        np.empty(n + m),  # need: T_need / dt per neighbour
+        np.empty(2 * n + m, dtype=np.int64),  # pending: cones holding the current velocity
+        np.empty(2 * n + m),  # need: T_need / dt per neighbour
         np.empty(int(prm[P_CNV]), dtype=np.int64),  # rows, cols: coarse grid by level
         np.empty(int(prm[P_CNTH]), dtype=np.int64),
+        np.empty(2 * n + m, dtype=np.int64),  # blk: non-reactive neighbours that can close an escape
     )
 
 
@@ -676,15 +875,15 @@ def prepare_robot(
 ):  # fmt: skip
     """Robot i of world b: its context vector and its neighbour records with horizons (§2.6-2.7).
     Returns ``(ctx, count)``; the records are in ``work[0]``, ordered by ``work[1]``."""
-    nbs, order, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols = work
+    nbs, order, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols, blk = work
     ctx = robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo)
     count = setup_neighbors(
-        b, i, pos, heading, speed, radius, active, present, obs_pos, obs_vel, obs_radius, pref_comm, prm, r_ca, dt,
-        nbs, order, no_safety[b, i],
+        b, i, pos, heading, speed, radius, active, present, obs_pos, obs_vel, obs_radius, pref_comm, v_max, a_max, prm,
+        r_ca, dt, nbs, order, no_safety[b, i],
     )  # fmt: skip
     set_horizons(
         nbs, count, ctx[C_VR], ctx[C_TH], ctx[C_VMAX], ctx[C_DV1], ctx[C_DTH1], holo, dt, prm, cspeed, ccol, cstep,
-        ccos, csin, pending, need, rows, cols,
+        ccos, csin, pending, need, rows, cols, blk,
     )  # fmt: skip
     return ctx, count
 
@@ -752,8 +951,8 @@ def plan_batch(
     margin = prm[P_MARGIN]
     gmax = nv * max(int(prm[P_NTH]), int(prm[P_NTH_FULL]))
     cheap = np.empty(gmax)
-    adm = np.zeros(n + m, dtype=np.int64)
-    js = np.zeros(n + m, dtype=np.int64)
+    adm = np.zeros(2 * n + m, dtype=np.int64)
+    js = np.zeros(2 * n + m, dtype=np.int64)
     thmax = max(int(prm[P_NTH]), int(prm[P_NTH_FULL]))
     dv_row = np.empty(nv)
     kv_row = np.empty(nv)
@@ -767,6 +966,7 @@ def plan_batch(
     h_col = np.empty(thmax)
     b_col = np.empty(thmax)
     kappa = prm[P_KAPPA]
+    least_harm = prm[P_LEAST_HARM] > 0.5
     for b in range(B):
         for i in range(n):
             if not active[b, i]:
@@ -864,6 +1064,7 @@ def plan_batch(
                     na,
                     js,
                     nj,
+                    count,
                     ctx,
                     dv,
                     dth,
@@ -956,6 +1157,8 @@ def plan_batch(
                     if ctx[C_WS] > 0.0:
                         j += ctx[C_WS] * safety_term(nbs, js, nj, ctx, vx, vy)
                     if j < best or (j == best and c < best_c):
+                        if not ramp_clear(nbs, count, ctx, dv_row[a], dth_col[t]):
+                            continue
                         best = j
                         best_c = c
                         bdv = dv_row[a]
@@ -973,8 +1176,9 @@ def plan_batch(
                         continue
                     s = v_r + dv
                     j = fallback_cost(
-                        nbs, count, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa
-                    )
+                        nbs, count, ctx, dv, dth, s * math.cos(th_r + dth), s * math.sin(th_r + dth), kappa,
+                        least_harm, prm[P_TMAX],
+                    )  # fmt: skip
                     if j < best:
                         best = j
                         bdv = dv
@@ -1034,8 +1238,8 @@ def evaluate_points(
     th_r = ctx[C_TH]
     vrx = v_r * math.cos(th_r)
     vry = v_r * math.sin(th_r)
-    adm = np.zeros(n + m, dtype=np.int64)
-    js = np.zeros(n + m, dtype=np.int64)
+    adm = np.zeros(2 * n + m, dtype=np.int64)
+    js = np.zeros(2 * n + m, dtype=np.int64)
     na, nj = relevant(nbs, order, count, ctx[C_TAUS], adm, js)
     for c in range(cand_dv.shape[0]):
         dv = cand_dv[c]
@@ -1043,7 +1247,7 @@ def evaluate_points(
         s = v_r + dv
         vx = s * math.cos(th_r + dth)
         vy = s * math.sin(th_r + dth)
-        out_ok[c] = admissible(nbs, adm, na, vx, vy)
+        out_ok[c] = admissible(nbs, adm, na, vx, vy) and ramp_clear(nbs, count, ctx, dv, dth)
         steps = reach_steps(dv, dth, ctx[C_DV1], ctx[C_DTH1], holo, vrx, vry, th_r, v_r)
         out_cost[c] = cost(nbs, js, nj, ctx, dv, dth, vx, vy, steps)
     for q in range(out_horizon.shape[0]):

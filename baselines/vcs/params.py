@@ -14,6 +14,7 @@ WINDOWS = ("multi_step", "one_step")
 COSTS = ("full", "goal_only")
 RECIPROCITIES = ("hrvo", "rvo", "vo")
 GOAL_METRICS = ("vcs", "velocity")
+FALLBACKS = ("least_harm", "penalty")
 
 
 def _positive(name: str, value: float, allow_zero: bool = False) -> None:
@@ -90,6 +91,28 @@ class VCSParams:
     """Width of the soft safety band beyond the horizon [s]."""
     kappa: float = 5.0
     """Fallback penalty kappa / t_c when no candidate is admissible [s] (§2.13)."""
+    fallback: str = "least_harm"
+    """``"least_harm"``: with no admissible candidate, prefer separating from what the robot
+    already touches and never speed up toward a threat (§2.13); ``"penalty"``: the plain
+    RVO-style penalty kappa / t_c + J_g (the ablation) [reconstructed]."""
+    # --- safety against what does not get out of the way (§2.4, §2.7, §2.15) [reconstructed]
+    arriving_non_reactive: bool = True
+    """A robot within braking distance of its goal (communicated preferred speed below its
+    v_max) is about to park: take full responsibility for it, as for an obstacle, instead of
+    sharing the avoidance (False: every active robot is reciprocal, the ablation)."""
+    stop_margin: bool = True
+    """The margin of a static object (parked robot, standing obstacle) covers the robot's own
+    stopping time: max(T_m, v_R / a_max) (False: T_m)."""
+    joint_escape: bool = True
+    """T_need counts only escapes that no non-reactive object closes within T_max, so the
+    horizon grows where a crowd closes the nearby escapes (False: each object alone)."""
+    crowd_margin: bool = True
+    """The margin of a moving obstacle is T_m per *contesting* mover (a non-reactive mover
+    closing on the robot that can reach it within T_max), capped at T_max: a lone mover keeps
+    the un-conservative T_m, a crowd is watched further ahead (False: T_m for each)."""
+    ramp_check: bool = True
+    """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
+    objects (False: only its end velocity is judged, the ablation)."""
     # --- interaction (§2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
     """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""
@@ -103,6 +126,10 @@ class VCSParams:
     left robots stopped 0.1-0.3 m short of their goal for good) ..."""
     stall_time: float = 1.0
     """... for this long [s] starts a detour ..."""
+    progress_window: float = 5.0
+    """A robot that has not come closer to its goal by ``stall_speed * v_max * progress_window``
+    over this window [s] is stalled too, whatever its speed (creeping sideways, circling);
+    0 turns the progress test off."""
     detour_time: float = 2.0
     """... of this duration [s] ..."""
     detour_angle: float = -math.pi / 4
@@ -125,6 +152,7 @@ class VCSParams:
             "stall_speed",
             "stall_goal_margin",
             "stall_time",
+            "progress_window",
             "detour_time",
             "w_goal",
             "w_safety",
@@ -143,7 +171,11 @@ class VCSParams:
                 )
         else:
             _positive("horizon", self.horizon)
+        for name in ("arriving_non_reactive", "stop_margin", "joint_escape", "crowd_margin", "ramp_check"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"VCSParams.{name} must be a bool, got {getattr(self, name)!r}")
         for name, choices in (
+            ("fallback", FALLBACKS),
             ("window", WINDOWS),
             ("cost", COSTS),
             ("reciprocity", RECIPROCITIES),

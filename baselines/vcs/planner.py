@@ -41,6 +41,12 @@ def param_vector(p: VCSParams) -> np.ndarray:
     prm[kernel.P_RECIP] = {"hrvo": kernel.R_HRVO, "rvo": kernel.R_RVO, "vo": kernel.R_VO}[p.reciprocity]
     prm[kernel.P_MARGIN] = p.window_margin_steps
     prm[kernel.P_GMETRIC] = 1.0 if p.goal_metric == "vcs" else 0.0
+    prm[kernel.P_STOP] = float(p.stop_margin)
+    prm[kernel.P_JOINT] = float(p.joint_escape)
+    prm[kernel.P_RAMP] = float(p.ramp_check)
+    prm[kernel.P_ARRIVE] = float(p.arriving_non_reactive)
+    prm[kernel.P_LEAST_HARM] = 1.0 if p.fallback == "least_harm" else 0.0
+    prm[kernel.P_CROWD] = float(p.crowd_margin)
     return prm
 
 
@@ -55,10 +61,14 @@ class _Memory:
     has_prev_in: np.ndarray  # (B, n) bool
     stall_in: np.ndarray  # (B, n) time spent stalled [s]
     detour_in: np.ndarray  # (B, n) detour time left [s]
+    ref_in: np.ndarray  # (B, n) goal distance at the last progress mark [m] (0: unset)
+    wait_in: np.ndarray  # (B, n) time since the last progress mark [s]
     prev_out: np.ndarray
     has_prev_out: np.ndarray
     stall_out: np.ndarray
     detour_out: np.ndarray
+    ref_out: np.ndarray
+    wait_out: np.ndarray
 
     @classmethod
     def empty(cls, B: int, n: int) -> _Memory:
@@ -70,8 +80,12 @@ class _Memory:
             zb,
             z1,
             z1.copy(),
+            z1.copy(),
+            z1.copy(),
             z2.copy(),
             zb.copy(),
+            z1.copy(),
+            z1.copy(),
             z1.copy(),
             z1.copy(),
         )
@@ -87,6 +101,8 @@ class _Memory:
             (self.has_prev_in, self.has_prev_out),
             (self.stall_in, self.stall_out),
             (self.detour_in, self.detour_out),
+            (self.ref_in, self.ref_out),
+            (self.wait_in, self.wait_out),
         ):
             a[advance] = b[advance]
             a[clear] = 0
@@ -141,15 +157,24 @@ class VCSPlanner(Planner):
             psi = 2.0 * np.pi * noise.uniform(world.key, world.steps, n, stream=1)
             push = p.perturbation * world.v_max[..., None] * np.stack((np.cos(psi), np.sin(psi)), -1)
             own = own + np.where((d_goal > world.r_goal)[..., None], push, 0.0)
-        # Stall handling (§2.13): after stall_time [s] slow and away from the goal, detour.
-        stalled = (
-            (world.speed < p.stall_speed * world.v_max) & (d_goal > world.r_goal + p.stall_goal_margin) & world.active
-        )
-        start = (mem.detour_in <= 0) & stalled & (mem.stall_in + world.dt >= p.stall_time - 1e-9)
+        # Stall handling (§2.13): after stall_time [s] slow and away from the goal, or after
+        # progress_window [s] without gaining stall_speed * v_max * progress_window on the
+        # goal (whatever the speed), detour.
+        away = (d_goal > world.r_goal + p.stall_goal_margin) & world.active
+        stalled = (world.speed < p.stall_speed * world.v_max) & away
+        ref = np.where(mem.ref_in > 0, mem.ref_in, d_goal)
+        progressed = ref - d_goal >= p.stall_speed * world.v_max * p.progress_window
+        wait = np.where(progressed, 0.0, mem.wait_in + world.dt)
+        no_progress = away & (p.progress_window > 0) & (wait >= p.progress_window - 1e-9)
+        slow = stalled & (mem.stall_in + world.dt >= p.stall_time - 1e-9)
+        start = (mem.detour_in <= 0) & (slow | no_progress)
         detour = (mem.detour_in > 0) | start
         own = np.where(detour[..., None], rotate(own, np.full((B, n), p.detour_angle)), own)
         mem.detour_out = np.where(detour, np.where(start, p.detour_time, mem.detour_in) - world.dt, 0.0)
         mem.stall_out = np.where(stalled & ~detour, mem.stall_in + world.dt, 0.0)
+        mark = progressed | start  # a new progress mark: progress made, or a detour begins
+        mem.ref_out = np.where(mark, d_goal, ref)
+        mem.wait_out = np.where(mark, 0.0, wait)
         return own, pref, detour
 
     def _kernel_inputs(self, world: WorldState, own, comm, detour) -> tuple:
