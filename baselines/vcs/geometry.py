@@ -122,6 +122,19 @@ def reach_steps(dv: np.ndarray, dth: np.ndarray, a_max, omega_max, dt: float) ->
     return np.maximum(np.maximum(kv, kt), 0.0)
 
 
+def ramp_positions(dv: np.ndarray, dth: np.ndarray, v_r: float, theta_r: float, a_max, omega_max, dt: float):
+    """Positions ``(k, K, 2)`` [m] (relative to the start) of a unicycle ramping toward VCS points
+    ``(k,)`` at its maximal per-step rates, for steps 1..K with K the largest reach steps
+    (§2.15); points reached earlier hold their velocity. Euler steps like the simulator."""
+    dv = np.asarray(dv, dtype=float)
+    dth = np.asarray(dth, dtype=float)
+    K = int(max(reach_steps(dv, dth, a_max, omega_max, dt).max(initial=0), 1))
+    k = np.arange(1, K + 1)
+    s = v_r + np.clip(dv[:, None], -k * a_max * dt, k * a_max * dt)
+    th = theta_r + np.clip(dth[:, None], -k * omega_max * dt, k * omega_max * dt)
+    return np.cumsum((s * dt)[..., None] * unit(th), axis=1)
+
+
 def k_max(v_max, a_max, omega_max, dt: float):
     """Window size in steps that covers the whole VCS domain (§2.10)."""
     return np.maximum(np.ceil(v_max / (a_max * dt) - 1e-9), np.ceil(np.pi / (omega_max * dt) - 1e-9))

@@ -477,8 +477,8 @@ def need_unicycle(
 
 @njit(cache=True)
 def set_horizons(
-    nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols,
-    blk,
+    nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need,
+    rows, cols, blk,
 ):  # fmt: skip
     """T_need and the horizon T_h = min(T_max, T_need + T_m) of every neighbour (§2.7), and
     the pruning bounds. T_need is the least reach time over a coarse grid of the VCS domain of
@@ -1225,7 +1225,8 @@ def evaluate_points(
 ):
     """Admissibility and cost of arbitrary VCS points for robot i of world b (tests, plots).
     ``out_horizon`` receives the horizon T_h of each sensed object (robots first, then
-    obstacles, in index order; inf when not sensed)."""
+    obstacles, in index order, then the static twins of arriving robots by robot index; inf
+    when not sensed)."""
     n = pos.shape[1]
     m = obs_pos.shape[1]
     work = neighbour_work(n, m, prm)
@@ -1253,4 +1254,5 @@ def evaluate_points(
     for q in range(out_horizon.shape[0]):
         out_horizon[q] = INF
     for q in range(count):
-        out_horizon[int(nbs[q, F_IDX])] = nbs[q, F_TH]
+        twin = nbs[q, F_KIND] == K_STATIC and nbs[q, F_MOVER] > 0.5  # an active robot taken as static
+        out_horizon[int(nbs[q, F_IDX]) + (n + m if twin else 0)] = nbs[q, F_TH]

@@ -266,7 +266,8 @@ class VCSPlanner(Planner):
         state (same inputs as :meth:`plan`); for tests and plots.
 
         Returns:
-            ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (n + m,) [s] per sensed object.
+            ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (2 n + m,) [s] per sensed object:
+            robots, obstacles, then the static twin of each arriving robot (inf: not sensed).
         """
         self.plan(world)  # memory and inputs of this state
         own, comm, detour = self._inputs(world)
@@ -274,7 +275,7 @@ class VCSPlanner(Planner):
         dth = np.ascontiguousarray(dth, dtype=np.float64).ravel()
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
         cost = np.zeros(dv.shape[0])
-        horizon = np.zeros(world.n_robots + world.n_obstacles)
+        horizon = np.zeros(2 * world.n_robots + world.n_obstacles)
         kernel.evaluate_points(
             b,
             i,

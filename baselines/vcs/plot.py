@@ -23,35 +23,58 @@ from .planner import VCSPlanner
 def object_forbidden_masks(
     world: WorldState, planner: VCSPlanner, b: int, i: int, vel: np.ndarray, horizon: np.ndarray
 ) -> dict[int, np.ndarray]:
-    """Which candidate velocities each sensed object forbids, from the numpy geometry.
+    """Which candidate velocities each sensed object forbids, from the numpy geometry (a
+    unicycle's candidates; the readable reference of the kernel's admissibility).
+
+    Responsibility by kind (§2.4): a driving robot is reciprocal; a robot within braking distance
+    of its goal (preferred speed below v_max) is a non-reactive mover plus a static twin; parked
+    robots and obstacles are non-reactive. A non-reactive object also forbids the candidates
+    whose ramp (the steps until the candidate is reached) comes closer than
+    ``min(r0 + delta_min / 2, d)`` (§2.15).
 
     Args:
         world: the state.
         planner: supplies the parameters (size regulation, reciprocity).
         b, i: world and robot.
         vel: candidate velocities ``(k, 2)`` [m/s].
-        horizon: the horizon T_h of each object ``(n + m,)`` [s] (``VCSPlanner.evaluate``).
+        horizon: the horizon T_h of each object ``(2 n + m,)`` [s] (``VCSPlanner.evaluate``).
 
     Returns:
-        ``{object index: (k,) bool}``; robots first (index j), then obstacles (n + k).
+        ``{object index: (k,) bool}``: robots (index j), obstacles (n + k), twins (n + m + j).
     """
     p = planner.params
+    n, m = world.n_robots, world.n_obstacles
     pref = preferred_velocity(world)[b]
     v_r = world.vel[b, i]
     r_ca = world.r_ca if p.r_ca is None else p.r_ca
+    dv, dth = G.velocity_to_vcs(vel, world.speed[b, i], world.heading[b, i])
+    ramp = G.ramp_positions(
+        dv, dth, world.speed[b, i], world.heading[b, i], world.a_max[b, i], world.omega_max[b, i], world.dt
+    )
+    ramp_t = world.dt * np.arange(1, ramp.shape[1] + 1)
+    steps = G.reach_steps(dv, dth, world.a_max[b, i], world.omega_max[b, i], world.dt)
+    on_ramp = (np.arange(1, ramp.shape[1] + 1) <= steps[:, None]) & (steps[:, None] > 1)  # (k, K)
     out = {}
-    objects = [(j, True) for j in range(world.n_robots) if j != i and world.present[b, j]]
-    objects += [(k, False) for k in range(world.n_obstacles)]
-    for j, is_robot in objects:
-        pos = world.pos[b, j] if is_robot else world.obs_pos[b, j]
-        v_j = (world.vel[b, j] if world.active[b, j] else np.zeros(2)) if is_robot else world.obs_vel[b, j]
-        r0 = world.radius[b, i] + (world.radius[b, j] if is_robot else world.obs_radius[b, j])
+    objects = []  # (index, position, velocity, other radius, reciprocal)
+    for j in range(n):
+        if j == i or not world.present[b, j]:
+            continue
+        if not world.active[b, j]:
+            objects.append((j, world.pos[b, j], np.zeros(2), world.radius[b, j], False))
+            continue
+        arriving = p.arriving_non_reactive and np.linalg.norm(pref[j]) < world.v_max[b, j] * (1 - 1e-6)
+        objects.append(
+            (j, world.pos[b, j], world.vel[b, j], world.radius[b, j], not arriving and p.reciprocity != "vo")
+        )
+        if arriving and world.speed[b, j] > 1e-6:
+            objects.append((n + m + j, world.pos[b, j], np.zeros(2), world.radius[b, j], False))
+    objects += [(n + k, world.obs_pos[b, k], world.obs_vel[b, k], world.obs_radius[b, k], False) for k in range(m)]
+    for idx, pos, v_j, r_j, reciprocal in objects:
+        r0 = world.radius[b, i] + r_j
         rel = pos - world.pos[b, i]
         d = float(np.linalg.norm(rel))
         if d > r_ca:
             continue
-        idx = j if is_robot else world.n_robots + j
-        reciprocal = bool(is_robot and world.active[b, j] and p.reciprocity != "vo")
         if d <= r0:  # overlap: the half-plane rule (§2.4)
             apex, p_hat = G.overlap_apex(rel, np.array(r0), v_r, v_j, world.dt, np.array(reciprocal))
             out[idx] = (vel - apex) @ p_hat > 0.0
@@ -64,14 +87,18 @@ def object_forbidden_masks(
         if d <= reff:
             reff = max(r0, d - p.eps_overlap)
         if reciprocal and p.reciprocity == "hrvo":
-            apex = G.hrvo_apex(rel, np.array(reff), v_r, v_j, pref[i], pref[j])
+            apex = G.hrvo_apex(rel, np.array(reff), v_r, v_j, pref[i], pref[idx])
         elif reciprocal:
             apex = G.rvo_apex(v_r, v_j)
         else:
             apex = v_j
         k = len(vel)
         scale = np.full(k, 2.0 if reciprocal else 1.0)
-        out[idx] = G.forbidden(vel, np.broadcast_to(rel, vel.shape), apex, scale, np.full(k, reff), horizon[idx])
+        mask = G.forbidden(vel, np.broadcast_to(rel, vel.shape), apex, scale, np.full(k, reff), horizon[idx])
+        if not reciprocal and p.ramp_check:  # admissible along the way (§2.15)
+            gap = np.linalg.norm(rel + ramp_t[:, None] * v_j - ramp, axis=-1)
+            mask |= (on_ramp & (gap < min(r0 + 0.5 * p.delta_min, d))).any(axis=1)
+        out[idx] = mask
     return out
 
 
