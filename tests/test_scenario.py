@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 import vcs_env
 from vcs_env.engine import NavEngine
 from vcs_env.layouts import generate
-from vcs_env.observations import observation_space
 from vcs_env.scenario import SCENARIOS, CustomLayout, ObstacleTrajectory, Scenario, make_scenario
+from vcs_env.spaces import observation_space
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
