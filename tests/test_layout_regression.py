@@ -62,7 +62,7 @@ def test_layout_matches_fixture(case):
 
 
 def test_fixture_covers_every_case_and_kind():
-    from vcs_env.scenario import KINDS
+    from vcs_env.layouts import KINDS
 
     assert set(json.loads(FIXTURE.read_text())) == set(CASES)
     assert {_scenario(c).kind for c in CASES} == set(KINDS)
