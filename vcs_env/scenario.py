@@ -109,7 +109,8 @@ class RewardWeights:
     ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
     window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = gamma * phi(s') - phi(s) with
     phi = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a
-    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`).
+    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`). Each
+    term is an object in :data:`vcs_env.rewards.TERMS`.
     """
 
     progress: float = 1.0
