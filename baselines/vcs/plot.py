@@ -52,11 +52,11 @@ def object_forbidden_masks(
             continue
         idx = j if is_robot else world.n_robots + j
         reciprocal = bool(is_robot and world.active[b, j] and p.reciprocity != "vo")
-        if d <= r0:  # overlap: the half-plane rule (§2.4)
+        if d <= r0:  # overlap: the half-plane rule (vcs-method §2.4)
             apex, p_hat = G.overlap_apex(rel, np.array(r0), v_r, v_j, world.dt, np.array(reciprocal))
             out[idx] = (vel - apex) @ p_hat > 0.0
             continue
-        # Size regulation (§2.6).
+        # Size regulation (vcs-method §2.6).
         tc0 = G.time_to_collision(rel, v_r - v_j, r0)
         kt = 0.0 if np.isinf(tc0) else float(np.clip((p.t_max - tc0) / p.t_max, 0, 1))
         kd = float(np.clip(1 - (d - r0) / r_ca, 0, 1))
