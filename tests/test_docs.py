@@ -8,6 +8,8 @@ import re
 
 import pytest
 
+from vcs_env import layouts, planning
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOCS = {"vcs-method": ROOT / "docs" / "vcs-method.md", "vcs-calibration": ROOT / "docs" / "vcs-calibration.md"}
 PENDING_CITATIONS = {"baselines/vcs/kernel.py", "baselines/vcs/params.py", "baselines/vcs/planner.py"}
@@ -86,3 +88,35 @@ def test_citations_resolve(path):
         return
     home = next((doc for doc, p in DOCS.items() if p == path), None)
     assert problems(_text(path), home) == []
+
+
+EXTENDING = ROOT / "docs" / "extending.md"
+FENCE = re.compile(r"```(\w+)\n(.*?)```", re.DOTALL)
+SOURCE = re.compile(r"[Ff]rom `([^`]+)`[^\n]*\n\n$")
+
+
+def _blocks() -> list[tuple[str | None, str, str]]:
+    """(source file or None, language, code) of every fenced block of docs/extending.md."""
+    text = EXTENDING.read_text()
+    out = []
+    for m in FENCE.finditer(text):
+        src = SOURCE.search(text[max(0, m.start() - 300) : m.start()])
+        out.append((src.group(1) if src else None, m.group(1), m.group(2)))
+    return out
+
+
+def test_extending_excerpts_are_the_code():
+    excerpts = [(src, code) for src, _, code in _blocks() if src]
+    assert len(excerpts) >= 4  # a kind, a reward term, a planner and its entry point
+    for src, code in excerpts:
+        assert code in (ROOT / src).read_text(), f"docs/extending.md quotes {src} but the code differs"
+
+
+def test_extending_examples_run(monkeypatch):
+    monkeypatch.setattr(layouts, "KINDS", dict(layouts.KINDS))  # the examples register for one process
+    monkeypatch.setattr(planning, "_REGISTERED", dict(planning._REGISTERED))
+    examples = [code for src, lang, code in _blocks() if src is None and lang == "python"]
+    assert len(examples) == 3
+    for code in examples:
+        exec(compile(code, str(EXTENDING), "exec"), {})
+    assert "column" in layouts.KINDS and "stop" in planning.PLANNERS
