@@ -22,8 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.observations import observation_space
 from vcs_env.scenario import Scenario
+from vcs_env.spaces import observation_space
 
 from .config import config_command
 

@@ -48,8 +48,8 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
 from vcs_env.engine import NavEngine
-from vcs_env.observations import observation_space
 from vcs_env.scenario import Scenario
+from vcs_env.spaces import observation_space
 
 
 class NavVecEnv(VecEnv):

@@ -1,52 +1,54 @@
-"""Scripted planners. ``PLANNERS`` is the one registry; nobody mutates it from elsewhere."""
+"""Scripted planners, offered to ``vcs_env`` as plug-ins.
+
+``pyproject.toml`` registers the factories below under the entry-point group
+``vcs_env.planners``, so ``vcs_env.make_planner("hrvo")`` and ``expert="vcs"`` find them without
+``vcs_env`` importing this package. ``PLANNERS`` and ``make_planner`` are the registry of
+:mod:`vcs_env.planning`, re-exported (there is one registry).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
-from vcs_env.planning import Planner
+from vcs_env.planning import PLANNERS, Planner, make_planner
 
 from .straight import StraightPlanner
 
-
-def _sampling_vo(method: str) -> Callable[..., Planner]:
-    def make(**kw):
-        from .vo import SamplingVOPlanner  # lazy, like the VCS planner: numba loads on first use
-
-        return SamplingVOPlanner(method, **kw)
-
-    make.__doc__ = f"A ``{method}`` :class:`baselines.vo.SamplingVOPlanner`."
-    return make
+# Factories named by the entry points; each imports its planner on first use (numba, pyrvo).
+# (Not named like the submodules: importing `baselines.vo` would replace a function `vo`.)
 
 
-def _orca(**kw):
-    from .orca import OrcaPlanner  # needs the optional pyrvo (extra "orca")
-
-    return OrcaPlanner(**kw)
-
-
-def _vcs(**kw):
+def make_vcs(**kw) -> Planner:
+    """A :class:`baselines.vcs.VCSPlanner` (keyword arguments: :class:`baselines.vcs.VCSParams` fields)."""
     from .vcs import VCSPlanner
 
     return VCSPlanner(**kw)
 
 
-PLANNERS: dict[str, Callable[..., Planner]] = {
-    "straight": StraightPlanner,
-    "vcs": _vcs,
-    "vo": _sampling_vo("vo"),
-    "rvo": _sampling_vo("rvo"),
-    "hrvo": _sampling_vo("hrvo"),
-    "orca": _orca,
-}
-"""Planner name -> factory (keyword arguments go to the planner)."""
+def make_vo(**kw) -> Planner:
+    """A ``vo`` :class:`baselines.vo.SamplingVOPlanner` (passive velocity obstacles)."""
+    from .vo import SamplingVOPlanner
+
+    return SamplingVOPlanner("vo", **kw)
 
 
-def make_planner(name: str, **kwargs) -> Planner:
-    """A planner by registered name."""
-    if name not in PLANNERS:
-        raise ValueError(f"unknown planner {name!r}; registered planners are {sorted(PLANNERS)}")
-    return PLANNERS[name](**kwargs)
+def make_rvo(**kw) -> Planner:
+    """An ``rvo`` :class:`baselines.vo.SamplingVOPlanner` (reciprocal velocity obstacles)."""
+    from .vo import SamplingVOPlanner
+
+    return SamplingVOPlanner("rvo", **kw)
+
+
+def make_hrvo(**kw) -> Planner:
+    """An ``hrvo`` :class:`baselines.vo.SamplingVOPlanner` (hybrid reciprocal velocity obstacles)."""
+    from .vo import SamplingVOPlanner
+
+    return SamplingVOPlanner("hrvo", **kw)
+
+
+def make_orca(**kw) -> Planner:
+    """A :class:`baselines.orca.OrcaPlanner` (needs the optional ``pyrvo``, extra ``orca``)."""
+    from .orca import OrcaPlanner
+
+    return OrcaPlanner(**kw)
 
 
 __all__ = ["PLANNERS", "Planner", "StraightPlanner", "make_planner"]

@@ -9,7 +9,7 @@ from vcs_env.state import WorldState
 
 
 def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) -> np.ndarray:
-    """Velocity toward the goal, capped so the robot can stop there (vcs-method.md §2.5).
+    """Velocity toward the goal, capped so the robot can stop there (vcs-method §2.5).
 
     ``s = min(v_pref_max, d / dt, sqrt(2 a_max d))`` toward the goal, and 0 within ``r_goal``.
     Unicycles are also capped so that they can turn onto the goal, ``s <= omega_max d /

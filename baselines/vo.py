@@ -2,21 +2,21 @@
 
 The RVO Library (van den Berg, Lin and Manocha, ICRA 2008, "Reciprocal Velocity Obstacles for
 real-time multi-agent navigation") picks, every period, among the preferred velocity and random
-samples of the disc ``|v| <= v_max`` the candidate of least penalty (spec ``notes/vcs-method.md``
-§2.12)::
+samples of the disc ``|v| <= v_max`` the candidate of least penalty (vcs-method §2.12)::
 
     penalty(v) = w / t_c(v) + |v - v_pref|,      t_c(v) = min_j tau(p_j, w_j(v), r_j)
 
-with ``w = 7.5`` [s m/s] (the library's safety factor), ``tau`` the time to collision (§2.2),
+with ``w = 7.5`` [s m/s] (the library's safety factor), ``tau`` the time to collision (vcs-method §2.2),
 ``p_j`` the position of neighbour ``j`` relative to the robot, ``r_j`` the combined radius and
-``w_j(v)`` the relative velocity of the cone the method uses against ``j``:
+``w_j(v)`` the relative velocity of the cone the method uses against ``j`` (the HRVO apex is that
+of vcs-method §2.4):
 
 ========  ==============================================  ===========================
 method    active robot neighbours                         obstacles, parked robots
 ========  ==============================================  ===========================
 ``vo``    ``v - v_j`` (apex ``v_j``)                      ``v - v_j`` (passive)
 ``rvo``   ``2 v - v_R - v_j`` (apex ``(v_R + v_j) / 2``)  ``v - v_j``
-``hrvo``  ``2 (v - a_j)``, ``a_j`` the HRVO apex (§2.4)   ``v - v_j``
+``hrvo``  ``2 (v - a_j)``, ``a_j`` the HRVO apex            ``v - v_j``
 ========  ==============================================  ===========================
 
 Only objects whose centres are within ``r_ca`` count; parked robots have ``v_j = 0``. The cones

@@ -122,12 +122,20 @@ def test_gym_env_seeding_is_reproducible():
     np.testing.assert_array_equal(rollout(7), rollout(7))
 
 
-def test_aec_env_via_parallel_to_aec_runs():
-    env = parallel_to_aec(vcs_env.parallel_env(scenario="swap"))
-    env.reset(seed=0)
-    for _ in env.agent_iter(max_iter=20):
-        _, _, term, trunc, _ = env.last()
-        env.step(None if term or trunc else np.zeros(2, dtype=np.float32))
+def test_aec_env_via_parallel_to_aec_matches_the_parallel_env():
+    acts = {"robot_0": np.array([1.0, 0.2], np.float32), "robot_1": np.array([0.5, -0.3], np.float32)}
+    par = vcs_env.parallel_env(scenario="swap")
+    par.reset(seed=0)
+    aec = parallel_to_aec(vcs_env.parallel_env(scenario="swap"))
+    aec.reset(seed=0)
+    for _ in range(10):
+        obs, rew, *_ = par.step(acts)
+        for agent in ("robot_0", "robot_1"):  # one AEC cycle steps the parallel env once
+            assert aec.agent_selection == agent
+            aec.step(acts[agent])
+        for agent in par.agents:
+            np.testing.assert_array_equal(aec.observe(agent), obs[agent])
+            assert aec.rewards[agent] == rew[agent] != 0.0
 
 
 def test_pettingzoo_registry():

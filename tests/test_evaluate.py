@@ -12,8 +12,8 @@ import pytest
 from agents.evaluate import compare, evaluate
 from baselines import PLANNERS
 from vcs_env import cli, metrics
-from vcs_env.observations import observation_space
 from vcs_env.rollout import Episode
+from vcs_env.spaces import observation_space
 from vcs_env.suites import SMOKE_SEEDS, SUITES, Suite, get_suite, suite_names
 
 

@@ -63,7 +63,7 @@ def scalar_ttc(p, w, r):
 
 
 def scalar_hrvo_apex(p, r, v_i, v_j, pref_i, pref_j):
-    """HRVO apex (spec §2.4) with trigonometry and Cramer's rule."""
+    """HRVO apex (vcs-method §2.4) with trigonometry and Cramer's rule."""
     d = math.hypot(p[0], p[1])
     phi, alpha = math.atan2(p[1], p[0]), math.asin(r / d)
     right = (math.cos(phi - alpha), math.sin(phi - alpha))

@@ -9,10 +9,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import vcs_env
+from vcs_env import layouts
 from vcs_env.engine import NavEngine
 from vcs_env.layouts import generate
-from vcs_env.observations import observation_space
 from vcs_env.scenario import SCENARIOS, CustomLayout, ObstacleTrajectory, Scenario, make_scenario
+from vcs_env.spaces import observation_space
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
@@ -189,3 +190,43 @@ def test_random_scenarios_and_actions_never_nan_and_stay_in_the_space(scenario, 
 def test_invalid_parameters_always_raise_value_error(field, value):
     with pytest.raises(ValueError, match=field):
         dataclasses.replace(SCENARIOS["circle"], **{field: value})
+
+
+class Line(layouts.ScenarioKind):
+    """A test kind: robots in a row on y = 0, each driving to the mirror point on y = 2."""
+
+    name = "line"
+    summary = "robots in a row on y = 0, driving to y = 2."
+
+    def check_layout(self, s):
+        if s.lane_spacing < 2 * s.robot.radius + s.min_separation:
+            raise ValueError("lane_spacing too small for a line")
+
+    def generate(self, s, rng):
+        x = (np.arange(s.n_robots) - (s.n_robots - 1) / 2) * s.lane_spacing
+        start = np.stack((x, np.zeros_like(x)), -1)
+        goal = start + [0.0, 2.0]
+        return layouts.finish(s, start, goal, *layouts.place_obstacles(s, rng, start, goal, np.zeros(0)))
+
+
+def test_a_new_kind_is_one_object(monkeypatch):
+    monkeypatch.setitem(layouts.KINDS, "line", Line())
+    s = Scenario(kind="line", n_robots=3)
+    assert s.circle_radius == 5.0 and s.world_extent == max(s.arena_half_size, 5.0 + 1.2 * 3 / 2)
+    lay = generate(s, np.random.default_rng(0))
+    np.testing.assert_allclose(lay.start[:, 0], [-1.2, 0.0, 1.2])
+    np.testing.assert_allclose(lay.heading, np.pi / 2)
+    env = vcs_env.parallel_env(scenario=s)
+    obs, _ = env.reset(seed=0)
+    assert len(obs) == 3
+    with pytest.raises(ValueError, match="too small for a line"):
+        Scenario(kind="line", lane_spacing=0.1)
+    assert "line       robots in a row" in layouts.kinds_help()
+
+
+def test_every_kind_documents_itself_and_unknown_kinds_list_them():
+    text = layouts.kinds_help()
+    assert [line.split()[0] for line in text.splitlines()] == list(layouts.KINDS)
+    assert all(k.summary and k.name == name for name, k in layouts.KINDS.items())
+    with pytest.raises(ValueError, match=r"kind must be one of \['circle', 'swap', 'crossing'"):
+        Scenario(kind="maze")

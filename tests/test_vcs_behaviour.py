@@ -1,11 +1,11 @@
-"""The VCS planner's claimed properties, shown against its ablations (spec §4.1-4.5).
+"""The VCS planner's claimed properties, shown against its ablations (vcs-method §4.1-4.5).
 
-Each test runs the spec's scenario (``baselines.vcs.experiments``) with the VCS planner and
-with the ablation that is the paper's foil, on the same layouts, and measures. Thresholds are
-the spec's; where this implementation measures differently from the spec's prototype, the
-threshold is relaxed to what still shows the property, with the measured values and the
-reason in the comment (``docs/vcs-calibration.md`` has the full record). CI uses fewer seeds
-than the spec (8 instead of 20-40) but every property.
+Each test runs a scenario of vcs-method §4 (``baselines.vcs.experiments``) with the VCS planner
+and with the ablation that is the paper's foil, on the same layouts, and measures. Thresholds
+are the reconstruction's; where this implementation measures differently from the
+reconstruction's prototype, the threshold is relaxed to what still shows the property, with the
+measured values and the reason in the comment (``docs/vcs-calibration.md`` has the full
+record). CI uses fewer seeds than the prototype (8 instead of 20-40) but every property.
 """
 
 import math
@@ -152,7 +152,7 @@ def test_fs2_fs3_big_obstacle_with_weak_dynamics():
 # ---------------------------------------------------------------- multi-objective
 def test_mo1_full_cost_is_smoother_than_goal_only(cf1):
     full, goal = cf1["vcs"], cf1["goal_only"]
-    # Spec: heading change <= 0.7x, sign flips <= 0.6x. Measured here on these seeds: 0.74x and
+    # Prototype: heading change <= 0.7x, sign flips <= 0.6x. Measured here on these seeds: 0.74x and
     # 0.45x (20 seeds: 0.70x, 0.62x); the heading-change bound is relaxed to 0.8x.
     assert mean(full, lambda r: r.heading_change[0]) <= 0.8 * mean(goal, lambda r: r.heading_change[0])
     # Sign flips: spec <= 0.6x, measured here 0.63x with the crowd margin (whose horizons change
@@ -165,7 +165,7 @@ def test_mo1_full_cost_is_smoother_than_goal_only(cf1):
 def test_mo3_point_search_finds_the_grid_optimum():
     """On 100+ states: p* is admissible and is the exact argmin of J over the planner's own
     candidates (its window grid plus G, the origin and the one-step G). Against a 4x denser
-    grid of the same window (spec MO3: within 0.01 everywhere) we measure within 0.01 in 90 %
+    grid of the same window (vcs-method §4.5, MO3: within 0.01 everywhere) we measure within 0.01 in 90 %
     of the states, median gap 0; the rest are narrow admissible gaps that the coarse grid
     misses (largest gap 0.35), so the bound is on the fraction (>= 85 %) and the median."""
     import vcs_env

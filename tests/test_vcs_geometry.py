@@ -1,4 +1,4 @@
-"""VCS geometry, spec §4.0 (U1-U7): vectorized reference functions against scalar twins and
+"""VCS geometry, vcs-method §4.0 (U1-U7): vectorized reference functions against scalar twins and
 brute force, and the numba planner kernel against the numpy reference."""
 
 import math
@@ -14,7 +14,7 @@ from vcs_env.engine import NavEngine
 
 
 def scalar_tau(px, py, wx, wy, r):
-    """Scalar twin of the time to collision (spec §2.2)."""
+    """Scalar twin of the time to collision (vcs-method §2.2)."""
     c = px * px + py * py - r * r
     if c <= 0:
         return 0.0
@@ -82,7 +82,7 @@ def test_u3_hrvo_apex_lies_on_both_side_lines(rng):
 
 
 def test_u3_snape_else_branch_sign_error_is_real(rng):
-    """Spec §2.17: the reference code's `else` formula does not land on the RVO side line;
+    """vcs-method §2.17: the reference code's `else` formula does not land on the RVO side line;
     our explicit intersection does (guards against porting it)."""
     p, _, r = random_pairs(rng, 200)
     v_r = rng.uniform(-1, 1, size=(200, 2))

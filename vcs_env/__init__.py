@@ -11,7 +11,7 @@ import pettingzoo
 
 from .engine import NavEngine, StepResult
 from .parallel import VcsNavParallelEnv, env, parallel_env, raw_env
-from .planning import Planner, make_planner
+from .planning import PLANNERS, Planner, make_planner, register_planner
 from .scenario import (
     SCENARIOS,
     CustomLayout,
@@ -49,6 +49,7 @@ for _type, _entry in (("parallel", "vcs_env.parallel:parallel_env"), ("aec", "vc
         pettingzoo.register(_type, PZ_ID, entry_point=_entry)
 
 __all__ = [
+    "PLANNERS",
     "SCENARIOS",
     "GYM_IDS",
     "PZ_ID",
@@ -69,4 +70,5 @@ __all__ = [
     "make_scenario",
     "parallel_env",
     "raw_env",
+    "register_planner",
 ]

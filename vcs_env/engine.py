@@ -12,20 +12,17 @@ adapters over it, so episode semantics are defined once:
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .observations import observe
 from .planning import Planner, make_planner
-from .rewards import base_terms, imitation_term, potential_term, weighted_sum
+from .rewards import RewardFn, RewardTerm, StepInput, build_terms, weighted_sum
 from .scenario import Scenario
 from .sim import Simulator, StepEvents
 from .state import WorldState
-
-RewardFn = Callable[[WorldState, StepEvents, np.ndarray], np.ndarray]
-"""A custom reward term: ``fn(world_after, events, actions (B, n, 2)) -> (B, n)``."""
 
 
 @dataclass
@@ -70,7 +67,8 @@ class NavEngine:
         expert: a planner or planner name whose action is reported for every state
             (``expert_action``); needed by, and defaulting to ``"vcs"`` for, the ``vcs_*``
             shaping terms.
-        reward_terms: extra named terms ``{name: (weight, fn)}`` (see :data:`RewardFn`).
+        reward_terms: extra named terms ``{name: (weight, term)}``, a term being a
+            :class:`~vcs_env.rewards.RewardTerm` or a function (:data:`~vcs_env.rewards.RewardFn`).
         obstacle_motion: overrides the scenario's obstacle motion model.
         gamma: discount of the ``vcs_potential`` shaping term ``gamma * phi(s') - phi(s)``; use
             the learner's (see :func:`vcs_env.rewards.potential_term`).
@@ -83,7 +81,7 @@ class NavEngine:
         batch_size: int = 1,
         action_mode: str = "delta",
         expert: str | Planner | None = None,
-        reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
+        reward_terms: Mapping[str, tuple[float, RewardTerm | RewardFn]] | None = None,
         obstacle_motion=None,
         gamma: float = 0.99,
         max_steps: int | None = None,
@@ -91,36 +89,17 @@ class NavEngine:
         self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion)
         self.scenario = scenario
         self.action_mode = action_mode
-        weights = scenario.rewards.as_dict()
-        self.extra_terms: dict[str, RewardFn] = {}
-        for name, spec in (reward_terms or {}).items():
-            if name in weights:
-                raise ValueError(f"reward term {name!r} already exists; pick another name")
-            try:
-                w, fn = spec
-            except (TypeError, ValueError):
-                raise ValueError(f"reward_terms[{name!r}] must be a (weight, fn) pair") from None
-            if not callable(fn):
-                raise ValueError(f"reward_terms[{name!r}] function is not callable")
-            weights[name] = float(w)
-            self.extra_terms[name] = fn
-        self.weights = weights
-        self.use_imitation = weights["vcs_imitation"] != 0.0
-        self.use_potential = weights["vcs_potential"] != 0.0
-        if expert is None and (self.use_imitation or self.use_potential):
+        self.terms, self.weights = build_terms(scenario.rewards.as_dict(), reward_terms)
+        if expert is None and any(t.needs_expert for t in self.terms.values()):
             expert = "vcs"
         self.expert: Planner | None = None if expert is None else make_planner(expert)
-        if self.use_potential and not (hasattr(self.expert, "potential") and hasattr(self.expert, "potential_floor")):
-            raise ValueError(
-                f"vcs_potential shaping needs an expert with potential() and potential_floor (the VCS planner); "
-                f"{getattr(self.expert, 'name', type(self.expert).__name__)!r} has none"
-            )
+        for term in self.terms.values():
+            term.check(self.expert)
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"gamma must be in [0, 1], got {gamma}")
         self.gamma = float(gamma)
         self.max_steps = scenario.max_steps if max_steps is None else int(max_steps)
         self._expert_action: np.ndarray | None = None
-        self._phi: np.ndarray | None = None
 
     @property
     def world(self) -> WorldState:
@@ -139,22 +118,18 @@ class NavEngine:
         self.sim.reset(seeds, idx)
         if self.expert is not None:
             self._refresh_expert(idx)
+        for term in self.terms.values():
+            term.start(self.sim.world, self.expert, idx)
         return self.observe()
 
     def _refresh_expert(self, idx: Sequence[int] | None = None) -> None:
-        """Expert action (and potential) for the current state of every world."""
+        """Expert action for the current state of every world."""
         world = self.sim.world
         action = self.expert.act(world, self.action_mode)
         if idx is None or self._expert_action is None:
             self._expert_action = action
         else:
             self._expert_action[idx] = action[idx]
-        if self.use_potential:
-            phi = self.expert.potential(world)
-            if idx is None or self._phi is None:
-                self._phi = phi
-            else:
-                self._phi[idx] = phi[idx]
 
     @property
     def expert_action(self) -> np.ndarray | None:
@@ -171,21 +146,11 @@ class NavEngine:
         prev_expert = self._expert_action
         events = self.sim.step(actions)
         world = self.sim.world
-        terms = base_terms(events, self.scenario.dt)
         crashed = events.collided & (self.scenario.on_collision == "terminate")
         terminated = events.reached | crashed
         truncated = world.active & (world.steps >= self.max_steps)[:, None]
-        if self.use_imitation:
-            terms["vcs_imitation"] = imitation_term(np.asarray(actions, dtype=np.float64), prev_expert, events.acted)
-        if self.use_potential:
-            # Goal: phi = 0 (best); terminating collision: the floor (worst); truncation keeps phi(s').
-            phi_next = self.expert.potential(world)
-            terms["vcs_potential"] = potential_term(
-                self._phi, phi_next, events.reached, crashed, events.acted, self.gamma, self.expert.potential_floor
-            )
-            self._phi = phi_next
-        for name, fn in self.extra_terms.items():
-            terms[name] = np.where(events.acted, np.asarray(fn(world, events, actions), dtype=np.float64), 0.0)
+        x = StepInput(world, events, actions, crashed, self.scenario.dt, self.gamma, self.expert, prev_expert)
+        terms = {name: term(x) for name, term in self.terms.items()}
         obs = self.observe()
         final_obs, ended = None, np.zeros(self.batch_size, dtype=bool)
         if autoreset:
@@ -194,8 +159,8 @@ class NavEngine:
                 final_obs = obs.copy()
                 self.sim.reset(None, np.flatnonzero(ended))
                 obs = self.observe()
-                if self.use_potential:
-                    self._phi[ended] = self.expert.potential(world)[ended]
+                for term in self.terms.values():
+                    term.start(world, self.expert, np.flatnonzero(ended))
         if self.expert is not None:
             self._expert_action = self.expert.act(world, self.action_mode)
         return StepResult(

@@ -6,13 +6,12 @@ from collections.abc import Mapping
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from .engine import NavEngine, RewardFn
-from .observations import observation_space
 from .planning import Planner, make_planner
 from .render import Renderer, RenderMixin
 from .scenario import Scenario, make_scenario
+from .spaces import action_space, observation_space
 
 
 class VcsNavEnv(RenderMixin, gym.Env):
@@ -65,7 +64,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         self.others = make_planner(others) if n > 1 else None
         self.render_mode = render_mode
         self.observation_space = observation_space(self.scenario)
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.action_space = action_space()
         self._renderer: Renderer | None = None
 
     @property

@@ -33,7 +33,6 @@ the generated layouts).
 from __future__ import annotations
 
 import numpy as np
-from gymnasium import spaces
 
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
@@ -46,15 +45,15 @@ def observation_dim(scenario: Scenario) -> int:
     return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM
 
 
-def observation_space(scenario: Scenario) -> spaces.Box:
-    """The Box every robot's observation lives in."""
+def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds ``(D,)`` float32 of every robot's observation (the tables above)."""
     dim = observation_dim(scenario)
     low = np.full(dim, -1.0, dtype=np.float32)
     low[[0, 1, 4, 5, 6, 7]] = 0.0
     slots = EGO_DIM + NEIGHBOR_DIM * np.arange(scenario.n_neighbors)
     for off in (0, 5, 7):
         low[slots + off] = 0.0
-    return spaces.Box(low=low, high=np.ones(dim, dtype=np.float32), dtype=np.float32)
+    return low, np.ones(dim, dtype=np.float32)
 
 
 def goal_scale(scenario: Scenario) -> float:
@@ -113,7 +112,7 @@ def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
-    """Observations of every robot ``(B, n, D)`` float32, inside :func:`observation_space`."""
+    """Observations of every robot ``(B, n, D)`` float32, within :func:`observation_bounds`."""
     k = scenario.n_neighbors
     B, n = world.batch_size, world.n_robots
     out = np.empty((B, n, EGO_DIM + k * NEIGHBOR_DIM))
@@ -163,6 +162,6 @@ def state_vector(world: WorldState) -> np.ndarray:
     return np.concatenate((robots, obstacles), axis=-1).astype(np.float32)
 
 
-def state_space(scenario: Scenario) -> spaces.Box:
-    dim = 10 * scenario.n_robots + 5 * scenario.n_obstacles
-    return spaces.Box(low=-np.inf, high=np.inf, shape=(dim,), dtype=np.float32)
+def state_dim(scenario: Scenario) -> int:
+    """Length S of :func:`state_vector`."""
+    return 10 * scenario.n_robots + 5 * scenario.n_obstacles

@@ -111,7 +111,7 @@ class Patrol(ObstacleMotion):
 
 class Arbitrary(ObstacleMotion):
     """Constant speed, piecewise-constant random turn rate U(-turn_rate, turn_rate), redrawn
-    every ``turn_period`` (vcs-method.md CF2: "obstacles moving along arbitrary trajectories")."""
+    every ``turn_period`` (vcs-method §4.1, CF2: "obstacles moving along arbitrary trajectories")."""
 
     name = "arbitrary"
 

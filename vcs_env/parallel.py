@@ -10,8 +10,9 @@ from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
+from . import spaces as nav_spaces
 from .engine import NavEngine, RewardFn
-from .observations import observation_space, state_space, state_vector
+from .observations import state_vector
 from .planning import Planner
 from .render import Renderer, RenderMixin
 from .scenario import Scenario, make_scenario
@@ -112,9 +113,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
-        self._obs_space = observation_space(self.scenario)
-        self._act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        self.state_space = state_space(self.scenario)
+        self._obs_space = nav_spaces.observation_space(self.scenario)
+        self._act_space = nav_spaces.action_space()
+        self.state_space = nav_spaces.state_space(self.scenario)
         self._renderer: Renderer | None = None
 
     # PettingZoo's tests set env.max_cycles directly.

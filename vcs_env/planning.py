@@ -1,20 +1,31 @@
-"""The planner protocol the env understands, and lazy lookup of planners by name.
+"""The planner protocol the env understands, and the registry of planners by name.
 
 A planner sees the privileged :class:`~vcs_env.state.WorldState` of ``B`` worlds and returns a
 *target* per robot: a desired velocity in polar form ``(speed [m/s], heading [rad])``. Every
 consumer (expert actions, rollouts, evaluation) turns targets into actions through the same
 :func:`~vcs_env.dynamics.target_to_action`, so planners differ by method only.
 
-The env never imports :mod:`baselines` at module level: ``expert="vcs"`` is resolved here,
-lazily, through :func:`make_planner`.
+``vcs_env`` owns the registry but imports no planner: installed packages offer planners through
+the entry-point group ``vcs_env.planners`` (``name = "module:factory"`` in their
+``pyproject.toml``; this project's ``baselines`` registers ``vcs``, ``vo``, ``rvo``, ``hrvo``,
+``orca`` and ``straight`` that way), and code that is not packaged calls
+:func:`register_planner`. A factory's module is imported when the planner is first made, so
+``expert="vcs"`` costs nothing until it is used.
 """
 
 from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Iterator, Mapping
+from importlib.metadata import EntryPoint, entry_points
 
 import numpy as np
 
 from .dynamics import target_to_action
 from .state import WorldState
+
+ENTRY_POINT_GROUP = "vcs_env.planners"
+"""Entry-point group that installed packages fill with planner factories."""
 
 
 class Planner:
@@ -42,14 +53,80 @@ class Planner:
         raise NotImplementedError(f"planner {self.name!r} does not provide a potential")
 
 
+PlannerFactory = Callable[..., Planner]
+"""Makes a planner; keyword arguments configure it (``factory(**kwargs) -> Planner``)."""
+
+_REGISTERED: dict[str, PlannerFactory] = {}
+"""Planners registered in this process with :func:`register_planner`."""
+
+
+@functools.cache
+def _entry_points() -> dict[str, EntryPoint]:
+    """The installed ``vcs_env.planners`` entry points by name, read once per process."""
+    found: dict[str, EntryPoint] = {}
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        if ep.name in found and found[ep.name].value != ep.value:
+            raise ValueError(
+                f"planner {ep.name!r} is offered by two installed packages ({found[ep.name].value} and {ep.value}); "
+                "uninstall one of them"
+            )
+        found[ep.name] = ep
+    return found
+
+
+def register_planner(name: str, factory: PlannerFactory) -> PlannerFactory:
+    """Register ``factory`` under ``name`` for this process (for code that is not an installed
+    package; packages use the ``vcs_env.planners`` entry points). Returns ``factory``, so it
+    also works as a class decorator: ``@functools.partial(register_planner, "mine")``.
+
+    Raises:
+        ValueError: if ``name`` is not a non-empty string, ``factory`` is not callable, or the
+            name is taken.
+    """
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"a planner name must be a non-empty string, got {name!r}")
+    if not callable(factory):
+        raise ValueError(f"the factory of planner {name!r} must be callable, got {type(factory).__name__}")
+    if name in PLANNERS:
+        raise ValueError(f"planner {name!r} is already registered; pick another name")
+    _REGISTERED[name] = factory
+    return factory
+
+
+class _Registry(Mapping[str, PlannerFactory]):
+    """Read-only view ``name -> factory`` of the installed and the registered planners."""
+
+    def __getitem__(self, name: str) -> PlannerFactory:
+        if name in _REGISTERED:
+            return _REGISTERED[name]
+        return _entry_points()[name].load()
+
+    def __contains__(self, name: object) -> bool:
+        return name in _REGISTERED or name in _entry_points()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(sorted(set(_entry_points()) | set(_REGISTERED)))
+
+    def __len__(self) -> int:
+        return len(set(_entry_points()) | set(_REGISTERED))
+
+    def __repr__(self) -> str:
+        return f"PLANNERS({', '.join(self)})"
+
+
+PLANNERS: Mapping[str, PlannerFactory] = _Registry()
+"""The one planner registry: name -> factory (keyword arguments go to the planner)."""
+
+
 def make_planner(spec: str | Planner, **kwargs) -> Planner:
-    """A planner instance from a registered name (see ``baselines.PLANNERS``) or as given."""
+    """A planner instance from a registered name (see :data:`PLANNERS`) or as given."""
     if isinstance(spec, Planner):
         if kwargs:
             raise ValueError("planner keyword arguments can only be given with a planner name")
         return spec
     if not isinstance(spec, str):
         raise ValueError(f"a planner must be a name or a vcs_env.planning.Planner, got {type(spec).__name__}")
-    from baselines import make_planner as _make  # lazy: the env does not depend on baselines
-
-    return _make(spec, **kwargs)
+    if spec not in PLANNERS:
+        hint = "" if len(PLANNERS) else " (none: is vcs-env installed, e.g. `pip install -e .`?)"
+        raise ValueError(f"unknown planner {spec!r}; registered planners are {list(PLANNERS)}{hint}")
+    return PLANNERS[spec](**kwargs)

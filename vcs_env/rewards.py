@@ -1,36 +1,154 @@
 """Named reward terms. The reward is ``sum(weight[name] * term[name])``; every term is reported.
 
-See :class:`~vcs_env.scenario.RewardWeights` for the definitions and default weights.
+Each term is one :class:`RewardTerm` object: a name, the term ``(B, n)`` of a step from a
+:class:`StepInput`, and optional hooks when episodes start. :data:`TERMS` lists the built-in
+terms, whose weights are the fields of :class:`~vcs_env.scenario.RewardWeights` (definitions
+there); a term of your own is passed to the env as ``reward_terms={name: (weight, term)}``
+(``docs/extending.md``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
+from .planning import Planner
 from .sim import StepEvents
+from .state import WorldState
 
-BASE_TERMS = ("progress", "arrival", "collision", "time")
-EXPERT_TERMS = ("vcs_imitation", "vcs_potential")
-
-
-def base_terms(events: StepEvents, dt: float) -> dict[str, np.ndarray]:
-    """The terms that need no expert, each ``(B, n)``; zero for robots that did not act."""
-    acted = events.acted
-    return {
-        "progress": np.where(acted, events.goal_dist_before - events.goal_dist_after, 0.0),
-        "arrival": events.reached.astype(np.float64),
-        "collision": -events.collided.astype(np.float64),
-        "time": np.where(acted, -dt, 0.0),
-    }
+RewardFn = Callable[[WorldState, StepEvents, np.ndarray], np.ndarray]
+"""A custom reward term as a function: ``fn(world_after, events, actions (B, n, 2)) -> (B, n)``."""
 
 
-def imitation_term(actions: np.ndarray, expert_actions: np.ndarray, acted: np.ndarray) -> np.ndarray:
+@dataclass
+class StepInput:
+    """What a reward term sees after one step of ``B`` worlds."""
+
+    world: WorldState  # state after the step
+    events: StepEvents
+    actions: np.ndarray  # (B, n, 2) the actions as given to the step
+    crashed: np.ndarray  # (B, n) bool: collisions that end the robot's episode
+    dt: float  # step [s]
+    gamma: float  # discount of potential-based shaping
+    expert: Planner | None
+    expert_action: np.ndarray | None  # (B, n, 2) the expert's action for the state before the step
+
+
+class RewardTerm:
+    """One named reward term. Subclasses set :attr:`name` and implement :meth:`__call__`."""
+
+    name: str = ""
+    needs_expert: bool = False
+    """Terms that need an expert are computed only when weighted, and their weight attaches the
+    VCS expert unless the env is given another."""
+
+    def check(self, expert: Planner | None) -> None:
+        """Raise ``ValueError`` if the term cannot work with this expert (called once)."""
+
+    def start(self, world: WorldState, expert: Planner | None, worlds: Sequence[int] | np.ndarray) -> None:
+        """Episodes of ``worlds`` (indices) have just started (reset or auto-reset)."""
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        """The term ``(B, n)`` of the step; zero for robots that did not act."""
+        raise NotImplementedError
+
+
+class Progress(RewardTerm):
+    """Decrease of the goal distance [m]."""
+
+    name = "progress"
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        ev = x.events
+        return np.where(ev.acted, ev.goal_dist_before - ev.goal_dist_after, 0.0)
+
+
+class Arrival(RewardTerm):
+    """1 on the step the goal is reached."""
+
+    name = "arrival"
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        return x.events.reached.astype(np.float64)
+
+
+class Collision(RewardTerm):
+    """-1 on every step the robot touches something."""
+
+    name = "collision"
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        return -x.events.collided.astype(np.float64)
+
+
+class Time(RewardTerm):
+    """-dt [s] per step driven."""
+
+    name = "time"
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        return np.where(x.events.acted, -x.dt, 0.0)
+
+
+class VcsImitation(RewardTerm):
     """``-|a - a_expert| / (2 sqrt 2)`` in [-1, 0]: distance of the taken and the expert action
     in the one-step velocity change window (both in action units, clipped to [-1, 1])."""
-    diff = np.clip(actions, -1.0, 1.0) - expert_actions
-    return np.where(acted, -np.sqrt(np.einsum("...i,...i->...", diff, diff)) / (2.0 * np.sqrt(2.0)), 0.0)
+
+    name = "vcs_imitation"
+    needs_expert = True
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        diff = np.clip(np.asarray(x.actions, dtype=np.float64), -1.0, 1.0) - x.expert_action
+        return np.where(x.events.acted, -np.sqrt(np.einsum("...i,...i->...", diff, diff)) / (2.0 * np.sqrt(2.0)), 0.0)
+
+
+class VcsPotential(RewardTerm):
+    """Potential-based shaping with phi = minus the expert's optimal cost (:func:`potential_term`)."""
+
+    name = "vcs_potential"
+    needs_expert = True
+
+    def __init__(self) -> None:
+        self.phi: np.ndarray | None = None  # (B, n) potential of the current state
+
+    def check(self, expert: Planner | None) -> None:
+        if not (hasattr(expert, "potential") and hasattr(expert, "potential_floor")):
+            raise ValueError(
+                f"vcs_potential shaping needs an expert with potential() and potential_floor (the VCS planner); "
+                f"{getattr(expert, 'name', type(expert).__name__)!r} has none"
+            )
+
+    def start(self, world: WorldState, expert: Planner | None, worlds: Sequence[int] | np.ndarray) -> None:
+        phi = expert.potential(world)
+        if self.phi is None:
+            self.phi = phi
+        else:
+            self.phi[worlds] = phi[worlds]
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        # Goal: phi = 0 (best); terminating collision: the floor (worst); truncation keeps phi(s').
+        phi_next = x.expert.potential(x.world)
+        out = potential_term(
+            self.phi, phi_next, x.events.reached, x.crashed, x.events.acted, x.gamma, x.expert.potential_floor
+        )
+        self.phi = phi_next
+        return out
+
+
+class FunctionTerm(RewardTerm):
+    """A term from a :data:`RewardFn`, zero for robots that did not act."""
+
+    def __init__(self, name: str, fn: RewardFn) -> None:
+        self.name, self.fn = name, fn
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        return np.where(x.events.acted, np.asarray(self.fn(x.world, x.events, x.actions), dtype=np.float64), 0.0)
+
+
+TERMS: tuple[type[RewardTerm], ...] = (Progress, Arrival, Collision, Time, VcsImitation, VcsPotential)
+"""The built-in terms, in the order they are summed; each has a weight in ``RewardWeights``."""
 
 
 def potential_term(
@@ -56,7 +174,35 @@ def potential_term(
     return np.where(acted, gamma * end - phi_before, 0.0)
 
 
+def build_terms(
+    weights: Mapping[str, float], extra: Mapping[str, tuple[float, RewardTerm | RewardFn]] | None = None
+) -> tuple[dict[str, RewardTerm], dict[str, float]]:
+    """The terms an env computes (name -> term, in summing order) and every term's weight.
+
+    Built-in terms are computed unless they need an expert and weigh 0; ``extra`` adds
+    ``{name: (weight, term or function)}`` after them.
+
+    Raises:
+        ValueError: for an extra name that exists, or a spec that is not a (weight, term) pair.
+    """
+    weights = dict(weights)
+    terms = {cls.name: cls() for cls in TERMS if not cls.needs_expert or weights[cls.name] != 0.0}
+    for name, spec in (extra or {}).items():
+        if name in weights:
+            raise ValueError(f"reward term {name!r} already exists; pick another name")
+        try:
+            w, fn = spec
+        except (TypeError, ValueError):
+            raise ValueError(f"reward_terms[{name!r}] must be a (weight, fn) pair") from None
+        if not callable(fn):
+            raise ValueError(f"reward_terms[{name!r}] function is not callable")
+        weights[name] = float(w)
+        terms[name] = fn if isinstance(fn, RewardTerm) else FunctionTerm(name, fn)
+    return terms, weights
+
+
 def weighted_sum(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray:
+    """``sum(weights[name] * terms[name])`` ``(B, n)`` in the order of ``terms``, skipping zero weights."""
     total = None
     for name, value in terms.items():
         w = weights.get(name, 0.0)

@@ -11,22 +11,8 @@ allowed range at construction. Variants come from :func:`dataclasses.replace` or
     >>> s.n_robots, s.circle_radius
     (16, 5.0)
 
-Kinds:
-
-========== ==========================================================================================
-circle     ``n_robots`` on a circle of radius ``layout_radius``, each driving to the antipodal point.
-swap       ``n_robots / 2`` head-on pairs on parallel lanes ``lane_spacing`` apart, ``2 layout_radius``
-           long.
-crossing   two groups at 90 degrees: half drive along +x, half along +y, crossing near the origin.
-random     random starts and goals in the square arena ``[-arena_half_size, arena_half_size]^2``.
-crowd      robots on a circle (robot_0 from (0, -R) to (0, R)) among ``n_obstacles`` passive
-           obstacles that cross the same circle and ignore the robots (CrowdNav style).
-dynamic    random starts and goals among obstacles on arbitrary trajectories bouncing in the arena.
-custom     explicit arrays (:class:`CustomLayout`), e.g. to reproduce a layout from a paper.
-========== ==========================================================================================
-
-Except in ``crowd`` and ``custom``, the ``n_obstacles`` obstacles are placed at random in the
-arena, clear of every start and goal, and move by ``obstacle_motion``.
+The kinds of layout are objects in :data:`vcs_env.layouts.KINDS`; each generates, checks and
+sizes its layout and documents itself (``print(vcs_env.layouts.kinds_help())``).
 """
 
 from __future__ import annotations
@@ -38,7 +24,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-KINDS = ("circle", "swap", "crossing", "random", "crowd", "dynamic", "custom")
 MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go")
 COLLISION_MODES = ("terminate", "continue")
 
@@ -76,6 +61,12 @@ def _check_interval(name: str, value: Sequence[float], lo: float, hi: float) -> 
     _check_range(f"{name}[1]", value[1], lo, hi)
     if value[0] > value[1]:
         raise ValueError(f"{name} must satisfy low <= high, got {value!r}")
+
+
+def _kinds():
+    from .layouts import KINDS  # late import: the kinds read this module's dataclasses
+
+    return KINDS
 
 
 def _check_choice(name: str, value: str, choices: Sequence[str]) -> None:
@@ -118,7 +109,8 @@ class RewardWeights:
     ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
     window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = gamma * phi(s') - phi(s) with
     phi = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a
-    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`).
+    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`). Each
+    term is an object in :data:`vcs_env.rewards.TERMS`.
     """
 
     progress: float = 1.0
@@ -214,7 +206,7 @@ class Scenario:
     """A family of episodes: layout, robots, obstacles, sensing, termination and rewards."""
 
     kind: str = "circle"
-    """One of ``circle, swap, crossing, random, crowd, dynamic, custom`` (module docstring)."""
+    """The kind of layout, a name in :data:`vcs_env.layouts.KINDS` (what its fields below mean)."""
     n_robots: int = 8
     """Number of robots n, in [1, 256]; even for ``swap``, >= 2 for ``crossing``."""
     n_obstacles: int = 0
@@ -272,35 +264,14 @@ class Scenario:
     """Explicit layout, required by and only allowed with ``kind="custom"``."""
 
     def __post_init__(self) -> None:
-        _check_choice("kind", self.kind, KINDS)
+        _check_choice("kind", self.kind, list(_kinds()))
         if not isinstance(self.robot, RobotSpec):
             raise ValueError(f"robot must be a RobotSpec, got {type(self.robot).__name__}")
         if not isinstance(self.rewards, RewardWeights):
             raise ValueError(f"rewards must be a RewardWeights, got {type(self.rewards).__name__}")
-        if self.kind == "custom":
-            if not isinstance(self.custom, CustomLayout):
-                raise ValueError("kind='custom' needs custom=CustomLayout(...)")
-            if self.n_robots != len(self.custom.start):
-                raise ValueError(
-                    f"n_robots must equal the number of custom starts ({len(self.custom.start)}), got {self.n_robots}"
-                )
-            if self.n_obstacles != len(self.custom.obstacles):
-                raise ValueError(
-                    f"n_obstacles must equal the number of custom obstacles ({len(self.custom.obstacles)}), "
-                    f"got {self.n_obstacles}"
-                )
-            if self.custom.speed is not None and max(self.custom.speed) > self.robot.v_max:
-                raise ValueError(
-                    f"custom.speed must be <= robot.v_max = {self.robot.v_max}, got {max(self.custom.speed)}"
-                )
-        elif self.custom is not None:
-            raise ValueError(f"custom is only allowed with kind='custom', got kind={self.kind!r}")
         _check_int("n_robots", self.n_robots, 1, 256)
         _check_int("n_obstacles", self.n_obstacles, 0, 256)
-        if self.kind == "swap" and self.n_robots % 2:
-            raise ValueError(f"n_robots must be even for kind='swap', got {self.n_robots}")
-        if self.kind == "crossing" and self.n_robots < 2:
-            raise ValueError(f"n_robots must be >= 2 for kind='crossing', got {self.n_robots}")
+        _kinds()[self.kind].validate(self)
         if self.layout_radius is not None:
             _check_range("layout_radius", self.layout_radius, 0.0, 1e4, lo_open=True)
         _check_range("arena_half_size", self.arena_half_size, 0.0, 1e4, lo_open=True)
@@ -323,9 +294,7 @@ class Scenario:
         _check_int("n_neighbors", self.n_neighbors, 1, 64)
         _check_int("max_steps", self.max_steps, 1, 10**7)
         _check_choice("on_collision", self.on_collision, COLLISION_MODES)
-        from .layouts import check_layout  # late import: layouts needs this module
-
-        check_layout(self)
+        _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
     @property
@@ -333,7 +302,7 @@ class Scenario:
         """Layout radius actually used [m] (see ``layout_radius``)."""
         if self.layout_radius is not None:
             return float(self.layout_radius)
-        return max(5.0, 0.3 * self.n_robots) if self.kind == "circle" else 5.0
+        return _kinds()[self.kind].default_radius(self)
 
     @property
     def max_time(self) -> float:
@@ -344,30 +313,12 @@ class Scenario:
     def world_extent(self) -> float:
         """A generous half size of the area of an episode [m]; sets the goal-distance scale of
         the observations (``vcs_env.observations``), so it is kept stable across versions."""
-        if self.kind == "custom":
-            return self._custom_extent()
-        reach = self.circle_radius + self.jitter + self.lane_spacing * self.n_robots / 2
-        return max(self.arena_half_size, reach)
+        return _kinds()[self.kind].world_extent(self)
 
     @property
     def view_extent(self) -> float:
         """Half size of the square drawn by the renderers [m]: the starts, goals and spawn area."""
-        if self.kind == "custom":
-            return self._custom_extent()
-        if self.kind in ("random", "dynamic"):
-            return self.arena_half_size + 0.5
-        spread = (self.n_robots / 2 if self.kind == "swap" else math.ceil(self.n_robots / 2)) * self.lane_spacing / 2
-        half = self.circle_radius + self.jitter + (0.5 if self.kind == "crowd" else 0.0)
-        if self.kind in ("swap", "crossing"):
-            half = max(half, spread)
-        if self.n_obstacles and self.kind != "crowd":
-            half = max(half, self.arena_half_size)
-        return half + self.robot.radius + 0.5
-
-    def _custom_extent(self) -> float:
-        pts = [c for p in self.custom.start + self.custom.goal for c in p]
-        pts += [c for o in self.custom.obstacles for p in o.positions for c in p]
-        return max(1.0, max(abs(c) for c in pts) + R_REF)
+        return _kinds()[self.kind].view_extent(self)
 
     def with_robot(self, **changes) -> Scenario:
         """Copy with some RobotSpec fields replaced (``s.with_robot(v_max=2.0)``)."""

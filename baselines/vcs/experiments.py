@@ -1,4 +1,4 @@
-"""The test scenarios of the VCS spec (``notes/vcs-method.md`` §4), as reusable builders.
+"""The test scenarios of the VCS method (vcs-method §4), as reusable builders.
 
 Each builder returns a :class:`~vcs_env.scenario.Scenario` (``kind="custom"``, scripted
 obstacles); :func:`run` drives it with a planner and records what the property tests measure
@@ -21,7 +21,7 @@ from .planner import VCSPlanner
 
 DT = 0.1
 WEAK = RobotSpec(a_max=0.3, omega_max=0.6)
-"""The spec's weak dynamics (a_max 0.3 m/s^2, omega_max 0.6 rad/s)."""
+"""The weak dynamics of vcs-method §4.4 (a_max 0.3 m/s^2, omega_max 0.6 rad/s)."""
 
 
 def _scenario(

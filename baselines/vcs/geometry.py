@@ -1,8 +1,8 @@
 """Velocity-obstacle and Velocity-Change-Space geometry: pure numpy, any leading shape.
 
 These are the readable reference forms (used by tests, plots and the optimiser check); the
-planner runs the same math in :mod:`baselines.vcs.kernel`. Section numbers refer to the spec
-``notes/vcs-method.md``. Conventions: ``p`` points from the robot to the other body, ``w`` is
+planner runs the same math in :mod:`baselines.vcs.kernel`. Sections are those of
+``docs/vcs-method.md``. Conventions: ``p`` points from the robot to the other body, ``w`` is
 the robot's velocity relative to it, ``r`` the combined radius.
 """
 
@@ -32,7 +32,7 @@ __all__ = [
 
 
 def cone(p: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Collision cone of relative velocities (§2.1), defined for ``|p| > r``.
+    """Collision cone of relative velocities (vcs-method §2.1), defined for ``|p| > r``.
 
     Returns:
         ``phi`` (direction of p) [rad], ``alpha`` = asin(r/|p|) in (0, pi/2) [rad], right
@@ -63,7 +63,8 @@ def line_intersection(a1: np.ndarray, d1: np.ndarray, a2: np.ndarray, d2: np.nda
 def hrvo_apex(
     p: np.ndarray, r: np.ndarray, v_r: np.ndarray, v_j: np.ndarray, pref_r: np.ndarray, pref_j: np.ndarray
 ) -> np.ndarray:
-    """HRVO apex by explicit line intersection (§2.4; avoids the snape/HRVO sign error, §2.17).
+    """HRVO apex by explicit line intersection (vcs-method §2.4; it avoids the sign error of the
+    HRVO reference code, vcs-method §2.17).
 
     If the relative preferred velocity lies left of the centre line (``det(p, pref_r - pref_j)
     > 0``), the robot passes on its left: the left side comes from the RVO (half effort) and
@@ -81,7 +82,7 @@ def hrvo_apex(
 
 def overlap_apex(p: np.ndarray, r0: np.ndarray, v_r: np.ndarray, v_j: np.ndarray, dt: float, reciprocal: np.ndarray):
     """Apex of the forbidden half-plane ``{v : p_hat . (v - a) > 0}`` used when ``|p| <= r0``
-    (true penetration, §2.4): move apart fast enough to clear the robot's share in one step.
+    (true penetration, vcs-method §2.4): move apart fast enough to clear the robot's share in one step.
 
     Returns:
         apex ``(..., 2)`` and ``p_hat`` ``(..., 2)``.
@@ -94,29 +95,29 @@ def overlap_apex(p: np.ndarray, r0: np.ndarray, v_r: np.ndarray, v_j: np.ndarray
 
 
 def forbidden(v: np.ndarray, p: np.ndarray, apex: np.ndarray, scale: np.ndarray, r: np.ndarray, horizon) -> np.ndarray:
-    """Time-truncated VO membership ``tau(p, scale (v - apex), r) <= horizon`` (§2.3, §2.7).
+    """Time-truncated VO membership ``tau(p, scale (v - apex), r) <= horizon`` (vcs-method §2.3, vcs-method §2.7).
 
-    ``scale`` is 1 for passive obstacles and 2 for the HRVO/RVO rule (``tau^H``, §2.4). The
-    finiteness test keeps ``horizon = inf`` (classic VO) from forbidding everything (§2.17.3).
+    ``scale`` is 1 for passive obstacles and 2 for the HRVO/RVO rule (``tau^H``, vcs-method §2.4). The
+    finiteness test keeps ``horizon = inf`` (classic VO) from forbidding everything (vcs-method §2.17).
     """
     tau = time_to_collision(p, scale[..., None] * (v - apex), r)
     return np.isfinite(tau) & (tau <= horizon)
 
 
 def vcs_to_velocity(dv: np.ndarray, dth: np.ndarray, v_r: np.ndarray, theta_r: np.ndarray) -> np.ndarray:
-    """The map M (§2.9): VCS point (speed change, direction change) -> velocity ``(..., 2)``."""
+    """The map M (vcs-method §2.9): VCS point (speed change, direction change) -> velocity ``(..., 2)``."""
     return (v_r + dv)[..., None] * unit(theta_r + dth)
 
 
 def velocity_to_vcs(v: np.ndarray, v_r: np.ndarray, theta_r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The inverse map M^-1 (§2.9); at zero velocity the direction change is 0."""
+    """The inverse map M^-1 (vcs-method §2.9); at zero velocity the direction change is 0."""
     s = np.sqrt(np.einsum("...i,...i->...", v, v))
     ang = np.arctan2(v[..., 1], v[..., 0])
     return s - v_r, np.where(s > 0.0, wrap_angle(ang - theta_r), 0.0)
 
 
 def reach_steps(dv: np.ndarray, dth: np.ndarray, a_max, omega_max, dt: float) -> np.ndarray:
-    """Steps needed to reach a VCS point with saturated per-step changes (§2.7: T_reach / dt)."""
+    """Steps needed to reach a VCS point with saturated per-step changes (vcs-method §2.7: T_reach / dt)."""
     kv = np.ceil(np.abs(dv) / (a_max * dt) - 1e-9)
     kt = np.ceil(np.abs(dth) / (omega_max * dt) - 1e-9)
     return np.maximum(np.maximum(kv, kt), 0.0)
@@ -125,7 +126,7 @@ def reach_steps(dv: np.ndarray, dth: np.ndarray, a_max, omega_max, dt: float) ->
 def ramp_positions(dv: np.ndarray, dth: np.ndarray, v_r: float, theta_r: float, a_max, omega_max, dt: float):
     """Positions ``(k, K, 2)`` [m] (relative to the start) of a unicycle ramping toward VCS points
     ``(k,)`` at its maximal per-step rates, for steps 1..K with K the largest reach steps
-    (§2.15); points reached earlier hold their velocity. Euler steps like the simulator."""
+    (vcs-method §2.15); points reached earlier hold their velocity. Euler steps like the simulator."""
     dv = np.asarray(dv, dtype=float)
     dth = np.asarray(dth, dtype=float)
     K = int(max(reach_steps(dv, dth, a_max, omega_max, dt).max(initial=0), 1))
@@ -136,12 +137,12 @@ def ramp_positions(dv: np.ndarray, dth: np.ndarray, v_r: float, theta_r: float, 
 
 
 def k_max(v_max, a_max, omega_max, dt: float):
-    """Window size in steps that covers the whole VCS domain (§2.10)."""
+    """Window size in steps that covers the whole VCS domain (vcs-method §2.10)."""
     return np.maximum(np.ceil(v_max / (a_max * dt) - 1e-9), np.ceil(np.pi / (omega_max * dt) - 1e-9))
 
 
 def window(k, v_r, v_max, a_max, omega_max, dt: float):
-    """The k-step velocity change window W_k (§2.10): ``(dv_lo, dv_hi, dth_half)``."""
+    """The k-step velocity change window W_k (vcs-method §2.10): ``(dv_lo, dv_hi, dth_half)``."""
     lo = np.maximum(-v_r, -k * a_max * dt)
     hi = np.minimum(v_max - v_r, k * a_max * dt)
     half = np.minimum(np.pi, k * omega_max * dt)
@@ -149,7 +150,7 @@ def window(k, v_r, v_max, a_max, omega_max, dt: float):
 
 
 def static_collision_time(s: np.ndarray, delta: np.ndarray, d: float, r: float) -> np.ndarray:
-    """Closed form for a static disc (§2.9): time to collision at speed ``s`` in the direction
+    """Closed form for a static disc (vcs-method §2.9): time to collision at speed ``s`` in the direction
     ``delta`` off the centre direction: ``(d cos(delta) - sqrt(r^2 - d^2 sin^2(delta))) / s``;
     ``inf`` outside the band ``|delta| < asin(r/d)`` or for non-positive speeds."""
     disc = r * r - (d * np.sin(delta)) ** 2
@@ -163,7 +164,7 @@ def column_speed_interval(
     u: np.ndarray, apex: np.ndarray, n: np.ndarray, l: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Speeds ``s >= 0`` with ``s u - apex`` inside the open cone (n, l): one interval per
-    column of the VCS (the cone is convex, §2.9).
+    column of the VCS (the cone is convex, vcs-method §2.9).
 
     Each cone side is a linear inequality in ``s``; intersecting the two half-lines with
     ``s >= 0`` gives ``[lo, hi]`` (empty when ``lo >= hi``; ``hi`` may be inf).

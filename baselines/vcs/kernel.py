@@ -1,14 +1,15 @@
 """The VCS planner's inner loops, compiled with numba (one call plans every robot of every world).
 
 Scalar math mirrors :mod:`baselines.vcs.geometry` (which is the readable reference; tests check
-that both agree). Per robot (spec §2.14):
+that both agree). Per robot (vcs-method §2.14):
 
-1. neighbours within r_ca: regulated radius r_eff (§2.6), cone, apex (§2.1, §2.4), current
-   time to collision t_c0, time needed to leave the cone T_need and horizon T_h (§2.7);
-2. window W_k* sized by the first threat (§2.10);
-3. point search over a grid of W_k* plus {G, 0, clip1(G)} (§2.11): admissible points keep every
-   truncated VO beyond its horizon; the cheapest under the multi-objective cost J (§2.12)
-   wins, or the fallback penalty when none is admissible (§2.13).
+1. neighbours within r_ca: regulated radius r_eff (vcs-method §2.6), cone and apex
+   (vcs-method §2.1, vcs-method §2.4), current time to collision t_c0, time needed to leave the
+   cone T_need and horizon T_h (vcs-method §2.7);
+2. window W_k* sized by the first threat (vcs-method §2.10);
+3. point search over a grid of W_k* plus {G, 0, clip1(G)} (vcs-method §2.11): admissible points keep every
+   truncated VO beyond its horizon; the cheapest under the multi-objective cost J (vcs-method §2.12)
+   wins, or the fallback penalty when none is admissible (vcs-method §2.13).
 """
 
 from __future__ import annotations
@@ -67,7 +68,7 @@ STATIC_SPEED = 1e-6
 
 @njit(cache=True)
 def tau(px, py, wx, wy, r):
-    """Time to collision (spec §2.2), scalar form of ``vcs_env.geometry.time_to_collision``."""
+    """Time to collision (vcs-method §2.2), scalar form of ``vcs_env.geometry.time_to_collision``."""
     c = px * px + py * py - r * r
     if c <= 0.0:
         return 0.0
@@ -94,7 +95,7 @@ def wrap(x):
 
 @njit(cache=True)
 def reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r):
-    """Steps to reach a VCS point with saturated per-step changes (§2.7). Holonomic robots
+    """Steps to reach a VCS point with saturated per-step changes (vcs-method §2.7). Holonomic robots
     change the velocity vector by up to dv1 per step in any direction."""
     if holo:
         s = v_r + dv
@@ -129,9 +130,9 @@ def tau_within(px, py, wx, wy, r, horizon):
 
 @njit(cache=True)
 def forbidden(nb, vx, vy):
-    """Is velocity (vx, vy) inside neighbour nb's truncated forbidden set (§2.7)?"""
+    """Is velocity (vx, vy) inside neighbour nb's truncated forbidden set (vcs-method §2.7)?"""
     if nb[F_OVL] > 0.5:
-        # Overlap: half-plane of velocities that do not separate fast enough (§2.4).
+        # Overlap: half-plane of velocities that do not separate fast enough (vcs-method §2.4).
         return nb[F_HX] * (vx - nb[F_APX]) + nb[F_HY] * (vy - nb[F_APY]) > 0.0
     s = nb[F_SCALE]
     return tau_within(nb[F_PX], nb[F_PY], s * (vx - nb[F_APX]), s * (vy - nb[F_APY]), nb[F_REFF], nb[F_TH])
@@ -156,7 +157,7 @@ def in_untruncated_cone(nb, vx, vy):
 
 @njit(cache=True)
 def collision_time(nb, vx, vy):
-    """t_c,j(v) = tau(p, w_j(v), r_eff) with the class's relative velocity (§2.12 J_s)."""
+    """t_c,j(v) = tau(p, w_j(v), r_eff) with the class's relative velocity (vcs-method §2.12 J_s)."""
     s = nb[F_JSCALE]
     return tau(nb[F_PX], nb[F_PY], s * (vx - nb[F_JAX]), s * (vy - nb[F_JAY]), nb[F_REFF])
 
@@ -259,7 +260,7 @@ def setup_neighbors(
             nb[F_KIND] = K_STATIC
         # Static objects: the margin also covers the robot's own stopping time (set_horizons).
         nb[F_STOPK] = 1.0 / a_max[b, i] if (nb[F_KIND] == K_STATIC and prm[P_STOP] > 0.5) else 0.0
-        # Current-course time to collision with the physical radius (§2.6).
+        # Current-course time to collision with the physical radius (vcs-method §2.6).
         tc0 = tau(qx, qy, vrx - vjx, vry - vjy, r0)
         nb[F_TC0] = tc0
         # Size regulation: buffer grows with the collision-time and collision-distance factors.
@@ -279,7 +280,7 @@ def setup_neighbors(
             nb[F_JAY] = vjy
             nb[F_JSCALE] = 1.0
         if d <= r0:
-            # True penetration: forbidden half-plane (§2.4 overlap rule).
+            # True penetration: forbidden half-plane (vcs-method §2.4 overlap rule).
             nb[F_OVL] = 1.0
             hx = qx / max(d, 1e-12)
             hy = qy / max(d, 1e-12)
@@ -303,7 +304,7 @@ def setup_neighbors(
                     nb[F_APX] = mx
                     nb[F_APY] = my
                 else:
-                    # HRVO apex by explicit line intersection (§2.4, §2.17).
+                    # HRVO apex by explicit line intersection (vcs-method §2.4, vcs-method §2.17).
                     # Tangents n = u(phi - alpha), l = u(phi + alpha): p_hat rotated by -/+ alpha.
                     sa = min(reff / d, 1.0)
                     ca = math.sqrt(1.0 - sa * sa)
@@ -348,7 +349,7 @@ def setup_neighbors(
 
 @njit(cache=True)
 def build_coarse(v_r, th_r, v_max_r, dv1, dth1, holo, nv, nth, cspeed, ccol, cstep, ccos, csin):
-    """Coarse grid over the VCS domain D (plus the origin), sorted by reach steps (§2.7) with a
+    """Coarse grid over the VCS domain D (plus the origin), sorted by reach steps (vcs-method §2.7) with a
     counting sort. Point c has speed ``cspeed[c]`` and direction column ``ccol[c]`` (-1: the
     current heading), whose unit vector is ``(ccos, csin)[col]``."""
     total = nv * nth + 1
@@ -409,7 +410,7 @@ def need_unicycle(
     nbs, pending, npend, need, v_r, th_r, v_max_r, dv1, dth1, nv, nth, lmax, rows, cols, ccos, csin, blk, nblk, tmax
 ):
     """T_need / dt of the ``pending`` neighbours (whose cone holds the current velocity): the
-    least reach level of a coarse-grid point outside the cone that is an escape (§2.7,
+    least reach level of a coarse-grid point outside the cone that is an escape (vcs-method §2.7,
     :func:`escape_open`).
 
     A unicycle's reach level is max(speed level, turn level), so the points of level <= L are
@@ -480,7 +481,7 @@ def set_horizons(
     nbs, count, v_r, th_r, v_max_r, dv1, dth1, holo, dt, prm, cspeed, ccol, cstep, ccos, csin, pending, need,
     rows, cols, blk,
 ):  # fmt: skip
-    """T_need and the horizon T_h = min(T_max, T_need + T_m) of every neighbour (§2.7), and
+    """T_need and the horizon T_h = min(T_max, T_need + T_m) of every neighbour (vcs-method §2.7), and
     the pruning bounds. T_need is the least reach time over a coarse grid of the VCS domain of
     the points outside the neighbour's untruncated cone (0 if the current velocity is)."""
     vrx = v_r * math.cos(th_r)
@@ -614,7 +615,7 @@ def relevant(nbs, order, count, tau_s, adm, js):
 
 @njit(cache=True)
 def admissible(nbs, adm, na, vx, vy):
-    """Outside every neighbour's truncated forbidden set (§2.11)."""
+    """Outside every neighbour's truncated forbidden set (vcs-method §2.11)."""
     for q in range(na):
         if forbidden(nbs[adm[q]], vx, vy):
             return False
@@ -624,7 +625,7 @@ def admissible(nbs, adm, na, vx, vy):
 @njit(cache=True)
 def goal_term(ctx, dv, dth, vx, vy):
     """J_g in [0, 1]: distance to the goal point, in the VCS (``goal_metric="vcs"``) or in
-    velocity space (``"velocity"``: |v - v_pref| / (2 v_max), the RVO distance) (§2.12)."""
+    velocity space (``"velocity"``: |v - v_pref| / (2 v_max), the RVO distance) (vcs-method §2.12)."""
     if ctx[C_GVCS] > 0.5:
         return (
             math.sqrt(((dv - ctx[C_GV]) / ctx[C_VMAX]) ** 2 + (wrap(dth - ctx[C_GTH]) / math.pi) ** 2)
@@ -635,7 +636,7 @@ def goal_term(ctx, dv, dth, vx, vy):
 
 @njit(cache=True)
 def cost_parts(ctx, dv, dth, vx, vy, steps, bound):
-    """The terms of J that do not depend on neighbours (§2.12), a lower bound of J. Stops
+    """The terms of J that do not depend on neighbours (vcs-method §2.12), a lower bound of J. Stops
     early (returning a value >= bound) once the partial sum reaches ``bound``."""
     v_max = ctx[C_VMAX]
     j = ctx[C_WG] * goal_term(ctx, dv, dth, vx, vy)
@@ -658,7 +659,7 @@ def cost_parts(ctx, dv, dth, vx, vy, steps, bound):
 
 @njit(cache=True)
 def safety_term(nbs, js, nj, ctx, vx, vy):
-    """J_s: soft band just beyond each neighbour's horizon (§2.12)."""
+    """J_s: soft band just beyond each neighbour's horizon (vcs-method §2.12)."""
     out = 0.0
     tau_s = ctx[C_TAUS]
     for q in range(nj):
@@ -677,7 +678,7 @@ def safety_term(nbs, js, nj, ctx, vx, vy):
 
 @njit(cache=True)
 def cost(nbs, js, nj, ctx, dv, dth, vx, vy, steps):
-    """Multi-objective cost J of a candidate (§2.12)."""
+    """Multi-objective cost J of a candidate (vcs-method §2.12)."""
     j = cost_parts(ctx, dv, dth, vx, vy, steps, INF)
     if ctx[C_WS] > 0.0:
         j += ctx[C_WS] * safety_term(nbs, js, nj, ctx, vx, vy)
@@ -753,7 +754,7 @@ def consider(nbs, adm, na, js, nj, count, ctx, dv, dth, vx, vy, steps, best):
 
 @njit(cache=True)
 def fallback_cost(nbs, count, ctx, dv, dth, vx, vy, kappa, least_harm, tmax):
-    """Cost of a candidate when nothing is admissible (§2.13). The RVO-style penalty
+    """Cost of a candidate when nothing is admissible (vcs-method §2.13). The RVO-style penalty
     ``kappa / t_c + J_g`` (t_c: the least time to collision over the neighbours), and with
     ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
     half-plane's violation [m/s], weighted kappa / dt), and a candidate that speeds up while it
@@ -818,7 +819,7 @@ def robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safet
     ctx[C_PVX] = vpref[b, i, 0]
     ctx[C_PVY] = vpref[b, i, 1]
     ctx[C_WG] = prm[P_WG]
-    # A detour after a stall (§2.13) drops the safety band and the smoothness terms, which can
+    # A detour after a stall (vcs-method §2.13) drops the safety band and the smoothness terms, which can
     # otherwise make staying stopped cheaper than the large turn the robot needs.
     detour = no_safety[b, i]
     ctx[C_WS] = 0.0 if detour else prm[P_WS]
@@ -831,7 +832,7 @@ def robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safet
     ctx[C_PDTH] = prev[b, i, 1]
     ctx[C_HOLO] = 1.0 if holo else 0.0
     ctx[C_TAUS] = prm[P_TAU_S]
-    # Goal point G = M^-1(v_pref) (§2.9); G = (-v_R, 0) when v_pref = 0.
+    # Goal point G = M^-1(v_pref) (vcs-method §2.9); G = (-v_R, 0) when v_pref = 0.
     pvx = vpref[b, i, 0]
     pvy = vpref[b, i, 1]
     ps = math.sqrt(pvx * pvx + pvy * pvy)
@@ -873,7 +874,7 @@ def prepare_robot(
     b, i, pos, heading, speed, radius, v_max, a_max, omega_max, active, present, obs_pos, obs_vel, obs_radius,
     vpref, pref_comm, no_safety, prev, has_prev, prm, r_ca, dt, holo, work,
 ):  # fmt: skip
-    """Robot i of world b: its context vector and its neighbour records with horizons (§2.6-2.7).
+    """Robot i of world b: its context vector and its neighbour records with horizons (vcs-method §2.6-2.7).
     Returns ``(ctx, count)``; the records are in ``work[0]``, ordered by ``work[1]``."""
     nbs, order, cspeed, ccol, cstep, ccos, csin, pending, need, rows, cols, blk = work
     ctx = robot_context(b, i, heading, speed, v_max, a_max, omega_max, vpref, no_safety, prev, has_prev, prm, dt, holo)
@@ -890,7 +891,7 @@ def prepare_robot(
 
 @njit(cache=True)
 def candidate(c, ngrid, nv, nth, full, lo_v, hi_v, half, gv, gth, g1v, g1th, v_r, vmax):
-    """Candidate c of the point search (§2.11): the window grid, then G (clipped to the domain
+    """Candidate c of the point search (vcs-method §2.11): the window grid, then G (clipped to the domain
     D), the origin (keep the current velocity) and the one-step-clipped G."""
     if c < ngrid:
         ai = c // nth
@@ -939,7 +940,7 @@ def plan_batch(
     out_threats,
     out_g1,
 ):
-    """Plan every active robot of every world (spec §2.14). Outputs per robot: the target VCS
+    """Plan every active robot of every world (vcs-method §2.14). Outputs per robot: the target VCS
     point (dv*, dtheta*), its cost J, whether the fallback was used, the window size k*, the
     first threat time t*, the number of threats and the one-step-clipped goal point."""
     B = pos.shape[0]
@@ -990,7 +991,8 @@ def plan_batch(
             kmax = ctx[C_KMAX]
             vrx = v_r * math.cos(th_r)
             vry = v_r * math.sin(th_r)
-            # Threats: current course collides within the horizon (§2.7); window from the first (§2.10).
+            # Threats: the current course collides within the horizon (vcs-method §2.7); the window
+            # is sized by the first (vcs-method §2.10).
             tstar = INF
             threats = 0
             for q in range(count):
@@ -1013,7 +1015,7 @@ def plan_batch(
                 hi_v = vmax - v_r
             full = half >= math.pi - 1e-12
             nth = int(prm[P_NTH_FULL]) if full else int(prm[P_NTH])
-            # Goal point G (§2.9) and its one-step clip.
+            # Goal point G (vcs-method §2.9) and its one-step clip.
             pvx = ctx[C_PVX]
             pvy = ctx[C_PVY]
             ps = math.sqrt(pvx * pvx + pvy * pvy)

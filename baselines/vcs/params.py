@@ -1,6 +1,6 @@
-"""Every parameter of the VCS planner, documented against ``notes/vcs-method.md`` (the spec).
+"""Every parameter of the VCS planner, documented against ``docs/vcs-method.md``.
 
-Tags as in the spec: [paper] from the seed paper, [standard] from the VO/RVO/HRVO/DWA
+Tags as in docs/vcs-method.md: [paper] from the seed paper, [standard] from the VO/RVO/HRVO/DWA
 literature, [reconstructed] our choice (the paper's formula is unknown).
 """
 
@@ -25,9 +25,9 @@ def _positive(name: str, value: float, allow_zero: bool = False) -> None:
 
 @dataclass(frozen=True)
 class VCSParams:
-    """VCS planner parameters (spec §2.16 defaults)."""
+    """VCS planner parameters (vcs-method §2.16 defaults)."""
 
-    # --- size regulation (§2.6) [paper concept, formula reconstructed]
+    # --- size regulation (vcs-method §2.6) [paper concept, formula reconstructed]
     delta_min: float = 0.05
     """Always-on safety buffer added to the combined radius [m]."""
     delta_s: float = 0.15
@@ -36,24 +36,24 @@ class VCSParams:
     """Cone kept defined when the buffered disc already contains the robot: r_eff = d - eps [m]."""
     t_max: float = 5.0
     """T_max: collision-time factor scale and the largest avoidance horizon [s]."""
-    # --- avoidance horizon (§2.7) [reconstructed]
+    # --- avoidance horizon (vcs-method §2.7) [reconstructed]
     t_margin: float = 1.0
-    """T_m: horizon = time needed to leave the cone + this margin [s], for obstacles (spec)."""
+    """T_m: horizon = time needed to leave the cone + this margin [s], for obstacles (vcs-method §2.7)."""
     t_margin_robots: float = 2.0
-    """T_m for other (active) robots [s]. With the spec's 1 s, dense circles (20-24 robots)
+    """T_m for other (active) robots [s]. With the reconstruction's 1 s, dense circles (20-24 robots)
     ran into states where no candidate was admissible and collided; 2 s solved them, while
     obstacles keep 1 s, which the un-conservative tests need (``docs/vcs-calibration.md``)
     [reconstructed]."""
     horizon: str | float = "adaptive"
     """``"adaptive"`` (T_h = min(T_max, T_need + T_m)), ``"infinite"`` (classic conservative VO:
     the foil of the un-conservative claim) or a number (a fixed horizon T [s])."""
-    # --- window (§2.10) [paper: multi-step window; rule reconstructed]
+    # --- window (vcs-method §2.10) [paper: multi-step window; rule reconstructed]
     window: str = "multi_step"
     """``"multi_step"``: window sized by the time to the first threat (foresighted);
     ``"one_step"``: only the one-step window (the shortsighted foil)."""
     window_margin_steps: int = 2
     """Steps kept in hand before the first threat when sizing the window."""
-    # --- point search (§2.11) [reconstructed]
+    # --- point search (vcs-method §2.11) [reconstructed]
     n_v: int = 21
     """Grid values of the speed change over the window (endpoints included)."""
     n_theta: int = 41
@@ -61,20 +61,20 @@ class VCSParams:
     n_theta_full: int = 72
     """Direction values when the window covers the full circle, over [-pi, pi)."""
     coarse_n_v: int = 21
-    """Coarse grid over the whole VCS domain for T_need (§2.7), speed values."""
+    """Coarse grid over the whole VCS domain for T_need (vcs-method §2.7), speed values."""
     coarse_n_theta: int = 72
     """... direction values."""
-    # --- cost (§2.12) [reconstructed]
+    # --- cost (vcs-method §2.12) [reconstructed]
     cost: str = "full"
     """``"full"`` multi-objective cost; ``"goal_only"``: closest to the preferred velocity (the
     RVO/HRVO ClearPath selection, the foil of the multi-objective claim)."""
     goal_metric: str = "velocity"
     """Where the goal term J_g is measured: ``"vcs"`` (distance to the goal point G in the VCS,
-    speed / v_max and direction / pi) or ``"velocity"`` (|v - v_pref| / (2 v_max), the spec's
-    §2.12 choice, the default). In velocity space a stopped unicycle gains nothing by turning
+    speed / v_max and direction / pi) or ``"velocity"`` (|v - v_pref| / (2 v_max), the reconstruction's
+    vcs-method §2.12 choice, the default). In velocity space a stopped unicycle gains nothing by turning
     (every direction change maps to the zero velocity); the stall detour handles that case.
     The VCS metric prices braking higher than turning and was less safe in dense circles
-    (``notes/vcs-calibration.md``); spec §5 open question 3 [reconstructed]."""
+    (``docs/vcs-calibration.md``); vcs-method §5 open question 3 [reconstructed]."""
     w_goal: float = 1.0
     """Weight of the goal term J_g."""
     w_safety: float = 0.2
@@ -90,12 +90,13 @@ class VCSParams:
     tau_s: float = 1.0
     """Width of the soft safety band beyond the horizon [s]."""
     kappa: float = 5.0
-    """Fallback penalty kappa / t_c when no candidate is admissible [s] (§2.13)."""
+    """Fallback penalty kappa / t_c when no candidate is admissible [s] (vcs-method §2.13)."""
     fallback: str = "least_harm"
     """``"least_harm"``: with no admissible candidate, prefer separating from what the robot
-    already touches and never speed up toward a threat (§2.13); ``"penalty"``: the plain
+    already touches and never speed up toward a threat (vcs-method §2.13); ``"penalty"``: the plain
     RVO-style penalty kappa / t_c + J_g (the ablation) [reconstructed]."""
-    # --- safety against what does not get out of the way (§2.4, §2.7, §2.15) [reconstructed]
+    # --- safety against what does not get out of the way [reconstructed]
+    # (vcs-method §2.4, vcs-method §2.7, vcs-method §2.15)
     arriving_non_reactive: bool = True
     """A robot within braking distance of its goal (communicated preferred speed below its
     v_max) is about to park: take full responsibility for it, as for an obstacle, instead of
@@ -113,16 +114,16 @@ class VCSParams:
     ramp_check: bool = True
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
     objects (False: only its end velocity is judged, the ablation)."""
-    # --- interaction (§2.4) [paper: interactive velocity rule; default HRVO]
+    # --- interaction (vcs-method §2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
     """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""
-    # --- preferred velocity and deadlocks (§2.5, §2.13)
+    # --- preferred velocity and deadlocks (vcs-method §2.5, vcs-method §2.13)
     perturbation: float = 0.01
     """Symmetry-breaking noise on v_pref as a fraction of v_max (multi-robot only)."""
     stall_speed: float = 0.05
     """A robot slower than this fraction of v_max ..."""
     stall_goal_margin: float = 0.0
-    """... farther than r_goal + this from its goal [m] (the spec's 0.3 m, with r_goal 0.1 m,
+    """... farther than r_goal + this from its goal [m] (the reconstruction's 0.3 m, with r_goal 0.1 m,
     left robots stopped 0.1-0.3 m short of their goal for good) ..."""
     stall_time: float = 1.0
     """... for this long [s] starts a detour ..."""
@@ -134,7 +135,7 @@ class VCSParams:
     """... of this duration [s] ..."""
     detour_angle: float = -math.pi / 4
     """... with v_pref rotated by this angle [rad] (negative: keep right) and w_safety = 0
-    (spec §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
+    (vcs-method §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
     r_ca: float | None = None

@@ -1,4 +1,4 @@
-"""The VCS planner: the expert policy and reward shaper (spec ``notes/vcs-method.md`` §2)."""
+"""The VCS planner: the expert policy and reward shaper (vcs-method §2)."""
 
 from __future__ import annotations
 
@@ -153,11 +153,11 @@ class VCSPlanner(Planner):
         B, n = world.batch_size, world.n_robots
         d_goal = np.linalg.norm(world.goal - world.pos, axis=-1)
         if n > 1 and p.perturbation > 0:
-            # Symmetry breaking (§2.5): a small random push, from the world's counter-based noise.
+            # Symmetry breaking (vcs-method §2.5): a small random push, from the world's counter-based noise.
             psi = 2.0 * np.pi * noise.uniform(world.key, world.steps, n, stream=1)
             push = p.perturbation * world.v_max[..., None] * np.stack((np.cos(psi), np.sin(psi)), -1)
             own = own + np.where((d_goal > world.r_goal)[..., None], push, 0.0)
-        # Stall handling (§2.13): after stall_time [s] slow and away from the goal, or after
+        # Stall handling (vcs-method §2.13): after stall_time [s] slow and away from the goal, or after
         # progress_window [s] without gaining stall_speed * v_max * progress_window on the
         # goal (whatever the speed), detour.
         away = (d_goal > world.r_goal + p.stall_goal_margin) & world.active

@@ -26,11 +26,11 @@ def object_forbidden_masks(
     """Which candidate velocities each sensed object forbids, from the numpy geometry (a
     unicycle's candidates; the readable reference of the kernel's admissibility).
 
-    Responsibility by kind (§2.4): a driving robot is reciprocal; a robot within braking distance
+    Responsibility by kind (vcs-method §2.4): a driving robot is reciprocal; a robot within braking distance
     of its goal (preferred speed below v_max) is a non-reactive mover plus a static twin; parked
     robots and obstacles are non-reactive. A non-reactive object also forbids the candidates
     whose ramp (the steps until the candidate is reached) comes closer than
-    ``min(r0 + delta_min / 2, d)`` (§2.15).
+    ``min(r0 + delta_min / 2, d)`` (vcs-method §2.15).
 
     Args:
         world: the state.
@@ -75,11 +75,11 @@ def object_forbidden_masks(
         d = float(np.linalg.norm(rel))
         if d > r_ca:
             continue
-        if d <= r0:  # overlap: the half-plane rule (§2.4)
+        if d <= r0:  # overlap: the half-plane rule (vcs-method §2.4)
             apex, p_hat = G.overlap_apex(rel, np.array(r0), v_r, v_j, world.dt, np.array(reciprocal))
             out[idx] = (vel - apex) @ p_hat > 0.0
             continue
-        # Size regulation (§2.6).
+        # Size regulation (vcs-method §2.6).
         tc0 = G.time_to_collision(rel, v_r - v_j, r0)
         kt = 0.0 if np.isinf(tc0) else float(np.clip((p.t_max - tc0) / p.t_max, 0, 1))
         kd = float(np.clip(1 - (d - r0) / r_ca, 0, 1))
@@ -95,7 +95,7 @@ def object_forbidden_masks(
         k = len(vel)
         scale = np.full(k, 2.0 if reciprocal else 1.0)
         mask = G.forbidden(vel, np.broadcast_to(rel, vel.shape), apex, scale, np.full(k, reff), horizon[idx])
-        if not reciprocal and p.ramp_check:  # admissible along the way (§2.15)
+        if not reciprocal and p.ramp_check:  # admissible along the way (vcs-method §2.15)
             gap = np.linalg.norm(rel + ramp_t[:, None] * v_j - ramp, axis=-1)
             mask |= (on_ramp & (gap < min(r0 + 0.5 * p.delta_min, d))).any(axis=1)
         out[idx] = mask

@@ -1,0 +1,65 @@
+"""The planner registry of ``vcs_env``: entry points of installed packages plus planners
+registered in the process; one registry, re-exported by ``baselines``."""
+
+import numpy as np
+import pytest
+
+import baselines
+import vcs_env
+from vcs_env import planning
+from vcs_env.planning import PLANNERS, Planner, make_planner, register_planner
+
+BUILT_IN = ["hrvo", "orca", "rvo", "straight", "vcs", "vo"]
+
+
+class StandStill(Planner):
+    """Every robot stops, facing where it faces."""
+
+    name = "stand-still"
+
+    def plan(self, world):
+        return np.stack((np.zeros_like(world.speed), world.heading), axis=-1)
+
+
+@pytest.fixture
+def registry(monkeypatch):
+    """A copy of the process registry, restored after the test."""
+    monkeypatch.setattr(planning, "_REGISTERED", dict(planning._REGISTERED))
+
+
+def test_installed_planners_come_from_entry_points_and_baselines_shares_the_registry():
+    assert list(PLANNERS) == BUILT_IN  # sorted names of the vcs_env.planners entry points
+    assert baselines.PLANNERS is PLANNERS and baselines.make_planner is make_planner
+    assert PLANNERS["straight"] is baselines.StraightPlanner
+    assert make_planner("hrvo").name == "hrvo" and make_planner("vcs").name == "vcs"
+
+
+def test_unknown_planner_lists_the_registered_names():
+    with pytest.raises(ValueError, match=r"unknown planner 'nope'; registered planners are \['hrvo', 'orca'"):
+        make_planner("nope")
+    with pytest.raises(ValueError, match="a planner must be a name"):
+        make_planner(3)
+    with pytest.raises(ValueError, match="keyword arguments"):
+        make_planner(StandStill(), speed=1.0)
+
+
+def test_register_a_planner_and_use_it_as_the_expert(registry):
+    assert register_planner("stand-still", StandStill) is StandStill
+    assert "stand-still" in PLANNERS and list(PLANNERS) == sorted([*BUILT_IN, "stand-still"])
+    env = vcs_env.parallel_env(scenario="swap", expert="stand-still")
+    env.reset(seed=0)
+    _, _, _, _, infos = env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    # delta actions: braking from rest is a zero speed change, no turn.
+    np.testing.assert_array_equal(infos["robot_0"]["expert_action"], [0.0, 0.0])
+
+
+def test_register_rejects_taken_names_and_bad_factories(registry):
+    with pytest.raises(ValueError, match="'vcs' is already registered"):
+        register_planner("vcs", StandStill)
+    with pytest.raises(ValueError, match="must be callable"):
+        register_planner("x", "not a factory")
+    with pytest.raises(ValueError, match="non-empty string"):
+        register_planner("", StandStill)
+    register_planner("still", StandStill)
+    with pytest.raises(ValueError, match="'still' is already registered"):
+        register_planner("still", StandStill)
