@@ -60,6 +60,9 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.rollout import Hook
+from vcs_env.rollout import play as play_episodes
+
 from .config import (
     ScenarioConfig,
     add_config_args,
@@ -115,65 +118,76 @@ def play(
     Returns:
         The dataset arrays of the module docstring (without ``meta``).
     """
-    from vcs_env.engine import NavEngine
-
     seeds = [int(s) for s in seeds]
     rng = rng if rng is not None else np.random.default_rng(0)
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("obs", "act", "rew", "key", "step")}
-    traj: dict[tuple[int, int], dict[str, Any]] = {}
-    for c0 in range(0, len(seeds), n_worlds):
-        chunk = seeds[c0 : c0 + n_worlds]
-        engine = NavEngine(scenario, len(chunk), expert=expert)
-        obs = engine.reset(chunk)
-        world = engine.world
+    labels = ExpertLabels()
+
+    def control(world, obs: np.ndarray) -> np.ndarray:
+        if actor is None:
+            return labels.current
         B, n = world.batch_size, world.n_robots
-        running = np.ones(B, dtype=bool)
-        while running.any():
-            recording = world.active & running[:, None]
-            label = engine.expert_action
-            action = label
-            if actor is not None:
-                own = np.asarray(actor(obs.reshape(B * n, -1)), dtype=np.float64).reshape(B, n, 2)
-                action = np.where((rng.random((B, n)) < beta)[..., None], label, own)
-            steps = world.steps.copy()
-            res = engine.step(action)
-            b_idx, i_idx = np.nonzero(recording)
-            parts["obs"].append(obs[b_idx, i_idx])
-            parts["act"].append(label[b_idx, i_idx].astype(np.float32))
-            parts["rew"].append(res.reward[b_idx, i_idx].astype(np.float32))
-            parts["key"].append((c0 + b_idx) * n + i_idx)
-            parts["step"].append(steps[b_idx])
-            ended_robot = recording & (res.terminated | res.truncated)
-            for b, i in zip(*np.nonzero(ended_robot)):
-                traj[(c0 + b) * n + i] = {
-                    "seed": chunk[b],
-                    "robot": i,
-                    "reached": bool(world.reached[b, i]),
-                    "collided": bool(world.collided[b, i]),
-                    "truncated": bool(res.truncated[b, i]),
-                }
-            obs = res.obs
-            running &= world.active.any(axis=1) & (world.steps < engine.max_steps)
-    key = np.concatenate(parts["key"])
-    order = np.lexsort((np.concatenate(parts["step"]), key))
-    key = key[order]
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    keys = key[starts]
-    info = [traj[int(k)] for k in keys]
-    episode_starts = np.zeros(len(key), dtype=bool)
-    episode_starts[starts] = True
-    return {
-        "observations": np.concatenate(parts["obs"])[order].astype(np.float32),
-        "actions": np.concatenate(parts["act"])[order],
-        "rewards": np.concatenate(parts["rew"])[order],
-        "episode_starts": episode_starts,
-        "traj_start": np.r_[starts, len(key)].astype(np.int64),
-        "traj_seed": np.array([t["seed"] for t in info], dtype=np.int64),
-        "traj_robot": np.array([t["robot"] for t in info], dtype=np.int64),
-        "traj_reached": np.array([t["reached"] for t in info], dtype=bool),
-        "traj_collided": np.array([t["collided"] for t in info], dtype=bool),
-        "traj_truncated": np.array([t["truncated"] for t in info], dtype=bool),
-    }
+        own = np.asarray(actor(obs.reshape(B * n, -1)), dtype=np.float64).reshape(B, n, 2)
+        return np.where((rng.random((B, n)) < beta)[..., None], labels.current, own)
+
+    for c0 in range(0, len(seeds), n_worlds):
+        play_episodes(scenario, control, seeds[c0 : c0 + n_worlds], [labels], expert=expert, first=c0)
+    return labels.dataset()
+
+
+class ExpertLabels(Hook):
+    """A :class:`vcs_env.rollout.Hook` that records every acting robot-step of :func:`play`: the
+    observation, the expert's action for it (``current`` before the step), the reward, and per
+    robot trajectory how it ended. :meth:`dataset` orders the rows by trajectory."""
+
+    def __init__(self) -> None:
+        self.parts: dict[str, list[np.ndarray]] = {k: [] for k in ("obs", "act", "rew", "key", "step")}
+        self.traj: dict[int, dict[str, Any]] = {}
+
+    def begin(self, engine, seeds: Sequence[int], first: int) -> None:
+        self.engine, self.seeds, self.first = engine, list(seeds), first
+        self.current = engine.expert_action
+        """``(B, n, 2)`` the expert's actions for the current state."""
+
+    def step(self, s) -> None:
+        world, res, n = self.engine.world, s.result, self.engine.world.n_robots
+        b_idx, i_idx = np.nonzero(s.acting)
+        self.parts["obs"].append(s.obs[b_idx, i_idx])
+        self.parts["act"].append(self.current[b_idx, i_idx].astype(np.float32))
+        self.parts["rew"].append(res.reward[b_idx, i_idx].astype(np.float32))
+        self.parts["key"].append((self.first + b_idx) * n + i_idx)
+        self.parts["step"].append(s.steps[b_idx])
+        for b, i in zip(*np.nonzero(s.acting & (res.terminated | res.truncated))):
+            self.traj[(self.first + b) * n + i] = {
+                "seed": self.seeds[b],
+                "robot": i,
+                "reached": bool(world.reached[b, i]),
+                "collided": bool(world.collided[b, i]),
+                "truncated": bool(res.truncated[b, i]),
+            }
+        self.current = res.expert_action
+
+    def dataset(self) -> dict[str, np.ndarray]:
+        """The dataset arrays (module docstring), rows grouped by trajectory in time order."""
+        parts = self.parts
+        key = np.concatenate(parts["key"])
+        order = np.lexsort((np.concatenate(parts["step"]), key))
+        key = key[order]
+        starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        info = [self.traj[int(k)] for k in key[starts]]
+        episode_starts = np.zeros(len(key), dtype=bool)
+        episode_starts[starts] = True
+        return {
+            "observations": np.concatenate(parts["obs"])[order].astype(np.float32),
+            "actions": np.concatenate(parts["act"])[order],
+            "rewards": np.concatenate(parts["rew"])[order],
+            "episode_starts": episode_starts,
+            "traj_start": np.r_[starts, len(key)].astype(np.int64),
+            "traj_seed": np.array([t["seed"] for t in info], dtype=np.int64),
+            "traj_robot": np.array([t["robot"] for t in info], dtype=np.int64),
+            "traj_reached": np.array([t["reached"] for t in info], dtype=bool),
+            "traj_collided": np.array([t["collided"] for t in info], dtype=bool),
+            "traj_truncated": np.array([t["truncated"] for t in info], dtype=bool),
+        }
 
 
 def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
@@ -381,8 +395,10 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     from stable_baselines3 import PPO
 
     from .checkpoint import save_model
-    from .train import PolicyConfig, deterministic_act, policy_kwargs, scalar_results
-    from .vec_env import NavVecEnv, run_first_episodes
+    from .evaluate import score_seeds
+    from .policies import predictor_controller
+    from .train import PolicyConfig, policy_kwargs, scalar_results
+    from .vec_env import NavVecEnv
 
     t_start = time.time()
     data, meta = load_dataset(cfg.data)
@@ -425,7 +441,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     def closed_loop(tag: str) -> dict[str, float] | None:
         if not eval_seeds:
             return None
-        res = scalar_results(run_first_episodes(deterministic_act(policy), scenario, eval_seeds))
+        res = scalar_results(score_seeds(predictor_controller(policy), scenario, eval_seeds))
         print(
             f"[{tag}] closed loop on {len(eval_seeds)} episodes: success {res['episode_success']:.2f} "
             f"(robots {res['robot_success']:.3f}) collision {res['episode_collision']:.2f} "

@@ -15,8 +15,10 @@ import torch  # noqa: E402
 torch.set_num_threads(1)
 
 from agents.checkpoint import CheckpointError, load_model, load_policy_weights  # noqa: E402
-from agents.vec_env import NavVecEnv, run_first_episodes  # noqa: E402
+from agents.evaluate import score_seeds  # noqa: E402
+from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_env import CustomLayout, NavEngine, make_scenario  # noqa: E402
+from vcs_env.rollout import planner_controller  # noqa: E402
 
 
 def two_robot_scenario(max_steps=15):
@@ -128,10 +130,39 @@ def test_ppo_same_seed_identical_weights_and_episode_infos():
     assert len(a.ep_success_buffer) == len(a.ep_info_buffer)
 
 
-def test_run_first_episodes_scores_the_expert():
-    res = run_first_episodes(lambda v, o: v.expert_actions(), make_scenario("crowd"), [1000, 1001], expert="vcs")
-    assert res["episodes"] == 2 and res["success"].shape == (2, 1)
-    assert 0.0 <= res["episode_success"] <= 1.0 and res["time_to_goal"] > 8.0  # straight line: 8 m at 1 m/s
+def first_episode_infos(venv, seeds, act):
+    """The VecEnv's own ``info["episode"]`` of every slot's first episode (the oracle)."""
+    obs = venv.reset_worlds(seeds)
+    first = [None] * venv.num_envs
+    while any(f is None for f in first):
+        obs, _, _, infos = venv.step(act(venv, obs))
+        for j, info in enumerate(infos):
+            if first[j] is None and "episode" in info:
+                first[j] = info["episode"]
+    return first
+
+
+def test_score_seeds_agrees_with_the_vecenv_episode_infos():
+    """The training-time check (episode runner + metrics) and the VecEnv's per-robot infos give
+    the same success, collision, time and return, bit for bit: one definition of success."""
+    scenario = make_scenario("circle", n_robots=4, max_steps=116)  # arrivals at 11.4 s to 11.9 s: some time out
+    seeds = [1000, 1001, 1002]
+    res = score_seeds(planner_controller(vcs_env_planner()), scenario, seeds)
+    first = first_episode_infos(NavVecEnv(scenario, len(seeds), expert="vcs"), seeds, lambda v, o: v.expert_actions())
+    shape = (len(seeds), scenario.n_robots)
+    assert np.array_equal(res["success"], np.array([f["success"] for f in first], dtype=bool).reshape(shape))
+    assert np.array_equal(res["collision"], np.array([f["collision"] for f in first], dtype=bool).reshape(shape))
+    assert np.array_equal(res["time"], np.array([f["time_to_goal"] for f in first]).reshape(shape), equal_nan=True)
+    assert res["return"] == np.mean([f["r"] for f in first])
+    assert 0 < res["robot_success"] < 1 and 0 < res["episode_success"] < 1  # the case is not trivial
+    full = score_seeds(planner_controller(vcs_env_planner()), make_scenario("crowd"), [1000, 1001])
+    assert full["episode_success"] == 1.0 and full["time_to_goal"] > 8.0  # straight line: 8 m at 1 m/s
+
+
+def vcs_env_planner():
+    from vcs_env.planning import make_planner
+
+    return make_planner("vcs")
 
 
 def test_bc_lowers_held_out_action_error():
@@ -193,14 +224,14 @@ def test_checkpoint_errors_are_clear(tmp_path):
 
 def test_cli_modules_do_not_import_torch():
     code = (
-        "import sys, vcs_env.cli as c; c.build_parser(); "
+        "import sys, vcs_cli as c; c.build_parser(); "
         "sys.exit('torch' in sys.modules or 'stable_baselines3' in sys.modules)"
     )
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
 def vcs_env_cli(command: str, cwd, expect: int = 0) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "vcs_env.cli", *command.split()]
+    cmd = [sys.executable, "-m", "vcs_cli", *command.split()]
     proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == expect, proc.stdout + proc.stderr
     return proc

@@ -9,9 +9,10 @@ import sys
 import numpy as np
 import pytest
 
+import vcs_cli as cli
 from agents.evaluate import compare, evaluate
 from baselines import PLANNERS
-from vcs_env import cli, metrics
+from vcs_env import metrics
 from vcs_env.observations import observation_space
 from vcs_env.rollout import Episode
 from vcs_env.suites import SMOKE_SEEDS, SUITES, Suite, get_suite, suite_names
