@@ -168,7 +168,8 @@ def vcs_env_planner():
 def test_bc_lowers_held_out_action_error():
     from stable_baselines3 import PPO
 
-    from agents.imitation import action_error, bc_fit, discounted_returns, play
+    from agents.expert_data import discounted_returns, play
+    from agents.imitation import action_error, bc_fit
 
     s = make_scenario("crowd")
     train = play(s, range(0, 24), n_worlds=24)
@@ -183,7 +184,7 @@ def test_bc_lowers_held_out_action_error():
 
 
 def test_dataset_layout_groups_robot_trajectories():
-    from agents.imitation import play
+    from agents.expert_data import play
 
     s = make_scenario("circle", n_robots=3, max_steps=40)
     d = play(s, [3, 4], n_worlds=2)
