@@ -9,7 +9,7 @@ from pathlib import Path
 from vcs_env.suites import get_suite, suite_names
 
 from .evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate
-from .report import TABLE_COLUMNS, fmt, table_lines, write_report
+from .report import fmt, table_lines, table_metrics, write_report
 
 
 def _print_summary(res: EvalResult) -> None:
@@ -19,7 +19,7 @@ def _print_summary(res: EvalResult) -> None:
         f"{res.wall_time:.1f} s, {1e3 * res.seconds_per_decision:.3f} ms/decision"
     )
     print(f"{'metric':<20} {'mean':>9} {'95% interval':>21} {'n':>5}")
-    for metric in TABLE_COLUMNS:
+    for metric in table_metrics():
         st = res.summary.get(metric.name)
         if st is None:
             continue

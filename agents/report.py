@@ -12,14 +12,15 @@ from pathlib import Path
 
 import numpy as np
 
-from vcs_env.metrics import METRICS, OUTCOMES
+from vcs_env import metrics
+from vcs_env.metrics import OUTCOMES, Metric
 
 from .evaluate import EXTRA_TIME_PERCENTILES, Comparison
 
-TABLE_COLUMNS = tuple(m for m in METRICS if m.table)
-"""Metrics of the comparison table, in order; ms/decision is appended."""
-PLOT_METRICS = tuple(m for m in METRICS if m.plot)
-"""Metrics that get a bar chart (plus ms/decision)."""
+
+def table_metrics() -> list[Metric]:
+    """Metrics of the comparison table and the ``evaluate`` summary, in order (:attr:`Metric.table`)."""
+    return [m for m in metrics.METRICS if m.table]
 
 
 def format_stat(stat: Mapping[str, float], rate: bool, digits: int = 2) -> str:
@@ -33,11 +34,13 @@ def format_stat(stat: Mapping[str, float], rate: bool, digits: int = 2) -> str:
 
 
 def table_lines(comparison: Comparison) -> list[str]:
-    """The markdown table of a comparison, one row per policy (columns :data:`TABLE_COLUMNS`)."""
-    head = ["policy"] + [m.label for m in TABLE_COLUMNS] + ["ms/decision"]
+    """The markdown table of a comparison, one row per policy (columns :func:`table_metrics`, then
+    ms/decision)."""
+    columns = table_metrics()
+    head = ["policy"] + [m.label for m in columns] + ["ms/decision"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, summ in comparison.summaries.items():
-        cells = [name] + [format_stat(summ.get(m.name, {}), m.rate) for m in TABLE_COLUMNS]
+        cells = [name] + [format_stat(summ.get(m.name, {}), m.rate) for m in columns]
         cells.append(f"{1e3 * comparison.results[name].seconds_per_decision:.3f}")
         lines.append("| " + " | ".join(cells) + " |")
     return lines
@@ -92,7 +95,7 @@ def _safe(name: str) -> str:
 
 
 def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int | None = None) -> list[Path]:
-    """Bar charts (one per metric of :data:`PLOT_METRICS`, and ms/decision) and, if ``episode``
+    """Bar charts (one per metric with :attr:`~vcs_env.metrics.Metric.plot`, and ms/decision) and, if ``episode``
     is given and kept, one trajectory plot of that episode per policy.
 
     Figures are drawn without pyplot, so the caller's matplotlib backend (e.g. a notebook's
@@ -127,7 +130,7 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
         fig.savefig(path, dpi=100, bbox_inches="tight")
         written.append(path)
 
-    for metric in PLOT_METRICS:
+    for metric in (m for m in metrics.METRICS if m.plot):
         stats = [comparison.summaries[k].get(metric.name, {}) for k in names]
         err = np.array(
             [

@@ -228,8 +228,6 @@ METRICS: tuple[Metric, ...] = (
 )
 """Every metric of an episode, in the order of the rows, the table and the plots."""
 
-METRIC = {m.name: m for m in METRICS}
-""":data:`METRICS` by name."""
 OUTCOMES = ("success", "collision", "deadlock", "timeout")
 """The outcome metrics: exactly one of them is 1 in every episode (module docstring)."""
 
@@ -274,9 +272,10 @@ def aggregate(
         return out
     keys = list(rows[0])
     mask = np.ones(len(rows), dtype=bool) if solved_mask is None else np.asarray(solved_mask, dtype=bool)
+    by_name = {m.name: m for m in METRICS}
     for k in keys:
         vals = np.array([r[k] for r in rows], dtype=np.float64)
-        metric = METRIC.get(k)
+        metric = by_name.get(k)
         if metric is not None and metric.rate:
             n = len(vals)
             lo, hi = wilson_interval(float(vals.sum()), n)
