@@ -5,7 +5,7 @@ every world's episode ended (finished worlds idle until the slowest one ends). A
 maps the state (and observations) of all worlds to actions in one call; *hooks* watch every
 step (:class:`Hook`): they record episodes (:class:`EpisodeRecorder`, what :func:`run_episodes`
 returns), render frames (:class:`FrameRecorder`), or label states with the expert's action
-(``agents.imitation``). Each episode comes back as an :class:`Episode` of plain arrays, from
+for imitation learning. Each episode comes back as an :class:`Episode` of plain arrays, from
 which :mod:`vcs_env.metrics` computes the metrics.
 
 Only the controller call is timed (``Step.compute_time``): rendering happens after the batch,
