@@ -303,7 +303,7 @@ def score_seeds(
     return {
         "episodes": len(episodes),
         "episode_success": float(np.mean([r["success"] for r in rows])),
-        "episode_collision": float(touched.any(axis=1).mean()),
+        "episode_collision": float(np.mean([r["collision"] for r in rows])),
         "robot_success": float(success.mean()),
         "robot_collision": float(touched.mean()),
         "time_to_goal": float(ttg[reached].mean()) if reached.any() else math.nan,

@@ -11,8 +11,9 @@ One typed :class:`TrainConfig` (a docstring per field = the ``--help`` of its fl
 
 Periodic evaluation plays ``eval_episodes`` fixed seeds (``eval_seed``, ``eval_seed + 1``, ...)
 with deterministic actions on the training scenario and logs episode and robot success and
-collision rates and the mean time to goal, from the VecEnv's own per-robot episode infos; with
-``--eval-suite`` it also scores the policy on a named suite with :mod:`agents.evaluate`.
+collision rates and the mean time to goal (:func:`agents.evaluate.score_seeds`: the episode
+runner and success definition of the suites); with ``--eval-suite`` it also scores the policy
+on a named suite with :func:`agents.evaluate.evaluate`.
 
 Example::
 

@@ -223,6 +223,9 @@ class FrameRecorder(Hook):
     snapshots; it draws them when the batch ends, outside the timed controller calls."""
 
     def __init__(self, extent: float, worlds: Iterable[int], size: int = 400) -> None:
+        from .render import Renderer
+
+        Renderer(extent, size=size)._pygame()  # a missing render extra fails here, before the run
         self.extent, self.size = extent, size
         self.frames: dict[int, list[np.ndarray]] = {int(i): [] for i in worlds}
 
@@ -237,8 +240,6 @@ class FrameRecorder(Hook):
                 snaps.append(self.w.world(b))
 
     def end(self) -> None:
-        if not self.snapshots:
-            return
         from .render import Renderer
 
         for b, snaps in self.snapshots.items():
