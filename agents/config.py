@@ -1,4 +1,7 @@
-"""Typed run configs shared by the ``agents`` commands, and their command-line flags.
+"""Typed run configs shared by the ``vcs-env`` commands, and their command-line flags.
+
+:class:`ScenarioConfig` with :func:`build_scenario` is the one way from flags to a scenario
+(``rollout``, ``train``, ``collect``; ``evaluate`` and ``compare`` take named suites).
 
 Every config is a dataclass whose fields carry a docstring (cleanrl style); :func:`add_config_args`
 turns the fields into ``--flags`` whose help is that docstring, so the config, its JSON copy

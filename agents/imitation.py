@@ -1,29 +1,7 @@
 """Imitation of the VCS expert: expert datasets, behaviour cloning and DAgger (``vcs-env collect``,
 ``vcs-env bc``), into the same SB3 PPO actor-critic that ``vcs-env train --init`` fine-tunes.
 
-**Dataset** (``.npz``, written by :func:`collect`, numpy only). Rows are robot-steps, grouped by
-robot trajectory (one robot's part of one episode), in time order:
-
-================== =============== ==========================================================
-key                shape / dtype   meaning
-================== =============== ==========================================================
-observations       (N, D) float32  the robot's observation (:mod:`vcs_env.observations`)
-actions            (N, 2) float32  the expert's action for that observation (delta units)
-rewards            (N,) float32    reward of the step taken (scenario weights, no shaping)
-episode_starts     (N,) bool       first row of a trajectory
-traj_start         (K + 1,) int64  trajectory k = rows traj_start[k] : traj_start[k + 1]
-traj_seed          (K,) int64      reset seed of the episode the trajectory belongs to
-traj_robot         (K,) int64      robot index i
-traj_reached       (K,) bool       the robot arrived
-traj_collided      (K,) bool       the robot touched something
-traj_truncated     (K,) bool       the episode hit max_steps before the robot ended
-meta               () str          JSON: format, scenario config and fields, seeds, planner,
-                                   executed policy, observation_dim
-================== =============== ==========================================================
-
-In expert datasets the executed actions are the expert's; in DAgger data the executed actions
-came from the learner (mixed with the expert with probability beta) and ``actions`` are still
-the expert's labels for the visited states.
+The dataset format and the episodes that fill it are :mod:`agents.expert_data`.
 
 **Behaviour cloning** (:func:`bc_fit`) maximises the Gaussian log-likelihood of the expert
 actions under the PPO policy (``loss="nll"``, default). The policy's std is state independent,
@@ -53,7 +31,6 @@ import argparse
 import dataclasses
 import json
 import time
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -68,11 +45,7 @@ from .config import (
     config_from_args,
     config_from_dict,
 )
-
-DATASET_FORMAT = "vcs-env-expert-v1"
-
-Actor = Callable[[np.ndarray], np.ndarray]
-"""``actor(obs (N, D) float32) -> actions (N, 2)`` (e.g. a deterministic policy)."""
+from .expert_data import DATASET_FORMAT, concat_datasets, discounted_returns, load_dataset, play, save_dataset
 
 
 # ----------------------------------------------------------------------------- data
@@ -90,133 +63,6 @@ class CollectConfig(ScenarioConfig):
     """Expert planner name."""
     out: str = "data/expert.npz"
     """Dataset path (.npz)."""
-
-
-def play(
-    scenario,
-    seeds: Sequence[int],
-    actor: Actor | None = None,
-    beta: float = 1.0,
-    rng: np.random.Generator | None = None,
-    n_worlds: int = 32,
-    expert: str = "vcs",
-) -> dict[str, np.ndarray]:
-    """Play one episode per seed, labelling every active robot-step with the expert's action.
-
-    Args:
-        scenario: the episode family.
-        seeds: one reset seed per episode.
-        actor: the executed policy; None executes the expert.
-        beta: per robot-step probability of executing the expert's action instead of ``actor``'s.
-        rng: draws the beta mixing (needed when ``actor`` is given and ``0 < beta < 1``).
-        n_worlds: worlds stepped together.
-        expert: the labelling planner.
-
-    Returns:
-        The dataset arrays of the module docstring (without ``meta``).
-    """
-    from vcs_env.engine import NavEngine
-
-    seeds = [int(s) for s in seeds]
-    rng = rng if rng is not None else np.random.default_rng(0)
-    parts: dict[str, list[np.ndarray]] = {k: [] for k in ("obs", "act", "rew", "key", "step")}
-    traj: dict[tuple[int, int], dict[str, Any]] = {}
-    for c0 in range(0, len(seeds), n_worlds):
-        chunk = seeds[c0 : c0 + n_worlds]
-        engine = NavEngine(scenario, len(chunk), expert=expert)
-        obs = engine.reset(chunk)
-        world = engine.world
-        B, n = world.batch_size, world.n_robots
-        running = np.ones(B, dtype=bool)
-        while running.any():
-            recording = world.active & running[:, None]
-            label = engine.expert_action
-            action = label
-            if actor is not None:
-                own = np.asarray(actor(obs.reshape(B * n, -1)), dtype=np.float64).reshape(B, n, 2)
-                action = np.where((rng.random((B, n)) < beta)[..., None], label, own)
-            steps = world.steps.copy()
-            res = engine.step(action)
-            b_idx, i_idx = np.nonzero(recording)
-            parts["obs"].append(obs[b_idx, i_idx])
-            parts["act"].append(label[b_idx, i_idx].astype(np.float32))
-            parts["rew"].append(res.reward[b_idx, i_idx].astype(np.float32))
-            parts["key"].append((c0 + b_idx) * n + i_idx)
-            parts["step"].append(steps[b_idx])
-            ended_robot = recording & (res.terminated | res.truncated)
-            for b, i in zip(*np.nonzero(ended_robot)):
-                traj[(c0 + b) * n + i] = {
-                    "seed": chunk[b],
-                    "robot": i,
-                    "reached": bool(world.reached[b, i]),
-                    "collided": bool(world.collided[b, i]),
-                    "truncated": bool(res.truncated[b, i]),
-                }
-            obs = res.obs
-            running &= world.active.any(axis=1) & (world.steps < engine.max_steps)
-    key = np.concatenate(parts["key"])
-    order = np.lexsort((np.concatenate(parts["step"]), key))
-    key = key[order]
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    keys = key[starts]
-    info = [traj[int(k)] for k in keys]
-    episode_starts = np.zeros(len(key), dtype=bool)
-    episode_starts[starts] = True
-    return {
-        "observations": np.concatenate(parts["obs"])[order].astype(np.float32),
-        "actions": np.concatenate(parts["act"])[order],
-        "rewards": np.concatenate(parts["rew"])[order],
-        "episode_starts": episode_starts,
-        "traj_start": np.r_[starts, len(key)].astype(np.int64),
-        "traj_seed": np.array([t["seed"] for t in info], dtype=np.int64),
-        "traj_robot": np.array([t["robot"] for t in info], dtype=np.int64),
-        "traj_reached": np.array([t["reached"] for t in info], dtype=bool),
-        "traj_collided": np.array([t["collided"] for t in info], dtype=bool),
-        "traj_truncated": np.array([t["truncated"] for t in info], dtype=bool),
-    }
-
-
-def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(path, **data, meta=np.array(json.dumps(meta)))
-    return path
-
-
-def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """``(arrays, meta)`` of a dataset; ``ValueError`` naming the problem if it is not one."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"dataset not found: {str(path)!r} (make one with vcs-env collect)")
-    try:
-        with np.load(path, allow_pickle=False) as f:
-            data = {k: f[k] for k in f.files}
-    except Exception as e:
-        raise ValueError(f"dataset {str(path)!r} is not a readable .npz file: {type(e).__name__}: {e}") from None
-    missing = {"observations", "actions", "traj_start", "meta"} - set(data)
-    if missing:
-        raise ValueError(f"dataset {str(path)!r} lacks {sorted(missing)} (not a vcs-env collect dataset)")
-    meta = json.loads(str(data.pop("meta")))
-    if meta.get("format") != DATASET_FORMAT:
-        raise ValueError(f"dataset {str(path)!r} has format {meta.get('format')!r}, expected {DATASET_FORMAT!r}")
-    return data, meta
-
-
-def concat_datasets(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    out = {k: np.concatenate((a[k], b[k])) for k in a if k != "traj_start"}
-    out["traj_start"] = np.concatenate((a["traj_start"][:-1], b["traj_start"] + a["traj_start"][-1]))
-    return out
-
-
-def discounted_returns(rewards: np.ndarray, traj_start: np.ndarray, gamma: float) -> np.ndarray:
-    """Return-to-go ``(N,)`` of every row within its trajectory (0 after the last row)."""
-    out = np.zeros(len(rewards), dtype=np.float64)
-    for s, e in zip(traj_start[:-1], traj_start[1:]):
-        g = 0.0
-        for t in range(e - 1, s - 1, -1):
-            g = rewards[t] + gamma * g
-            out[t] = g
-    return out
 
 
 def collect(cfg: CollectConfig) -> Path:
@@ -381,8 +227,10 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     from stable_baselines3 import PPO
 
     from .checkpoint import save_model
-    from .train import PolicyConfig, deterministic_act, policy_kwargs, scalar_results
-    from .vec_env import NavVecEnv, run_first_episodes
+    from .evaluate import score_seeds
+    from .policies import predictor_controller
+    from .train import PolicyConfig, policy_kwargs, scalar_results
+    from .vec_env import NavVecEnv
 
     t_start = time.time()
     data, meta = load_dataset(cfg.data)
@@ -425,7 +273,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     def closed_loop(tag: str) -> dict[str, float] | None:
         if not eval_seeds:
             return None
-        res = scalar_results(run_first_episodes(deterministic_act(policy), scenario, eval_seeds))
+        res = scalar_results(score_seeds(predictor_controller(policy), scenario, eval_seeds))
         print(
             f"[{tag}] closed loop on {len(eval_seeds)} episodes: success {res['episode_success']:.2f} "
             f"(robots {res['robot_success']:.3f}) collision {res['episode_collision']:.2f} "

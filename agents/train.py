@@ -11,8 +11,9 @@ One typed :class:`TrainConfig` (a docstring per field = the ``--help`` of its fl
 
 Periodic evaluation plays ``eval_episodes`` fixed seeds (``eval_seed``, ``eval_seed + 1``, ...)
 with deterministic actions on the training scenario and logs episode and robot success and
-collision rates and the mean time to goal, from the VecEnv's own per-robot episode infos; with
-``--eval-suite`` it also scores the policy on a named suite with :mod:`agents.evaluate`.
+collision rates and the mean time to goal (:func:`agents.evaluate.score_seeds`: the episode
+runner and success definition of the suites); with ``--eval-suite`` it also scores the policy
+on a named suite with :func:`agents.evaluate.evaluate`.
 
 Example::
 
@@ -140,15 +141,6 @@ def policy_kwargs(cfg: PolicyConfig) -> dict[str, Any]:
     return dict(net_arch=dict(pi=list(cfg.net_arch), vf=list(cfg.net_arch)), log_std_init=cfg.log_std_init)
 
 
-def deterministic_act(policy):
-    """``act(venv, obs)`` for :func:`agents.vec_env.run_first_episodes` from an SB3 policy."""
-
-    def act(venv, obs):
-        return policy.predict(obs, deterministic=True)[0]
-
-    return act
-
-
 def scalar_results(res: dict[str, Any]) -> dict[str, float]:
     return {k: v for k, v in res.items() if isinstance(v, (int, float))}
 
@@ -158,7 +150,8 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
 
     from .checkpoint import save_model
     from .evaluate import evaluate as score_on_suite
-    from .vec_env import run_first_episodes
+    from .evaluate import score_seeds
+    from .policies import predictor_controller
 
     eval_seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
 
@@ -183,7 +176,7 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
 
         def evaluate(self) -> dict[str, Any]:
             t0 = time.time()
-            res = scalar_results(run_first_episodes(deterministic_act(self.model.policy), scenario, eval_seeds))
+            res = scalar_results(score_seeds(predictor_controller(self.model.policy), scenario, eval_seeds))
             suite = ""
             if cfg.eval_suite:
                 summary = score_on_suite(self.model, cfg.eval_suite, progress=False).summary

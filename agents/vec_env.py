@@ -40,7 +40,7 @@ slot when an expert is attached (DAgger).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -48,6 +48,7 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
 from vcs_env.engine import NavEngine
+from vcs_env.metrics import robots_succeeded
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -172,7 +173,7 @@ class NavVecEnv(VecEnv):
             collided = bool(self._collided[b, i])
             truncated = bool(res.truncated[b, i] and not res.terminated[b, i])
             length = int(self._ep_len[b, i])
-            success = reached and not collided
+            success = bool(robots_succeeded(reached, collided))
             infos[b * n + i] = {
                 "terminal_observation": last_obs[b, i].copy(),
                 "TimeLimit.truncated": truncated,
@@ -226,53 +227,3 @@ class NavVecEnv(VecEnv):
 
     def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
-
-
-def run_first_episodes(
-    act: Callable[[NavVecEnv, np.ndarray], np.ndarray],
-    scenario: Scenario,
-    seeds: Sequence[int],
-    expert=None,
-    action_mode: str = "delta",
-) -> dict[str, Any]:
-    """Play one episode per seed (all worlds at once) and score it from the per-robot infos.
-
-    Args:
-        act: ``act(venv, obs (B * n, D)) -> actions (B * n, 2)``, e.g. a deterministic policy
-            or ``lambda v, o: v.expert_actions()`` (with ``expert="vcs"``).
-        scenario: the episode family, unchanged.
-        seeds: one reset seed per episode (world).
-
-    Returns:
-        Rates over episodes (``episode_success``: every robot arrived without touching anything,
-        ``episode_collision``: some robot touched something), over robots (``robot_success``,
-        ``robot_collision``), ``time_to_goal`` (mean over robots that arrived [s]),
-        ``return`` (mean per-robot return), ``episodes``, and the per-robot arrays
-        (``success``, ``collision``, ``time``: ``(episodes, n)``).
-    """
-    venv = NavVecEnv(scenario, len(seeds), action_mode, expert=expert)
-    B, n = venv.n_worlds, venv.n_robots
-    obs = venv.reset_worlds(seeds)
-    first: list[dict | None] = [None] * venv.num_envs
-    while any(f is None for f in first):
-        obs, _, _, infos = venv.step(np.asarray(act(venv, obs), dtype=np.float32))
-        for j, info in enumerate(infos):
-            if first[j] is None and "episode" in info:
-                first[j] = info["episode"]
-    success = np.array([f["success"] for f in first], dtype=bool).reshape(B, n)
-    collision = np.array([f["collision"] for f in first], dtype=bool).reshape(B, n)
-    ttg = np.array([f["time_to_goal"] for f in first], dtype=np.float64).reshape(B, n)
-    ret = np.array([f["r"] for f in first], dtype=np.float64)
-    reached = np.isfinite(ttg)
-    return {
-        "episodes": B,
-        "episode_success": float(success.all(axis=1).mean()),
-        "episode_collision": float(collision.any(axis=1).mean()),
-        "robot_success": float(success.mean()),
-        "robot_collision": float(collision.mean()),
-        "time_to_goal": float(ttg[reached].mean()) if reached.any() else float("nan"),
-        "return": float(ret.mean()),
-        "success": success,
-        "collision": collision,
-        "time": ttg,
-    }

@@ -107,7 +107,7 @@ def test_fit_exponent_and_target():
 
 
 def test_cli_has_bench_command():
-    from vcs_env.cli import build_parser
+    from vcs_cli import build_parser
 
     args = build_parser().parse_args(["bench", "--quick", "--out", "x.md"])
     assert args.quick and args.out == "x.md"

@@ -9,9 +9,10 @@ import sys
 import numpy as np
 import pytest
 
+import vcs_cli as cli
 from agents.evaluate import compare, evaluate
 from baselines import PLANNERS
-from vcs_env import cli, metrics
+from vcs_env import metrics
 from vcs_env.rollout import Episode
 from vcs_env.spaces import observation_space
 from vcs_env.suites import SMOKE_SEEDS, SUITES, Suite, get_suite, suite_names
@@ -128,6 +129,49 @@ def test_aggregate_takes_time_over_the_solved_mask_only():
     assert agg["time_to_goal"]["mean"] == pytest.approx(11.0) and agg["time_to_goal"]["n"] == 2
     assert agg["success"]["mean"] == pytest.approx(2 / 3) and agg["success"]["n"] == 3
     assert agg["jerk"]["mean"] == pytest.approx(2.0)
+
+
+def test_a_new_metric_is_one_object(monkeypatch, capsys, tmp_path):
+    """Adding a Metric to METRICS puts it in the rows, the aggregate, the comparison table, the
+    plots and the evaluate summary; its flags decide how each treats it."""
+    from agents.report import table_lines, write_plots
+
+    final_speed = metrics.Metric("final_speed", "final speed [m/s]", lambda f: float(f.ep.speed[-1].mean()))
+    quick = metrics.Metric("quick", "quick", lambda f: float(f.ep.steps < 100), rate=True, plot=False)
+    monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS, final_speed, quick))
+    comp = compare(["straight"], "swap-v0-smoke", progress=False)
+    rows = comp.results["straight"].rows
+    summary = comp.results["straight"].summary
+    assert all(list(r)[-2:] == ["final_speed", "quick"] and r["quick"] in (0.0, 1.0) for r in rows)
+    assert summary["final_speed"]["n"] == len(rows)
+    k = sum(r["quick"] for r in rows)
+    assert (summary["quick"]["low"], summary["quick"]["high"]) == metrics.wilson_interval(k, len(rows))
+    assert table_lines(comp)[0].endswith("| final speed [m/s] | quick | ms/decision |")
+    names = {p.name for p in write_plots(comp, tmp_path)}
+    assert "bar_final_speed.png" in names and "bar_quick.png" not in names
+    assert cli.main(["evaluate", "--suite", "swap-v0-smoke", "--policy", "straight", "--no-progress"]) == 0
+    assert "final speed [m/s]" in capsys.readouterr().out
+
+
+def test_metric_flags_match_the_documented_groups():
+    by = {m.name: m for m in metrics.METRICS}
+    assert len(by) == len(metrics.METRICS)  # names are unique
+    assert {n for n, m in by.items() if m.rate} == {
+        "success",
+        "collision",
+        "robot_collision",
+        "obstacle_collision",
+        "timeout",
+        "deadlock",
+    }
+    assert {n for n, m in by.items() if m.solved_only} == {
+        "time_to_goal",
+        "makespan",
+        "extra_time",
+        "path_length",
+        "path_ratio",
+    }
+    assert set(metrics.OUTCOMES) <= {n for n, m in by.items() if m.rate}
 
 
 # --------------------------------------------------------------------------- suites

@@ -29,7 +29,7 @@ def test_ci_runs_the_readme_install_and_test_commands():
 
 @pytest.mark.parametrize("cmd", CLI)
 def test_cli_commands_parse(cmd):
-    from vcs_env.cli import build_parser
+    from vcs_cli import build_parser
 
     args = build_parser().parse_args(shlex.split(cmd)[1:])
     assert callable(args.func)
@@ -39,7 +39,7 @@ def test_cli_commands_parse(cmd):
 def test_short_cli_commands_run(cmd, tmp_path):
     import os
 
-    from vcs_env.cli import main
+    from vcs_cli import main
 
     cwd = os.getcwd()
     os.chdir(tmp_path)

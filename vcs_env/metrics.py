@@ -9,12 +9,18 @@ Per-robot quantities are averaged over the robots of the episode: arrival time, 
 over the straight-line time at ``v_max``, path length and its ratio to the straight line,
 total heading change, speed-change reversals and mean absolute jerk. Time and path metrics
 are NaN for robots that did not arrive.
+
+Each metric is one :class:`Metric` in :data:`METRICS`: its name, label, how it is computed from
+an episode and how the evaluation harness, its report and plots treat it (rate or mean,
+solved-only, table column, bar chart). ``docs/extending-metrics.md`` shows how to add one.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -92,50 +98,149 @@ def _stuck(ep: Episode, unfinished: np.ndarray) -> bool:
     return bool(np.any(moved[unfinished] < DEADLOCK_DISTANCE))
 
 
+def robots_succeeded(arrived: np.ndarray, touched: np.ndarray) -> np.ndarray:
+    """``(..., n)`` bool: the robot arrived and touched nothing on the way. The one definition of
+    success: an episode succeeds when every robot does (the ``success`` metric); the training
+    VecEnv reports it per robot."""
+    return arrived & ~touched
+
+
+def _mean(x) -> float:
+    """Mean over the finite entries; NaN if there is none."""
+    x = np.asarray(x, dtype=np.float64)
+    return float(np.nanmean(x)) if np.isfinite(x).any() else math.nan
+
+
+class EpisodeFacts:
+    """Per-robot quantities of one :class:`~vcs_env.rollout.Episode` that several metrics share,
+    each computed once, on first use."""
+
+    def __init__(self, ep: Episode):
+        self.ep = ep
+
+    @functools.cached_property
+    def arrived(self) -> np.ndarray:
+        """``(n,)`` bool: the robot reached its goal."""
+        return self.ep.reached_step >= 0
+
+    @functools.cached_property
+    def robot_hit(self) -> np.ndarray:
+        """``(n,)`` bool: the robot touched another robot."""
+        return self.ep.robot_contact.any(axis=0)
+
+    @functools.cached_property
+    def obstacle_hit(self) -> np.ndarray:
+        """``(n,)`` bool: the robot touched an obstacle."""
+        return self.ep.obstacle_contact.any(axis=0)
+
+    @functools.cached_property
+    def collided(self) -> bool:
+        """Some robot touched something."""
+        return bool(self.robot_hit.any() or self.obstacle_hit.any())
+
+    @functools.cached_property
+    def success(self) -> bool:
+        return bool(robots_succeeded(self.arrived, self.robot_hit | self.obstacle_hit).all())
+
+    @functools.cached_property
+    def deadlock(self) -> bool:
+        unfinished = ~self.arrived & ~(self.robot_hit | self.obstacle_hit)
+        return (not self.success) and (not self.collided) and _stuck(self.ep, unfinished)
+
+    @functools.cached_property
+    def arrival_time(self) -> np.ndarray:
+        """``(n,)`` [s], NaN for robots that did not arrive."""
+        return np.where(self.arrived, self.ep.reached_step * self.ep.dt, np.nan)
+
+    @functools.cached_property
+    def paths(self) -> np.ndarray:
+        """``(n,)`` distance driven [m]."""
+        return path_lengths(self.ep)
+
+    @functools.cached_property
+    def path_ratio(self) -> np.ndarray:
+        """``(n,)`` path length over the straight start-goal distance, NaN if not arrived."""
+        straight = np.linalg.norm(self.ep.goal - self.ep.pos[0], axis=-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.arrived & (straight > 0), self.paths / straight, np.nan)
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric of an episode: how it is computed and how the harness, the report and the
+    plots treat it. Adding a metric is one :class:`Metric` in :data:`METRICS` (plus its test)."""
+
+    name: str
+    """Key in the metric rows, the summaries and the JSON."""
+    label: str
+    """Column header and axis label, with the unit."""
+    compute: Callable[[EpisodeFacts], float]
+    """The value of one episode, from its :class:`EpisodeFacts` (``facts.ep`` is the episode)."""
+    rate: bool = False
+    """0 or 1 per episode: aggregated as a rate with a Wilson interval."""
+    solved_only: bool = False
+    """Compared only over the episodes every policy solved (``aggregate``'s ``solved_mask``)."""
+    table: bool = True
+    """A column of the comparison table and a line of the ``evaluate`` summary."""
+    plot: bool = True
+    """A bar chart in the comparison report."""
+
+
+METRICS: tuple[Metric, ...] = (
+    Metric("success", "success", lambda f: float(f.success), rate=True),
+    Metric("collision", "collision", lambda f: float(f.collided), rate=True),
+    Metric("robot_collision", "robot-robot", lambda f: float(f.robot_hit.any()), rate=True, plot=False),
+    Metric("obstacle_collision", "robot-obstacle", lambda f: float(f.obstacle_hit.any()), rate=True, plot=False),
+    Metric("timeout", "timeout", lambda f: float(not f.success and not f.collided and not f.deadlock), rate=True),
+    Metric("deadlock", "deadlock", lambda f: float(f.deadlock), rate=True),
+    Metric("arrived_fraction", "arrived fraction", lambda f: float(f.arrived.mean()), table=False, plot=False),
+    Metric("time_to_goal", "time to goal [s]", lambda f: _mean(f.arrival_time), solved_only=True),
+    Metric(
+        "makespan",
+        "makespan [s]",
+        lambda f: float(np.max(f.arrival_time)) if f.arrived.all() else math.nan,
+        solved_only=True,
+        table=False,
+        plot=False,
+    ),
+    Metric("extra_time", "extra time [s]", lambda f: _mean(f.arrival_time - f.ep.straight_time), solved_only=True),
+    Metric(
+        "path_length",
+        "path length [m]",
+        lambda f: _mean(np.where(f.arrived, f.paths, np.nan)),
+        solved_only=True,
+        table=False,
+        plot=False,
+    ),
+    Metric("path_ratio", "path ratio", lambda f: _mean(f.path_ratio), solved_only=True),
+    Metric("min_separation", "min separation [m]", lambda f: _min_separation(f.ep)),
+    Metric("heading_change", "heading change [rad]", lambda f: float(heading_change(f.ep).mean())),
+    Metric("speed_reversals", "speed reversals", lambda f: float(speed_reversals(f.ep).mean())),
+    Metric("jerk", "jerk [m/s^3]", lambda f: float(mean_jerk(f.ep).mean())),
+    Metric(
+        "compute_per_decision",
+        "compute per decision [s]",
+        lambda f: f.ep.compute_time / max(f.ep.decisions, 1),
+        table=False,
+        plot=False,
+    ),
+    Metric("steps", "steps", lambda f: float(f.ep.steps), table=False, plot=False),
+)
+"""Every metric of an episode, in the order of the rows, the table and the plots."""
+
+OUTCOMES = ("success", "collision", "deadlock", "timeout")
+"""The outcome metrics: exactly one of them is 1 in every episode (module docstring)."""
+
+
+def _min_separation(ep: Episode) -> float:
+    finite = ep.min_separation[np.isfinite(ep.min_separation)]
+    return float(finite.min()) if finite.size else math.nan
+
+
 def episode_metrics(ep: Episode) -> dict[str, float]:
-    """All metrics of one episode (see the module docstring)."""
-    arrived = ep.reached_step >= 0
-    robot_hit = ep.robot_contact.any(axis=0)
-    obstacle_hit = ep.obstacle_contact.any(axis=0)
-    collided = bool(robot_hit.any() or obstacle_hit.any())
-    success = bool(arrived.all() and not collided)
-    unfinished = ~arrived & ~(robot_hit | obstacle_hit)
-    deadlock = (not success) and (not collided) and _stuck(ep, unfinished)
-    arrival_time = np.where(arrived, ep.reached_step * ep.dt, np.nan)
-    straight = np.linalg.norm(ep.goal - ep.pos[0], axis=-1)
-    paths = path_lengths(ep)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        path_ratio = np.where(arrived & (straight > 0), paths / straight, np.nan)
-    finite_sep = ep.min_separation[np.isfinite(ep.min_separation)]
-
-    def mean(x):
-        x = np.asarray(x, dtype=np.float64)
-        return float(np.nanmean(x)) if np.isfinite(x).any() else math.nan
-
-    return {
-        "success": float(success),
-        "collision": float(collided),
-        "robot_collision": float(robot_hit.any()),
-        "obstacle_collision": float(obstacle_hit.any()),
-        "deadlock": float(deadlock),
-        "timeout": float(not success and not collided and not deadlock),
-        "arrived_fraction": float(arrived.mean()),
-        "time_to_goal": mean(arrival_time),
-        "makespan": float(np.max(arrival_time)) if arrived.all() else math.nan,
-        "extra_time": mean(arrival_time - ep.straight_time),
-        "path_length": mean(np.where(arrived, paths, np.nan)),
-        "path_ratio": mean(path_ratio),
-        "min_separation": float(finite_sep.min()) if finite_sep.size else math.nan,
-        "heading_change": float(heading_change(ep).mean()),
-        "speed_reversals": float(speed_reversals(ep).mean()),
-        "jerk": float(mean_jerk(ep).mean()),
-        "compute_per_decision": ep.compute_time / max(ep.decisions, 1),
-        "steps": float(ep.steps),
-    }
-
-
-RATE_METRICS = ("success", "collision", "robot_collision", "obstacle_collision", "deadlock", "timeout")
-"""Metrics that are 0/1 per episode; aggregated as rates with Wilson intervals."""
+    """All metrics of one episode (:data:`METRICS`, see the module docstring)."""
+    facts = EpisodeFacts(ep)
+    return {m.name: m.compute(facts) for m in METRICS}
 
 
 def wilson_interval(successes: float, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -155,8 +260,9 @@ def aggregate(
     """Mean and 95 % interval of every metric over episodes.
 
     Rates use the Wilson interval; other metrics the normal interval of the mean over the
-    episodes where they are defined. With ``solved_mask``, time and path metrics are taken
-    over the masked episodes only (e.g. those every compared policy solved).
+    episodes where they are defined (:attr:`Metric.rate`). With ``solved_mask``, the
+    :attr:`Metric.solved_only` metrics (time and path) are taken over the masked episodes only
+    (e.g. those every compared policy solved).
 
     Returns:
         ``{metric: {"mean", "low", "high", "n"}}``.
@@ -166,14 +272,16 @@ def aggregate(
         return out
     keys = list(rows[0])
     mask = np.ones(len(rows), dtype=bool) if solved_mask is None else np.asarray(solved_mask, dtype=bool)
+    by_name = {m.name: m for m in METRICS}
     for k in keys:
         vals = np.array([r[k] for r in rows], dtype=np.float64)
-        if k in RATE_METRICS:
+        metric = by_name.get(k)
+        if metric is not None and metric.rate:
             n = len(vals)
             lo, hi = wilson_interval(float(vals.sum()), n)
             out[k] = {"mean": float(vals.mean()), "low": lo, "high": hi, "n": n}
             continue
-        if k in ("time_to_goal", "makespan", "extra_time", "path_length", "path_ratio"):
+        if metric is not None and metric.solved_only:
             vals = vals[mask]
         vals = vals[np.isfinite(vals)]
         n = len(vals)
@@ -184,8 +292,3 @@ def aggregate(
         half = 1.96 * float(vals.std(ddof=1)) / math.sqrt(n) if n > 1 else 0.0
         out[k] = {"mean": m, "low": m - half, "high": m + half, "n": n}
     return out
-
-
-def summarize(episodes: Iterable[Episode]) -> dict[str, dict[str, float]]:
-    """``aggregate`` of ``episode_metrics`` over episodes."""
-    return aggregate([episode_metrics(e) for e in episodes])

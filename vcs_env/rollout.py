@@ -1,20 +1,27 @@
-"""Run whole episodes, many worlds at once, and record them.
+"""Run whole episodes, many worlds at once: the one episode loop, with hooks.
 
-:func:`run_episodes` steps one batched :class:`~vcs_env.engine.NavEngine` with one world per
-seed; a controller maps the state (and observations) of all worlds to actions in one call.
-Finished worlds idle until the slowest one ends. Each episode comes back as an
-:class:`Episode` of plain arrays, from which :mod:`vcs_env.metrics` computes the metrics.
+:func:`play` steps one batched :class:`~vcs_env.engine.NavEngine` with one world per seed until
+every world's episode ended (finished worlds idle until the slowest one ends). A *controller*
+maps the state (and observations) of all worlds to actions in one call; *hooks* watch every
+step (:class:`Hook`): they record episodes (:class:`EpisodeRecorder`, what :func:`run_episodes`
+returns), render frames (:class:`FrameRecorder`), or label states with the expert's action
+for imitation learning. Each episode comes back as an :class:`Episode` of plain arrays, from
+which :mod:`vcs_env.metrics` computes the metrics.
+
+Only the controller call is timed (``Step.compute_time``): rendering happens after the batch,
+from state snapshots, and :func:`warm_up` runs a controller once so that compilation and cache
+loading do not count as decision time.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .engine import NavEngine
+from .engine import NavEngine, StepResult
 from .scenario import Scenario
 from .state import WorldState
 
@@ -56,6 +63,190 @@ class Episode:
         return self.pos.shape[1]
 
 
+@dataclass
+class Step:
+    """What a hook sees after each step of :func:`play` (``B`` worlds, ``n`` robots)."""
+
+    engine: NavEngine
+    """The engine, already stepped (``engine.world`` is the state after the step)."""
+    obs: np.ndarray
+    """``(B, n, D)`` observations the controller saw."""
+    actions: np.ndarray
+    """``(B, n, 2)`` the controller's actions."""
+    result: StepResult
+    """The engine's step result (rewards, events, terminations, next observations)."""
+    acting: np.ndarray
+    """``(B, n)`` bool: robots active before the step, in worlds still running."""
+    steps: np.ndarray
+    """``(B,)`` step count of each world before the step."""
+    running: np.ndarray
+    """``(B,)`` bool: worlds whose episode was still running in this step."""
+    finished: np.ndarray
+    """``(B,)`` bool: worlds whose episode ended with this step."""
+    compute_time: float
+    """Wall time of the controller call [s]."""
+
+
+class Hook:
+    """Watches :func:`play`. Subclasses override what they need; the defaults do nothing."""
+
+    def begin(self, engine: NavEngine, seeds: Sequence[int], first: int) -> None:
+        """A batch starts: ``engine`` was reset with ``seeds``; ``first`` is the index of
+        ``seeds[0]`` in the whole run (batches of :func:`run_episodes` follow each other)."""
+
+    def step(self, step: Step) -> None:
+        """Called after every step of the batch."""
+
+    def end(self) -> None:
+        """The batch ended (every world finished)."""
+
+
+def play(
+    scenario: Scenario,
+    controller: Controller,
+    seeds: Sequence[int],
+    hooks: Iterable[Hook] = (),
+    action_mode: str = "delta",
+    max_steps: int | None = None,
+    expert=None,
+    first: int = 0,
+) -> None:
+    """Play one episode per seed, all worlds in one engine, calling ``hooks`` (module docstring).
+
+    Args:
+        scenario: the episode family.
+        controller: maps (world, observations) of all worlds to actions.
+        seeds: one reset seed per world.
+        hooks: see :class:`Hook`.
+        action_mode: action units the controller returns.
+        max_steps: overrides ``scenario.max_steps``.
+        expert: planner (or name) attached to the engine (``engine.expert_action``).
+        first: index of ``seeds[0]`` in the caller's whole list (passed to ``Hook.begin``).
+    """
+    hooks = list(hooks)
+    engine = NavEngine(scenario, len(seeds), action_mode, expert=expert, max_steps=max_steps)
+    obs = engine.reset([int(s) for s in seeds])
+    w = engine.world
+    for h in hooks:
+        h.begin(engine, seeds, first)
+    running = np.ones(w.batch_size, dtype=bool)
+    while running.any():
+        acting = w.active & running[:, None]
+        steps = w.steps.copy()
+        t0 = time.perf_counter()
+        actions = np.asarray(controller(w, obs), dtype=np.float64)
+        compute = time.perf_counter() - t0
+        res = engine.step(actions)
+        finished = running & (~w.active.any(axis=1) | (w.steps >= engine.max_steps))
+        step = Step(engine, obs, actions, res, acting, steps, running.copy(), finished, compute)
+        for h in hooks:
+            h.step(step)
+        obs = res.obs
+        running &= ~finished
+    for h in hooks:
+        h.end()
+
+
+def warm_up(scenario: Scenario, controller: Controller, seed: int, action_mode: str = "delta") -> None:
+    """Run ``controller`` for two steps of one world, untimed, so that JIT compilation, cache
+    loading and lazy imports do not count as decision time afterwards."""
+    play(scenario, controller, [seed], action_mode=action_mode, max_steps=2)
+
+
+class EpisodeRecorder(Hook):
+    """Records every world of every batch as an :class:`Episode` (into ``episodes``).
+
+    The controller time of a step is shared among the worlds still running, by their acting
+    robots; ``decisions`` counts acting robot-steps.
+    """
+
+    def __init__(self) -> None:
+        self.episodes: list[Episode] = []
+
+    def begin(self, engine: NavEngine, seeds: Sequence[int], first: int) -> None:
+        w = engine.world
+        B, n = w.batch_size, w.n_robots
+        self.dt, self.seeds = engine.scenario.dt, [int(s) for s in seeds]
+        self.w = w
+        self.radius, self.goal, self.obs_radius = w.radius.copy(), w.goal.copy(), w.obs_radius.copy()
+        self.straight = np.linalg.norm(w.goal - w.pos, axis=-1) / w.v_max
+        self.states = {k: [getattr(w, k).copy()] for k in ("pos", "heading", "speed", "obs_pos")}
+        self.per_step: dict[str, list[np.ndarray]] = {
+            k: [] for k in ("actions", "acted", "collided", "robot_contact", "obstacle_contact", "min_separation")
+        }
+        self.reached_step = np.full((B, n), -1, dtype=np.int64)
+        self.end_step = np.zeros(B, dtype=np.int64)
+        self.compute = np.zeros(B)
+        self.decisions = np.zeros(B, dtype=np.int64)
+
+    def step(self, s: Step) -> None:
+        w, ev = self.w, s.result.events
+        n_acting = s.acting.sum(axis=1)
+        self.compute += s.compute_time * n_acting / max(1, n_acting.sum())
+        self.decisions += n_acting
+        self.per_step["actions"].append(np.where(s.acting[..., None], np.clip(s.actions, -1, 1), 0.0))
+        self.per_step["acted"].append(ev.acted)
+        self.per_step["collided"].append(ev.collided)
+        self.per_step["robot_contact"].append(ev.robot_hits.any(axis=2))
+        self.per_step["obstacle_contact"].append(ev.obstacle_hits.any(axis=2))
+        self.per_step["min_separation"].append(ev.min_separation)
+        for k, v in self.states.items():
+            v.append(getattr(w, k).copy())
+        self.reached_step = np.where(ev.reached & (self.reached_step < 0), w.steps[:, None], self.reached_step)
+        self.end_step[s.finished] = w.steps[s.finished]
+
+    def end(self) -> None:
+        states = {k: np.stack(v, axis=1) for k, v in self.states.items()}  # (B, T+1, ...)
+        per_step = {k: np.stack(v, axis=1) for k, v in self.per_step.items()}  # (B, T, ...)
+        for b, seed in enumerate(self.seeds):
+            t_end = int(self.end_step[b])
+            self.episodes.append(
+                Episode(
+                    seed=seed,
+                    dt=self.dt,
+                    radius=self.radius[b],
+                    goal=self.goal[b],
+                    obs_radius=self.obs_radius[b],
+                    **{k: np.ascontiguousarray(v[b, : t_end + 1]) for k, v in states.items()},
+                    **{k: np.ascontiguousarray(v[b, :t_end]) for k, v in per_step.items()},
+                    reached_step=self.reached_step[b],
+                    straight_time=self.straight[b],
+                    compute_time=float(self.compute[b]),
+                    decisions=int(self.decisions[b]),
+                )
+            )
+
+
+class FrameRecorder(Hook):
+    """Renders chosen worlds into ``frames[index]`` (index into the whole seed list): the initial
+    state and the state after every step of the episode. During the run it only keeps state
+    snapshots; it draws them when the batch ends, outside the timed controller calls."""
+
+    def __init__(self, extent: float, worlds: Iterable[int], size: int = 400) -> None:
+        from .render import Renderer
+
+        Renderer(extent, size=size)._pygame()  # a missing render extra fails here, before the run
+        self.extent, self.size = extent, size
+        self.frames: dict[int, list[np.ndarray]] = {int(i): [] for i in worlds}
+
+    def begin(self, engine: NavEngine, seeds: Sequence[int], first: int) -> None:
+        self.w = engine.world
+        self.local = {i - first: i for i in self.frames if first <= i < first + len(seeds)}
+        self.snapshots: dict[int, list[WorldState]] = {b: [self.w.world(b)] for b in self.local}
+
+    def step(self, s: Step) -> None:
+        for b, snaps in self.snapshots.items():
+            if s.running[b]:
+                snaps.append(self.w.world(b))
+
+    def end(self) -> None:
+        from .render import Renderer
+
+        for b, snaps in self.snapshots.items():
+            r = Renderer(self.extent, size=self.size)
+            self.frames[self.local[b]] = [r.draw(state) for state in snaps]
+
+
 def run_episodes(
     scenario: Scenario,
     controller: Controller,
@@ -66,6 +257,7 @@ def run_episodes(
     render_size: int = 400,
     batch_size: int | None = None,
     progress: Callable[[int], None] | None = None,
+    hooks: Iterable[Hook] = (),
 ) -> list[Episode]:
     """Run one episode per seed and record them.
 
@@ -75,10 +267,11 @@ def run_episodes(
         seeds: one seed per episode.
         action_mode: action units the controller returns.
         max_steps: overrides ``scenario.max_steps``.
-        render_worlds: indices (into ``seeds``) of the episodes to render into ``frames``.
+        render_worlds: indices (into ``seeds``) of the episodes to render into ``Episode.frames``.
         render_size: frame side [px].
         batch_size: worlds stepped together (default: all seeds at once).
         progress: called with the number of finished episodes after each batch.
+        hooks: more :class:`Hook` objects called at every step.
 
     Returns:
         Episodes, in the order of ``seeds``.
@@ -87,93 +280,17 @@ def run_episodes(
     if not seeds:
         raise ValueError("seeds must not be empty")
     bs = len(seeds) if batch_size is None else max(1, min(int(batch_size), len(seeds)))
-    out: list[Episode] = []
+    recorder = EpisodeRecorder()
+    frames = FrameRecorder(scenario.view_extent, render_worlds, render_size) if len(render_worlds) else None
+    all_hooks = [recorder, *([frames] if frames else []), *hooks]
     for start in range(0, len(seeds), bs):
-        chunk = seeds[start : start + bs]
-        rend = [i - start for i in render_worlds if start <= i < start + len(chunk)]
-        out.extend(_run_batch(scenario, controller, chunk, action_mode, max_steps, rend, render_size))
+        play(scenario, controller, seeds[start : start + bs], all_hooks, action_mode, max_steps, first=start)
         if progress is not None:
-            progress(len(out))
-    return out
-
-
-def _run_batch(scenario, controller, seeds, action_mode, max_steps, render_worlds, render_size) -> list[Episode]:
-    engine = NavEngine(scenario, len(seeds), action_mode, max_steps=max_steps)
-    obs = engine.reset(seeds)
-    w = engine.world
-    B, n = w.batch_size, w.n_robots
-    renderers = {}
-    if render_worlds:
-        from .render import Renderer
-
-        renderers = {b: Renderer(scenario.view_extent, size=render_size) for b in render_worlds}
-    frames = {b: [] for b in render_worlds}
-    radius, goal, obs_radius = w.radius.copy(), w.goal.copy(), w.obs_radius.copy()
-    start_pos = w.pos.copy()
-    rec = {k: [getattr(w, k).copy()] for k in ("pos", "heading", "speed", "obs_pos")}
-    steps: dict[str, list[np.ndarray]] = {
-        k: [] for k in ("actions", "acted", "collided", "robot_contact", "obstacle_contact", "min_separation")
-    }
-    reached_step = np.full((B, n), -1, dtype=np.int64)
-    end_step = np.zeros(B, dtype=np.int64)
-    compute = np.zeros(B)
-    decisions = np.zeros(B, dtype=np.int64)
-    running = np.ones(B, dtype=bool)
-
-    def render():
-        for b, r in renderers.items():
-            if running[b] or not frames[b]:
-                frames[b].append(r.draw(w.world(b)))
-
-    render()
-    while running.any():
-        active = w.active.copy()
-        t0 = time.perf_counter()
-        actions = np.asarray(controller(w, obs), dtype=np.float64)
-        dt_wall = time.perf_counter() - t0
-        n_active = active.sum(axis=1)
-        # Share the batched controller time among worlds by their active robots.
-        compute += dt_wall * n_active / max(1, n_active.sum())
-        decisions += n_active
-        res = engine.step(actions)
-        obs = res.obs
-        ev = res.events
-        steps["actions"].append(np.where(active[..., None], np.clip(actions, -1, 1), 0.0))
-        steps["acted"].append(ev.acted)
-        steps["collided"].append(ev.collided)
-        steps["robot_contact"].append(ev.robot_hits.any(axis=2))
-        steps["obstacle_contact"].append(ev.obstacle_hits.any(axis=2))
-        steps["min_separation"].append(ev.min_separation)
-        for k in rec:
-            rec[k].append(getattr(w, k).copy())
-        reached_step = np.where(ev.reached & (reached_step < 0), w.steps[:, None], reached_step)
-        finished = running & (~w.active.any(axis=1) | (w.steps >= engine.max_steps))
-        end_step[finished] = w.steps[finished]
-        render()
-        running &= ~finished
-    arrays = {k: np.stack(v, axis=1) for k, v in rec.items()}  # (B, T+1, ...)
-    step_arrays = {k: np.stack(v, axis=1) for k, v in steps.items()}  # (B, T, ...)
-    straight = np.linalg.norm(goal - start_pos, axis=-1) / w.v_max
-    episodes = []
-    for b, seed in enumerate(seeds):
-        t_end = int(end_step[b])
-        episodes.append(
-            Episode(
-                seed=seed,
-                dt=scenario.dt,
-                radius=radius[b],
-                goal=goal[b],
-                obs_radius=obs_radius[b],
-                **{k: np.ascontiguousarray(v[b, : t_end + 1]) for k, v in arrays.items()},
-                **{k: np.ascontiguousarray(v[b, :t_end]) for k, v in step_arrays.items()},
-                reached_step=reached_step[b],
-                straight_time=straight[b],
-                compute_time=float(compute[b]),
-                decisions=int(decisions[b]),
-                frames=frames.get(b, []),
-            )
-        )
-    return episodes
+            progress(len(recorder.episodes))
+    if frames is not None:
+        for i, f in frames.frames.items():
+            recorder.episodes[i].frames = f
+    return recorder.episodes
 
 
 def planner_controller(planner, action_mode: str = "delta") -> Controller:

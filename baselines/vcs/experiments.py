@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vcs_env.engine import NavEngine
-from vcs_env.geometry import closest_approach
 from vcs_env.scenario import CustomLayout, ObstacleTrajectory, RobotSpec, Scenario
 
 from .planner import VCSPlanner
@@ -260,9 +259,3 @@ def _window_consistent(w, info) -> bool:
     threat_ok = (info["threats"][0] == 0) | (k >= 2)
     inside = (tgt[:, 0] >= lo) & (tgt[:, 0] <= hi) & (np.abs(tgt[:, 1]) <= half)
     return bool(np.all((threat_ok & inside) | ~act))
-
-
-def closest_gap(pos_a: np.ndarray, pos_b: np.ndarray, radius: float) -> float:
-    """Smallest swept gap between two recorded paths ``(T+1, 2)`` [m]."""
-    rel = pos_b - pos_a
-    return float(closest_approach(rel[:-1], rel[1:]).min() - radius)

@@ -1,0 +1,96 @@
+"""``vcs-env evaluate`` and ``vcs-env compare``: the harness (:mod:`agents.evaluate`) and its
+report (:mod:`agents.report`) on the command line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from vcs_env.suites import get_suite, suite_names
+
+from .evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate
+from .report import fmt, table_lines, table_metrics, write_report
+
+
+def _print_summary(res: EvalResult) -> None:
+    s = res.suite
+    print(
+        f"{res.policy} on {s.name} ({s.n_episodes} episodes, fingerprint {s.fingerprint}): "
+        f"{res.wall_time:.1f} s, {1e3 * res.seconds_per_decision:.3f} ms/decision"
+    )
+    print(f"{'metric':<20} {'mean':>9} {'95% interval':>21} {'n':>5}")
+    for metric in table_metrics():
+        st = res.summary.get(metric.name)
+        if st is None:
+            continue
+        ci = "-" if st["n"] == 0 else f"[{fmt(st['low'], '.3f')}, {fmt(st['high'], '.3f')}]"
+        print(f"{metric.label:<20} {fmt(st['mean'], '.3f'):>9} {ci:>21} {st['n']:>5}")
+
+
+def cmd_evaluate(args) -> int:
+    res = evaluate(
+        args.policy,
+        args.suite,
+        action_mode=args.action_mode,
+        batch_size=args.batch_size,
+        progress=False if args.no_progress else None,
+    )
+    _print_summary(res)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        with open(args.json, "w") as f:
+            json.dump(res.to_dict(), f, indent=1, allow_nan=False)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def cmd_compare(args) -> int:
+    policies = [p.strip() for p in args.policies.split(",") if p.strip()]
+    suite = get_suite(args.suite)
+    if not 0 <= args.episode < suite.n_episodes:
+        raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
+    comp = compare(
+        policies,
+        suite,
+        action_mode=args.action_mode,
+        batch_size=args.batch_size,
+        keep_episodes=(args.episode,),
+        progress=False if args.no_progress else None,
+    )
+    files = write_report(comp, args.out, episode=args.episode, plots=not args.no_plots)
+    print("\n".join(table_lines(comp)))
+    print(f"wrote {len(files)} files to {args.out} (results.md, results.json{', plots' if not args.no_plots else ''})")
+    return 0
+
+
+def _common_args(p) -> None:
+    p.add_argument(
+        "--suite",
+        required=True,
+        help="suite name: " + ", ".join(suite_names(smoke=False)) + " (each also as NAME-smoke)",
+    )
+    p.add_argument(
+        "--action-mode",
+        choices=["delta", "absolute"],
+        default="delta",
+        help="action units of learned policies (planners adapt)",
+    )
+    p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def add_commands(sub) -> None:
+    """Add ``evaluate`` and ``compare`` to the ``vcs-env`` subcommands."""
+    p = sub.add_parser("evaluate", help="score one planner or policy on a named suite")
+    _common_args(p)
+    p.add_argument("--policy", required=True, help="planner name (see baselines.PLANNERS) or SB3 checkpoint .zip")
+    p.add_argument("--json", default=None, help="write the summary and per-episode metrics to this JSON file")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("compare", help="score several policies on the same episodes; write a report")
+    _common_args(p)
+    p.add_argument("--policies", required=True, help="comma-separated planner names and/or checkpoint paths")
+    p.add_argument("--out", required=True, help="output directory for results.md, results.json and plots")
+    p.add_argument("--episode", type=int, default=0, help="index of the episode whose trajectories to plot")
+    p.add_argument("--no-plots", action="store_true", help="skip the matplotlib plots")
+    p.set_defaults(func=cmd_compare)

@@ -1,0 +1,187 @@
+"""The report of a :class:`~agents.evaluate.Comparison`: a markdown table, a JSON file and bar
+charts, one per metric that :data:`vcs_env.metrics.METRICS` marks as a table column or plotted."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from vcs_env import metrics
+from vcs_env.metrics import OUTCOMES, Metric
+
+from .evaluate import EXTRA_TIME_PERCENTILES, Comparison
+
+
+def table_metrics() -> list[Metric]:
+    """Metrics of the comparison table and the ``evaluate`` summary, in order (:attr:`Metric.table`)."""
+    return [m for m in metrics.METRICS if m.table]
+
+
+def format_stat(stat: Mapping[str, float], rate: bool, digits: int = 2) -> str:
+    """``0.95 [0.89, 0.98]`` for a rate, ``12.30 ± 0.41`` for a mean, ``-`` when undefined."""
+    m = stat.get("mean", math.nan)
+    if stat.get("n", 0) == 0 or not math.isfinite(m):
+        return "-"
+    if rate:
+        return f"{m:.{digits}f} [{stat['low']:.{digits}f}, {stat['high']:.{digits}f}]"
+    return f"{m:.{digits}f} ± {stat['high'] - m:.{digits}f}"
+
+
+def table_lines(comparison: Comparison) -> list[str]:
+    """The markdown table of a comparison, one row per policy (columns :func:`table_metrics`, then
+    ms/decision)."""
+    columns = table_metrics()
+    head = ["policy"] + [m.label for m in columns] + ["ms/decision"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, summ in comparison.summaries.items():
+        cells = [name] + [format_stat(summ.get(m.name, {}), m.rate) for m in columns]
+        cells.append(f"{1e3 * comparison.results[name].seconds_per_decision:.3f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def markdown_table(comparison: Comparison) -> str:
+    """The comparison as a markdown document: title, table, legend, extra-time percentiles."""
+    lines = table_lines(comparison)
+    s = comparison.suite
+    n_all, n_solved = s.n_episodes, int(comparison.solved_by_all.sum())
+    pct_head = " | ".join(f"p{q}" for q in EXTRA_TIME_PERCENTILES)
+    if n_solved == 0:
+        never = [k for k, r in comparison.results.items() if not r.solved.any()]
+        hint = f" ({', '.join(never)} solved none: leave it out to compare times)" if never else ""
+        lines += ["", f"No episode was solved by every policy, so there are no time or path statistics{hint}."]
+    pct_rows = [
+        f"| {name} | " + " | ".join(fmt(p[f"p{q}"]) for q in EXTRA_TIME_PERCENTILES) + " |"
+        for name, p in comparison.extra_time_percentiles.items()
+    ]
+    return "\n".join(
+        [
+            f"# {s.name}",
+            "",
+            f"{s.description}. {n_all} episodes (seeds {s.seeds[0]}..{s.seeds[-1]}), suite fingerprint "
+            f"`{s.fingerprint}`.",
+            "",
+            *lines,
+            "",
+            f"Rates over all {n_all} episodes with 95 % Wilson intervals; collision = any contact, split into "
+            "robot-robot and robot-obstacle (an episode can have both). Time to goal, extra time (over the "
+            f"straight line at v_max) and path ratio over the {n_solved} episodes every policy solved; the other "
+            "means over all episodes where defined, ± the 95 % half-width. Min separation is the smallest "
+            "surface gap (negative = overlap). ms/decision = policy compute time per active robot per step.",
+            "",
+            f"Extra time [s] percentiles over the {n_solved} episodes every policy solved:",
+            "",
+            f"| policy | {pct_head} |",
+            "|---|" + "---|" * len(EXTRA_TIME_PERCENTILES),
+            *pct_rows,
+            "",
+        ]
+    )
+
+
+def fmt(x: float, spec: str = ".2f") -> str:
+    """``x`` formatted, or ``-`` if it is not finite."""
+    return "-" if not math.isfinite(x) else format(x, spec)
+
+
+def _safe(name: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "policy"
+
+
+def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int | None = None) -> list[Path]:
+    """Bar charts (one per metric with :attr:`~vcs_env.metrics.Metric.plot`, and ms/decision) and, if ``episode``
+    is given and kept, one trajectory plot of that episode per policy.
+
+    Figures are drawn without pyplot, so the caller's matplotlib backend (e.g. a notebook's
+    inline one) is left alone and nothing needs a display.
+
+    Returns:
+        The written PNG files.
+    """
+    try:
+        from matplotlib.figure import Figure
+    except ImportError as e:
+        raise ImportError(f"plots need matplotlib; install it with: pip install 'vcs-env[render]' ({e})") from None
+    from vcs_env.render import plot_trajectories
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = list(comparison.results)
+    written = []
+
+    def bar(key: str, label: str, means, err=None, unit_range: bool = False) -> None:
+        fig = Figure(figsize=(max(3.0, 0.9 * len(names) + 1.5), 3.2))
+        ax = fig.subplots()
+        ax.bar(range(len(names)), np.nan_to_num(means), yerr=err, capsize=4, color="tab:blue", alpha=0.8)
+        ax.set_xticks(
+            range(len(names)), names, rotation=30 if len(names) > 4 else 0, ha="right" if len(names) > 4 else "center"
+        )
+        ax.set_ylabel(label)
+        ax.set_title(f"{comparison.suite.name}: {label}", fontsize=9)
+        if unit_range:
+            ax.set_ylim(0, 1.05)
+        path = out / f"bar_{key}.png"
+        fig.savefig(path, dpi=100, bbox_inches="tight")
+        written.append(path)
+
+    for metric in (m for m in metrics.METRICS if m.plot):
+        stats = [comparison.summaries[k].get(metric.name, {}) for k in names]
+        err = np.array(
+            [
+                [max(0.0, s.get("mean", 0) - s.get("low", 0)), max(0.0, s.get("high", 0) - s.get("mean", 0))]
+                if s.get("n", 0)
+                else [0.0, 0.0]
+                for s in stats
+            ]
+        ).T
+        label = metric.label + (" (solved by all)" if metric.solved_only else "")
+        means = [s.get("mean", math.nan) for s in stats]
+        bar(metric.name, label, means, np.nan_to_num(err), unit_range=metric.rate)
+    bar("ms_per_decision", "ms per robot decision", [1e3 * comparison.results[k].seconds_per_decision for k in names])
+    if episode is not None:
+        seed = comparison.suite.seeds[episode]
+        for name, res in comparison.results.items():
+            ep = res.episodes.get(episode)
+            if ep is None:
+                continue
+            row = res.rows[episode]
+            outcome = next(k for k in OUTCOMES if row[k] == 1.0)
+            fig = Figure(figsize=(6, 6))
+            plot_trajectories(
+                ep.pos,
+                ep.goal,
+                ep.radius,
+                ep.obs_pos,
+                ep.obs_radius,
+                ax=fig.subplots(),
+                title=f"{name}: {comparison.suite.name} episode {episode} (seed {seed}), {outcome}",
+            )
+            path = out / f"trajectory_{_safe(name)}_ep{episode}.png"
+            fig.savefig(path, dpi=100, bbox_inches="tight")
+            written.append(path)
+    return written
+
+
+def write_report(
+    comparison: Comparison, out_dir: str | os.PathLike, episode: int | None = 0, plots: bool = True
+) -> list[Path]:
+    """Write ``results.md``, ``results.json`` and (``plots``) the PNGs into ``out_dir``.
+
+    Returns:
+        The written files.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    md, js = out / "results.md", out / "results.json"
+    md.write_text(markdown_table(comparison))
+    js.write_text(json.dumps(comparison.to_dict(), indent=1, allow_nan=False))
+    written = [md, js]
+    if plots:
+        written += write_plots(comparison, out, episode)
+    return written

@@ -1,0 +1,57 @@
+"""The episode runner (vcs_env.rollout): hooks see every step; rendering stays out of the timed
+controller calls."""
+
+import time
+
+import numpy as np
+import pytest
+
+from vcs_env.planning import make_planner
+from vcs_env.rollout import Hook, planner_controller, run_episodes
+from vcs_env.scenario import make_scenario
+
+
+class Counter(Hook):
+    def __init__(self):
+        self.batches, self.steps, self.acting = [], 0, 0
+
+    def begin(self, engine, seeds, first):
+        self.batches.append((first, list(seeds)))
+
+    def step(self, s):
+        assert s.running.any() and not (s.finished & ~s.running).any()
+        self.steps += 1
+        self.acting += int(s.acting.sum())
+
+
+def test_hooks_see_every_batch_and_step():
+    scenario = make_scenario("crowd", max_steps=30)
+    counter = Counter()
+    episodes = run_episodes(scenario, planner_controller(make_planner("vcs")), [4, 5, 6], batch_size=2, hooks=[counter])
+    assert counter.batches == [(0, [4, 5]), (2, [6])]
+    assert counter.steps == max(e.steps for e in episodes[:2]) + episodes[2].steps
+    assert counter.acting == sum(e.decisions for e in episodes) == sum(int(e.acted.sum()) for e in episodes)
+
+
+def test_rendering_happens_outside_the_timed_controller_calls(monkeypatch):
+    pytest.importorskip("pygame")
+    from vcs_env import render
+
+    calls, draws = [], []
+    draw = render.Renderer.draw
+
+    def timed_draw(self, world):
+        draws.append(time.perf_counter())
+        return draw(self, world)
+
+    monkeypatch.setattr(render.Renderer, "draw", timed_draw)
+    planner = make_planner("vcs")
+
+    def control(world, obs):
+        calls.append(time.perf_counter())
+        return planner.act(world)
+
+    (ep,) = run_episodes(make_scenario("crowd", max_steps=12), control, [3], render_worlds=[0])
+    assert len(ep.frames) == ep.steps + 1 == len(draws)
+    assert min(draws) > max(calls)  # every frame is drawn after the last controller call
+    assert np.asarray(ep.frames[0]).ndim == 3

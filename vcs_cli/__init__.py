@@ -1,0 +1,39 @@
+"""The ``vcs-env`` command line: the top layer, above ``vcs_env``, ``baselines``, ``agents`` and
+``benchmarks`` (it imports them; none of them imports it).
+
+Each module of :data:`COMMAND_MODULES` adds its subcommands with ``add_commands(subparsers)``.
+Building the parser imports those modules but not torch or stable-baselines3: they import heavy
+packages inside the command functions, so ``pip install vcs-env`` without extras gives a working
+``vcs-env rollout``, and a command whose extra is missing ends with a one-line error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+COMMAND_MODULES = ("vcs_cli.rollout", "agents.evaluate_cli", "agents.train", "agents.imitation", "benchmarks.run")
+"""Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers
+and sets ``func``. They must not import torch or stable-baselines3 at module level (the CLI
+imports them all to build ``--help``); heavy imports go inside the command functions."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="vcs-env", description="Multi-robot navigation with a VCS expert planner.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).add_commands(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "episodes", 1) is not None and getattr(args, "episodes", 1) < 1:
+        parser.error("--episodes must be >= 1")
+    try:
+        return int(args.func(args) or 0)
+    except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message
+        print(f"vcs-env {args.command}: error: {e}", file=sys.stderr)
+        return 2
