@@ -161,6 +161,9 @@ def test_metric_flags_match_the_documented_groups():
         "collision",
         "robot_collision",
         "obstacle_collision",
+        "at_fault_collision",
+        "not_at_fault_collision",
+        "parked_collision",
         "timeout",
         "deadlock",
     }

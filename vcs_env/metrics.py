@@ -3,7 +3,9 @@
 Episode outcomes (exactly one is true): ``success`` (every robot arrived, nothing touched),
 ``collision`` (some robot touched a robot or obstacle), ``deadlock`` (time out with some
 unfinished robot stuck: it moved less than ``DEADLOCK_DISTANCE`` over the last
-``DEADLOCK_WINDOW`` seconds), ``timeout`` (any other time out).
+``DEADLOCK_WINDOW`` seconds), ``timeout`` (any other time out). Collisions split into
+``at_fault_collision`` (some contact was a robot's fault) and ``not_at_fault_collision`` (none
+was); ``parked_collision``: some robot touched a parked one (:mod:`vcs_env.contacts`).
 
 Per-robot quantities are averaged over the robots of the episode: arrival time, extra time
 over the straight-line time at ``v_max``, path length and its ratio to the straight line,
@@ -24,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .contacts import contact_events
 from .rollout import Episode
 
 DEADLOCK_WINDOW = 10.0
@@ -139,6 +142,18 @@ class EpisodeFacts:
         return bool(self.robot_hit.any() or self.obstacle_hit.any())
 
     @functools.cached_property
+    def contacts(self) -> list | None:
+        """Every contact explained (:func:`~vcs_env.contacts.contact_events`); None when the
+        episode was recorded without the hit matrices."""
+        if self.ep.robot_hits is None or self.ep.obstacle_hits is None:
+            return None
+        return contact_events(self.ep)
+
+    def contact_rate(self, pick: Callable) -> float:
+        """1 if some contact satisfies ``pick``, else 0; NaN without the record."""
+        return math.nan if self.contacts is None else float(any(pick(c) for c in self.contacts))
+
+    @functools.cached_property
     def success(self) -> bool:
         return bool(robots_succeeded(self.arrived, self.robot_hit | self.obstacle_hit).all())
 
@@ -191,6 +206,22 @@ METRICS: tuple[Metric, ...] = (
     Metric("collision", "collision", lambda f: float(f.collided), rate=True),
     Metric("robot_collision", "robot-robot", lambda f: float(f.robot_hit.any()), rate=True, plot=False),
     Metric("obstacle_collision", "robot-obstacle", lambda f: float(f.obstacle_hit.any()), rate=True, plot=False),
+    Metric("at_fault_collision", "at fault", lambda f: f.contact_rate(lambda c: c.at_fault), rate=True, plot=False),
+    Metric(
+        "not_at_fault_collision",
+        "not at fault",
+        lambda f: math.nan if f.contacts is None else float(f.collided and not any(c.at_fault for c in f.contacts)),
+        rate=True,
+        plot=False,
+    ),
+    Metric(
+        "parked_collision",
+        "hit parked",
+        lambda f: f.contact_rate(lambda c: c.kind == "parked"),
+        rate=True,
+        table=False,
+        plot=False,
+    ),
     Metric("timeout", "timeout", lambda f: float(not f.success and not f.collided and not f.deadlock), rate=True),
     Metric("deadlock", "deadlock", lambda f: float(f.deadlock), rate=True),
     Metric("arrived_fraction", "arrived fraction", lambda f: float(f.arrived.mean()), table=False, plot=False),

@@ -53,6 +53,8 @@ class Episode:
     compute_time: float = 0.0  # controller wall time for this episode's share [s]
     decisions: int = 0  # robot decisions made (active robot-steps)
     frames: list = field(default_factory=list)  # rendered frames, if requested
+    robot_hits: np.ndarray | None = None  # (T, n, n) bool, robot i touched robot j in that step
+    obstacle_hits: np.ndarray | None = None  # (T, n, m) bool, robot i touched obstacle k
 
     @property
     def steps(self) -> int:
@@ -172,7 +174,17 @@ class EpisodeRecorder(Hook):
         self.straight = np.linalg.norm(w.goal - w.pos, axis=-1) / w.v_max
         self.states = {k: [getattr(w, k).copy()] for k in ("pos", "heading", "speed", "obs_pos")}
         self.per_step: dict[str, list[np.ndarray]] = {
-            k: [] for k in ("actions", "acted", "collided", "robot_contact", "obstacle_contact", "min_separation")
+            k: []
+            for k in (
+                "actions",
+                "acted",
+                "collided",
+                "robot_contact",
+                "obstacle_contact",
+                "min_separation",
+                "robot_hits",
+                "obstacle_hits",
+            )
         }
         self.reached_step = np.full((B, n), -1, dtype=np.int64)
         self.end_step = np.zeros(B, dtype=np.int64)
@@ -190,6 +202,8 @@ class EpisodeRecorder(Hook):
         self.per_step["robot_contact"].append(ev.robot_hits.any(axis=2))
         self.per_step["obstacle_contact"].append(ev.obstacle_hits.any(axis=2))
         self.per_step["min_separation"].append(ev.min_separation)
+        self.per_step["robot_hits"].append(ev.robot_hits.copy())
+        self.per_step["obstacle_hits"].append(ev.obstacle_hits.copy())
         for k, v in self.states.items():
             v.append(getattr(w, k).copy())
         self.reached_step = np.where(ev.reached & (self.reached_step < 0), w.steps[:, None], self.reached_step)

@@ -1,0 +1,78 @@
+"""Who touched whom, and who was at fault: the contacts of a recorded episode explained.
+
+A *contact* is the first step of an unbroken run of steps in which robot ``i`` touched one
+body (the simulator's swept test, :attr:`~vcs_env.rollout.Episode.robot_hits` and
+``obstacle_hits``). The other body is an active ``"robot"``, a ``"parked"`` robot (one that no
+longer drives: it arrived, or stopped after a crash) or an ``"obstacle"``. The robot is **at
+fault** when its own velocity over that step had a component toward the other body's centre
+of more than :data:`FAULT_SPEED`: it drove into the contact. A robot hit while standing, or
+while moving away or past, is not at fault. A contact between two robots is two contacts, one
+per robot; both, one or neither may be at fault.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .rollout import Episode
+
+FAULT_SPEED = 0.05
+"""[m/s] speed toward the other body above which a robot is at fault for a contact."""
+KINDS = ("robot", "parked", "obstacle")
+"""What the robot touched."""
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One contact of robot ``robot`` (see the module docstring)."""
+
+    step: int
+    """First step of the contact (0-based: the motion from state ``step`` to ``step + 1``)."""
+    robot: int
+    """The robot."""
+    kind: str
+    """``"robot"``, ``"parked"`` or ``"obstacle"``."""
+    other: int
+    """Index of the other robot or obstacle."""
+    toward: float
+    """The robot's speed toward the other body's centre over the first step [m/s]."""
+    depth: float
+    """Deepest overlap at the end of a step of the run [m] (0 for a swept graze)."""
+
+    @property
+    def at_fault(self) -> bool:
+        return self.toward > FAULT_SPEED
+
+
+def contact_events(ep: Episode) -> list[Contact]:
+    """Every contact of the episode, by step, then robot, then other body.
+
+    Raises:
+        ValueError: the episode was recorded without the hit matrices.
+    """
+    if ep.robot_hits is None or ep.obstacle_hits is None:
+        raise ValueError("this episode has no robot_hits/obstacle_hits record: contacts cannot be explained")
+    n = ep.n_robots
+    hits = np.concatenate((ep.robot_hits, ep.obstacle_hits), axis=2)  # (T, n, n + m)
+    radius = np.concatenate((ep.radius, ep.obs_radius))
+    out: list[Contact] = []
+    for t, i, j in zip(*np.nonzero(hits), strict=True):
+        if t > 0 and hits[t - 1, i, j]:
+            continue  # the same contact, still going on
+        run = t
+        while run + 1 < len(hits) and hits[run + 1, i, j]:
+            run += 1
+        other = ep.pos[:, j] if j < n else ep.obs_pos[:, j - n]
+        centre = other[t + 1] - ep.pos[t + 1, i]
+        dist = float(np.linalg.norm(centre))
+        velocity = (ep.pos[t + 1, i] - ep.pos[t, i]) / ep.dt
+        toward = float(velocity @ centre / dist) if dist > 0 else float(np.linalg.norm(velocity))
+        gaps = np.linalg.norm(other[t + 1 : run + 2] - ep.pos[t + 1 : run + 2, i], axis=-1) - ep.radius[i] - radius[j]
+        if j >= n:
+            kind, index = "obstacle", int(j - n)
+        else:
+            kind, index = ("robot" if ep.acted[t, j] else "parked"), int(j)
+        out.append(Contact(int(t), int(i), kind, index, toward, max(0.0, float(-gaps.min()))))
+    return out
