@@ -52,6 +52,9 @@ def integrate(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """New (speed, heading, position) of every robot after one step of ``actions``.
 
+    The readable reference: the simulator steps with the compiled twin
+    :func:`vcs_env.kernels.integrate`, which ``tests/test_kernels.py`` holds to this function.
+
     Speed and heading change first, then the robot moves on a straight line for ``dt`` with the
     new velocity (explicit Euler; straight motion keeps swept collision checks exact).
 
