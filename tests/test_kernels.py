@@ -15,8 +15,9 @@ import pytest
 import vcs_env
 from vcs_env import kernels
 from vcs_env.dynamics import integrate
-from vcs_env.geometry import closest_approach, point_segment_distance
+from vcs_env.geometry import closest_approach, point_segment_distance, unit
 from vcs_env.observations import observe, reference_observe
+from vcs_env.obstacles import Arbitrary
 from vcs_env.sim import Simulator, StepEvents
 from vcs_env.state import WorldState
 
@@ -169,12 +170,37 @@ def test_observe_breaks_gap_ties_by_index_robots_first():
     assert obs[16 + 7] == 0.0 and obs[16 + 2] < 0  # obstacle_0 (right) before obstacle_1 (ahead)
 
 
+def reference_obstacle_velocity(sim):
+    """Simulator._obstacle_velocity as it was in numpy, with Arbitrary.velocity's numpy formula."""
+    s, w, params = sim.scenario, sim.world, sim.motion_params
+    if s.n_obstacles == 0:
+        return np.zeros_like(w.obs_pos)
+    if isinstance(sim.motion, Arbitrary):
+        rates = params["rates"]
+        k = np.floor(w.time[:, None] / params["period"] + 1e-9).astype(np.int64)
+        k = np.clip(k, 0, rates.shape[-1] - 1)
+        rate = np.take_along_axis(rates, k[..., None], axis=-1)[..., 0]
+        params["heading"] = params["heading"] + rate * s.dt
+        vel = unit(params["heading"]) * params["speed"][..., None]
+    else:
+        vel = sim.motion.velocity(params, w.time, w.obs_pos, s.dt)
+    if s.bounce:
+        half = s.arena_half_size
+        nxt = w.obs_pos + vel * s.dt
+        r = w.obs_radius[..., None]
+        flip = ((nxt + r > half) & (vel > 0)) | ((nxt - r < -half) & (vel < 0))
+        if np.any(flip):
+            vel = np.where(flip, -vel, vel)
+            sim.motion.reflect(params, flip)
+    return vel
+
+
 def reference_step(sim, actions):
     """Simulator.step as it was in numpy, on a copy of ``sim`` (oracle of the kernel path)."""
     s, w = sim.scenario, sim.world
     acted = w.active.copy()
     speed, heading, new_pos = reference_integrate(w, actions, sim.action_mode)
-    obs_vel = sim._obstacle_velocity()
+    obs_vel = reference_obstacle_velocity(sim)
     new_obs = w.obs_pos + obs_vel * s.dt
     robot_hits, obstacle_hits, collided, reached, min_sep, before, after = reference_events(w, new_pos, new_obs)
     w.pos, w.speed, w.heading, w.obs_pos, w.obs_vel = new_pos, speed, heading, new_obs, obs_vel
@@ -197,6 +223,8 @@ def reference_step(sim, actions):
         ("crowd", {}),
         ("circle", {"park_finished": False}),
         ("random", {"obstacle_motion": "patrol"}),
+        ("random", {"obstacle_motion": "constant", "n_obstacles": 6}),
+        ("dynamic", {"on_collision": "continue", "arena_half_size": 3.0, "n_obstacles": 8}),  # many bounces
     ],
 )
 @pytest.mark.parametrize("mode", ["delta", "absolute"])
@@ -207,7 +235,7 @@ def test_simulator_rollout_equals_numpy_path(scenario, overrides, mode):
     fast.reset([5, 6])
     slow.reset([5, 6])
     rng = np.random.default_rng(7)
-    for _ in range(60):
+    for _ in range(80):
         actions = rng.uniform(-1.2, 1.2, (2, s.n_robots, 2))
         ev_fast, ev_slow = fast.step(actions), reference_step(slow, actions)
         for f in dataclasses.fields(StepEvents):

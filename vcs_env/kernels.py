@@ -282,3 +282,42 @@ def observe(
                 o[base + 6] = _clip(gaps[t] / r_ca, -1.0, 1.0)
                 o[base + 7] = 1.0 if j < n else 0.0
     return out
+
+
+@njit(cache=True)
+def arbitrary_velocity(heading, speed, rates, period, t, dt):
+    """:class:`vcs_env.obstacles.Arbitrary` motion: turn every obstacle's ``heading`` ``(B, m)``
+    [rad] (updated in place) at the rate ``rates`` ``(B, m, P)`` [rad/s] of the period that
+    contains time ``t`` ``(B,)`` [s] (periods of ``period`` ``(B, m)`` [s]), and return the
+    velocity over the step ``(B, m, 2)`` [m/s] at ``speed`` ``(B, m)`` [m/s]."""
+    B, m = heading.shape
+    last = rates.shape[2] - 1
+    vel = np.empty((B, m, 2))
+    for b in range(B):
+        for q in range(m):
+            k = min(max(np.int64(math.floor(t[b] / period[b, q] + 1e-9)), 0), last)
+            h = heading[b, q] + rates[b, q, k] * dt
+            heading[b, q] = h
+            vel[b, q, 0] = math.cos(h) * speed[b, q]
+            vel[b, q, 1] = math.sin(h) * speed[b, q]
+    return vel
+
+
+@njit(cache=True)
+def bounce(obs_pos, vel, obs_radius, half, dt):
+    """Arena walls at ``+-half`` [m]: reverse each velocity component ``(B, m, 2)`` [m/s] that
+    would carry its disc through a wall during the step. Returns the new velocities and the
+    ``flip`` mask ``(B, m, 2)`` (the motion model is told with ``reflect``)."""
+    B, m = obs_radius.shape
+    out = np.empty((B, m, 2))
+    flip = np.zeros((B, m, 2), dtype=np.bool_)
+    for b in range(B):
+        for q in range(m):
+            r = obs_radius[b, q]
+            for d in range(2):
+                v = vel[b, q, d]
+                nxt = obs_pos[b, q, d] + v * dt
+                f = (nxt + r > half and v > 0) or (nxt - r < -half and v < 0)
+                flip[b, q, d] = f
+                out[b, q, d] = -v if f else v
+    return out, flip

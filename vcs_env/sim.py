@@ -222,13 +222,9 @@ class Simulator:
             return np.zeros_like(w.obs_pos)
         vel = self.motion.velocity(self.motion_params, w.time, w.obs_pos, s.dt)
         if s.bounce:
-            half = s.arena_half_size
-            nxt = w.obs_pos + vel * s.dt
-            r = w.obs_radius[..., None]
             # Reverse a component that would carry the disc through a wall during the step.
-            flip = ((nxt + r > half) & (vel > 0)) | ((nxt - r < -half) & (vel < 0))
-            if np.any(flip):
-                vel = np.where(flip, -vel, vel)
+            vel, flip = kernels.bounce(w.obs_pos, vel, w.obs_radius, s.arena_half_size, s.dt)
+            if flip.any():
                 self.motion.reflect(self.motion_params, flip)
         return vel
 
