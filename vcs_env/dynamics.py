@@ -35,7 +35,7 @@ def check_actions(actions: np.ndarray, shape: tuple[int, ...], what: str = "acti
         raise ValueError(f"{what} must be numeric arrays of shape {shape}: {e}") from None
     if arr.shape != shape:
         raise ValueError(f"{what} must have shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"{what} must be finite, got {arr[~np.isfinite(arr)][:4]} (NaN or inf)")
     return arr
 

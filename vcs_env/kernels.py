@@ -321,3 +321,22 @@ def bounce(obs_pos, vel, obs_radius, half, dt):
                 flip[b, q, d] = f
                 out[b, q, d] = -v if f else v
     return out, flip
+
+
+@njit(cache=True)
+def commit(active, present, reached_ever, collided_ever, speed, reached, collided, terminate, park):
+    """End of a step, in place on the world's ``(B, n)`` arrays: record the step's ``reached``
+    and ``collided`` events; robots that arrived (or crashed, with ``terminate``) stop being
+    active and get speed 0 [m/s]; without ``park`` they also leave the world (``present``)."""
+    B, n = active.shape
+    for b in range(B):
+        for i in range(n):
+            reached_ever[b, i] |= reached[b, i]
+            collided_ever[b, i] |= collided[b, i]
+            stopped = reached[b, i] or (terminate and collided[b, i])
+            if stopped:
+                active[b, i] = False
+                if not park:
+                    present[b, i] = False
+            if not active[b, i]:
+                speed[b, i] = 0.0

@@ -170,7 +170,7 @@ class Simulator:
         Returns:
             The events of the step. The state is updated in place (``self.world``).
         """
-        if np.any(self._needs_reset):
+        if self._needs_reset.any():
             raise RuntimeError(f"worlds {np.flatnonzero(self._needs_reset).tolist()} must be reset before step()")
         s, w = self.scenario, self.world
         B, n = self.batch_size, s.n_robots
@@ -195,13 +195,10 @@ class Simulator:
         # Commit.
         w.pos, w.speed, w.heading = new_pos, speed, heading
         w.obs_pos, w.obs_vel = new_obs, obs_vel
-        w.reached |= reached
-        w.collided |= collided
-        stopped = reached | (collided if s.on_collision == "terminate" else np.zeros_like(collided))
-        w.active &= ~stopped
-        w.speed = np.where(w.active, w.speed, 0.0)
-        if not s.park_finished:
-            w.present &= ~stopped
+        kernels.commit(
+            w.active, w.present, w.reached, w.collided, w.speed, reached, collided,
+            s.on_collision == "terminate", s.park_finished,
+        )  # fmt: skip
         w.time = w.time + dt
         w.steps = w.steps + 1
         return StepEvents(
