@@ -112,7 +112,6 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
-        self._live_index: list[int] = []  # robot index of each live agent, in order
         self._obs_space = observation_space(self.scenario)
         self._act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.state_space = state_space(self.scenario)
@@ -148,7 +147,6 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     def reset(self, seed: int | None = None, options: dict | None = None):
         obs = self.engine.reset(None if seed is None else [seed])
         self.agents = list(self.possible_agents)
-        self._live_index = list(range(len(self.agents)))
         if self._renderer is not None:
             self._renderer.reset()
         expert = self.engine.expert_action
@@ -163,21 +161,20 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         if not isinstance(actions, Mapping):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
         live = self.agents
+        idx = [self.agent_index[a] for a in live]
         batch = np.zeros((1, len(self.possible_agents), 2))
         rows = self._live_rows(actions)
         if rows is not None:  # one conversion for the usual call: one valid action per live agent
-            batch[0, self._live_index] = rows
+            batch[0, idx] = rows
         else:
             self._parse_actions(actions, batch)
         res = self.engine.step(batch)
-        idx = self._live_index
         rew = dict(zip(live, res.reward[0, idx].tolist()))
         term = dict(zip(live, res.terminated[0, idx].tolist()))
         trunc = dict(zip(live, res.truncated[0, idx].tolist()))
         obs = dict(zip(live, res.obs[0, idx]))
         infos = dict(zip(live, res.infos(idx)))
         self.agents = [a for a in live if not (term[a] or trunc[a])]
-        self._live_index = [self.agent_index[a] for a in self.agents]
         if self.render_mode == "human":
             self.render()
         return obs, rew, term, trunc, infos
