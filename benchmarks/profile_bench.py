@@ -6,6 +6,7 @@ many of the profiled functions); on a shared machine the shares are the robust p
 from __future__ import annotations
 
 import cProfile
+import gc
 import os
 import pstats
 import time
@@ -25,6 +26,7 @@ def profile(step: Step, calls: int, top: int = TOP) -> dict:
     total, calls per step call)]}``; numba kernels appear as one opaque row each.
     """
     step()
+    gc.collect()  # a full collection of the benchmark process's heap would land on one unlucky row
     prof = cProfile.Profile()
     t0 = time.perf_counter()
     prof.enable()

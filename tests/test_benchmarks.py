@@ -103,8 +103,13 @@ def test_merge_keeps_the_sections_not_run(quick, tmp_path):
     assert proc.returncode == 0, proc.stderr[-4000:]
     new = json.loads(merged.with_suffix(".json").read_text())
     assert new["planner"] == data["planner"] and new["env"] == data["env"]  # kept as they were
-    assert new["kept"]["sections"] == ["env", "planner", "training", "scaling"]
-    assert "are kept from the run of" in merged.read_text() and "## 2. Planner" in merged.read_text()
+    run_of = {"date": data["meta"]["date"], "commit": data["meta"]["commit"]}
+    assert new["kept"] == {k: run_of for k in ("env", "planner", "training", "scaling")}
+    assert "Kept from earlier runs" in merged.read_text() and "## 2. Planner" in merged.read_text()
+    # A second merge keeps each section's own provenance.
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert json.loads(merged.with_suffix(".json").read_text())["kept"] == new["kept"]
 
 
 def test_missing_peer_is_reported_not_skipped():
