@@ -214,13 +214,16 @@ def observe(
     out = np.zeros((B, n, 8 + 8 * k), dtype=np.float32)
     gaps = np.empty(total)
     order = np.empty(total, dtype=np.int64)
+    cos_h, sin_h, vel = np.empty(n), np.empty(n), np.empty((n, 2))
     for b in range(B):
+        for i in range(n):  # every robot's frame and velocity, once per world
+            cos_h[i] = math.cos(heading[b, i])
+            sin_h[i] = math.sin(heading[b, i])
+            vel[i, 0] = speed[b, i] * cos_h[i]
+            vel[i, 1] = speed[b, i] * sin_h[i]
         for i in range(n):
-            h = heading[b, i]
-            c = math.cos(h)
-            s = math.sin(h)
-            vx = speed[b, i] * c
-            vy = speed[b, i] * s
+            c, s = cos_h[i], sin_h[i]
+            vx, vy = vel[i, 0], vel[i, 1]
             px, py = pos[b, i, 0], pos[b, i, 1]
             gx, gy = goal[b, i, 0] - px, goal[b, i, 1] - py
             d_goal = math.sqrt(gx * gx + gy * gy)
@@ -264,7 +267,7 @@ def observe(
                 j = order[t]
                 if j < n:
                     rx, ry = pos[b, j, 0] - px, pos[b, j, 1] - py
-                    ux, uy = speed[b, j] * math.cos(heading[b, j]), speed[b, j] * math.sin(heading[b, j])
+                    ux, uy = vel[j, 0], vel[j, 1]
                     rj = radius[b, j]
                 else:
                     q = j - n
