@@ -42,6 +42,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
     (``human``, ``rgb_array``, ``ansi``), ``action_mode``, ``expert``, ``reward_terms``,
     ``obstacle_motion``, ``gamma``, and Scenario fields as keyword overrides.
 
+    ## Vectorized
+    ``gym.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` gives
+    :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
+
     ## Version History
     * v0: initial release.
     """
