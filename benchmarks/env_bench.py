@@ -8,6 +8,12 @@ Contestants (same agent count ``n``, same batch size ``B``):
 * ``engine`` - :class:`~vcs_env.engine.NavEngine` stepping ``B`` worlds in one numpy call,
   with auto-reset.
 * ``vecenv`` - the SB3 ``VecEnv`` of ``agents/vec_env.py`` (``B * n`` slots), if present.
+* ``gym_vector`` / ``gym_sync`` - ``gym.make_vec("vcs_env/Navigation-v0", num_envs=B,
+  vectorization_mode=...)`` with ``"vector_entry_point"`` (:class:`~vcs_env.gym_env.VcsNavVectorEnv`,
+  one engine call for all worlds) and with ``"sync"`` (Gymnasium's ``SyncVectorEnv``, a Python
+  loop over ``B`` single envs), on our worlds with ``n`` robots: the learner is ``robot_0``, the
+  others follow a planner, ``vcs`` (the default) or ``straight`` (to time the env without the
+  VCS planner's cost). Rates count learner steps (one per env and step).
 * ``vmas`` - VMAS ``navigation`` on CPU with ``B`` = ``num_envs``, ``n_agents = n``, torch on
   one thread. Its spawning square is scaled as ``sqrt(n / 4)`` so the agent density stays that
   of the default 4-agent scenario (the default 2 m x 2 m square cannot hold 32 agents and
@@ -138,6 +144,26 @@ def vecenv_env(n: int, B: int, seed: int = 0) -> Step:
     return step
 
 
+def gym_vector_env(n: int, B: int, mode: str, others: str = "vcs", seed: int = 0) -> Step:
+    import gymnasium as gym
+
+    import vcs_env  # noqa: F401  (registers the ids)
+
+    env = gym.make_vec(
+        "vcs_env/Navigation-v0", num_envs=B, vectorization_mode=mode, scenario=our_scenario(n), others=others
+    )
+    env.reset(seed=seed)
+    pool = np.random.default_rng(seed).uniform(-1.0, 1.0, (POOL, B, 2)).astype(np.float32)
+    k = [0]
+
+    def step() -> int:
+        k[0] = (k[0] + 1) % POOL
+        env.step(pool[k[0]])  # NEXT_STEP autoreset: ended envs restart on the next call
+        return B
+
+    return step
+
+
 def vmas_spawn_half_size(n: int) -> float:
     """VMAS navigation spawning half-size [VMAS length units] at the default 4-agent density."""
     return math.sqrt(max(n, 4) / 4.0)
@@ -187,4 +213,12 @@ def batched_builders(n: int, B: int) -> dict[str, Callable[[], Step]]:
         "engine": lambda: engine_env(n, B),
         "vecenv": lambda: vecenv_env(n, B),
         "vmas": lambda: vmas_env(n, B),
+    }
+
+
+def gym_vector_builders(n: int, B: int, others: str) -> dict[str, Callable[[], Step]]:
+    """``gym.make_vec`` with the vector entry point against ``SyncVectorEnv``, ``B`` envs."""
+    return {
+        "gym_vector": lambda: gym_vector_env(n, B, "vector_entry_point", others),
+        "gym_sync": lambda: gym_vector_env(n, B, "sync", others),
     }

@@ -6,6 +6,7 @@ many of the profiled functions); on a shared machine the shares are the robust p
 from __future__ import annotations
 
 import cProfile
+import gc
 import os
 import pstats
 import time
@@ -18,20 +19,28 @@ TOP = 8
 """Functions listed per profile."""
 
 
-def profile(step: Step, calls: int, top: int = TOP) -> dict:
-    """Run ``step`` ``calls`` times under cProfile (after one untimed call).
+def profile(step: Step, calls: int, top: int = TOP, repeats: int = 3) -> dict:
+    """Run ``step`` ``calls`` times under cProfile (after one untimed call), ``repeats`` times,
+    and keep the fastest run: on a shared machine a run can lose milliseconds to another
+    process, which the wall-clock profiler would book on whichever function was running.
 
     Returns ``{"seconds_per_call": wall s, "rows": [(function, own seconds per call, share of
     total, calls per step call)]}``; numba kernels appear as one opaque row each.
     """
     step()
-    prof = cProfile.Profile()
-    t0 = time.perf_counter()
-    prof.enable()
-    for _ in range(calls):
-        step()
-    prof.disable()
-    wall = time.perf_counter() - t0
+    best = None
+    for _ in range(repeats):
+        gc.collect()  # a full collection of the benchmark process's heap would land on one unlucky row
+        prof = cProfile.Profile()
+        t0 = time.perf_counter()
+        prof.enable()
+        for _ in range(calls):
+            step()
+        prof.disable()
+        wall = time.perf_counter() - t0
+        if best is None or wall < best[0]:
+            best = (wall, prof)
+    wall, prof = best
     stats = pstats.Stats(prof)
     total = sum(v[2] for v in stats.stats.values()) or 1.0
     rows, files = [], {}

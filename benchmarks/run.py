@@ -40,6 +40,12 @@ class Sizes:
     env_batches: tuple[int, ...] = (1, 16, 64, 256)
     """Batch sizes B (worlds) of the batched env contestants."""
     env_budget: Budget = field(default_factory=Budget)
+    gym_vector_robots: int = 4
+    """Robots per world of the ``gym.make_vec`` comparison."""
+    gym_vector_envs: int = 64
+    """Envs (worlds) of the ``gym.make_vec`` comparison."""
+    gym_vector_others: tuple[str, ...] = ("vcs", "straight")
+    """Planners driving the non-learning robots in the ``gym.make_vec`` comparison."""
     planner_robots: tuple[int, ...] = (4, 8, 16, 32, 64)
     """Robot counts of the circle and constant-density planner sets."""
     planner_batches: tuple[int, ...] = (1, 16)
@@ -71,6 +77,7 @@ def quick_sizes() -> Sizes:
         env_robots=(4,),
         env_batches=(1, 4),
         env_budget=tiny,
+        gym_vector_envs=2,
         planner_robots=(4, 8),
         planner_batches=(1, 4),
         snapshots=2,
@@ -105,7 +112,13 @@ def env_section(sz: Sizes) -> dict:
             _log(f"env n={n} B={B} engine, vecenv vs vmas")
             res = side_by_side(env_bench.batched_builders(n, B), sz.env_budget)
             batched.append({"n": n, "B": B, "results": _results(res)})
-    return {"single": single, "batched": batched}
+    gym_vector = []
+    n, B = sz.gym_vector_robots, sz.gym_vector_envs
+    for others in sz.gym_vector_others:
+        _log(f"env gym.make_vec n={n} B={B} others={others}: vector_entry_point vs sync")
+        res = side_by_side(env_bench.gym_vector_builders(n, B, others), sz.env_budget)
+        gym_vector.append({"n": n, "B": B, "others": others, "results": _results(res)})
+    return {"single": single, "batched": batched, "gym_vector": gym_vector}
 
 
 def planner_section(sz: Sizes) -> dict:
@@ -209,6 +222,7 @@ def targets(data: dict) -> list[dict]:
                     "n={0[0]},B={0[1]}",
                 )
             )
+        out += _issue14_env_targets(env)
     pl = data.get("planner")
     if pl:
         at16 = [e for e in pl["circle"] if e["n"] == 16] or [
@@ -249,6 +263,35 @@ def targets(data: dict) -> list[dict]:
     return out
 
 
+def _issue14_env_targets(env: dict) -> list[dict]:
+    """Issue 14: a single-world step an order of magnitude cheaper, the batched engine >= 5x VMAS,
+    ``gym.make_vec`` with the vector entry point >= 10x ``SyncVectorEnv``."""
+    single = {e["n"]: ratio(_rate(e, "pettingzoo"), _rate(e, "mpe")) for e in env["single"]}
+    out = [
+        _target(
+            f"PettingZoo env (B = 1) >= {need:g}x MPE simple_spread robot-steps/s at n={n} (issue 14)",
+            {n: single[n]},
+            lambda x, need=need: x >= need,
+            "n={}",
+        )
+        for n, need in ((4, 2.0), (10, 10.0))
+        if n in single
+    ]
+    at64 = {e["n"]: ratio(_rate(e, "engine"), _rate(e, "vmas")) for e in env["batched"] if e["B"] == 64}
+    if at64:
+        out.append(_target("batched engine >= 5x VMAS-CPU at B=64 (issue 14)", at64, lambda x: x >= 5.0, "n={},B=64"))
+    for e in env.get("gym_vector", []):
+        out.append(
+            _target(
+                f"gym.make_vec vector_entry_point >= 10x sync at {e['B']} envs, others={e['others']} (issue 14)",
+                {e["n"]: ratio(_rate(e, "gym_vector"), _rate(e, "gym_sync"))},
+                lambda x: x >= 10.0,
+                "n={}",
+            )
+        )
+    return out
+
+
 def _target(text: str, ratios: dict, ok, key_fmt: str) -> dict:
     vals = {key_fmt.format(k): v for k, v in ratios.items()}
     finite = [v for v in vals.values() if math.isfinite(v)]
@@ -282,14 +325,25 @@ def _commit() -> str:
         return "unknown"
 
 
-def run(quick: bool = False, out: Path | str = DEFAULT_OUT, sections=SECTIONS, command: str = "") -> dict:
-    """Run the benchmarks and write ``out`` (Markdown) and ``out`` with ``.json``; returns the data."""
+def run(
+    quick: bool = False, out: Path | str = DEFAULT_OUT, sections=SECTIONS, command: str = "", merge: bool = False
+) -> dict:
+    """Run the benchmarks and write ``out`` (Markdown) and ``out`` with ``.json``; returns the data.
+
+    With ``merge``, the sections not run are kept from the existing JSON next to ``out`` (their
+    numbers are from that earlier run)."""
     out = Path(out)
     sz = quick_sizes() if quick else Sizes()
     t0 = time.perf_counter()
     machine = machine_info()
     threads = peers.torch_single_thread()
     data: dict = {"peers": peers.status()}
+    if merge and out.with_suffix(".json").exists():
+        old = json.loads(out.with_suffix(".json").read_text())
+        kept = [k for k in SECTIONS if k in old and k not in sections]
+        data.update({k: old[k] for k in kept})
+        run_of = {"date": old["meta"]["date"], "commit": old["meta"]["commit"]}
+        data["kept"] = {k: old.get("kept", {}).get(k, run_of) for k in kept}
     if "env" in sections:
         data["env"] = env_section(sz)
     if "planner" in sections:
@@ -344,6 +398,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="tiny sizes (smoke test; the numbers mean nothing)")
     p.add_argument("--out", default=str(DEFAULT_OUT), help="Markdown report path; the JSON goes next to it")
     p.add_argument("--sections", default=",".join(SECTIONS), help=f"comma-separated subset of {','.join(SECTIONS)}")
+    p.add_argument(
+        "--merge", action="store_true", help="keep the sections not run from the existing JSON next to --out"
+    )
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -351,7 +408,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     unknown = sorted(set(sections) - set(SECTIONS))
     if unknown:
         raise ValueError(f"unknown sections {unknown}; choose from {list(SECTIONS)}")
-    data = run(args.quick, args.out, sections, command=_command_line())
+    data = run(args.quick, args.out, sections, command=_command_line(), merge=args.merge)
     for t in data["targets"]:
         print(f"{t['met']:>14}  {t['target']}")
     return 0

@@ -18,7 +18,7 @@ from benchmarks.run import SECTIONS, _target
 from benchmarks.timing import Budget, Missing, fit_exponent, side_by_side
 
 ROOT = Path(__file__).resolve().parents[1]
-OURS = {"pettingzoo", "engine", "vcs", "vo", "hrvo"}
+OURS = {"pettingzoo", "engine", "vcs", "vo", "hrvo", "gym_vector", "gym_sync"}
 PEERS = {"mpe": "mpe2", "vmas": "vmas", "orca": "pyrvo", "pyrvo_raw": "pyrvo", "vecenv": None}
 
 
@@ -39,7 +39,7 @@ def quick(tmp_path_factory):
 
 
 def _contestants(data):
-    for e in data["env"]["single"] + data["env"]["batched"]:
+    for e in data["env"]["single"] + data["env"]["batched"] + data["env"]["gym_vector"]:
         yield from e["results"].items()
     for key in ("circle", "neighbours", "density"):
         for e in data["planner"][key]:
@@ -83,6 +83,33 @@ def test_ours_measured_peers_measured_or_missing(quick):
         assert r["status"] == "ok" or r["status"].startswith("missing"), (v, r["status"])
     for name, p in data["profiles"].items():
         assert "rows" in p or "orca" in name or "MPE" in name, (name, p)
+
+
+def test_gym_vector_rows_and_issue14_targets(quick):
+    out, data = quick
+    assert [e["others"] for e in data["env"]["gym_vector"]] == ["vcs", "straight"]
+    assert "### Gymnasium vector API" in out.read_text()
+    assert any("issue 14" in t["target"] and "MPE" in t["target"] for t in data["targets"])
+    assert sum("make_vec" in t["target"] for t in data["targets"]) == 2
+
+
+def test_merge_keeps_the_sections_not_run(quick, tmp_path):
+    out, data = quick
+    merged = tmp_path / "RESULTS.md"
+    merged.with_suffix(".json").write_text(out.with_suffix(".json").read_text())
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "SDL_AUDIODRIVER": "dummy"}
+    cmd = [sys.executable, "-m", "benchmarks", "--quick", "--sections", "profiles", "--merge", "--out", str(merged)]
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    new = json.loads(merged.with_suffix(".json").read_text())
+    assert new["planner"] == data["planner"] and new["env"] == data["env"]  # kept as they were
+    run_of = {"date": data["meta"]["date"], "commit": data["meta"]["commit"]}
+    assert new["kept"] == {k: run_of for k in ("env", "planner", "training", "scaling")}
+    assert "Kept from earlier runs" in merged.read_text() and "## 2. Planner" in merged.read_text()
+    # A second merge keeps each section's own provenance.
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    assert json.loads(merged.with_suffix(".json").read_text())["kept"] == new["kept"]
 
 
 def test_missing_peer_is_reported_not_skipped():

@@ -36,11 +36,18 @@ GYM_IDS = {
     "vcs_env/Dynamic-v0": "dynamic",
     "vcs_env/Custom-v0": "custom",
 }
-"""Registered Gymnasium ids and the preset each starts from (override with ``scenario=``)."""
+"""Registered Gymnasium ids and the preset each starts from (override with ``scenario=``). Each id has a
+``vector_entry_point`` (:class:`~vcs_env.gym_env.VcsNavVectorEnv`): ``gym.make_vec(id, num_envs,
+vectorization_mode="vector_entry_point")`` steps all worlds in one engine call."""
 
 for _id, _preset in GYM_IDS.items():
     if _id not in gymnasium.registry:
-        gymnasium.register(id=_id, entry_point="vcs_env.gym_env:VcsNavEnv", kwargs={"scenario": _preset})
+        gymnasium.register(
+            id=_id,
+            entry_point="vcs_env.gym_env:VcsNavEnv",
+            vector_entry_point="vcs_env.gym_env:VcsNavVectorEnv",
+            kwargs={"scenario": _preset},
+        )
 
 PZ_ID = "vcs_env/VcsNav-v0"
 """PettingZoo registry id: ``pettingzoo.make("parallel", PZ_ID, scenario="circle")`` (or "aec")."""

@@ -35,7 +35,7 @@ def check_actions(actions: np.ndarray, shape: tuple[int, ...], what: str = "acti
         raise ValueError(f"{what} must be numeric arrays of shape {shape}: {e}") from None
     if arr.shape != shape:
         raise ValueError(f"{what} must have shape {shape}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ValueError(f"{what} must be finite, got {arr[~np.isfinite(arr)][:4]} (NaN or inf)")
     return arr
 
@@ -51,6 +51,9 @@ def integrate(
     world: WorldState, actions: np.ndarray, action_mode: str = "delta"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """New (speed, heading, position) of every robot after one step of ``actions``.
+
+    The readable reference: the simulator steps with the compiled twin
+    :func:`vcs_env.kernels.integrate`, which ``tests/test_kernels.py`` holds to this function.
 
     Speed and heading change first, then the robot moves on a straight line for ``dt`` with the
     new velocity (explicit Euler; straight motion keeps swept collision checks exact).

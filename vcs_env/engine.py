@@ -43,17 +43,29 @@ class StepResult:
         """The API ``info`` of robot ``i`` in world ``b``: unweighted ``reward_terms``,
         ``reached_goal``, ``collided_with`` (``robot_j`` / ``obstacle_k`` names),
         ``min_separation`` [m] and, with an expert, ``expert_action``."""
+        return self.infos((i,), b)[0]
+
+    def infos(self, robots: Sequence[int], b: int = 0) -> list[dict]:
+        """:meth:`info` of each robot in ``robots`` of world ``b`` (one array-to-list conversion
+        per field, not per robot)."""
         ev = self.events
-        hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, i])]
-        hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, i])]
-        out = {
-            "reward_terms": {name: float(v[b, i]) for name, v in self.terms.items()},
-            "reached_goal": bool(ev.reached[b, i]),
-            "collided_with": hits,
-            "min_separation": float(ev.min_separation[b, i]),
-        }
-        if self.expert_action is not None:
-            out["expert_action"] = self.expert_action[b, i]
+        terms = {name: v[b].tolist() for name, v in self.terms.items()}
+        reached, collided, sep = ev.reached[b].tolist(), ev.collided[b].tolist(), ev.min_separation[b].tolist()
+        out = []
+        for i in robots:
+            hits = []
+            if collided[i]:
+                hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, i])]
+                hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, i])]
+            info = {
+                "reward_terms": {name: v[i] for name, v in terms.items()},
+                "reached_goal": reached[i],
+                "collided_with": hits,
+                "min_separation": sep[i],
+            }
+            if self.expert_action is not None:
+                info["expert_action"] = self.expert_action[b, i]
+            out.append(info)
         return out
 
 

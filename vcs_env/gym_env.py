@@ -6,6 +6,10 @@ from collections.abc import Mapping
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
 
 from .engine import NavEngine, RewardFn
 from .planning import Planner, make_planner
@@ -37,6 +41,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
     ``scenario`` (name or Scenario), ``others`` (planner for the other robots), ``render_mode``
     (``human``, ``rgb_array``, ``ansi``), ``action_mode``, ``expert``, ``reward_terms``,
     ``obstacle_motion``, ``gamma``, and Scenario fields as keyword overrides.
+
+    ## Vectorized
+    ``gym.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` gives
+    :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
     * v0: initial release.
@@ -104,3 +112,159 @@ class VcsNavEnv(RenderMixin, gym.Env):
         if self.render_mode == "human":
             self.render()
         return res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0, 0]), bool(res.truncated[0, 0]), info
+
+
+class VcsNavVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`VcsNavEnv` stepped in one engine call: the
+    ``vector_entry_point`` of the Gymnasium ids, so
+    ``gym.make_vec("vcs_env/Navigation-v0", num_envs=64, vectorization_mode="vector_entry_point")``
+    steps every world (and plans every other robot) at once.
+
+    It returns what ``vectorization_mode="sync"`` returns for the same seeds and actions,
+    bit for bit: observations ``(num_envs, 8 + 8 K)`` float32, rewards ``(num_envs,)`` float64,
+    terminated / truncated ``(num_envs,)`` bool, and the single env's ``info`` batched the
+    Gymnasium way (each key an array with a ``_key`` mask; ``reward_terms`` nested;
+    ``collided_with`` an object array of lists). ``reset(seed=s)`` seeds world ``i`` as
+    ``VcsNavEnv.reset(seed=s + i)`` does; ``seed`` may also be a list, one per world.
+
+    Autoreset: ``AutoresetMode.NEXT_STEP`` (``metadata["autoreset_mode"]``), as
+    ``SyncVectorEnv``: the step after a world's episode ended returns that world's first
+    observation of a new episode with reward 0, and its action is ignored.
+    ``reset(options={"reset_mask": mask})`` resets only the worlds in ``mask`` ``(num_envs,)``
+    bool. SB3 drives it through :class:`agents.gym_vec.GymVectorToSB3`.
+
+    Arguments: ``num_envs`` and those of :class:`VcsNavEnv` (no rendering).
+    """
+
+    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        scenario: str | Scenario = "circle",
+        others: str | Planner = "vcs",
+        render_mode: str | None = None,
+        action_mode: str = "delta",
+        expert: str | Planner | None = None,
+        reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
+        obstacle_motion=None,
+        gamma: float = 0.99,
+        **scenario_overrides,
+    ):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if render_mode is not None:
+            raise ValueError(f"VcsNavVectorEnv does not render; render_mode must be None, got {render_mode!r}")
+        self.num_envs = int(num_envs)
+        self.render_mode = None
+        self.scenario = make_scenario(scenario, **scenario_overrides)
+        self.engine = NavEngine(self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma)
+        self.others = make_planner(others) if self.scenario.n_robots > 1 else None
+        self.single_observation_space = observation_space(self.scenario)
+        self.single_action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._world_rngs: list[np.random.Generator | None] = [None] * self.num_envs  # VcsNavEnv.np_random
+        self._obs = np.zeros((self.num_envs, *self.single_observation_space.shape), dtype=np.float32)
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+
+    @property
+    def world(self):
+        return self.engine.world
+
+    def _start(self, worlds: np.ndarray, seeds: list[int | None]) -> None:
+        """New episodes in ``worlds``, each world seeded from its own generator as VcsNavEnv.reset."""
+        world_seeds = []
+        for b, seed in zip(worlds, seeds):
+            if seed is not None or self._world_rngs[b] is None:
+                self._world_rngs[b] = seeding.np_random(seed)[0]
+            world_seeds.append(int(self._world_rngs[b].integers(0, 2**63 - 1)))
+        obs = self.engine.reset(world_seeds, worlds.tolist())
+        self._obs[worlds] = obs[worlds, 0]
+        self._autoreset[worlds] = False
+
+    def _reset_info(self, worlds: np.ndarray) -> dict:
+        expert = self.engine.expert_action
+        if expert is None:
+            return {}
+        return {"expert_action": np.where(worlds[:, None], expert[:, 0], np.float32(0.0)), "_expert_action": worlds}
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            super().reset(seed=int(seed))
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        elif seed is None:
+            seeds = [None] * self.num_envs
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"got {len(seeds)} seeds for num_envs={self.num_envs}")
+        mask = np.ones(self.num_envs, dtype=bool)
+        if options is not None and "reset_mask" in options:
+            mask = options["reset_mask"]
+            if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+                raise ValueError(
+                    f"options['reset_mask'] must be a bool array of shape ({self.num_envs},), got {mask!r}"
+                )
+            if not mask.any():
+                raise ValueError("options['reset_mask'] must select at least one world")
+        worlds = np.flatnonzero(mask)
+        self._start(worlds, [seeds[b] for b in worlds])
+        info = self._reset_info(mask)
+        return self._obs.copy(), info
+
+    def step(self, actions):
+        try:
+            arr = np.asarray(actions, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"actions must be numeric with shape ({self.num_envs}, 2), got {actions!r}") from None
+        if arr.shape != (self.num_envs, 2):
+            raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {arr.shape}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"actions must be finite, got {arr[~np.isfinite(arr)][:4]}")
+        eng = self.engine
+        if self.others is not None:
+            batch = self.others.act(eng.world, eng.action_mode).astype(np.float64)
+        else:
+            batch = np.zeros((self.num_envs, 1, 2))
+        batch[:, 0] = arr
+        # Every world steps; those whose episode ended last step are then started afresh
+        # (stepping an ended world draws no randomness, so the restart is what VcsNavEnv.reset gives).
+        res = eng.step(batch)
+        restart = self._autoreset.copy()
+        stepped = ~restart
+        self._obs[:] = res.obs[:, 0]
+        reward = np.where(stepped, res.reward[:, 0], 0.0)
+        terminated = res.terminated[:, 0] & stepped
+        truncated = res.truncated[:, 0] & stepped
+        info = self._step_info(res, stepped) if stepped.any() else {}
+        if restart.any():
+            self._start(np.flatnonzero(restart), [None] * int(restart.sum()))
+        info.update(self._reset_info(np.ones(self.num_envs, dtype=bool)))
+        self._autoreset = terminated | truncated
+        return self._obs.copy(), reward, terminated, truncated, info
+
+    def _step_info(self, res, stepped: np.ndarray) -> dict:
+        """VcsNavEnv's step info of the ``stepped`` worlds, batched as SyncVectorEnv batches it."""
+        ev = res.events
+        terms = {}
+        for name, value in res.terms.items():
+            terms[name] = np.where(stepped, value[:, 0], 0.0)
+            terms[f"_{name}"] = stepped
+        collided_with = np.full(self.num_envs, None, dtype=object)
+        for b in np.flatnonzero(stepped):
+            hits = []
+            if ev.collided[b, 0]:
+                hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, 0])]
+                hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, 0])]
+            collided_with[b] = hits
+        return {
+            "reward_terms": terms,
+            "_reward_terms": stepped,
+            "reached_goal": ev.reached[:, 0] & stepped,
+            "_reached_goal": stepped,
+            "collided_with": collided_with,
+            "_collided_with": stepped,
+            "min_separation": np.where(stepped, ev.min_separation[:, 0], 0.0),
+            "_min_separation": stepped,
+        }

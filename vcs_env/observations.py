@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import kernels
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
 
@@ -112,7 +113,19 @@ def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
-    """Observations of every robot ``(B, n, D)`` float32, within :func:`observation_bounds`."""
+    """Observations of every robot ``(B, n, D)`` float32, within :func:`observation_bounds`.
+
+    One compiled call for all worlds (:func:`vcs_env.kernels.observe`); :func:`reference_observe`
+    is the same computation in readable numpy, the kernel's test oracle."""
+    return kernels.observe(
+        world.pos, world.heading, world.speed, world.radius, world.goal, world.v_max, world.a_max,
+        world.omega_max, world.present, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
+        goal_scale(scenario), scenario.n_neighbors, V_REF, A_REF, OMEGA_REF, R_REF,
+    )  # fmt: skip
+
+
+def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
+    """:func:`observe` in readable numpy (with :func:`sense`): the oracle of the compiled kernel."""
     k = scenario.n_neighbors
     B, n = world.batch_size, world.n_robots
     out = np.empty((B, n, EGO_DIM + k * NEIGHBOR_DIM))

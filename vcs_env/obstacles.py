@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .geometry import unit
+from . import kernels
 from .scenario import ObstacleTrajectory, Scenario
 
 Params = dict[str, np.ndarray]
@@ -127,12 +127,11 @@ class Arbitrary(ObstacleMotion):
         }
 
     def velocity(self, params, t, pos, dt):
-        rates = params["rates"]
-        k = np.floor(t[:, None] / params["period"] + 1e-9).astype(np.int64)
-        k = np.clip(k, 0, rates.shape[-1] - 1)
-        rate = np.take_along_axis(rates, k[..., None], axis=-1)[..., 0]
-        params["heading"] = params["heading"] + rate * dt
-        return unit(params["heading"]) * params["speed"][..., None]
+        # Compiled: turn at the rate of the current period, then move at constant speed.
+        heading = params["heading"].copy()  # a new array: snapshots of params stay unchanged
+        vel = kernels.arbitrary_velocity(heading, params["speed"], params["rates"], params["period"], t, dt)
+        params["heading"] = heading
+        return vel
 
     def reflect(self, params, flip):
         h = params["heading"]

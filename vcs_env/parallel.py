@@ -161,7 +161,42 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
             raise RuntimeError("step() called on a finished episode; call reset() first")
         if not isinstance(actions, Mapping):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
+        live = self.agents
+        idx = [self.agent_index[a] for a in live]
         batch = np.zeros((1, len(self.possible_agents), 2))
+        rows = self._live_rows(actions)
+        if rows is not None:  # one conversion for the usual call: one valid action per live agent
+            batch[0, idx] = rows
+        else:
+            self._parse_actions(actions, batch)
+        res = self.engine.step(batch)
+        rew = dict(zip(live, res.reward[0, idx].tolist()))
+        term = dict(zip(live, res.terminated[0, idx].tolist()))
+        trunc = dict(zip(live, res.truncated[0, idx].tolist()))
+        obs = dict(zip(live, res.obs[0, idx]))
+        infos = dict(zip(live, res.infos(idx)))
+        self.agents = [a for a in live if not (term[a] or trunc[a])]
+        if self.render_mode == "human":
+            self.render()
+        return obs, rew, term, trunc, infos
+
+    def _live_rows(self, actions: Mapping[str, np.ndarray]) -> np.ndarray | None:
+        """The live agents' actions ``(len(agents), 2)`` float64 when ``actions`` has exactly
+        one finite action of shape (2,) per live agent; None otherwise (then
+        :meth:`_parse_actions` names the problem)."""
+        if len(actions) != len(self.agents):
+            return None
+        try:
+            rows = np.array([actions[a] for a in self.agents], dtype=np.float64)
+        except (KeyError, TypeError, ValueError):
+            return None
+        if rows.shape != (len(self.agents), 2) or not np.isfinite(rows).all():
+            return None
+        return rows
+
+    def _parse_actions(self, actions: Mapping[str, np.ndarray], batch: np.ndarray) -> None:
+        """Check ``actions`` agent by agent into ``batch`` ``(1, n, 2)``, raising ``ValueError``
+        that names the agent; actions of finished agents are ignored."""
         for agent, act in actions.items():
             i = self._check_agent(agent)
             if agent not in self.agents:
@@ -178,20 +213,6 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         missing = [a for a in self.agents if a not in actions]
         if missing:
             raise ValueError(f"missing actions for live agents {missing}")
-        live = list(self.agents)
-        res = self.engine.step(batch)
-        obs, rew, term, trunc, infos = {}, {}, {}, {}, {}
-        for agent in live:
-            i = self.agent_index[agent]
-            obs[agent] = res.obs[0, i]
-            rew[agent] = float(res.reward[0, i])
-            term[agent] = bool(res.terminated[0, i])
-            trunc[agent] = bool(res.truncated[0, i])
-            infos[agent] = res.info(i)
-        self.agents = [a for a in live if not (term[a] or trunc[a])]
-        if self.render_mode == "human":
-            self.render()
-        return obs, rew, term, trunc, infos
 
     def state(self) -> np.ndarray:
         return state_vector(self.engine.world)[0]

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .dynamics import ACTION_MODES, check_actions, integrate
-from .geometry import closest_approach, point_segment_distance
+from . import kernels
+from .dynamics import ACTION_MODES, check_actions
 from .layouts import generate
 from .obstacles import ObstacleMotion, make_motion
 from .scenario import Scenario
@@ -170,7 +170,7 @@ class Simulator:
         Returns:
             The events of the step. The state is updated in place (``self.world``).
         """
-        if np.any(self._needs_reset):
+        if self._needs_reset.any():
             raise RuntimeError(f"worlds {np.flatnonzero(self._needs_reset).tolist()} must be reset before step()")
         s, w = self.scenario, self.world
         B, n = self.batch_size, s.n_robots
@@ -178,47 +178,27 @@ class Simulator:
         acted = w.active.copy()
         dt = s.dt
 
-        # Phase 1: commands from the frozen snapshot.
-        speed, heading, new_pos = integrate(w, actions, self.action_mode)
-        speed = np.where(acted, speed, 0.0)
-        heading = np.where(acted, heading, w.heading)
-        new_pos = np.where(acted[..., None], new_pos, w.pos)
-
+        # Phase 1: commands from the frozen snapshot (robots that did not act stay put).
+        speed, heading, new_pos = kernels.integrate(
+            w.pos, w.heading, w.speed, w.v_max, w.a_max, w.omega_max, acted, actions, dt,
+            w.holonomic, self.action_mode == "absolute",
+        )  # fmt: skip
         obs_vel = self._obstacle_velocity()
         new_obs = w.obs_pos + obs_vel * dt
 
         # Phase 2: swept checks over the straight motions of the step.
         old_pos = w.pos
-        present = w.present
-        rr_gap = closest_approach(
-            old_pos[:, None, :, :] - old_pos[:, :, None, :], new_pos[:, None, :, :] - new_pos[:, :, None, :]
-        ) - (w.radius[:, :, None] + w.radius[:, None, :])
-        pair_ok = present[:, :, None] & present[:, None, :] & ~np.eye(n, dtype=bool)
-        rr_gap = np.where(pair_ok, rr_gap, np.inf)
-        ro_gap = closest_approach(
-            w.obs_pos[:, None, :, :] - old_pos[:, :, None, :], new_obs[:, None, :, :] - new_pos[:, :, None, :]
-        ) - (w.radius[:, :, None] + w.obs_radius[:, None, :])
-        ro_gap = np.where(present[:, :, None], ro_gap, np.inf)
-        robot_hits = (rr_gap < 0.0) & acted[:, :, None]
-        obstacle_hits = (ro_gap < 0.0) & acted[:, :, None]
-        collided = robot_hits.any(axis=2) | obstacle_hits.any(axis=2)
-        min_sep = np.minimum(rr_gap.min(axis=2, initial=np.inf), ro_gap.min(axis=2, initial=np.inf))
-        min_sep = np.where(acted, min_sep, np.inf)
-
-        goal_before = np.linalg.norm(w.goal - old_pos, axis=-1)
-        goal_after = np.linalg.norm(w.goal - new_pos, axis=-1)
-        reached = acted & (point_segment_distance(w.goal, old_pos, new_pos) <= s.r_goal)
+        robot_hits, obstacle_hits, collided, reached, min_sep, goal_before, goal_after = kernels.swept_events(
+            old_pos, new_pos, w.radius, w.present, acted, w.goal, w.obs_pos, new_obs, w.obs_radius, s.r_goal
+        )
 
         # Commit.
         w.pos, w.speed, w.heading = new_pos, speed, heading
         w.obs_pos, w.obs_vel = new_obs, obs_vel
-        w.reached |= reached
-        w.collided |= collided
-        stopped = reached | (collided if s.on_collision == "terminate" else np.zeros_like(collided))
-        w.active &= ~stopped
-        w.speed = np.where(w.active, w.speed, 0.0)
-        if not s.park_finished:
-            w.present &= ~stopped
+        kernels.commit(
+            w.active, w.present, w.reached, w.collided, w.speed, reached, collided,
+            s.on_collision == "terminate", s.park_finished,
+        )  # fmt: skip
         w.time = w.time + dt
         w.steps = w.steps + 1
         return StepEvents(
@@ -239,13 +219,9 @@ class Simulator:
             return np.zeros_like(w.obs_pos)
         vel = self.motion.velocity(self.motion_params, w.time, w.obs_pos, s.dt)
         if s.bounce:
-            half = s.arena_half_size
-            nxt = w.obs_pos + vel * s.dt
-            r = w.obs_radius[..., None]
             # Reverse a component that would carry the disc through a wall during the step.
-            flip = ((nxt + r > half) & (vel > 0)) | ((nxt - r < -half) & (vel < 0))
-            if np.any(flip):
-                vel = np.where(flip, -vel, vel)
+            vel, flip = kernels.bounce(w.obs_pos, vel, w.obs_radius, s.arena_half_size, s.dt)
+            if flip.any():
                 self.motion.reflect(self.motion_params, flip)
         return vel
 

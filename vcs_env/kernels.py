@@ -1,0 +1,345 @@
+"""The per-step work of the simulator compiled with numba: one call per step for all worlds.
+
+One implementation serves ``B = 1`` (the PettingZoo and Gymnasium envs) and ``B > 1`` (the
+batched engine): each kernel loops over worlds, then robots, so a world's result never depends
+on the others and stepping B worlds together equals stepping them one by one, bit for bit.
+
+The kernels repeat, float operation for float operation, the readable numpy geometry that stays
+the test oracle (:mod:`vcs_env.dynamics`, :mod:`vcs_env.geometry`, :func:`vcs_env.observations.sense`);
+``tests/test_kernels.py`` checks every kernel against it on random inputs. They give identical
+bits except for ``atan2`` (holonomic robots' heading): numba calls the C library, numpy its own
+vectorized ``arctan2``, which differ by at most one unit in the last place.
+
+Kernels are compiled on first use and cached on disk (``cache=True``; ``NUMBA_CACHE_DIR`` moves
+the cache).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_PI = np.pi
+_TWO_PI = 2.0 * np.pi
+
+
+@njit(cache=True, inline="always")
+def _wrap(a):
+    """:func:`vcs_env.geometry.wrap_angle` of one angle [rad]."""
+    w = np.mod(a + _PI, _TWO_PI) - _PI
+    return w + _TWO_PI if w <= -_PI else w
+
+
+@njit(cache=True, inline="always")
+def _clip(x, lo, hi):
+    """``np.clip`` of one number (``minimum(maximum(x, lo), hi)``)."""
+    return min(max(x, lo), hi)
+
+
+@njit(cache=True, inline="always")
+def _disc_scale(x, y, radius):
+    """The factor of ``dynamics._clip_disc``: scales ``(x, y)`` longer than ``radius`` onto the disc."""
+    norm = math.sqrt(x * x + y * y)
+    return radius / max(norm, 1e-300) if norm > radius else 1.0
+
+
+@njit(cache=True, inline="always")
+def _closest_approach(sx, sy, ex, ey):
+    """:func:`vcs_env.geometry.closest_approach` of one relative motion from ``(sx, sy)`` to ``(ex, ey)`` [m]."""
+    dx = ex - sx
+    dy = ey - sy
+    dd = dx * dx + dy * dy
+    s = -(sx * dx + sy * dy) / dd if dd > 0.0 else 0.0
+    s = _clip(s, 0.0, 1.0)
+    cx = sx + s * dx
+    cy = sy + s * dy
+    return math.sqrt(cx * cx + cy * cy)
+
+
+@njit(cache=True)
+def integrate(pos, heading, speed, v_max, a_max, omega_max, acted, actions, dt, holonomic, absolute):
+    """New speed ``(B, n)`` [m/s], heading ``(B, n)`` [rad] and position ``(B, n, 2)`` [m] after
+    one step of ``actions`` ``(B, n, 2)`` (checked finite), as :func:`vcs_env.dynamics.integrate`
+    followed by the simulator's masking: robots that did not act (``acted`` false) keep their
+    position and heading and get speed 0."""
+    B, n = speed.shape
+    new_speed = np.empty((B, n))
+    new_heading = np.empty((B, n))
+    new_pos = np.empty((B, n, 2))
+    for b in range(B):
+        for i in range(n):
+            if not acted[b, i]:
+                new_speed[b, i] = 0.0
+                new_heading[b, i] = heading[b, i]
+                new_pos[b, i, 0] = pos[b, i, 0]
+                new_pos[b, i, 1] = pos[b, i, 1]
+                continue
+            a0 = _clip(actions[b, i, 0], -1.0, 1.0)
+            a1 = _clip(actions[b, i, 1], -1.0, 1.0)
+            dv_max = a_max[b, i] * dt
+            h = heading[b, i]
+            if holonomic:
+                c = math.cos(h)
+                s = math.sin(h)
+                vx = speed[b, i] * c
+                vy = speed[b, i] * s
+                f = _disc_scale(a0, a1, 1.0)
+                ux = a0 * f
+                uy = a1 * f
+                if not absolute:
+                    # Velocity change in the robot frame, rotated into the world frame.
+                    dx = (c * ux - s * uy) * dv_max
+                    dy = (s * ux + c * uy) * dv_max
+                else:
+                    tx = ux * v_max[b, i] - vx
+                    ty = uy * v_max[b, i] - vy
+                    g = _disc_scale(tx, ty, dv_max)
+                    dx = tx * g
+                    dy = ty * g
+                wx = vx + dx
+                wy = vy + dy
+                g = _disc_scale(wx, wy, v_max[b, i])
+                wx = wx * g
+                wy = wy * g
+                sp = math.sqrt(wx * wx + wy * wy)
+                hd = math.atan2(wy, wx) if sp > 1e-12 else h
+            else:
+                dth_max = omega_max[b, i] * dt
+                if not absolute:
+                    dv = a0 * dv_max
+                    dth = a1 * dth_max
+                else:
+                    dv = _clip((a0 + 1.0) * 0.5 * v_max[b, i] - speed[b, i], -dv_max, dv_max)
+                    dth = _clip(_wrap(a1 * _PI - h), -dth_max, dth_max)
+                sp = _clip(speed[b, i] + dv, 0.0, v_max[b, i])
+                hd = _wrap(h + dth)
+            new_speed[b, i] = sp
+            new_heading[b, i] = hd
+            step = sp * dt
+            new_pos[b, i, 0] = pos[b, i, 0] + step * math.cos(hd)
+            new_pos[b, i, 1] = pos[b, i, 1] + step * math.sin(hd)
+    return new_speed, new_heading, new_pos
+
+
+@njit(cache=True)
+def swept_events(pos, new_pos, radius, present, acted, goal, obs_pos, new_obs, obs_radius, r_goal):
+    """Swept collision and goal tests of one step (straight motions from ``pos`` to ``new_pos``
+    ``(B, n, 2)`` and ``obs_pos`` to ``new_obs`` ``(B, m, 2)`` [m]).
+
+    Returns ``robot_hits (B, n, n)``, ``obstacle_hits (B, n, m)``, ``collided (B, n)``,
+    ``reached (B, n)`` (bool), ``min_separation (B, n)``, ``goal_dist_before (B, n)`` and
+    ``goal_dist_after (B, n)`` [m], as defined by :class:`vcs_env.sim.StepEvents`.
+    """
+    B, n = radius.shape
+    m = obs_radius.shape[1]
+    robot_hits = np.zeros((B, n, n), dtype=np.bool_)
+    obstacle_hits = np.zeros((B, n, m), dtype=np.bool_)
+    collided = np.zeros((B, n), dtype=np.bool_)
+    reached = np.zeros((B, n), dtype=np.bool_)
+    min_sep = np.empty((B, n))
+    before = np.empty((B, n))
+    after = np.empty((B, n))
+    for b in range(B):
+        for i in range(n):
+            px, py = pos[b, i, 0], pos[b, i, 1]
+            qx, qy = new_pos[b, i, 0], new_pos[b, i, 1]
+            gx, gy = goal[b, i, 0], goal[b, i, 1]
+            bx, by = gx - px, gy - py
+            ax, ay = gx - qx, gy - qy
+            before[b, i] = math.sqrt(bx * bx + by * by)
+            after[b, i] = math.sqrt(ax * ax + ay * ay)
+            if not acted[b, i]:
+                min_sep[b, i] = np.inf
+                continue
+            reached[b, i] = _closest_approach(px - gx, py - gy, qx - gx, qy - gy) <= r_goal
+            sep = np.inf
+            hit = False
+            if present[b, i]:
+                for j in range(n):
+                    if j == i or not present[b, j]:
+                        continue
+                    gap = _closest_approach(
+                        pos[b, j, 0] - px, pos[b, j, 1] - py, new_pos[b, j, 0] - qx, new_pos[b, j, 1] - qy
+                    ) - (radius[b, i] + radius[b, j])
+                    sep = min(sep, gap)
+                    if gap < 0.0:
+                        robot_hits[b, i, j] = True
+                        hit = True
+                for k in range(m):
+                    gap = _closest_approach(
+                        obs_pos[b, k, 0] - px, obs_pos[b, k, 1] - py, new_obs[b, k, 0] - qx, new_obs[b, k, 1] - qy
+                    ) - (radius[b, i] + obs_radius[b, k])
+                    sep = min(sep, gap)
+                    if gap < 0.0:
+                        obstacle_hits[b, i, k] = True
+                        hit = True
+            collided[b, i] = hit
+            min_sep[b, i] = sep
+    return robot_hits, obstacle_hits, collided, reached, min_sep, before, after
+
+
+@njit(cache=True)
+def observe(
+    pos,
+    heading,
+    speed,
+    radius,
+    goal,
+    v_max,
+    a_max,
+    omega_max,
+    present,
+    obs_pos,
+    obs_vel,
+    obs_radius,
+    r_ca,
+    goal_scale,
+    k,
+    v_ref,
+    a_ref,
+    omega_ref,
+    r_ref,
+):
+    """Observations ``(B, n, 8 + 8 k)`` float32 as documented in :mod:`vcs_env.observations`.
+
+    The neighbour slots hold the ``k`` sensed objects (robots still in the world, then
+    obstacles, whose centres lie within ``r_ca``) with the smallest gap, ties by index (robots
+    before obstacles), in the order of :func:`vcs_env.observations.sense`.
+    """
+    B, n = speed.shape
+    m = obs_radius.shape[1]
+    total = n + m
+    out = np.zeros((B, n, 8 + 8 * k), dtype=np.float32)
+    gaps = np.empty(total)
+    order = np.empty(total, dtype=np.int64)
+    cos_h, sin_h, vel = np.empty(n), np.empty(n), np.empty((n, 2))
+    for b in range(B):
+        for i in range(n):  # every robot's frame and velocity, once per world
+            cos_h[i] = math.cos(heading[b, i])
+            sin_h[i] = math.sin(heading[b, i])
+            vel[i, 0] = speed[b, i] * cos_h[i]
+            vel[i, 1] = speed[b, i] * sin_h[i]
+        for i in range(n):
+            c, s = cos_h[i], sin_h[i]
+            vx, vy = vel[i, 0], vel[i, 1]
+            px, py = pos[b, i, 0], pos[b, i, 1]
+            gx, gy = goal[b, i, 0] - px, goal[b, i, 1] - py
+            d_goal = math.sqrt(gx * gx + gy * gy)
+            o = out[b, i]
+            o[0] = _clip(speed[b, i] / v_max[b, i], -1.0, 1.0)
+            o[1] = _clip(min(d_goal / goal_scale, 1.0), -1.0, 1.0)
+            if d_goal > 1e-12:
+                o[2] = _clip((c * gx + s * gy) / d_goal, -1.0, 1.0)
+                o[3] = _clip((-s * gx + c * gy) / d_goal, -1.0, 1.0)
+            else:
+                o[2] = 1.0
+                o[3] = 0.0
+            o[4] = _clip(v_max[b, i] / v_ref, -1.0, 1.0)
+            o[5] = _clip(a_max[b, i] / a_ref, -1.0, 1.0)
+            o[6] = _clip(omega_max[b, i] / omega_ref, -1.0, 1.0)
+            o[7] = _clip(radius[b, i] / r_ref, -1.0, 1.0)
+            # Sensed objects and their gaps [m], kept sorted by (gap, index): insertion sort,
+            # cheap for the few objects within r_ca.
+            count = 0
+            for j in range(total):
+                if j < n:
+                    if j == i or not present[b, j]:
+                        continue
+                    rx, ry, rj = pos[b, j, 0] - px, pos[b, j, 1] - py, radius[b, j]
+                else:
+                    q = j - n
+                    rx, ry, rj = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py, obs_radius[b, q]
+                dist = math.sqrt(rx * rx + ry * ry)
+                if not dist <= r_ca:
+                    continue
+                gap = dist - rj - radius[b, i]
+                t = count
+                while t > 0 and gaps[t - 1] > gap:
+                    gaps[t] = gaps[t - 1]
+                    order[t] = order[t - 1]
+                    t -= 1
+                gaps[t] = gap
+                order[t] = j
+                count += 1
+            for t in range(min(k, count)):
+                j = order[t]
+                if j < n:
+                    rx, ry = pos[b, j, 0] - px, pos[b, j, 1] - py
+                    ux, uy = vel[j, 0], vel[j, 1]
+                    rj = radius[b, j]
+                else:
+                    q = j - n
+                    rx, ry = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py
+                    ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
+                    rj = obs_radius[b, q]
+                wx, wy = ux - vx, uy - vy
+                base = 8 + 8 * t
+                o[base] = 1.0
+                o[base + 1] = _clip((c * rx + s * ry) / r_ca, -1.0, 1.0)
+                o[base + 2] = _clip((-s * rx + c * ry) / r_ca, -1.0, 1.0)
+                o[base + 3] = _clip((c * wx + s * wy) / (2.0 * v_ref), -1.0, 1.0)
+                o[base + 4] = _clip((-s * wx + c * wy) / (2.0 * v_ref), -1.0, 1.0)
+                o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
+                o[base + 6] = _clip(gaps[t] / r_ca, -1.0, 1.0)
+                o[base + 7] = 1.0 if j < n else 0.0
+    return out
+
+
+@njit(cache=True)
+def arbitrary_velocity(heading, speed, rates, period, t, dt):
+    """:class:`vcs_env.obstacles.Arbitrary` motion: turn every obstacle's ``heading`` ``(B, m)``
+    [rad] (updated in place) at the rate ``rates`` ``(B, m, P)`` [rad/s] of the period that
+    contains time ``t`` ``(B,)`` [s] (periods of ``period`` ``(B, m)`` [s]), and return the
+    velocity over the step ``(B, m, 2)`` [m/s] at ``speed`` ``(B, m)`` [m/s]."""
+    B, m = heading.shape
+    last = rates.shape[2] - 1
+    vel = np.empty((B, m, 2))
+    for b in range(B):
+        for q in range(m):
+            k = min(max(np.int64(math.floor(t[b] / period[b, q] + 1e-9)), 0), last)
+            h = heading[b, q] + rates[b, q, k] * dt
+            heading[b, q] = h
+            vel[b, q, 0] = math.cos(h) * speed[b, q]
+            vel[b, q, 1] = math.sin(h) * speed[b, q]
+    return vel
+
+
+@njit(cache=True)
+def bounce(obs_pos, vel, obs_radius, half, dt):
+    """Arena walls at ``+-half`` [m]: reverse each velocity component ``(B, m, 2)`` [m/s] that
+    would carry its disc through a wall during the step. Returns the new velocities and the
+    ``flip`` mask ``(B, m, 2)`` (the motion model is told with ``reflect``)."""
+    B, m = obs_radius.shape
+    out = np.empty((B, m, 2))
+    flip = np.zeros((B, m, 2), dtype=np.bool_)
+    for b in range(B):
+        for q in range(m):
+            r = obs_radius[b, q]
+            for d in range(2):
+                v = vel[b, q, d]
+                nxt = obs_pos[b, q, d] + v * dt
+                f = (nxt + r > half and v > 0) or (nxt - r < -half and v < 0)
+                flip[b, q, d] = f
+                out[b, q, d] = -v if f else v
+    return out, flip
+
+
+@njit(cache=True)
+def commit(active, present, reached_ever, collided_ever, speed, reached, collided, terminate, park):
+    """End of a step, in place on the world's ``(B, n)`` arrays: record the step's ``reached``
+    and ``collided`` events; robots that arrived (or crashed, with ``terminate``) stop being
+    active and get speed 0 [m/s]; without ``park`` they also leave the world (``present``)."""
+    B, n = active.shape
+    for b in range(B):
+        for i in range(n):
+            reached_ever[b, i] |= reached[b, i]
+            collided_ever[b, i] |= collided[b, i]
+            stopped = reached[b, i] or (terminate and collided[b, i])
+            if stopped:
+                active[b, i] = False
+                if not park:
+                    present[b, i] = False
+            if not active[b, i]:
+                speed[b, i] = 0.0
