@@ -187,6 +187,10 @@ FINGERPRINTS = {
     "crowd-5-v0": "da508bb1ccbe803c",
     "crowd-20-v0": "d058c166c0502a14",
     "dynamic-v0": "7807d1e035719215",
+    "circle-40-v0": "6692b5af4ed37c75",
+    "circle-40-symmetric-v0": "db4964fed54eec57",
+    "random-dense-v0": "20c20a70ed1fbe31",
+    "crowd-10-v0": "e5911e00eedb3f45",
 }
 
 

@@ -10,17 +10,23 @@ suite                      episodes content
 ``circle-8-v0``            100      8 robots to the antipodes of a circle of radius 5 m
 ``circle-16-v0``           100      16 robots, circle radius 6 m
 ``circle-24-v0``           50       24 robots, circle radius 7 m
+``circle-40-v0``           10       40 robots, circle radius 11 m, 90 s
+``circle-40-symmetric-v0`` 10       the same from perfectly symmetric starts (no jitter)
+``random-dense-v0``        100      12 robots, random starts and goals in an 8 m square (robots
+                                    park inside the traffic)
 ``swap-v0``                100      6 robots = 3 head-on pairs on lanes 1.2 m apart, 10 m long
 ``crossing-v0``            100      two groups of 4 crossing at 90 degrees, 10 m long
 ``crowd-5-v0``             100      1 robot among 5 non-reactive obstacles (CrowdNav circle
                                     crossing, radius 4 m, constant velocity 0.5-1 m/s)
+``crowd-10-v0``            100      1 robot among 10 non-reactive obstacles, radius 5 m
 ``crowd-20-v0``            100      1 robot among 20 non-reactive obstacles, radius 6 m
 ``dynamic-v0``             100      4 robots, random starts and goals, among 6 obstacles on
                                     arbitrary (random-turning, wall-bouncing) trajectories
 ========================== ======== =============================================================
 
 Every suite has a ``-smoke`` variant (``circle-16-v0-smoke``, ...) for CI: its first 3 seeds,
-and fewer robots where the full suite is big (``circle-24-v0-smoke`` has 12). Smoke numbers
+and fewer robots where the full suite is big (``circle-24-v0-smoke`` has 12, the 40-robot
+circles 16). Smoke numbers
 are not results; they only show that a policy runs.
 
 Conventions:
@@ -33,8 +39,8 @@ Conventions:
 * Circle, swap and crossing starts carry 0.1 m of jitter: without it every seed gives the same
   layout, and a deterministic planner would play one episode 100 times.
 * Robots: radius 0.25 m, v_max 1 m/s, a_max 0.5 m/s^2, omega_max pi/2 rad/s (unicycle), dt 0.1 s.
-  Time limits: 60 s (600 steps); crowd-5 30 s, crowd-20 40 s. Crowd bodies spawn 0.2 m apart
-  (CrowdNav's discomfort distance), the others 0.3 m.
+  Time limits: 60 s (600 steps); circle-40 90 s, crowd-5 30 s, crowd-10 35 s, crowd-20 40 s.
+  Crowd bodies spawn 0.2 m apart (CrowdNav's discomfort distance), the others 0.3 m.
 * Scenarios are written out field by field (not derived from :data:`~vcs_env.scenario.SCENARIOS`,
   whose presets may be retuned).
 
@@ -113,8 +119,8 @@ _COMMON = dict(
 )
 
 
-def _circle(n: int, radius: float) -> Scenario:
-    return Scenario(kind="circle", n_robots=n, layout_radius=radius, jitter=0.1, max_steps=600, **_COMMON)
+def _circle(n: int, radius: float, jitter: float = 0.1, max_steps: int = 600) -> Scenario:
+    return Scenario(kind="circle", n_robots=n, layout_radius=radius, jitter=jitter, max_steps=max_steps, **_COMMON)
 
 
 def _crowd(m: int, radius: float, max_steps: int) -> Scenario:
@@ -155,7 +161,26 @@ def _build() -> dict[str, Suite]:
             _seeds(100),
             "two groups of 4 robots crossing at 90 degrees",
         ),
+        Suite(
+            "circle-40-v0",
+            _circle(40, 11.0, max_steps=900),
+            _seeds(10),
+            "40 robots swap to the antipodes of an 11 m circle",
+        ),
+        Suite(
+            "circle-40-symmetric-v0",
+            _circle(40, 11.0, jitter=0.0, max_steps=900),
+            _seeds(10),
+            "40 robots, perfectly symmetric starts (seeds change only the planners' noise)",
+        ),
+        Suite(
+            "random-dense-v0",
+            Scenario(kind="random", n_robots=12, arena_half_size=4.0, max_steps=600, **_COMMON),
+            _seeds(100),
+            "12 robots, random starts and goals in an 8 m square: robots park inside the traffic",
+        ),
         Suite("crowd-5-v0", _crowd(5, 4.0, 300), _seeds(100), "1 robot among 5 non-reactive obstacles (CrowdNav)"),
+        Suite("crowd-10-v0", _crowd(10, 5.0, 350), _seeds(100), "1 robot among 10 non-reactive obstacles"),
         Suite("crowd-20-v0", _crowd(20, 6.0, 400), _seeds(100), "1 robot among 20 non-reactive obstacles"),
         Suite(
             "dynamic-v0",
@@ -177,7 +202,7 @@ def _build() -> dict[str, Suite]:
             "4 robots among 6 obstacles on random-turning, wall-bouncing trajectories",
         ),
     ]
-    smoke_robots = {"circle-24-v0": 12}
+    smoke_robots = {"circle-24-v0": 12, "circle-40-v0": 16, "circle-40-symmetric-v0": 16}
     out: dict[str, Suite] = {}
     for s in full:
         out[s.name] = s
