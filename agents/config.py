@@ -1,7 +1,10 @@
 """Typed run configs shared by the ``vcs-env`` commands, and their command-line flags.
 
 :class:`ScenarioConfig` with :func:`build_scenario` is the one way from flags to a scenario
-(``rollout``, ``train``, ``collect``; ``evaluate`` and ``compare`` take named suites).
+(``rollout``, ``train``, ``collect``); :func:`probe_scenario` builds the same flags on the
+conventions of the evaluation suites (``evaluate`` / ``compare`` without ``--suite``), and
+:func:`suite_differences` lists how a training scenario differs from the suite of its family.
+:func:`mixture_scenarios` expands a training mixture (``--mixture``) into one scenario per world.
 
 Every config is a dataclass whose fields carry a docstring (cleanrl style); :func:`add_config_args`
 turns the fields into ``--flags`` whose help is that docstring, so the config, its JSON copy
@@ -50,6 +53,10 @@ class ScenarioConfig:
     circle, i.e. one fixed layout; the evaluation suites use 0.1)."""
     on_collision: str | None = None
     """terminate or continue (None: the preset's, terminate)."""
+    layout_radius: float | None = None
+    """Circle radius for circle/crowd, half lane length for swap/crossing [m] (None: the preset's)."""
+    obstacle_speed: tuple[float, ...] | None = None
+    """Obstacle speed range LOW HIGH [m/s], drawn per obstacle and episode (None: the preset's)."""
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential)."""
@@ -66,10 +73,7 @@ def build_scenario(cfg: ScenarioConfig):
     if cfg.shaping not in SHAPING:
         raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
     over: dict[str, Any] = {}
-    for name in ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision"):
-        value = getattr(cfg, name)
-        if value is not None:
-            over[name] = value
+    over.update(_overrides(cfg))
     weights = parse_weights(cfg.rewards)
     if cfg.shaping != "none":
         weight = DEFAULT_SHAPING_WEIGHT[cfg.shaping] if cfg.shaping_weight is None else cfg.shaping_weight
@@ -77,6 +81,95 @@ def build_scenario(cfg: ScenarioConfig):
     if weights:
         over["rewards"] = weights
     return make_scenario(cfg.scenario, **over)
+
+
+_SCENARIO_FLAGS = ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed")
+
+
+def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:
+    """The Scenario fields a config sets (flags given), by name."""
+    over = {name: getattr(cfg, name) for name in _SCENARIO_FLAGS if getattr(cfg, name) is not None}
+    if "obstacle_speed" in over:
+        over["obstacle_speed"] = tuple(float(v) for v in over["obstacle_speed"])
+        if len(over["obstacle_speed"]) != 2:
+            raise ValueError(f"obstacle_speed must be two numbers LOW HIGH [m/s], got {over['obstacle_speed']}")
+    return over
+
+
+def family_suite(kind: str):
+    """The full evaluation suite of a layout kind (``circle`` -> ``circle-8-v0``, ``crowd`` ->
+    ``crowd-5-v0``: the first one defined), or None if no suite uses that kind."""
+    from vcs_env.suites import SUITES
+
+    return next((s for s in SUITES.values() if not s.is_smoke and s.scenario.kind == kind), None)
+
+
+def probe_scenario(cfg: ScenarioConfig):
+    """A scenario for ad-hoc evaluation: the scenario of the suite of the preset's family
+    (:func:`family_suite`: its jitter, ``on_collision="continue"``, spacing, limits ...) with the
+    flags given in ``cfg`` applied; presets without a suite (random, custom) start from the preset.
+    Reward flags are ignored (they do not change the metrics)."""
+    from vcs_env.scenario import SCENARIOS, make_scenario
+
+    if cfg.scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {cfg.scenario!r}; presets are {sorted(SCENARIOS)}")
+    suite = family_suite(SCENARIOS[cfg.scenario].kind)
+    base = SCENARIOS[cfg.scenario] if suite is None else suite.scenario
+    over = _overrides(cfg)
+    if suite is not None and "n_robots" in over and base.kind == "circle" and "layout_radius" not in over:
+        # The suites' circle radius is for their n; keep the preset's rule (max(5, 0.3 n) [m]).
+        over["layout_radius"] = None
+    return make_scenario(base, **over)
+
+
+_DIFF_FIELDS = (
+    "jitter", "on_collision", "min_separation", "circle_radius", "max_steps", "dt", "r_goal", "r_ca", "n_neighbors",
+    "robot", "obstacle_motion", "obstacle_radius", "obstacle_speed", "park_finished",
+)  # fmt: skip
+
+
+def suite_differences(scenario) -> tuple[str | None, list[str]]:
+    """How ``scenario`` differs from the suite of its family (:func:`family_suite`) on the fields
+    that set the difficulty (jitter, collision handling, spacing, radius, limits, sensing,
+    obstacles); robot and obstacle counts and rewards are not compared.
+
+    Returns:
+        The suite name (None if the kind has no suite) and one ``"field: ours (suite: theirs)"``
+        line per differing field.
+    """
+    suite = family_suite(scenario.kind)
+    if suite is None:
+        return None, []
+    out = []
+    for name in _DIFF_FIELDS:
+        ours, theirs = getattr(scenario, name), getattr(suite.scenario, name)
+        if ours != theirs:
+            out.append(f"{name}: {ours} (suite: {theirs})")
+    return suite.name, out
+
+
+def print_suite_differences(scenario, doing: str = "training on") -> list[str]:
+    """Print (and return) :func:`suite_differences`, so a run that differs from the suites says so."""
+    suite, diffs = suite_differences(scenario)
+    if diffs:
+        print(f"note: {doing} {scenario.kind} with settings unlike its suite {suite}: " + "; ".join(diffs), flush=True)
+    return diffs
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``"5000:5100"`` -> seeds 5000..5099 (start included, stop excluded, like ``range``);
+    ``"7"`` -> (7,). Raises ``ValueError`` naming the expected form."""
+    start, sep, stop = str(text).partition(":")
+    try:
+        lo = int(start)
+        hi = int(stop) if sep else lo + 1
+    except ValueError:
+        raise ValueError(f"--seeds must be START:STOP (integers, e.g. 5000:5100) or one seed, got {text!r}") from None
+    if lo < 0 or hi <= lo:
+        raise ValueError(f"--seeds START:STOP needs 0 <= START < STOP, got {text!r}")
+    if hi - lo > 100_000:
+        raise ValueError(f"--seeds {text!r} asks for {hi - lo} episodes; at most 100000")
+    return tuple(range(lo, hi))
 
 
 def parse_weights(text: str | None) -> dict[str, float]:

@@ -38,6 +38,7 @@ from .config import (
     add_config_args,
     build_scenario,
     config_command,
+    print_suite_differences,
     config_from_args,
     config_from_dict,
 )
@@ -237,6 +238,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     from .checkpoint import resolve
 
     scenario = build_scenario(cfg)
+    print_suite_differences(scenario)
     if cfg.init and resume:
         raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1:
