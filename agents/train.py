@@ -38,9 +38,9 @@ from .config import (
     add_config_args,
     build_scenario,
     config_command,
-    print_suite_differences,
     config_from_args,
     config_from_dict,
+    print_suite_differences,
 )
 
 
