@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import ast
+import math
 import dataclasses
 import functools
 import inspect
@@ -292,3 +293,92 @@ def config_from_dict(cls: type, data: dict[str, Any]):
     names = {f.name for f in dataclasses.fields(cls)}
     kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items() if k in names}
     return cls(**kw)
+
+
+# --------------------------------------------------------------------------- mixtures
+MIXTURE_FIELDS = {
+    "n_robots": int,
+    "n_obstacles": int,
+    "jitter": float,
+    "layout_radius": float,
+    "obstacle_speed": float,
+}
+"""Scenario fields a mixture entry may set, with their type. ``obstacle_speed=LO-HI`` sets the
+scenario's speed interval (drawn per obstacle and episode); the others give a value or a grid."""
+
+
+def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
+    """``"circle:n_robots=4-16/4,jitter=0-0.4"`` -> ``("circle", {"n_robots": (4, 8, 12, 16),
+    "jitter": (0.0, 0.2, 0.4)})``.
+
+    ``FIELD=V`` is one value; ``FIELD=LO-HI/STEP`` the grid LO, LO+STEP, ... up to HI; without
+    ``/STEP`` integers step by 1 and floats give 3 levels (LO, middle, HI).
+    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)``.
+    """
+    from vcs_env.scenario import SCENARIOS
+
+    preset, _, rest = text.partition(":")
+    preset = preset.strip()
+    if preset not in SCENARIOS:
+        raise ValueError(f"mixture entry {text!r}: unknown scenario {preset!r}; presets are {sorted(SCENARIOS)}")
+    fields: dict[str, tuple] = {}
+    for item in filter(None, (p.strip() for p in rest.split(","))):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in MIXTURE_FIELDS:
+            raise ValueError(
+                f"mixture entry {text!r}: {item!r} must be FIELD=VALUE or FIELD=LO-HI[/STEP] with FIELD in "
+                f"{list(MIXTURE_FIELDS)}"
+            )
+        conv = MIXTURE_FIELDS[name]
+        body, _, step_text = value.partition("/")
+        lo_text, dash, hi_text = body.strip().partition("-")
+        try:
+            lo = conv(lo_text)
+            hi = conv(hi_text) if dash else lo
+            step = conv(step_text) if step_text else None
+        except ValueError:
+            raise ValueError(f"mixture entry {text!r}: {name} needs {conv.__name__} values, got {value!r}") from None
+        if hi < lo or (step is not None and step <= 0):
+            raise ValueError(f"mixture entry {text!r}: {name} needs LO <= HI and STEP > 0, got {value!r}")
+        if name == "obstacle_speed":
+            fields[name] = ((lo, hi),)
+        elif conv is int:
+            fields[name] = tuple(range(lo, hi + 1, step or 1))
+        elif hi == lo:
+            fields[name] = (lo,)
+        else:
+            step = step if step is not None else (hi - lo) / 2
+            count = int(math.floor((hi - lo) / step + 1e-9)) + 1
+            fields[name] = tuple(round(lo + k * step, 12) for k in range(count))
+    return preset, fields
+
+
+def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
+    """Every scenario of a mixture: for each entry (:func:`parse_mixture_entry`) the product of its
+    grids, applied to the preset together with the config's common flags (``max_steps``,
+    ``on_collision``, ``rewards``, shaping). The per-scenario flags of ``cfg`` (``scenario``,
+    ``n_robots``, ``n_obstacles``, ``jitter``, ``layout_radius``, ``obstacle_speed``) must be
+    unset: entries set those. All scenarios must share one observation config."""
+    import itertools
+
+    from vcs_env.observations import observation_config
+
+    per_entry = ("n_robots", "n_obstacles", "jitter", "layout_radius", "obstacle_speed")
+    clash = [f for f in per_entry if getattr(cfg, f) is not None]
+    if clash:
+        flags = ", ".join("--" + f.replace("_", "-") for f in clash)
+        raise ValueError(f"with --mixture, set {flags} inside the mixture entries (e.g. circle:n_robots=8)")
+    out = []
+    for entry in mixture:
+        preset, fields = parse_mixture_entry(entry)
+        names = list(fields)
+        for values in itertools.product(*(fields[n] for n in names)):
+            sub = dataclasses.replace(cfg, scenario=preset, **dict(zip(names, values)))
+            out.append(build_scenario(sub))
+    if not out:
+        raise ValueError("--mixture needs at least one entry, e.g. circle:n_robots=4-12/4 crowd")
+    configs = [observation_config(s) for s in out]
+    if any(c != configs[0] for c in configs):
+        raise ValueError(f"mixture scenarios must share one observation config, got {configs[0]} and others")
+    return out
