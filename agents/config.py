@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import argparse
 import ast
-import math
 import dataclasses
 import functools
 import inspect
+import math
 import shlex
 import textwrap
 import types

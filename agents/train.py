@@ -161,9 +161,8 @@ def scalar_results(res: dict[str, Any]) -> dict[str, float]:
 def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from .checkpoint import save_model
+    from .checkpoint import save_model, scenario_family
     from .evaluate import evaluate as score_on_suite
-    from .checkpoint import scenario_family
     from .evaluate import score_scenarios
     from .policies import predictor_controller
 
@@ -300,8 +299,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
     what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
     print(
-        f"training {what} shaping={cfg.shaping}: "
-        f"{venv.num_envs} slots, {remaining} timesteps -> {out}",
+        f"training {what} shaping={cfg.shaping}: {venv.num_envs} slots, {remaining} timesteps -> {out}",
         flush=True,
     )
     if remaining > 0:
