@@ -1,5 +1,7 @@
 """SB3 ``VecEnv`` over one batched :class:`~vcs_env.engine.NavEngine`: one slot per (world, robot).
 
+(:class:`MixtureVecEnv` puts several of them side by side, one per scenario of a training mixture.)
+
 Parameter sharing: one SB3 policy acts for every robot. ``B`` worlds of ``n`` robots give
 ``num_envs = B * n`` slots; slot ``j = b * n + i`` is robot ``i`` of world ``b``. A ``step``
 is ONE batched engine call for all worlds (no loop over envs).
