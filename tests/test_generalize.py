@@ -32,7 +32,7 @@ def test_probe_scenario_starts_from_the_family_suite():
     assert s.circle_radius == 5.0 and probe_scenario(ScenarioConfig(n_robots=24)).circle_radius == pytest.approx(7.2)
     crowd = probe_scenario(ScenarioConfig(scenario="crowd", n_obstacles=3, obstacle_speed=(1.0, 1.5)))
     assert (crowd.n_obstacles, crowd.obstacle_speed, crowd.min_separation) == (3, (1.0, 1.5), 0.2)
-    assert probe_scenario(ScenarioConfig(scenario="random")).kind == "random"  # no suite: the preset
+    assert probe_scenario(ScenarioConfig(scenario="custom")) == build_scenario(ScenarioConfig(scenario="custom"))
 
 
 def test_training_differences_from_the_suite_are_listed():
@@ -40,7 +40,7 @@ def test_training_differences_from_the_suite_are_listed():
     assert suite == "crowd-5-v0"
     assert diffs == ["on_collision: terminate (suite: continue)", "min_separation: 0.3 (suite: 0.2)"]
     assert suite_differences(get_suite("swap-v0").scenario) == ("swap-v0", [])
-    assert suite_differences(build_scenario(ScenarioConfig(scenario="random"))) == (None, [])
+    assert suite_differences(build_scenario(ScenarioConfig(scenario="custom"))) == (None, [])  # no custom suite
 
 
 def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
