@@ -316,9 +316,9 @@ def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):
     res = evaluate(str(tmp_path / "good.zip"), suite, progress=False)
     assert res.policy == "good" and len(res.rows) == SMOKE_SEEDS
 
-    other = gymnasium.spaces.Box(-1.0, 1.0, (16,), dtype=np.float32)
+    other = gymnasium.spaces.Box(-1.0, 1.0, (19,), dtype=np.float32)
     PPO("MlpPolicy", SpacesOnly(other), n_steps=8, batch_size=8, device="cpu").save(tmp_path / "other.zip")
-    with pytest.raises(ValueError, match=r"observation space Box\(16,\)"):
+    with pytest.raises(ValueError, match=r"observation space Box\(19,\)"):
         evaluate(tmp_path / "other.zip", suite, progress=False)
 
 
