@@ -122,25 +122,26 @@ def need_unicycle(wk, npend, nblk, r, nv, nth, lmax, tmax):
     """
     rows, cols, ccos, csin = wk.rows, wk.cols, wk.ccos, wk.csin
     nbs, pending, need, blk = wk.nbs, wk.pending, wk.need, wk.blk
-    order_axes(rows, cols, r.v_r, r.v_max, nv, nth)
+    v_r, v_max, dv1, dth1, th = r.v_r, r.v_max, r.dv1, r.dth1, r.th  # locals: stores cannot change them
+    order_axes(rows, cols, v_r, v_max, nv, nth)
     nr_prev = 0
     nc_prev = 0
     left_todo = npend
     for lev in range(lmax + 1):
         nr = nr_prev
-        while nr < nv and steps_for(r.v_max * rows[nr] / (nv - 1) - r.v_r, r.dv1) <= lev:
+        while nr < nv and steps_for(v_max * rows[nr] / (nv - 1) - v_r, dv1) <= lev:
             nr += 1
         nc = nc_prev
-        while nc < nth and 0 <= cols[nc] < nth and steps_for(-math.pi + 2.0 * math.pi * cols[nc] / nth, r.dth1) <= lev:
+        while nc < nth and 0 <= cols[nc] < nth and steps_for(-math.pi + 2.0 * math.pi * cols[nc] / nth, dth1) <= lev:
             t = cols[nc]
-            ccos[t] = math.cos(r.th - math.pi + 2.0 * math.pi * t / nth)
-            csin[t] = math.sin(r.th - math.pi + 2.0 * math.pi * t / nth)
+            ccos[t] = math.cos(th - math.pi + 2.0 * math.pi * t / nth)
+            csin[t] = math.sin(th - math.pi + 2.0 * math.pi * t / nth)
             nc += 1
         # New points of this level: new rows x all columns so far, old rows x new columns.
         for part in range(2):
             r_lo, r_hi, c_lo, c_hi = (nr_prev, nr, 0, nc) if part == 0 else (0, nr_prev, nc_prev, nc)
             for ri in range(r_lo, r_hi):
-                sp = r.v_max * rows[ri] / (nv - 1)
+                sp = v_max * rows[ri] / (nv - 1)
                 for ci in range(c_lo, c_hi):
                     t = cols[ci]
                     left_todo -= mark_escapes(
@@ -160,10 +161,11 @@ def need_holonomic(wk, npend, nblk, r, nv, nth, tmax):
     todo = npend
     nbs, pending, need, blk = wk.nbs, wk.pending, wk.need, wk.blk
     cspeed, ccol, cstep, ccos, csin = wk.cspeed, wk.ccol, wk.cstep, wk.ccos, wk.csin
+    vrx, vry = r.vrx, r.vry
     for c in range(1, cspeed.shape[0]):
         col = ccol[c]
-        vx = cspeed[c] * ccos[col] if col >= 0 else r.vrx
-        vy = cspeed[c] * csin[col] if col >= 0 else r.vry
+        vx = cspeed[c] * ccos[col] if col >= 0 else vrx
+        vy = cspeed[c] * csin[col] if col >= 0 else vry
         todo -= mark_escapes(nbs, pending, need, blk, npend, nblk, vx, vy, cstep[c], tmax)
         if todo == 0:
             break
@@ -210,14 +212,16 @@ def set_horizons(wk, count, r, p):
     """T_need and the horizon T_h of every record (vcs-method §2.7), and the pruning bounds.
     T_need is the least reach time over a coarse grid of the VCS domain of the points outside
     the neighbour's untruncated cone (0 if the current velocity is)."""
-    nbs = wk.nbs
+    nbs, need, pending = wk.nbs, wk.need, wk.pending
     tmax = p.t_max
+    adaptive = p.horizon < 0.0
+    vrx, vry, v_max, v_r, dt = r.vrx, r.vry, r.v_max, r.v_r, r.dt  # locals: stores cannot change them
     npend = 0
     for q in range(count):
-        wk.need[q] = 0.0
-        if p.horizon < 0.0 and in_untruncated_cone(nbs[q], r.vrx, r.vry):
-            wk.need[q] = -1.0
-            wk.pending[npend] = q
+        need[q] = 0.0
+        if adaptive and in_untruncated_cone(nbs[q], vrx, vry):
+            need[q] = -1.0
+            pending[npend] = q
             npend += 1
     n_contest = contesting_movers(nbs, count, r, tmax)
     nblk = 0
@@ -235,12 +239,12 @@ def set_horizons(wk, count, r, p):
             need_unicycle(wk, npend, nblk, r, p.coarse_n_v, p.coarse_n_theta, lmax, tmax)
     for q in range(count):
         nb = nbs[q]
-        nb.th = horizon_of(nb, wk.need[q], p, r.v_r, r.dt, n_contest)
+        nb.th = horizon_of(nb, need[q], p, v_r, dt, n_contest)
         # Pruning: every candidate has |w| <= scale (v_max + |apex|), so tau >= gap / that.
         if nb.overlap:
             nb.bound = 0.0
             nb.jbound = 0.0
         else:
             gap = nb.d - nb.reff
-            nb.bound = gap / (nb.scale * (r.v_max + math.sqrt(nb.apx**2 + nb.apy**2)) + TINY)
-            nb.jbound = gap / (nb.jscale * (r.v_max + math.sqrt(nb.jax**2 + nb.jay**2)) + TINY)
+            nb.bound = gap / (nb.scale * (v_max + math.sqrt(nb.apx**2 + nb.apy**2)) + TINY)
+            nb.jbound = gap / (nb.jscale * (v_max + math.sqrt(nb.jax**2 + nb.jay**2)) + TINY)

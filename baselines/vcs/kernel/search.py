@@ -43,34 +43,36 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
 @njit(cache=True)
 def grid_axes(g, r, win):
     """Rows (speed change) and columns (direction change) of the window grid, precomputed."""
+    dv1, dth1, th = r.dv1, r.dth1, r.th  # locals: stores to the grid cannot change them
     for a in range(win.nv):
         g.dv_row[a] = win.lo_v + (win.hi_v - win.lo_v) * a / (win.nv - 1)
-        g.kv_row[a] = steps_for(g.dv_row[a], r.dv1)
+        g.kv_row[a] = steps_for(g.dv_row[a], dv1)
     for t in range(win.nth):
         if win.full:
             dth = -math.pi + 2.0 * math.pi * t / win.nth
         else:
             dth = -win.half + 2.0 * win.half * t / (win.nth - 1)
         g.dth_col[t] = dth
-        g.kt_col[t] = steps_for(dth, r.dth1)
-        g.cth[t] = math.cos(r.th + dth)
-        g.sth[t] = math.sin(r.th + dth)
+        g.kt_col[t] = steps_for(dth, dth1)
+        g.cth[t] = math.cos(th + dth)
+        g.sth[t] = math.sin(th + dth)
 
 
 @njit(cache=True)
 def cheap_columns(g, r, nth):
     """Per-column parts of the neighbour-free cost: J_g^2 = g_row[a] + g_mul[a] e_col[t] +
     g_col[t] (separable in both goal metrics), the change, hysteresis and bias terms."""
+    goal_vcs, gth, pvx, pvy, pdth, has_prev, wb = r.goal_vcs, r.gth, r.pvx, r.pvy, r.pdth, r.has_prev, r.wb
     for t in range(nth):
-        if r.goal_vcs:
+        if goal_vcs:
             g.e_col[t] = 0.0
-            g.g_col[t] = 0.5 * (wrap(g.dth_col[t] - r.gth) / math.pi) ** 2
+            g.g_col[t] = 0.5 * (wrap(g.dth_col[t] - gth) / math.pi) ** 2
         else:
-            g.e_col[t] = g.cth[t] * r.pvx + g.sth[t] * r.pvy
+            g.e_col[t] = g.cth[t] * pvx + g.sth[t] * pvy
             g.g_col[t] = 0.0
         g.c_col[t] = (g.dth_col[t] / math.pi) ** 2
-        g.h_col[t] = (wrap(g.dth_col[t] - r.pdth) / math.pi) ** 2 if r.has_prev else 0.0
-        g.b_col[t] = r.wb * max(g.dth_col[t], 0.0) / math.pi
+        g.h_col[t] = (wrap(g.dth_col[t] - pdth) / math.pi) ** 2 if has_prev else 0.0
+        g.b_col[t] = wb * max(g.dth_col[t], 0.0) / math.pi
 
 
 @njit(cache=True)
@@ -78,10 +80,11 @@ def holonomic_mask(g, r, win, wr):
     """The holonomic window is a disc of radius k a_max dt around the velocity: grid points
     beyond it get inf, the others their holonomic reach steps (weight ``wr``) in J_r."""
     nth = win.nth
+    v_r, vrx, vry, dv1 = r.v_r, r.vrx, r.vry, r.dv1
     for a in range(win.nv):
-        s = r.v_r + g.dv_row[a]
+        s = v_r + g.dv_row[a]
         for t in range(nth):
-            steps = math.ceil(math.sqrt((s * g.cth[t] - r.vrx) ** 2 + (s * g.sth[t] - r.vry) ** 2) / r.dv1 - STEP_SLACK)
+            steps = math.ceil(math.sqrt((s * g.cth[t] - vrx) ** 2 + (s * g.sth[t] - vry) ** 2) / dv1 - STEP_SLACK)
             c = a * nth + t
             if steps > win.k:
                 g.cheap[c] = INF
@@ -103,12 +106,13 @@ def cheap_grid(g, r, win):
     wc = r.wc * SQRT_HALF
     wh = r.wh * SQRT_HALF if r.has_prev else 0.0
     wr = r.wr / r.kmax
+    v_r, pdv, gv, goal_vcs = r.v_r, r.pdv, r.gv, r.goal_vcs
     for a in range(nv):
-        s = r.v_r + g.dv_row[a]
+        s = v_r + g.dv_row[a]
         c_row = (g.dv_row[a] * inv_v) ** 2
-        h_row = ((g.dv_row[a] - r.pdv) * inv_v) ** 2
-        if r.goal_vcs:
-            g_row = 0.5 * ((g.dv_row[a] - r.gv) * inv_v) ** 2
+        h_row = ((g.dv_row[a] - pdv) * inv_v) ** 2
+        if goal_vcs:
+            g_row = 0.5 * ((g.dv_row[a] - gv) * inv_v) ** 2
             g_mul = 0.0
         else:
             g_row = s * s + pv2
@@ -165,8 +169,9 @@ def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
     cheap in [t_prev, t) (each point once), the band doubling each pass. Returns the new
     ``(best, dv, dth)``; of equal costs the first grid point wins."""
     nth = win.nth
+    v_r, ws, tau_s = r.v_r, r.ws, r.tau_s
     best_c = -1
-    delta = max(r.ws, 0.02)
+    delta = max(ws, 0.02)
     t_prev = -INF
     t_cur = lo_c + delta
     while True:
@@ -176,14 +181,14 @@ def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
                 continue
             a = c // nth
             t = c % nth
-            s = r.v_r + g.dv_row[a]
+            s = v_r + g.dv_row[a]
             vx = s * g.cth[t]
             vy = s * g.sth[t]
             if not admissible(nbs, adm, na, vx, vy):
                 continue
             j = x
-            if r.ws > 0.0:
-                j += r.ws * safety_term(nbs, js, nj, r.tau_s, vx, vy)
+            if ws > 0.0:
+                j += ws * safety_term(nbs, js, nj, tau_s, vx, vy)
             if j < best or (j == best and c < best_c):
                 if not ramp_clear(nbs, count, r, g.dv_row[a], g.dth_col[t]):
                     continue
