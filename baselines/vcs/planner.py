@@ -63,6 +63,7 @@ class _Memory:
         advance = ~fresh & (world.steps == self.step + 1)
         same = ~fresh & (world.steps == self.step)
         clear = ~(advance | same)
+        every_advance, every_clear = advance.all(), clear.all()  # the usual cases, without masks
         for a, b in (
             (self.prev_in, self.prev_out),
             (self.has_prev_in, self.has_prev_out),
@@ -71,8 +72,13 @@ class _Memory:
             (self.ref_in, self.ref_out),
             (self.wait_in, self.wait_out),
         ):
-            a[advance] = b[advance]
-            a[clear] = 0
+            if every_advance:
+                a[...] = b
+            elif every_clear:
+                a[...] = 0
+            else:
+                a[advance] = b[advance]
+                a[clear] = 0
         self.step = world.steps.copy()
         self.key = world.key.copy()
 
