@@ -14,6 +14,11 @@ that both agree). Per robot (vcs-method §2.14), by stage:
 5. :mod:`.fallback`: the least-bad point when none is admissible (vcs-method §2.13).
 
 Named records (:mod:`.records`) carry the parameters, the robot's context and the neighbour state.
+
+Numba's on-disk cache (``cache=True``) is invalidated per source file only: a caller compiled from
+:mod:`.search` keeps the code of a stage module it inlined. After editing a stage module, clear
+the cache (``__pycache__/*.nbi``, ``*.nbc``, or ``NUMBA_CACHE_DIR``) before measuring or testing;
+``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
 from .records import PARAMS, Inputs, Outputs, Setting, World, params_record
