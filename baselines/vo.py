@@ -31,7 +31,8 @@ Random samples come from :mod:`vcs_env.noise`, keyed by ``world.key``, ``world.s
 robot index, so a plan depends only on the world state (no generator is kept). The robot-pair
 apexes are computed with numpy (:func:`pair_apexes`, HRVO apex from
 :func:`baselines.vcs.geometry.hrvo_apex`); sensing, the overlap rule and the candidate loop are
-compiled with numba (:func:`choose`), one call for all robots of all worlds.
+compiled with numba (:func:`choose`, sensing shared with the VCS kernel:
+:func:`baselines.vcs.kernel.neighbours.sense`), one call for all robots of all worlds.
 """
 
 from __future__ import annotations
@@ -46,7 +47,9 @@ from vcs_env.state import WorldState
 
 from .common import VelocityPlanner, preferred_velocity
 from .vcs.geometry import hrvo_apex, rvo_apex
-from .vcs.kernel import tau, tau_within
+from .vcs.kernel.neighbours import sense, sort_nearest
+from .vcs.kernel.records import SENSED
+from .vcs.kernel.scalar import tau, tau_within
 
 SAFETY_WEIGHT = 7.5
 """Default ``w`` of the penalty [s m/s]: the RVO Library's safety factor."""
@@ -108,7 +111,7 @@ def pair_apexes(world: WorldState, method: str, pref: np.ndarray) -> np.ndarray:
 @njit(cache=True)
 def threatened(rec, order, count, vx, vy, horizon):
     """Does candidate ``(vx, vy)`` [m/s] meet some neighbour record within ``horizon`` [s] (> 0)?
-    (No square root: :func:`baselines.vcs.kernel.tau_within`.)"""
+    (No square root: :func:`baselines.vcs.kernel.scalar.tau_within`.)"""
     for q in range(count):
         rc = rec[order[q]]
         wx = vx - rc[2]
@@ -167,40 +170,31 @@ def choose(
     rec = np.empty((n + m, 7))
     key = np.empty(n + m)
     order = np.empty(n + m, dtype=np.int64)
+    sensed = np.empty(n + m, dtype=SENSED)
     for b in range(B):
         for i in range(n):
             out_vel[b, i, 0] = 0.0
             out_vel[b, i, 1] = 0.0
             if not active[b, i]:
                 continue
-            count = 0
-            for j in range(n + m):
+            count = sense(b, i, pos, radius, present, obs_pos, obs_radius, r_ca, sensed)
+            for q in range(count):
+                o = sensed[q]
+                j = o.idx
                 if j < n:
-                    if j == i or not present[b, j]:
-                        continue
-                    px = pos[b, j, 0] - pos[b, i, 0]
-                    py = pos[b, j, 1] - pos[b, i, 1]
-                    r = radius[b, i] + radius[b, j]
                     recip = reciprocal and active[b, j]
                     # Parked robots stand still.
                     vjx = vel[b, j, 0] if active[b, j] else 0.0
                     vjy = vel[b, j, 1] if active[b, j] else 0.0
                 else:
-                    k = j - n
-                    px = obs_pos[b, k, 0] - pos[b, i, 0]
-                    py = obs_pos[b, k, 1] - pos[b, i, 1]
-                    r = radius[b, i] + obs_radius[b, k]
                     recip = False
-                    vjx = obs_vel[b, k, 0]
-                    vjy = obs_vel[b, k, 1]
-                d = math.sqrt(px * px + py * py)
-                if d > r_ca:
-                    continue
-                rc = rec[count]
-                rc[0] = px
-                rc[1] = py
-                rc[5] = r
-                if d <= r:
+                    vjx = obs_vel[b, j - n, 0]
+                    vjy = obs_vel[b, j - n, 1]
+                rc = rec[q]
+                rc[0] = o.px
+                rc[1] = o.py
+                rc[5] = o.r
+                if o.d <= o.r:
                     # Overlap: the cone is undefined; half-plane through the RVO or passive apex.
                     rc[2] = 0.5 * (vel[b, i, 0] + vjx) if recip else vjx
                     rc[3] = 0.5 * (vel[b, i, 1] + vjy) if recip else vjy
@@ -211,14 +205,9 @@ def choose(
                     rc[3] = apexes[b, i, j, 1] if recip else vjy
                     rc[4] = 2.0 if recip else 1.0
                     rc[6] = 0.0
-                # Nearest surface first, so that the candidate loop can stop early.
-                key[count] = d - r
-                slot = count
-                while slot > 0 and key[order[slot - 1]] > key[count]:
-                    order[slot] = order[slot - 1]
-                    slot -= 1
-                order[slot] = count
-                count += 1
+                key[q] = o.d - o.r
+            # Nearest surface first, so that the candidate loop can stop early.
+            sort_nearest(order, key, count)
             best = np.inf
             for c in range(ns + 1):
                 if c == 0:

@@ -17,39 +17,6 @@ from .geometry import velocity_to_vcs
 from .params import VCSParams
 
 
-def param_vector(p: VCSParams) -> np.ndarray:
-    """The kernel's float parameter vector (layout in :mod:`baselines.vcs.kernel`)."""
-    prm = np.zeros(kernel.N_PARAMS)
-    prm[kernel.P_DELTA_MIN] = p.delta_min
-    prm[kernel.P_DELTA_S] = p.delta_s
-    prm[kernel.P_EPS] = p.eps_overlap
-    prm[kernel.P_TMAX] = p.t_max
-    prm[kernel.P_TM] = p.t_margin
-    prm[kernel.P_TM_ROBOT] = p.t_margin_robots
-    prm[kernel.P_HORIZON] = p.horizon_value
-    prm[kernel.P_TAU_S] = p.tau_s
-    prm[kernel.P_KAPPA] = p.kappa
-    (prm[kernel.P_WG], prm[kernel.P_WS], prm[kernel.P_WC], prm[kernel.P_WR], prm[kernel.P_WH], prm[kernel.P_WB]) = (
-        p.weights
-    )
-    prm[kernel.P_NV] = p.n_v
-    prm[kernel.P_NTH] = p.n_theta
-    prm[kernel.P_NTH_FULL] = p.n_theta_full
-    prm[kernel.P_CNV] = p.coarse_n_v
-    prm[kernel.P_CNTH] = p.coarse_n_theta
-    prm[kernel.P_ONE_STEP] = 1.0 if p.window == "one_step" else 0.0
-    prm[kernel.P_RECIP] = {"hrvo": kernel.R_HRVO, "rvo": kernel.R_RVO, "vo": kernel.R_VO}[p.reciprocity]
-    prm[kernel.P_MARGIN] = p.window_margin_steps
-    prm[kernel.P_GMETRIC] = 1.0 if p.goal_metric == "vcs" else 0.0
-    prm[kernel.P_STOP] = float(p.stop_margin)
-    prm[kernel.P_JOINT] = float(p.joint_escape)
-    prm[kernel.P_RAMP] = float(p.ramp_check)
-    prm[kernel.P_ARRIVE] = float(p.arriving_non_reactive)
-    prm[kernel.P_LEAST_HARM] = 1.0 if p.fallback == "least_harm" else 0.0
-    prm[kernel.P_CROWD] = float(p.crowd_margin)
-    return prm
-
-
 @dataclasses.dataclass
 class _Memory:
     """Per-robot memory across periods, kept idempotent: ``inp`` is what the plan at step
@@ -96,6 +63,7 @@ class _Memory:
         advance = ~fresh & (world.steps == self.step + 1)
         same = ~fresh & (world.steps == self.step)
         clear = ~(advance | same)
+        every_advance, every_clear = advance.all(), clear.all()  # the usual cases, without masks
         for a, b in (
             (self.prev_in, self.prev_out),
             (self.has_prev_in, self.has_prev_out),
@@ -104,8 +72,13 @@ class _Memory:
             (self.ref_in, self.ref_out),
             (self.wait_in, self.wait_out),
         ):
-            a[advance] = b[advance]
-            a[clear] = 0
+            if every_advance:
+                a[...] = b
+            elif every_clear:
+                a[...] = 0
+            else:
+                a[advance] = b[advance]
+                a[clear] = 0
         self.step = world.steps.copy()
         self.key = world.key.copy()
 
@@ -137,7 +110,7 @@ class VCSPlanner(Planner):
         if not isinstance(base, VCSParams):
             raise ValueError(f"params must be a VCSParams, got {type(base).__name__}")
         self.params = dataclasses.replace(base, **overrides) if overrides else base
-        self._prm = param_vector(self.params)
+        self._prm = kernel.params_record(self.params)
         self._mem: _Memory | None = None
         self._cache_key: tuple | None = None
         self._cache_target: np.ndarray | None = None
@@ -178,13 +151,16 @@ class VCSPlanner(Planner):
         return own, pref, detour
 
     def _kernel_inputs(self, world: WorldState, own, comm, detour) -> tuple:
-        """The world, preferred velocities, memory and parameters, in the kernels' order."""
+        """The world, preferred velocities and memory, and the setting, as the kernels' records."""
         mem = self._mem
         r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
         return (
-            world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
-            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius, own, comm, detour,
-            mem.prev_in, mem.has_prev_in, self._prm, float(r_ca), float(world.dt), bool(world.holonomic),
+            kernel.World(
+                world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
+                world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
+            ),
+            kernel.Inputs(own, comm, detour, mem.prev_in, mem.has_prev_in),
+            kernel.Setting(self._prm, float(r_ca), float(world.dt), bool(world.holonomic)),
         )  # fmt: skip
 
     # -------------------------------------------------------------------- plan
@@ -205,23 +181,17 @@ class VCSPlanner(Planner):
         mem = self._mem
         mem.sync(world)
         own, comm, detour = self._inputs(world)
-        out_target = np.zeros((B, n, 2))
-        out_cost = np.zeros((B, n))
-        out_fallback = np.zeros((B, n), dtype=np.bool_)
-        out_k = np.zeros((B, n), dtype=np.int64)
-        out_tstar = np.zeros((B, n))
-        out_threats = np.zeros((B, n), dtype=np.int64)
-        out_g1 = np.zeros((B, n, 2))
-        kernel.plan_batch(
-            *self._kernel_inputs(world, own, comm, detour),
-            out_target,
-            out_cost,
-            out_fallback,
-            out_k,
-            out_tstar,
-            out_threats,
-            out_g1,
+        out = kernel.Outputs(
+            np.zeros((B, n, 2)),
+            np.zeros((B, n)),
+            np.zeros((B, n), dtype=np.bool_),
+            np.zeros((B, n), dtype=np.int64),
+            np.zeros((B, n)),
+            np.zeros((B, n), dtype=np.int64),
+            np.zeros((B, n, 2)),
         )
+        kernel.plan_batch(*self._kernel_inputs(world, own, comm, detour), out)
+        out_target = out.target
         # Residual of the target after this period's saturated command (for J_h next period).
         dv, dth = out_target[..., 0], out_target[..., 1]
         if world.holonomic:
@@ -236,12 +206,12 @@ class VCSPlanner(Planner):
         cap = sum(self.params.weights) + 1.0
         self.last = {
             "target": out_target,
-            "cost": np.minimum(out_cost, cap),
-            "fallback": out_fallback,
-            "k": out_k,
-            "t_star": out_tstar,
-            "threats": out_threats,
-            "goal_step": out_g1,
+            "cost": np.minimum(out.cost, cap),
+            "fallback": out.fallback,
+            "k": out.k,
+            "t_star": out.t_star,
+            "threats": out.threats,
+            "goal_step": out.goal_step,
             "goal_point": np.stack(velocity_to_vcs(own, world.speed, world.heading), axis=-1),
             "detour": detour,
         }
@@ -276,14 +246,5 @@ class VCSPlanner(Planner):
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
         cost = np.zeros(dv.shape[0])
         horizon = np.zeros(2 * world.n_robots + world.n_obstacles)
-        kernel.evaluate_points(
-            b,
-            i,
-            *self._kernel_inputs(world, own, comm, detour),
-            dv,
-            dth,
-            ok,
-            cost,
-            horizon,
-        )
+        kernel.evaluate_points(b, i, *self._kernel_inputs(world, own, comm, detour), dv, dth, ok, cost, horizon)
         return ok, cost, horizon

@@ -1,0 +1,39 @@
+"""The VCS planner's inner loops, compiled with numba (one call plans every robot of every world).
+
+Scalar math mirrors :mod:`baselines.vcs.geometry` (which is the readable reference; tests check
+that both agree). Per robot (vcs-method §2.14), by stage:
+
+1. :mod:`.neighbours`: what the robot senses within r_ca, one record each: regulated radius r_eff
+   (vcs-method §2.6), cone and apex (vcs-method §2.1, vcs-method §2.4), current time to
+   collision t_c0;
+2. :mod:`.horizon`: time needed to leave each cone T_need and the horizon T_h (vcs-method §2.7);
+3. :mod:`.cost`: admissibility and the multi-objective cost J of a candidate (vcs-method §2.12);
+4. :mod:`.window` and :mod:`.search`: the window W_k* sized by the first threat (vcs-method §2.10)
+   and the point search over a grid of W_k* plus {G, 0, clip1(G)} (vcs-method §2.11): the
+   cheapest admissible point wins;
+5. :mod:`.fallback`: the least-bad point when none is admissible (vcs-method §2.13).
+
+Named records (:mod:`.records`) carry the parameters, the robot's context and the neighbour state.
+
+Numba's on-disk cache (``cache=True``) is invalidated per source file only: a caller compiled from
+:mod:`.search` keeps the code of a stage module it inlined. After editing a stage module, clear
+the cache (``__pycache__/*.nbi``, ``*.nbc``, or ``NUMBA_CACHE_DIR``) before measuring or testing;
+``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
+"""
+
+from .records import PARAMS, Inputs, Outputs, Setting, World, params_record
+from .scalar import tau, tau_within
+from .search import evaluate_points, plan_batch
+
+__all__ = [
+    "PARAMS",
+    "Inputs",
+    "Outputs",
+    "Setting",
+    "World",
+    "evaluate_points",
+    "params_record",
+    "plan_batch",
+    "tau",
+    "tau_within",
+]

@@ -1,0 +1,203 @@
+"""Stage 3, cost: the robot's context, admissibility of a candidate and its multi-objective cost
+J (vcs-method §2.11, vcs-method §2.12), and the check along the way (vcs-method §2.15)."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .neighbours import forbidden
+from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY
+from .scalar import reach_steps, tau, tau_within, wrap
+
+
+@njit(cache=True)
+def robot_context(b, i, world, inputs, p, dt, holo, rec):
+    """Robot i of world b as the search sees it, written into ``rec[0]`` (a :data:`~.records.ROBOT`
+    record), with its goal point G = M^-1(v_pref) (vcs-method §2.9); G = (-v_R, 0) when v_pref = 0."""
+    v_r = world.speed[b, i]
+    th = world.heading[b, i]
+    v_max = world.v_max[b, i]
+    dv1 = world.a_max[b, i] * dt
+    if holo:
+        dth1 = math.pi
+        kmax = float(max(math.ceil(2.0 * v_max / dv1 - STEP_SLACK), 1.0))
+    else:
+        dth1 = world.omega_max[b, i] * dt
+        kmax = float(max(math.ceil(v_max / dv1 - STEP_SLACK), math.ceil(math.pi / dth1 - STEP_SLACK)))
+    pvx = inputs.vpref[b, i, 0]
+    pvy = inputs.vpref[b, i, 1]
+    ps = math.sqrt(pvx * pvx + pvy * pvy)
+    if ps > TINY:
+        gv = ps - v_r
+        gth = wrap(math.atan2(pvy, pvx) - th)
+    else:
+        gv = -v_r
+        gth = 0.0
+    r = rec[0]
+    r.v_r, r.th, r.vrx, r.vry, r.v_max = v_r, th, v_r * math.cos(th), v_r * math.sin(th), v_max
+    r.dv1, r.dth1, r.kmax, r.pvx, r.pvy, r.gv, r.gth = dv1, dth1, kmax, pvx, pvy, gv, gth
+    # A detour after a stall (vcs-method §2.13) drops the safety band and the smoothness terms, which can
+    # otherwise make staying stopped cheaper than the large turn the robot needs.
+    detour = inputs.detour[b, i]
+    r.wg = p.w_goal
+    r.ws = 0.0 if detour else p.w_safety
+    r.wc = 0.0 if detour else p.w_change
+    r.wr = 0.0 if detour else p.w_reach
+    r.wh = 0.0 if detour else p.w_hysteresis
+    r.wb = p.w_bias
+    r.has_prev = inputs.has_prev[b, i]
+    r.pdv = inputs.prev[b, i, 0]
+    r.pdth = inputs.prev[b, i, 1]
+    r.holo = holo
+    r.tau_s = p.tau_s
+    r.goal_vcs = p.goal_vcs
+    r.ramp = p.ramp_check
+    r.dt = dt
+    r.ramp_gap = 0.5 * p.delta_min
+
+
+@njit(cache=True)
+def relevant(nbs, order, count, tau_s, adm, js):
+    """Neighbours that can matter for some candidate: ``adm`` those that may forbid one
+    (tau can fall within T_h), ``js`` those that may enter the safety band. Nearest first.
+    Returns both counts."""
+    na = 0
+    nj = 0
+    for q in range(count):
+        x = order[q]
+        if nbs[x].bound <= nbs[x].th:
+            adm[na] = x
+            na += 1
+        if nbs[x].jbound <= nbs[x].th + tau_s:
+            js[nj] = x
+            nj += 1
+    return na, nj
+
+
+@njit(cache=True)
+def admissible(nbs, adm, na, vx, vy):
+    """Outside every neighbour's truncated forbidden set (vcs-method §2.11)."""
+    for q in range(na):
+        if forbidden(nbs[adm[q]], vx, vy):
+            return False
+    return True
+
+
+@njit(cache=True)
+def goal_term(r, dv, dth, vx, vy):
+    """J_g in [0, 1]: distance to the goal point, in the VCS (``goal_metric="vcs"``) or in
+    velocity space (``"velocity"``: |v - v_pref| / (2 v_max), the RVO distance) (vcs-method §2.12)."""
+    if r.goal_vcs:
+        return math.sqrt(((dv - r.gv) / r.v_max) ** 2 + (wrap(dth - r.gth) / math.pi) ** 2) * SQRT_HALF
+    return math.sqrt((vx - r.pvx) ** 2 + (vy - r.pvy) ** 2) / (2.0 * r.v_max)
+
+
+@njit(cache=True)
+def cost_parts(r, dv, dth, vx, vy, steps, bound):
+    """The terms of J that do not depend on neighbours (vcs-method §2.12), a lower bound of J. Stops
+    early (returning a value >= bound) once the partial sum reaches ``bound``."""
+    v_max = r.v_max
+    j = r.wg * goal_term(r, dv, dth, vx, vy)
+    if j >= bound:
+        return j
+    j += r.wr * steps / r.kmax
+    if dth > 0.0:
+        j += r.wb * dth / math.pi
+    j += r.wc * math.sqrt((dv / v_max) ** 2 + (dth / math.pi) ** 2) * SQRT_HALF
+    if j >= bound:
+        return j
+    if r.has_prev:
+        j += r.wh * math.sqrt(((dv - r.pdv) / v_max) ** 2 + (wrap(dth - r.pdth) / math.pi) ** 2) * SQRT_HALF
+    return j
+
+
+@njit(cache=True)
+def safety_term(nbs, js, nj, tau_s, vx, vy):
+    """J_s: soft band of width ``tau_s`` [s] just beyond each neighbour's horizon (vcs-method §2.12)."""
+    out = 0.0
+    for q in range(nj):
+        nb = nbs[js[q]]
+        sc = nb.jscale
+        wx = sc * (vx - nb.jax)
+        wy = sc * (vy - nb.jay)
+        if not tau_within(nb.px, nb.py, wx, wy, nb.reff, nb.th + tau_s):
+            continue  # beyond the band: contributes 0
+        tc = tau(nb.px, nb.py, wx, wy, nb.reff)
+        val = min(max(1.0 - (tc - nb.th) / tau_s, 0.0), 1.0)
+        if val > out:
+            out = val
+    return out
+
+
+@njit(cache=True)
+def cost(nbs, js, nj, r, dv, dth, vx, vy, steps):
+    """Multi-objective cost J of a candidate (vcs-method §2.12)."""
+    j = cost_parts(r, dv, dth, vx, vy, steps, INF)
+    if r.ws > 0.0:
+        j += r.ws * safety_term(nbs, js, nj, r.tau_s, vx, vy)
+    return j
+
+
+@njit(cache=True)
+def ramp_velocity(r, dv, dth, ex, ey, e, k):
+    """Velocity [m/s] after ``k`` steps toward VCS point (dv, dth) at the maximal per-step rates
+    (holonomic: along the straight line ``(ex, ey)`` of length ``e`` [m/s])."""
+    if r.holo:
+        f = min(1.0, k * r.dv1 / max(e, TINY))
+        return r.vrx + f * ex, r.vry + f * ey
+    sk = r.v_r + min(max(dv, -k * r.dv1), k * r.dv1)
+    tk = r.th + min(max(dth, -k * r.dth1), k * r.dth1)
+    return sk * math.cos(tk), sk * math.sin(tk)
+
+
+@njit(cache=True)
+def ramp_clear(nbs, count, r, dv, dth):
+    """Admissible along the way (vcs-method §2.15): the motion that reaches the candidate, speed
+    and heading ramping at the maximal per-step rates (a holonomic velocity along the straight
+    line), keeps clear of every non-reactive neighbour, extrapolated at its velocity. The
+    velocity obstacles judge the end velocity only, as if it were reached at once; a turn that
+    sweeps through a parked robot on the way is caught here. Clear means a gap of at least
+    delta_min / 2, or no smaller than now if the robot is already closer."""
+    if not r.ramp:
+        return True
+    steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
+    if steps <= 1:
+        return True  # reached within the step: the velocity obstacles judge it
+    s_end = r.v_r + dv
+    ex = s_end * math.cos(r.th + dth) - r.vrx
+    ey = s_end * math.sin(r.th + dth) - r.vry
+    e = math.sqrt(ex * ex + ey * ey)
+    px = 0.0
+    py = 0.0
+    for k in range(1, steps + 1):
+        vx, vy = ramp_velocity(r, dv, dth, ex, ey, e, k)
+        px += vx * r.dt
+        py += vy * r.dt
+        t = k * r.dt
+        for q in range(count):
+            nb = nbs[q]
+            if nb.kind == K_RECIPROCAL or nb.overlap:
+                continue
+            gx = nb.px + nb.vjx * t - px
+            gy = nb.py + nb.vjy * t - py
+            clear = min(nb.r0 + r.ramp_gap, nb.d)
+            if gx * gx + gy * gy < clear * clear:
+                return False
+    return True
+
+
+@njit(cache=True)
+def consider(nbs, adm, na, js, nj, count, r, dv, dth, vx, vy, steps, best):
+    """J of a candidate if it is admissible (also along the way) and may beat ``best``, else inf."""
+    j = cost_parts(r, dv, dth, vx, vy, steps, best)
+    if j >= best:
+        return INF  # J_s >= 0: cannot win (ties keep the earlier candidate)
+    if not admissible(nbs, adm, na, vx, vy):
+        return INF
+    if r.ws > 0.0:
+        j += r.ws * safety_term(nbs, js, nj, r.tau_s, vx, vy)
+    if j < best and not ramp_clear(nbs, count, r, dv, dth):
+        return INF
+    return j

@@ -1,0 +1,82 @@
+"""Stage 5, fallback: the least-bad candidate when none is admissible (vcs-method §2.13)."""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .cost import goal_term
+from .neighbours import collision_time
+from .records import INF, T_FLOOR, TINY
+from .scalar import reach_steps
+from .window import candidate
+
+
+@njit(cache=True)
+def first_step(r, dv, dth, vx, vy):
+    """The velocity [m/s] after the first step toward the candidate (what this period commands)."""
+    if r.holo:
+        ex = vx - r.vrx
+        ey = vy - r.vry
+        f = min(1.0, r.dv1 / max(math.sqrt(ex * ex + ey * ey), TINY))
+        return r.vrx + f * ex, r.vry + f * ey
+    s1 = r.v_r + min(max(dv, -r.dv1), r.dv1)
+    th1 = r.th + min(max(dth, -r.dth1), r.dth1)
+    return s1 * math.cos(th1), s1 * math.sin(th1)
+
+
+@njit(cache=True)
+def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
+    """Cost of a candidate when nothing is admissible (vcs-method §2.13). The RVO-style penalty
+    ``kappa / t_c + J_g`` (t_c: the least time to collision over the neighbours), and with
+    ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
+    half-plane's violation [m/s], weighted kappa / dt), and a candidate that speeds up while it
+    closes faster than now on something it would hit within T_max (or already touches) is
+    refused (inf): braking and turning away remain, and keeping the current velocity always
+    does (vcs-method §2.13)."""
+    tmin = INF
+    viol = 0.0
+    v1x, v1y = first_step(r, dv, dth, vx, vy)
+    for q in range(count):
+        nb = nbs[q]
+        if least_harm and nb.overlap:
+            e = nb.hx * (vx - nb.apx) + nb.hy * (vy - nb.apy)
+            if e > viol:
+                viol = e
+        else:
+            tc = collision_time(nb, vx, vy)
+            if tc < tmin:
+                tmin = tc
+        if least_harm and dv > TINY and (nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax):
+            # The first step toward the candidate must not close faster on the threat than now.
+            ux = nb.px / max(nb.d, TINY)
+            uy = nb.py / max(nb.d, TINY)
+            if (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
+                return INF  # speeds up toward a threat
+    if least_harm:
+        return kappa / max(tmin, T_FLOOR) + kappa / r.dt * viol + goal_term(r, dv, dth, vx, vy)
+    return kappa / max(tmin, T_FLOOR) + goal_term(r, dv, dth, vx, vy)
+
+
+@njit(cache=True)
+def fallback_search(nbs, count, r, win, g1v, g1th, p):
+    """The candidate of least :func:`fallback_cost` over the window grid and the extra points
+    (a holonomic window is the disc of radius k a_max dt). Returns ``(cost, dv, dth)``."""
+    best = INF
+    bdv = 0.0
+    bdth = 0.0
+    ngrid = win.nv * win.nth
+    for c in range(ngrid + 3):
+        dv, dth = candidate(c, win, r, g1v, g1th)
+        if r.holo and c < ngrid and reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r) > win.k:
+            continue
+        s = r.v_r + dv
+        j = fallback_cost(
+            nbs, count, r, dv, dth, s * math.cos(r.th + dth), s * math.sin(r.th + dth), p.kappa, p.least_harm, p.t_max
+        )
+        if j < best:
+            best = j
+            bdv = dv
+            bdth = dth
+    return best, bdv, bdth

@@ -1,0 +1,305 @@
+"""Stage 1, neighbours: what robot i senses within r_ca, one :data:`~.records.NEIGHBOUR` record
+each (vcs-method §2.4, vcs-method §2.6), and the tests of a velocity against a record."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .records import (
+    ARRIVING_SLACK,
+    INF,
+    K_MOVER,
+    K_RECIPROCAL,
+    K_STATIC,
+    NEIGHBOUR,
+    R_RVO,
+    R_VO,
+    ROBOT,
+    SENSED,
+    STATIC_SPEED,
+    TINY,
+    Work,
+)
+from .scalar import tau, tau_within
+
+
+@njit(cache=True)
+def sense(b, i, pos, radius, present, obs_pos, obs_radius, r_ca, out):
+    """What robot i of world b senses: every other present robot, then every obstacle, whose
+    centre is within ``r_ca`` [m], into ``out`` (:data:`~.records.SENSED` records, in index
+    order): index, relative position [m], centre distance [m] and combined radius [m]. Returns
+    their number. Shared by the VCS kernel and the sampling VO planners."""
+    n = pos.shape[1]
+    count = 0
+    for j in range(n + obs_pos.shape[1]):
+        if j < n:
+            if j == i or not present[b, j]:
+                continue
+            qx = pos[b, j, 0] - pos[b, i, 0]
+            qy = pos[b, j, 1] - pos[b, i, 1]
+            rj = radius[b, j]
+        else:
+            qx = obs_pos[b, j - n, 0] - pos[b, i, 0]
+            qy = obs_pos[b, j - n, 1] - pos[b, i, 1]
+            rj = obs_radius[b, j - n]
+        d = math.sqrt(qx * qx + qy * qy)
+        if d > r_ca:
+            continue
+        o = out[count]
+        o.idx = j
+        o.px = qx
+        o.py = qy
+        o.d = d
+        o.r = radius[b, i] + rj
+        count += 1
+    return count
+
+
+@njit(cache=True)
+def sort_nearest(order, key, count):
+    """``order[:count]``: the indices 0..count-1 sorted by ``key`` (a stable insertion sort)."""
+    for a in range(count):
+        x = a
+        c = a - 1
+        while c >= 0 and key[order[c]] > key[x]:
+            order[c + 1] = order[c]
+            c -= 1
+        order[c + 1] = x
+
+
+@njit(cache=True)
+def robot_role(twin, active, speed, heading, v_max, pcx, pcy, p):
+    """Velocity [m/s] and role of a robot neighbour (``active``, ``speed`` [m/s], ``heading``
+    [rad], ``v_max`` [m/s], communicated preferred velocity ``(pcx, pcy)`` [m/s]):
+    ``(sensed, vjx, vjy, reciprocal, mover)``.
+
+    Responsibility by kind: only a robot that is still driving is reciprocal. A robot within
+    braking distance of its goal (its communicated preferred speed is below its v_max) is about
+    to park, and may stop at any moment (it parks on reaching its goal) or keep going: it gets
+    two records, a non-reactive mover at its current velocity and a static ``twin``, and the
+    robot takes full responsibility for both (vcs-method §2.4). Parked or crashed robots are
+    static obstacles."""
+    if not active:
+        return not twin, 0.0, 0.0, False, False
+    vjx = speed * math.cos(heading)
+    vjy = speed * math.sin(heading)
+    arriving = p.arriving_non_reactive and (pcx**2 + pcy**2 < (v_max * (1.0 - ARRIVING_SLACK)) ** 2)
+    if twin:
+        if not arriving or speed <= STATIC_SPEED:
+            return False, 0.0, 0.0, False, False
+        return True, 0.0, 0.0, p.reciprocity != R_VO and not arriving, True
+    return True, vjx, vjy, p.reciprocity != R_VO and not arriving, True
+
+
+@njit(cache=True)
+def fill_record(nb, qx, qy, d, r0, vjx, vjy, j, is_robot, mover, vrx, vry, a_max_i, p, r_ca, detour):
+    """Everything of a record but the cone (:func:`set_cone`) and the horizon (stage 2)."""
+    nb.px = qx
+    nb.py = qy
+    nb.d = d
+    nb.r0 = r0
+    nb.vjx = vjx
+    nb.vjy = vjy
+    nb.idx = j
+    nb.mover = mover
+    if is_robot:
+        nb.kind = K_RECIPROCAL
+    elif vjx * vjx + vjy * vjy > STATIC_SPEED * STATIC_SPEED:
+        nb.kind = K_MOVER
+    else:
+        nb.kind = K_STATIC
+    # Static objects: the margin also covers the robot's own stopping time (stage 2).
+    nb.stopk = 1.0 / a_max_i if (nb.kind == K_STATIC and p.stop_margin) else 0.0
+    # Current-course time to collision with the physical radius (vcs-method §2.6).
+    tc0 = tau(qx, qy, vrx - vjx, vry - vjy, r0)
+    nb.tc0 = tc0
+    # Size regulation: buffer grows with the collision-time and collision-distance factors.
+    kt = 0.0 if tc0 == INF else min(max((p.t_max - tc0) / p.t_max, 0.0), 1.0)
+    kd = min(max(1.0 - (d - r0) / r_ca, 0.0), 1.0)
+    reff = r0 + p.delta_min + (0.0 if detour else p.delta_s * max(kt, kd))
+    if d <= reff:
+        reff = max(r0, d - p.eps)  # keep the cone defined while not truly colliding
+    nb.reff = reff
+    # Relative velocity used by J_s: passive v - v_j; robots 2 v - v_R - v_j = 2 (v - m_j).
+    if is_robot:
+        nb.jax = 0.5 * (vrx + vjx)
+        nb.jay = 0.5 * (vry + vjy)
+        nb.jscale = 2.0
+    else:
+        nb.jax = vjx
+        nb.jay = vjy
+        nb.jscale = 1.0
+
+
+@njit(cache=True)
+def hrvo_apex(qx, qy, d, reff, vjx, vjy, mx, my, rpx, rpy):
+    """HRVO apex by explicit line intersection (vcs-method §2.4, vcs-method §2.17); the RVO apex
+    ``(mx, my)`` when the sides are parallel. ``(rpx, rpy)``: communicated preferred velocity of
+    the robot minus that of the neighbour [m/s] (the side to pass on)."""
+    # Tangents n = u(phi - alpha), l = u(phi + alpha): p_hat rotated by -/+ alpha.
+    sa = min(reff / d, 1.0)
+    ca = math.sqrt(1.0 - sa * sa)
+    ux = qx / d
+    uy = qy / d
+    nx = ux * ca + uy * sa
+    ny = -ux * sa + uy * ca
+    lx = ux * ca - uy * sa
+    ly = ux * sa + uy * ca
+    if qx * rpy - qy * rpx > 0.0:
+        # pass on the left: VO right side {v_j + s n} meets RVO left side {m + t l}
+        d1x, d1y, d2x, d2y = nx, ny, lx, ly
+    else:
+        d1x, d1y, d2x, d2y = lx, ly, nx, ny
+    den = d1x * d2y - d1y * d2x
+    if abs(den) < TINY:  # degenerate (alpha ~ 0 or pi/2): fall back to RVO
+        return mx, my
+    s = ((mx - vjx) * d2y - (my - vjy) * d2x) / den
+    return vjx + s * d1x, vjy + s * d1y
+
+
+@njit(cache=True)
+def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy):
+    """Apex and scale of the record's velocity obstacle, or the overlap half-plane (vcs-method §2.4)."""
+    vjx = nb.vjx
+    vjy = nb.vjy
+    if nb.d <= nb.r0:
+        # True penetration: forbidden half-plane (vcs-method §2.4 overlap rule).
+        nb.overlap = True
+        hx = nb.px / max(nb.d, TINY)
+        hy = nb.py / max(nb.d, TINY)
+        nb.hx = hx
+        nb.hy = hy
+        depth = (nb.r0 - nb.d) / dt
+        if is_robot:
+            nb.apx = 0.5 * (vrx + vjx) - 0.5 * depth * hx
+            nb.apy = 0.5 * (vry + vjy) - 0.5 * depth * hy
+        else:
+            nb.apx = vjx - depth * hx
+            nb.apy = vjy - depth * hy
+        nb.scale = 1.0
+        return
+    nb.overlap = False
+    if not is_robot:
+        nb.scale = 1.0
+        nb.apx = vjx
+        nb.apy = vjy
+        return
+    nb.scale = 2.0
+    mx = 0.5 * (vrx + vjx)
+    my = 0.5 * (vry + vjy)
+    if reciprocity == R_RVO:
+        nb.apx = mx
+        nb.apy = my
+    else:
+        nb.apx, nb.apy = hrvo_apex(nb.px, nb.py, nb.d, nb.reff, vjx, vjy, mx, my, rpx, rpy)
+
+
+@njit(cache=True)
+def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
+    """Fill the records of robot i in world b (all but the horizons, stage 2) into ``wk.nbs``.
+    Returns their number; ``wk.order`` lists them nearest surface first. During a stall detour
+    the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up. Records:
+    robots, obstacles, then the static twins of arriving robots, at most ``2 n + m``."""
+    n = world.pos.shape[1]
+    speed, heading, v_max, active, obs_vel = world.speed, world.heading, world.v_max, world.active, world.obs_vel
+    sensed, nbs, key = wk.sensed, wk.nbs, wk.key
+    ns = sense(b, i, world.pos, world.radius, world.present, world.obs_pos, world.obs_radius, r_ca, sensed)
+    v_r = speed[b, i]
+    vrx = v_r * math.cos(heading[b, i])
+    vry = v_r * math.sin(heading[b, i])
+    a_max_i = world.a_max[b, i]
+    count = 0
+    for twin in (False, True):  # then the static twins of arriving robots
+        for s in range(ns):
+            o = sensed[s]
+            j = o.idx
+            if j >= n:
+                if twin:
+                    continue
+                ok, vjx, vjy, is_robot, mover = True, obs_vel[b, j - n, 0], obs_vel[b, j - n, 1], False, False
+            else:
+                ok, vjx, vjy, is_robot, mover = robot_role(
+                    twin,
+                    active[b, j],
+                    speed[b, j],
+                    heading[b, j],
+                    v_max[b, j],
+                    pref_comm[b, j, 0],
+                    pref_comm[b, j, 1],
+                    p,
+                )
+            if not ok:
+                continue
+            nb = nbs[count]
+            fill_record(nb, o.px, o.py, o.d, o.r, vjx, vjy, j, is_robot, mover, vrx, vry, a_max_i, p, r_ca, detour)
+            rpx = 0.0
+            rpy = 0.0
+            if is_robot:
+                rpx = pref_comm[b, i, 0] - pref_comm[b, j, 0]
+                rpy = pref_comm[b, i, 1] - pref_comm[b, j, 1]
+            set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy)
+            key[count] = nb.d - nb.reff  # nearest surface first: inadmissible candidates fail early
+            count += 1
+    sort_nearest(wk.order, key, count)
+    return count
+
+
+@njit(cache=True)
+def forbidden_within(nb, vx, vy, horizon):
+    """Is velocity (vx, vy) inside the record's forbidden set truncated at ``horizon`` [s]?"""
+    if nb.overlap:
+        # Overlap: half-plane of velocities that do not separate fast enough (vcs-method §2.4).
+        return nb.hx * (vx - nb.apx) + nb.hy * (vy - nb.apy) > 0.0
+    s = nb.scale
+    return tau_within(nb.px, nb.py, s * (vx - nb.apx), s * (vy - nb.apy), nb.reff, horizon)
+
+
+@njit(cache=True)
+def forbidden(nb, vx, vy):
+    """Is velocity (vx, vy) inside the record's truncated forbidden set (vcs-method §2.7)?"""
+    return forbidden_within(nb, vx, vy, nb.th)
+
+
+@njit(cache=True)
+def in_untruncated_cone(nb, vx, vy):
+    """Is velocity (vx, vy) inside the record's cone (or overlap half-plane), at any horizon?"""
+    if nb.overlap:
+        return nb.hx * (vx - nb.apx) + nb.hy * (vy - nb.apy) > 0.0
+    s = nb.scale
+    return tau(nb.px, nb.py, s * (vx - nb.apx), s * (vy - nb.apy), nb.reff) < INF
+
+
+@njit(cache=True)
+def collision_time(nb, vx, vy):
+    """t_c,j(v) = tau(p, w_j(v), r_eff) with the class's relative velocity (vcs-method §2.12 J_s)."""
+    s = nb.jscale
+    return tau(nb.px, nb.py, s * (vx - nb.jax), s * (vy - nb.jay), nb.reff)
+
+
+@njit(cache=True)
+def work(n, m, p):
+    """Scratch arrays of stages 1 and 2 for ``n`` robots and ``m`` obstacles (:data:`~.records.Work`)."""
+    ctotal = p.coarse_n_v * p.coarse_n_theta + 1
+    k = 2 * n + m  # arriving robots have a static twin
+    return Work(
+        np.zeros(1, dtype=ROBOT),  # robot: the planning robot's context
+        np.zeros(n + m, dtype=SENSED),  # sensed: objects within r_ca
+        np.zeros(k, dtype=NEIGHBOUR),  # nbs: neighbour records
+        np.zeros(k, dtype=np.int64),  # order: nearest surface first
+        np.empty(k),  # key: surface distance d - r_eff [m]
+        np.empty(ctotal),  # cspeed, ccol, cstep: sorted coarse grid (holonomic)
+        np.empty(ctotal, dtype=np.int64),
+        np.empty(ctotal),
+        np.empty(p.coarse_n_theta),  # ccos, csin: coarse column directions
+        np.empty(p.coarse_n_theta),
+        np.empty(k, dtype=np.int64),  # pending: cones holding the current velocity
+        np.empty(k),  # need: T_need / dt per neighbour
+        np.empty(p.coarse_n_v, dtype=np.int64),  # rows, cols: coarse grid by level
+        np.empty(p.coarse_n_theta, dtype=np.int64),
+        np.empty(k, dtype=np.int64),  # blk: non-reactive neighbours that can close an escape
+        np.zeros(k, dtype=np.int64),  # adm: neighbours that may forbid a candidate
+        np.zeros(k, dtype=np.int64),  # js: neighbours that may enter the safety band
+    )
