@@ -15,7 +15,7 @@ saying which fields to change.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -40,6 +40,7 @@ class Layout:
     obs_pos: np.ndarray  # (m, 2) [m]
     obs_target: np.ndarray  # (m, 2) [m], second point for the motion model
     obs_radius: np.ndarray  # (m,) [m]
+    segments: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))  # (s, 2, 2) walls [m]
 
 
 class ScenarioKind:
@@ -53,6 +54,10 @@ class ScenarioKind:
     def default_radius(self, s: Scenario) -> float:
         """``layout_radius`` when the scenario leaves it None [m]."""
         return 5.0
+
+    def n_segments(self, s: Scenario) -> int:
+        """Most wall segments a layout of ``s`` has (the size of the world's segment arrays)."""
+        return 0
 
     def validate(self, s: Scenario) -> None:
         """Kind-specific field rules (``ValueError`` naming the field)."""
@@ -286,8 +291,12 @@ class Custom(ScenarioKind):
         if s.custom.speed is not None and max(s.custom.speed) > s.robot.v_max:
             raise ValueError(f"custom.speed must be <= robot.v_max = {s.robot.v_max}, got {max(s.custom.speed)}")
 
+    def n_segments(self, s: Scenario) -> int:
+        return len(s.custom.walls)
+
     def check_layout(self, s: Scenario) -> None:
         lay = self.generate(s, np.random.default_rng(0))
+        check_walls(s, lay)
         pos = np.concatenate((lay.start, lay.obs_pos))
         radius = np.concatenate((np.full(s.n_robots, s.robot.radius), lay.obs_radius))
         d = np.linalg.norm(pos[:, None] - pos[None], axis=-1) - radius[:, None] - radius[None]
@@ -301,7 +310,7 @@ class Custom(ScenarioKind):
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         c, n, m = s.custom, s.n_robots, s.n_obstacles
         obs_pos = np.array([o.positions[0] for o in c.obstacles], dtype=np.float64).reshape(m, 2)
-        return finish(
+        lay = finish(
             s,
             np.asarray(c.start, dtype=np.float64).reshape(n, 2),
             np.asarray(c.goal, dtype=np.float64).reshape(n, 2),
@@ -311,6 +320,8 @@ class Custom(ScenarioKind):
             heading=c.heading,
             speed=c.speed,
         )
+        lay.segments = np.array(c.walls, dtype=np.float64).reshape(-1, 2, 2)
+        return lay
 
     def world_extent(self, s: Scenario) -> float:
         return self._extent(s)
@@ -324,6 +335,7 @@ class Custom(ScenarioKind):
 
         pts = [c for p in s.custom.start + s.custom.goal for c in p]
         pts += [c for o in s.custom.obstacles for p in o.positions for c in p]
+        pts += [c for w in s.custom.walls for p in w for c in p]
         return max(1.0, max(abs(c) for c in pts) + R_REF)
 
 
@@ -341,6 +353,11 @@ def kinds_help(width: int = 10) -> str:
 def generate(s: Scenario, rng: np.random.Generator) -> Layout:
     """Draw one world's initial state for scenario ``s`` from ``rng``."""
     return KINDS[s.kind].generate(s, rng)
+
+
+def segment_capacity(s: Scenario) -> int:
+    """Most wall segments a layout of scenario ``s`` has."""
+    return KINDS[s.kind].n_segments(s)
 
 
 def check_layout(s: Scenario) -> None:
@@ -392,6 +409,34 @@ def check_arena(s: Scenario) -> None:
             f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles in an arena of half size "
             f"{s.arena_half_size:g} m without overlap; increase arena_half_size or reduce the counts"
         )
+
+
+def check_walls(s: Scenario, lay: Layout) -> None:
+    """Starts, goals and obstacles must be clear of the walls (by ``min_separation``), and every
+    robot must have a route to its goal (:mod:`vcs_env.routes`); ``ValueError`` otherwise."""
+    from .walls import clearance
+
+    seg = lay.segments
+    if len(seg) == 0:
+        return
+    r = s.robot.radius
+    for what, pts, rad in (("start", lay.start, r), ("goal", lay.goal, r), ("obstacle", lay.obs_pos, lay.obs_radius)):
+        gap = clearance(pts, seg) - rad
+        if np.any(gap < s.min_separation):
+            i = int(np.argmin(gap))
+            raise ValueError(
+                f"{s.kind} layout: {what} {i} at {np.round(pts[i], 3).tolist()} is {gap[i]:.3f} m from a wall, "
+                f"need >= min_separation = {s.min_separation} m"
+            )
+    from .routes import Roadmap
+
+    roadmap = Roadmap(seg, r)
+    for i in range(s.n_robots):
+        if not np.isfinite(roadmap.route_length(lay.start[i], lay.goal[i])):
+            raise ValueError(
+                f"{s.kind} layout: no route for robot {i} from {np.round(lay.start[i], 3).tolist()} to "
+                f"{np.round(lay.goal[i], 3).tolist()} between the walls (robot radius {r} m)"
+            )
 
 
 def circle_points(n: int, radius: float, phase: float) -> np.ndarray:

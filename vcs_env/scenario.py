@@ -173,6 +173,9 @@ class CustomLayout:
     """Initial speeds [m/s], shape (n,); default 0."""
     obstacles: tuple[ObstacleTrajectory, ...] = ()
     """Scripted obstacles."""
+    walls: tuple = ()
+    """Static wall segments [m], shape (s, 2, 2): ``((ax, ay), (bx, by))`` each; a polygon is the
+    closed chain :func:`vcs_env.walls.polygon_segments` of its vertices."""
 
     def __post_init__(self) -> None:
         def pts(name, value):
@@ -195,6 +198,10 @@ class CustomLayout:
                 object.__setattr__(self, name, tuple(arr.tolist()))
         if self.speed is not None and min(self.speed) < 0:
             raise ValueError("CustomLayout.speed must be >= 0")
+        from .walls import check_segments
+
+        walls = check_segments(self.walls, "CustomLayout.walls")
+        object.__setattr__(self, "walls", tuple(tuple(map(tuple, w)) for w in walls.tolist()))
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for o in self.obstacles:
             if not isinstance(o, ObstacleTrajectory):
