@@ -24,9 +24,12 @@ from numba import njit
 
 from .kernels import _segment_distance
 from .state import WorldState
+from .walls import clearance
 
-MARGIN = 0.05
-"""Clearance beyond the robot radius kept by roadmap nodes and the turns between them [m]."""
+MARGIN = 0.15
+"""Clearance beyond the robot radius of the roadmap's nodes [m]; the lines of sight between
+them keep half of it (room for a unicycle's turn), a door one robot diameter plus 0.2 m wide
+still holds nodes."""
 _DIRECTIONS = 8
 
 
@@ -81,14 +84,12 @@ class Roadmap:
     def __init__(self, segments: np.ndarray, radius: float):
         self.segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 2, 2)
         self.radius = float(radius)
-        self._r = self.radius * (1.0 - 1e-9)  # visibility tolerates touching the capsule
+        self._r = self.radius + 0.5 * MARGIN  # lines of sight keep this from every wall
         rho = (self.radius + MARGIN) / math.cos(math.pi / _DIRECTIONS)
         ang = 2.0 * math.pi * np.arange(_DIRECTIONS) / _DIRECTIONS + math.pi / _DIRECTIONS
         ends = self.segments.reshape(-1, 2)
         cand = (ends[:, None] + rho * np.stack((np.cos(ang), np.sin(ang)), -1)).reshape(-1, 2)
-        from .walls import clearance
-
-        clear = clearance(cand, self.segments) >= self.radius + 0.5 * MARGIN
+        clear = clearance(cand, self.segments) >= self._r
         self.nodes = np.ascontiguousarray(cand[clear])  # (N, 2) [m]
         vis = _visible(self.nodes, self.nodes, self.segments, self._r)
         diff = self.nodes[:, None] - self.nodes[None]
@@ -96,9 +97,13 @@ class Roadmap:
         self._costs: dict[tuple[float, float], np.ndarray] = {}
 
     def sees(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """``(k, l)`` bool: points ``p`` ``(k, 2)`` see points ``q`` ``(l, 2)``."""
-        return _visible(np.ascontiguousarray(p, dtype=np.float64), np.ascontiguousarray(q, dtype=np.float64),
-                        self.segments, self._r)  # fmt: skip
+        """``(k, l)`` bool: points ``p`` ``(k, 2)`` see points ``q`` ``(l, 2)``: the lines keep
+        ``radius + MARGIN / 2`` from every wall, or less if a point already sits closer (a robot
+        pushed near a wall still sees the way out)."""
+        p = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
+        q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 2)
+        near = min(clearance(p, self.segments).min(initial=np.inf), clearance(q, self.segments).min(initial=np.inf))
+        return _visible(p, q, self.segments, min(self._r, near * (1.0 - 1e-9)))
 
     def cost_to_go(self, goal: np.ndarray) -> np.ndarray:
         """Route length from every node to ``goal`` ``(2,)`` [m], ``(N,)`` (inf: unreachable)."""
