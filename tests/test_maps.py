@@ -109,3 +109,44 @@ def test_without_walls_the_route_is_the_goal_and_preferred_velocity_unchanged():
         )
     ).reset(0)
     np.testing.assert_array_equal(preferred_velocity(wf), preferred_velocity(bare))
+
+
+def facing_wall_world(holonomic=True):
+    """One robot at the origin moving at 1 m/s along +x, a long wall at x = 0.6."""
+    s = Scenario(
+        kind="custom",
+        n_robots=1,
+        custom=CustomLayout(
+            start=((0.0, 0.0),), goal=((0.0, 3.0),), heading=(0.0,), speed=(1.0,), walls=(((0.6, -5.0), (0.6, 5.0)),)
+        ),
+        robot=vcs_env.RobotSpec(holonomic=holonomic),
+    )
+    return Simulator(s).reset(0)
+
+
+@pytest.mark.parametrize("name", ["vo", "hrvo", "orca"])
+def test_local_avoidance_sees_walls(name, monkeypatch):
+    """With the preferred velocity forced straight into the wall, the chosen velocity keeps off it."""
+    import baselines.orca
+    import baselines.vo
+    from baselines.capsule import capsule_tau
+
+    module = baselines.orca if name == "orca" else baselines.vo
+    monkeypatch.setattr(module, "preferred_velocity", lambda world: np.array([[[1.0, 0.0]]]))
+    w = facing_wall_world()
+    v = vcs_env.make_planner(name).desired_velocity(w)[0, 0]
+    assert capsule_tau(0.6, -5.0, 0.6, 5.0, v[0], v[1], 0.25) >= 1.5  # (1, 0) would touch it after 0.35 s
+    w.seg_present[:] = False  # the same world without its wall: straight ahead
+    np.testing.assert_allclose(vcs_env.make_planner(name).desired_velocity(w)[0, 0], [1.0, 0.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["vo", "hrvo"])
+def test_vo_family_touches_no_wall_on_room_and_walls_maps(name):
+    from vcs_env.contacts import contact_events
+    from vcs_env.rollout import planner_controller, run_episodes
+
+    for preset in ("room", "walls"):
+        s = make_scenario(preset, on_collision="continue")
+        episodes = run_episodes(s, planner_controller(vcs_env.make_planner(name)), range(3))
+        assert not any(c.kind == "wall" for e in episodes for c in contact_events(e))
+        assert np.mean([e.reached_step >= 0 for e in episodes]) >= 0.9
