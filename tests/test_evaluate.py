@@ -179,14 +179,20 @@ def test_metric_flags_match_the_documented_groups():
 
 # --------------------------------------------------------------------------- suites
 FINGERPRINTS = {
-    "circle-8-v0": "ed883d121ce71df4",
-    "circle-16-v0": "e0bfebba614a3bb7",
-    "circle-24-v0": "b4f7ee2c4666361e",
-    "swap-v0": "3f027a8b607bd4b8",
-    "crossing-v0": "c57ebfcb7c3ca536",
-    "crowd-5-v0": "da508bb1ccbe803c",
-    "crowd-20-v0": "d058c166c0502a14",
-    "dynamic-v0": "7807d1e035719215",
+    "circle-8-v0": "3548ca5fb5a85b87",
+    "circle-16-v0": "1228598fa8be87c9",
+    "circle-24-v0": "2fa5ff848dcf4f36",
+    "swap-v0": "5ecb5aa88eaf76ef",
+    "crossing-v0": "97c2d5722d3580f9",
+    "crowd-5-v0": "ef16057b09c482a7",
+    "crowd-20-v0": "7f46cd75debf519c",
+    "dynamic-v0": "bfcd10e4fc59140f",
+    "corridor-v0": "695b9cad61f43b17",
+    "doorway-v0": "96bf4d6f5f23c729",
+    "door-headon-v0": "699953f0507c3786",
+    "room-v0": "6012d3e024854634",
+    "intersection-v0": "a01ba05fa8d9507c",
+    "walls-v0": "3194537c33a24097",
 }
 
 

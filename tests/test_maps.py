@@ -150,3 +150,15 @@ def test_vo_family_touches_no_wall_on_room_and_walls_maps(name):
         episodes = run_episodes(s, planner_controller(vcs_env.make_planner(name)), range(3))
         assert not any(c.kind == "wall" for e in episodes for c in contact_events(e))
         assert np.mean([e.reached_step >= 0 for e in episodes]) >= 0.9
+
+
+def test_renderers_draw_the_walls():
+    from vcs_env.render import WALL_COLOR, Renderer, ansi
+
+    s = make_scenario("doorway")
+    w = Simulator(s).reset(0)
+    renderer = Renderer(s.view_extent, size=200)
+    frame = renderer.draw(w)
+    mid = renderer._px(np.array([0.0, -2.0])).astype(int)
+    assert tuple(frame[mid[1], mid[0]]) == WALL_COLOR  # the wall x = 0 below the door
+    assert "walls=6" in ansi(w)

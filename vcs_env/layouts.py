@@ -366,12 +366,16 @@ class MapKind(ScenarioKind):
     def check_layout(self, s: Scenario) -> None:
         if s.n_obstacles:
             check_arena(s)
-        check_walls(s, self.generate(s, np.random.default_rng(0)))
+        start, goal = self.places(s, np.random.default_rng(0))
+        seg = self.walls(s, start, goal)
+        # Jitter moves starts by up to ``jitter``: the unjittered places keep that much more room.
+        check_walls(s, finish(s, start, goal, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)), seg, s.jitter)
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         obs_radius = obstacle_radii(s, rng)
         start, goal = self.places(s, rng)
         seg = self.walls(s, start, goal)
+        start = jittered(rng, start, s.jitter)
         lay = finish(s, start, goal, *place_obstacles(s, rng, start, goal, obs_radius, seg))
         lay.segments = seg
         return lay
@@ -448,7 +452,7 @@ class Room(MapKind):
     summary = (
         "a square room of half size ``layout_radius`` with a door ``door_width`` wide in the middle of each "
         "side; robots start on a circle of radius layout_radius / 2 inside and leave for the antipodal point "
-        "1.5 m outside."
+        "on a circle 1 m beyond the room's corners."
     )
 
     def places(self, s, rng):
@@ -460,7 +464,12 @@ class Room(MapKind):
                 "increase layout_radius"
             )
         start = circle_points(s.n_robots, inner, 0.0)
-        return start, -start / inner * (s.circle_radius + 1.5)
+        return start, -start / inner * self._outer(s)
+
+    @staticmethod
+    def _outer(s: Scenario) -> float:
+        """Radius of the goal circle [m]: 1 m beyond the room's corners."""
+        return s.circle_radius * math.sqrt(2.0) + 1.0
 
     def walls(self, s, start, goal):
         h, d = s.circle_radius, s.door_width / 2.0
@@ -474,7 +483,7 @@ class Room(MapKind):
         return np.array(out)
 
     def view_extent(self, s: Scenario) -> float:
-        return _view(s, s.circle_radius + 1.5)
+        return _view(s, self._outer(s))
 
 
 class Intersection(MapKind):
@@ -657,20 +666,25 @@ def check_arena(s: Scenario) -> None:
         )
 
 
-def check_walls(s: Scenario, lay: Layout) -> None:
-    """Starts, goals and obstacles must be clear of the walls (by ``min_separation``), and every
-    robot must have a route to its goal (:mod:`vcs_env.routes`); ``ValueError`` otherwise."""
-    seg = lay.segments
+def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, extra: float = 0.0) -> None:
+    """Starts, goals and obstacles must be clear of the walls (``segments``, default
+    ``lay.segments``) by ``min_separation`` (plus ``extra`` [m] for starts), and every robot must
+    have a route to its goal (:mod:`vcs_env.routes`); ``ValueError`` otherwise."""
+    seg = lay.segments if segments is None else segments
     if len(seg) == 0:
         return
     r = s.robot.radius
-    for what, pts, rad in (("start", lay.start, r), ("goal", lay.goal, r), ("obstacle", lay.obs_pos, lay.obs_radius)):
+    for what, pts, rad, more in (
+        ("start", lay.start, r, extra),
+        ("goal", lay.goal, r, 0.0),
+        ("obstacle", lay.obs_pos, lay.obs_radius, 0.0),
+    ):
         gap = clearance(pts, seg) - rad
-        if np.any(gap < s.min_separation):
+        if np.any(gap < s.min_separation + more):
             i = int(np.argmin(gap))
             raise ValueError(
                 f"{s.kind} layout: {what} {i} at {np.round(pts[i], 3).tolist()} is {gap[i]:.3f} m from a wall, "
-                f"need >= min_separation = {s.min_separation} m"
+                f"need >= min_separation = {s.min_separation} m" + (f" + jitter = {more} m" if more else "")
             )
     from .routes import Roadmap
 

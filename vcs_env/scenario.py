@@ -226,7 +226,7 @@ class Scenario:
     lane_spacing: float = 1.2
     """Distance between neighbouring lanes (swap) or robots in a group (crossing) [m]."""
     jitter: float = 0.0
-    """Uniform noise on start positions [m] (circle, swap, crossing); 0 = perfectly symmetric."""
+    """Uniform noise on start positions [m] (circle, swap, crossing and the map kinds); 0 = perfectly symmetric."""
     min_separation: float = 0.3
     """Smallest gap between spawned bodies and between starts/goals [m]."""
     initial_speed: float = 0.0
