@@ -50,17 +50,21 @@ def test_segment_distance_by_hand():
 def test_wall_kernel_equals_numpy_oracle_bit_for_bit():
     rng = np.random.default_rng(1)
     hits = 0
-    for _ in range(30):
+    for trial in range(30):
         B, n, s = 3, 5, 7
-        pos = rng.uniform(-3, 3, (B, n, 2))
+        spread = 3.0 if trial % 2 else 10.0  # wide worlds exercise the broad phase's skips
+        pos = rng.uniform(-spread, spread, (B, n, 2))
         new_pos = pos + rng.uniform(-1.5, 1.5, (B, n, 2))
         radius = rng.uniform(0.1, 0.5, (B, n))
         present, acted = rng.random((B, n)) < 0.9, rng.random((B, n)) < 0.8
-        seg_a = rng.uniform(-3, 3, (B, s, 2))
+        seg_a = rng.uniform(-spread, spread, (B, s, 2))
         seg_b = seg_a + rng.uniform(-2, 2, (B, s, 2))
         seg_present = rng.random((B, s)) < 0.8
-        got = kernels.wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present)
-        want = reference_wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present)
+        # The smallest gap so far (to robots and obstacles): some inf, some below the walls' gaps.
+        sep = np.where(rng.random((B, n)) < 0.5, np.inf, rng.uniform(-0.2, 1.0, (B, n)))
+        collided = rng.random((B, n)) < 0.2
+        got = kernels.wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided)
+        want = reference_wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided)
         for g, w in zip(got, want):
             np.testing.assert_array_equal(g, w)
         hits += int(got[0].sum())

@@ -3,9 +3,9 @@ radius gives each robot its next visible waypoint.
 
 Walls are segments (:mod:`vcs_env.walls`); a robot of radius ``r`` fits wherever its centre
 stays at least ``r`` from every segment (outside every *capsule*). The roadmap's nodes sit around
-each segment end point, on a circle of radius ``rho = (r + MARGIN) / cos(pi / 8)`` (eight
-directions, kept where they are clear of the capsules): the chord between two neighbouring
-nodes keeps ``r + MARGIN`` from the end point, so a route can turn around a wall end. Two
+each segment end point, on a circle of radius ``rho = (r + MARGIN) / cos(pi / 8)`` (those of
+eight directions that point beyond the end, kept where they are clear of the capsules): the
+chord between two neighbouring nodes keeps ``r + MARGIN`` from the end point, so a route can turn around a wall end. Two
 points *see* each other when the segment between them keeps at least ``r`` from every wall.
 A goal's cost-to-go is Dijkstra over the visibility edges; a robot's next waypoint is its goal
 if it sees it, else the visible node that minimizes ``|p - node| + cost(node)`` (the first
@@ -52,6 +52,24 @@ def _visible(p, q, seg, r):
 
 
 @njit(cache=True)
+def _visible_pairs(p, seg, r):
+    """:func:`_visible` of the points ``p`` ``(k, 2)`` among themselves (symmetric: half the work)."""
+    k, s = p.shape[0], seg.shape[0]
+    out = np.ones((k, k), dtype=np.bool_)
+    for i in range(k):
+        for j in range(i + 1, k):
+            for w in range(s):
+                d = _segment_distance(
+                    p[i, 0], p[i, 1], p[j, 0], p[j, 1], seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
+                )
+                if d < r:
+                    out[i, j] = False
+                    out[j, i] = False
+                    break
+    return out
+
+
+@njit(cache=True)
 def _dijkstra(edge, start):
     """Shortest distances ``(N,)`` [m] over the dense edge lengths ``edge`` ``(N, N)`` (inf: no
     edge) from the initial distances ``start`` ``(N,)``."""
@@ -88,10 +106,14 @@ class Roadmap:
         rho = (self.radius + MARGIN) / math.cos(math.pi / _DIRECTIONS)
         ang = 2.0 * math.pi * np.arange(_DIRECTIONS) / _DIRECTIONS + math.pi / _DIRECTIONS
         ends = self.segments.reshape(-1, 2)
-        cand = (ends[:, None] + rho * np.stack((np.cos(ang), np.sin(ang)), -1)).reshape(-1, 2)
+        dirs = np.stack((np.cos(ang), np.sin(ang)), -1)  # (8, 2)
+        # Only directions beyond each end (away from its own segment): a route turns around an end.
+        out = self.segments - self.segments[:, ::-1]  # (s, 2, 2): at end a, a - b; at end b, b - a
+        outward = (out.reshape(-1, 2) @ dirs.T) > 0.0  # (2 s, 8)
+        cand = (ends[:, None] + rho * dirs)[outward]
         clear = clearance(cand, self.segments) >= self._r
         self.nodes = np.ascontiguousarray(cand[clear])  # (N, 2) [m]
-        vis = _visible(self.nodes, self.nodes, self.segments, self._r)
+        vis = _visible_pairs(self.nodes, self.segments, self._r)
         diff = self.nodes[:, None] - self.nodes[None]
         self._edge = np.where(vis, np.sqrt(np.einsum("...i,...i->...", diff, diff)), np.inf)
         self._costs: dict[tuple[float, float], np.ndarray] = {}

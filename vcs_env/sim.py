@@ -206,11 +206,9 @@ class Simulator:
         )
 
         if w.n_segments:  # walls: contacts like obstacles, swept over the step (no tunnelling)
-            wall_hits, wall_gap = kernels.wall_events(
-                old_pos, new_pos, w.radius, w.present, acted, w.seg_a, w.seg_b, w.seg_present
+            wall_hits, min_sep, collided = kernels.wall_events(
+                old_pos, new_pos, w.radius, w.present, acted, w.seg_a, w.seg_b, w.seg_present, min_sep, collided
             )
-            collided = collided | wall_hits.any(axis=2)
-            min_sep = np.minimum(min_sep, wall_gap)
         else:
             wall_hits = np.zeros((B, n, 0), dtype=bool)
 

@@ -43,18 +43,20 @@ def segment_distance(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray)
     return np.where(cross, 0.0, ends)
 
 
-def reference_wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present):
+def reference_wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided):
     """Numpy oracle of :func:`vcs_env.kernels.wall_events`: ``wall_hits (B, n, s)`` bool (robot
     ``i``'s motion from ``pos`` to ``new_pos`` ``(B, n, 2)`` [m] came within its radius of
-    segment ``k``) and the smallest swept gap to any wall ``(B, n)`` [m] (inf without walls or
-    for robots that did not act or are not present)."""
+    segment ``k``), ``sep`` ``(B, n)`` [m] lowered to the smallest swept gap to any wall
+    (unchanged for robots that did not act or are not present) and ``collided`` ``(B, n)`` or
+    any wall hit."""
     gap = (
         segment_distance(pos[:, :, None], new_pos[:, :, None], seg_a[:, None], seg_b[:, None]) - radius[..., None]
     )  # (B, n, s)
     live = (acted & present)[..., None] & seg_present[:, None, :]
     gap = np.where(live, gap, np.inf)
     min_gap = gap.min(axis=2) if gap.shape[2] else np.full(radius.shape, np.inf)
-    return gap < 0.0, min_gap
+    hits = gap < 0.0
+    return hits, np.minimum(sep, min_gap), collided | hits.any(axis=2)
 
 
 def polygon_segments(vertices: Sequence[Sequence[float]]) -> np.ndarray:
