@@ -179,20 +179,20 @@ def test_metric_flags_match_the_documented_groups():
 
 # --------------------------------------------------------------------------- suites
 FINGERPRINTS = {
-    "circle-8-v0": "3548ca5fb5a85b87",
-    "circle-16-v0": "1228598fa8be87c9",
-    "circle-24-v0": "2fa5ff848dcf4f36",
-    "swap-v0": "5ecb5aa88eaf76ef",
-    "crossing-v0": "97c2d5722d3580f9",
-    "crowd-5-v0": "ef16057b09c482a7",
-    "crowd-20-v0": "7f46cd75debf519c",
-    "dynamic-v0": "bfcd10e4fc59140f",
-    "corridor-v0": "695b9cad61f43b17",
-    "doorway-v0": "96bf4d6f5f23c729",
-    "door-headon-v0": "699953f0507c3786",
-    "room-v0": "6012d3e024854634",
-    "intersection-v0": "a01ba05fa8d9507c",
-    "walls-v0": "3194537c33a24097",
+    "circle-8-v0": "0a217f994f7deeb4",
+    "circle-16-v0": "aec18b5034bd7644",
+    "circle-24-v0": "4d84b38c13703be3",
+    "swap-v0": "0ba2bdcc30f41cb4",
+    "crossing-v0": "846e31a170c6ab3a",
+    "crowd-5-v0": "55962b93394b7116",
+    "crowd-20-v0": "b0b93eabac27ce09",
+    "dynamic-v0": "3a2f81ede1400116",
+    "corridor-v0": "b846f4fe933fbc3f",
+    "doorway-v0": "2a2cc22ab1eadcaa",
+    "door-headon-v0": "cb17a9a8abe11bab",
+    "room-v0": "ee8b61a54a202377",
+    "intersection-v0": "647bc8c6c1a25d01",
+    "walls-v0": "6f2177594228ec80",
 }
 
 

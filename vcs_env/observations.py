@@ -28,13 +28,16 @@ whose centres lie within ``r_ca``, nearest surface first, zero-padded:
 
 ``goal_scale`` is ``2 * scenario.world_extent`` (large enough to hold every start-goal pair of
 the generated layouts).
+
+With ``scenario.lidar`` (off by default) the lidar ranges follow, ``range / max_range`` in
+``[0, 1]``, one per beam (:mod:`vcs_env.lidar`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
+from . import kernels, lidar
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
 
@@ -43,7 +46,8 @@ NEIGHBOR_DIM = 8
 
 
 def observation_dim(scenario: Scenario) -> int:
-    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM
+    lidar = scenario.lidar.n_beams if scenario.lidar is not None else 0
+    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM + lidar
 
 
 def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
@@ -54,6 +58,8 @@ def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     slots = EGO_DIM + NEIGHBOR_DIM * np.arange(scenario.n_neighbors)
     for off in (0, 5, 7):
         low[slots + off] = 0.0
+    if scenario.lidar is not None:
+        low[-scenario.lidar.n_beams :] = 0.0
     return low, np.ones(dim, dtype=np.float32)
 
 
@@ -117,11 +123,14 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
 
     One compiled call for all worlds (:func:`vcs_env.kernels.observe`); :func:`reference_observe`
     is the same computation in readable numpy, the kernel's test oracle."""
-    return kernels.observe(
+    obs = kernels.observe(
         world.pos, world.heading, world.speed, world.radius, world.goal, world.v_max, world.a_max,
         world.omega_max, world.present, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
         goal_scale(scenario), scenario.n_neighbors, V_REF, A_REF, OMEGA_REF, R_REF,
     )  # fmt: skip
+    if scenario.lidar is not None:
+        obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
+    return obs
 
 
 def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
@@ -151,7 +160,10 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     nb[..., 6] = feats[..., 5] / world.r_ca
     nb[..., 7] = feats[..., 6]
     # Gaps beyond +-r_ca and rounding (an object exactly at r_ca) are clipped into the space.
-    return np.clip(out, -1.0, 1.0).astype(np.float32)
+    obs = np.clip(out, -1.0, 1.0).astype(np.float32)
+    if scenario.lidar is not None:
+        obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
+    return obs
 
 
 def state_vector(world: WorldState) -> np.ndarray:

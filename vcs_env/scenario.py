@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .lidar import LidarSpec
+
 MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go")
 COLLISION_MODES = ("terminate", "continue")
 
@@ -277,6 +279,8 @@ class Scenario:
     """``walls``: length range of the random wall segments [m], drawn uniformly."""
     custom: CustomLayout | None = None
     """Explicit layout, required by and only allowed with ``kind="custom"``."""
+    lidar: LidarSpec | None = None
+    """Optional lidar beams appended to every robot's observation (:mod:`vcs_env.lidar`); None: off."""
 
     def __post_init__(self) -> None:
         _check_choice("kind", self.kind, list(_kinds()))
@@ -313,6 +317,8 @@ class Scenario:
         _check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)
         _check_int("n_walls", self.n_walls, 0, 256)
         _check_interval("wall_length", self.wall_length, 0.01, 1e3)
+        if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
+            raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
