@@ -2,11 +2,14 @@
 
 A checkpoint is an SB3 PPO ``.zip`` plus a JSON file beside it with the same stem
 (``runs/x/model.zip`` + ``runs/x/model.json``): the typed config that produced it, the scenario
-(field by field), the observation size and what kind of run wrote it (``ppo``, ``bc``). Both
-``vcs-env train --init/--resume`` and the evaluation harness load through :func:`load_model`,
-which turns every failure into a :class:`CheckpointError` naming the file and the problem:
-missing file, not a zip / truncated / unreadable, or a policy trained for another observation
-space (e.g. another ``n_neighbors``).
+(field by field), the observation config (:func:`vcs_env.observations.observation_config`:
+version, sizes, scales), the scenario family it was trained on (the layout kinds) and what kind
+of run wrote it (``ppo``, ``bc``). Both ``vcs-env train --init/--resume`` and the evaluation
+harness load through :func:`load_model`, which turns every failure into a
+:class:`CheckpointError` naming the file and the problem: missing file, not a zip / truncated /
+unreadable, a policy made for observation v0 (before the fixed physical scales of v1), or for
+another observation config (e.g. another ``n_neighbors``). Using a policy on a scenario family
+it was not trained on is allowed, with a :class:`FamilyWarning` naming both.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import dataclasses
 import json
 import math
 import os
+import warnings
 import zipfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -22,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, observation_config
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -30,6 +35,21 @@ from .config import config_command
 
 class CheckpointError(ValueError):
     """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
+
+
+class FamilyWarning(UserWarning):
+    """A policy runs on a scenario family (layout kind) it was not trained on."""
+
+
+V0_EGO_DIM = 8
+"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
+
+
+def scenario_family(scenarios: Scenario | list[Scenario] | tuple[Scenario, ...]) -> list[str]:
+    """The scenario family of a run: the sorted layout kinds it trains on (``["circle", "crowd"]``)."""
+    if isinstance(scenarios, Scenario):
+        scenarios = [scenarios]
+    return sorted({s.kind for s in scenarios})
 
 
 def config_path(checkpoint: str | os.PathLike) -> Path:
@@ -58,7 +78,15 @@ def jsonable(x: Any) -> Any:
     return x
 
 
-def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario: Scenario, **extra: Any) -> Path:
+def save_model(
+    model,
+    path: str | os.PathLike,
+    kind: str,
+    config: Any,
+    scenario: Scenario,
+    family: list[str] | None = None,
+    **extra: Any,
+) -> Path:
     """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its metadata JSON beside it.
 
     The JSON also holds ``command``: the ``vcs-env`` line that rebuilds ``config``.
@@ -66,7 +94,9 @@ def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario:
     Args:
         kind: what produced it (``"ppo"`` from ``vcs-env train``, ``"bc"`` from ``vcs-env bc``).
         config: the run's config dataclass (saved field by field).
-        scenario: the scenario the policy observes (defines the observation space).
+        scenario: the scenario the policy observes (defines the observation config); for a
+            mixture, its first scenario (all share one observation config).
+        family: the layout kinds it was trained on (default: ``[scenario.kind]``).
         extra: more JSON-able entries (timesteps, evaluation results, wall time ...).
 
     Returns:
@@ -80,6 +110,8 @@ def save_model(model, path: str | os.PathLike, kind: str, config: Any, scenario:
     meta = {
         "kind": kind,
         "observation_dim": int(observation_space(scenario).shape[0]),
+        "observation": observation_config(scenario),
+        "scenario_family": list(family) if family is not None else scenario_family(scenario),
         "num_timesteps": int(getattr(model, "num_timesteps", 0)),
         "config": jsonable(config),
         "command": config_command({"ppo": "train"}.get(kind, kind), config),
@@ -143,7 +175,50 @@ def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
         raise CheckpointError(
             f"{what} was made for observation space {_describe(space)}{bounds}, but scenario "
             f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {_describe(expected)} "
-            f"(observation size = 8 + 8 * n_neighbors); use a policy trained for this observation layout"
+            f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors); use a policy trained for this "
+            "observation layout"
+        )
+
+
+def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, what: str) -> None:
+    """Raise :class:`CheckpointError` unless a checkpoint (its metadata ``meta`` and observation
+    ``space``) may observe ``scenario``; warn (:class:`FamilyWarning`) if it was trained on
+    another scenario family.
+
+    A checkpoint without observation config in its metadata (or without metadata) whose size
+    has the v0 form ``8 + 8 K`` is a v0 checkpoint: refused with the reason.
+    """
+    saved = meta.get("observation")
+    dim = getattr(space, "shape", (None,))[0]
+    if saved is None and dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % NEIGHBOR_DIM == 0:
+        command = meta.get("command")
+        raise CheckpointError(
+            f"{what} was made for observation v0 (vcs_nav_v0: {dim} = {V0_EGO_DIM} + {NEIGHBOR_DIM} K floats, "
+            f"scaled by the world size); observations changed in v1 (vcs_nav_v1: fixed physical scales and "
+            f"scenario features, {EGO_DIM} + {NEIGHBOR_DIM} K floats), so its inputs would mean something else. "
+            "Retrain it on v1" + (f" with its command: {command}" if command else "")
+        )
+    if saved is not None:
+        expected = jsonable(observation_config(scenario))
+        if saved != expected:
+            version = saved.get("version") if isinstance(saved, dict) else None
+            hint = (
+                f"observation version {version}, this vcs-env has {OBSERVATION_VERSION}; retrain it"
+                if version != OBSERVATION_VERSION
+                else "use a policy trained with this observation config"
+            )
+            raise CheckpointError(
+                f"{what} was trained with observation config {json.dumps(saved, sort_keys=True)}, but scenario "
+                f"kind={scenario.kind!r} gives {json.dumps(expected, sort_keys=True)} ({hint})"
+            )
+    check_observation_space(space, scenario, what)
+    family = meta.get("scenario_family")
+    if family and scenario.kind not in family:
+        warnings.warn(
+            f"{what} was trained on scenario family {family}, but runs on kind={scenario.kind!r}: "
+            "expect it to do worse than on its own family",
+            FamilyWarning,
+            stacklevel=3,
         )
 
 
@@ -152,12 +227,14 @@ def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, 
 
     Args:
         checkpoint: path to the ``.zip`` (suffix optional) or a run directory holding ``model.zip``.
-        scenario: if given, the policy's observation space must be this scenario's.
+        scenario: if given, the policy must fit this scenario (:func:`check_checkpoint_fits`:
+            same observation config, else :class:`CheckpointError`; another scenario family
+            gives a :class:`FamilyWarning`).
         env: optional VecEnv to attach (for continuing training).
         device: torch device.
 
     Raises:
-        CheckpointError: missing, corrupt, or trained for another observation space.
+        CheckpointError: missing, corrupt, made for observation v0, or for another observation config.
     """
     from stable_baselines3 import PPO
     from stable_baselines3.common.save_util import load_from_zip_file
@@ -174,7 +251,7 @@ def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, 
             f"checkpoint {str(path)!r} is not an SB3 policy checkpoint (no observation space or policy weights)"
         )
     if scenario is not None:
-        check_observation_space(data["observation_space"], scenario, f"checkpoint {str(path)!r}")
+        check_checkpoint_fits(read_metadata(path), data["observation_space"], scenario, f"checkpoint {str(path)!r}")
     try:
         return PPO.load(str(path), env=env, device=device)
     except Exception as e:

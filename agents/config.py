@@ -1,7 +1,10 @@
 """Typed run configs shared by the ``vcs-env`` commands, and their command-line flags.
 
 :class:`ScenarioConfig` with :func:`build_scenario` is the one way from flags to a scenario
-(``rollout``, ``train``, ``collect``; ``evaluate`` and ``compare`` take named suites).
+(``rollout``, ``train``, ``collect``); :func:`probe_scenario` builds the same flags on the
+conventions of the evaluation suites (``evaluate`` / ``compare`` without ``--suite``), and
+:func:`suite_differences` lists how a training scenario differs from the suite of its family.
+:func:`mixture_scenarios` expands a training mixture (``--mixture``) into one scenario per world.
 
 Every config is a dataclass whose fields carry a docstring (cleanrl style); :func:`add_config_args`
 turns the fields into ``--flags`` whose help is that docstring, so the config, its JSON copy
@@ -15,6 +18,7 @@ import ast
 import dataclasses
 import functools
 import inspect
+import math
 import shlex
 import textwrap
 import types
@@ -50,6 +54,10 @@ class ScenarioConfig:
     circle, i.e. one fixed layout; the evaluation suites use 0.1)."""
     on_collision: str | None = None
     """terminate or continue (None: the preset's, terminate)."""
+    layout_radius: float | None = None
+    """Circle radius for circle/crowd, half lane length for swap/crossing [m] (None: the preset's)."""
+    obstacle_speed: tuple[float, ...] | None = None
+    """Obstacle speed range LOW HIGH [m/s], drawn per obstacle and episode (None: the preset's)."""
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential)."""
@@ -66,10 +74,7 @@ def build_scenario(cfg: ScenarioConfig):
     if cfg.shaping not in SHAPING:
         raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
     over: dict[str, Any] = {}
-    for name in ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision"):
-        value = getattr(cfg, name)
-        if value is not None:
-            over[name] = value
+    over.update(_overrides(cfg))
     weights = parse_weights(cfg.rewards)
     if cfg.shaping != "none":
         weight = DEFAULT_SHAPING_WEIGHT[cfg.shaping] if cfg.shaping_weight is None else cfg.shaping_weight
@@ -77,6 +82,95 @@ def build_scenario(cfg: ScenarioConfig):
     if weights:
         over["rewards"] = weights
     return make_scenario(cfg.scenario, **over)
+
+
+_SCENARIO_FLAGS = ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed")
+
+
+def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:
+    """The Scenario fields a config sets (flags given), by name."""
+    over = {name: getattr(cfg, name) for name in _SCENARIO_FLAGS if getattr(cfg, name) is not None}
+    if "obstacle_speed" in over:
+        over["obstacle_speed"] = tuple(float(v) for v in over["obstacle_speed"])
+        if len(over["obstacle_speed"]) != 2:
+            raise ValueError(f"obstacle_speed must be two numbers LOW HIGH [m/s], got {over['obstacle_speed']}")
+    return over
+
+
+def family_suite(kind: str):
+    """The full evaluation suite of a layout kind (``circle`` -> ``circle-8-v0``, ``crowd`` ->
+    ``crowd-5-v0``: the first one defined), or None if no suite uses that kind."""
+    from vcs_env.suites import SUITES
+
+    return next((s for s in SUITES.values() if not s.is_smoke and s.scenario.kind == kind), None)
+
+
+def probe_scenario(cfg: ScenarioConfig):
+    """A scenario for ad-hoc evaluation: the scenario of the suite of the preset's family
+    (:func:`family_suite`: its jitter, ``on_collision="continue"``, spacing, limits ...) with the
+    flags given in ``cfg`` applied; presets without a suite (random, custom) start from the preset.
+    Reward flags are ignored (they do not change the metrics)."""
+    from vcs_env.scenario import SCENARIOS, make_scenario
+
+    if cfg.scenario not in SCENARIOS:
+        raise ValueError(f"unknown scenario {cfg.scenario!r}; presets are {sorted(SCENARIOS)}")
+    suite = family_suite(SCENARIOS[cfg.scenario].kind)
+    base = SCENARIOS[cfg.scenario] if suite is None else suite.scenario
+    over = _overrides(cfg)
+    if suite is not None and "n_robots" in over and base.kind == "circle" and "layout_radius" not in over:
+        # The suites' circle radius is for their n; keep the preset's rule (max(5, 0.3 n) [m]).
+        over["layout_radius"] = None
+    return make_scenario(base, **over)
+
+
+_DIFF_FIELDS = (
+    "jitter", "on_collision", "min_separation", "circle_radius", "max_steps", "dt", "r_goal", "r_ca", "n_neighbors",
+    "robot", "obstacle_motion", "obstacle_radius", "obstacle_speed", "park_finished",
+)  # fmt: skip
+
+
+def suite_differences(scenario) -> tuple[str | None, list[str]]:
+    """How ``scenario`` differs from the suite of its family (:func:`family_suite`) on the fields
+    that set the difficulty (jitter, collision handling, spacing, radius, limits, sensing,
+    obstacles); robot and obstacle counts and rewards are not compared.
+
+    Returns:
+        The suite name (None if the kind has no suite) and one ``"field: ours (suite: theirs)"``
+        line per differing field.
+    """
+    suite = family_suite(scenario.kind)
+    if suite is None:
+        return None, []
+    out = []
+    for name in _DIFF_FIELDS:
+        ours, theirs = getattr(scenario, name), getattr(suite.scenario, name)
+        if ours != theirs:
+            out.append(f"{name}: {ours} (suite: {theirs})")
+    return suite.name, out
+
+
+def print_suite_differences(scenario, doing: str = "training on") -> list[str]:
+    """Print (and return) :func:`suite_differences`, so a run that differs from the suites says so."""
+    suite, diffs = suite_differences(scenario)
+    if diffs:
+        print(f"note: {doing} {scenario.kind} with settings unlike its suite {suite}: " + "; ".join(diffs), flush=True)
+    return diffs
+
+
+def parse_seeds(text: str) -> tuple[int, ...]:
+    """``"5000:5100"`` -> seeds 5000..5099 (start included, stop excluded, like ``range``);
+    ``"7"`` -> (7,). Raises ``ValueError`` naming the expected form."""
+    start, sep, stop = str(text).partition(":")
+    try:
+        lo = int(start)
+        hi = int(stop) if sep else lo + 1
+    except ValueError:
+        raise ValueError(f"--seeds must be START:STOP (integers, e.g. 5000:5100) or one seed, got {text!r}") from None
+    if lo < 0 or hi <= lo:
+        raise ValueError(f"--seeds START:STOP needs 0 <= START < STOP, got {text!r}")
+    if hi - lo > 100_000:
+        raise ValueError(f"--seeds {text!r} asks for {hi - lo} episodes; at most 100000")
+    return tuple(range(lo, hi))
 
 
 def parse_weights(text: str | None) -> dict[str, float]:
@@ -199,3 +293,92 @@ def config_from_dict(cls: type, data: dict[str, Any]):
     names = {f.name for f in dataclasses.fields(cls)}
     kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items() if k in names}
     return cls(**kw)
+
+
+# --------------------------------------------------------------------------- mixtures
+MIXTURE_FIELDS = {
+    "n_robots": int,
+    "n_obstacles": int,
+    "jitter": float,
+    "layout_radius": float,
+    "obstacle_speed": float,
+}
+"""Scenario fields a mixture entry may set, with their type. ``obstacle_speed=LO-HI`` sets the
+scenario's speed interval (drawn per obstacle and episode); the others give a value or a grid."""
+
+
+def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
+    """``"circle:n_robots=4-16/4,jitter=0-0.4"`` -> ``("circle", {"n_robots": (4, 8, 12, 16),
+    "jitter": (0.0, 0.2, 0.4)})``.
+
+    ``FIELD=V`` is one value; ``FIELD=LO-HI/STEP`` the grid LO, LO+STEP, ... up to HI; without
+    ``/STEP`` integers step by 1 and floats give 3 levels (LO, middle, HI).
+    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)``.
+    """
+    from vcs_env.scenario import SCENARIOS
+
+    preset, _, rest = text.partition(":")
+    preset = preset.strip()
+    if preset not in SCENARIOS:
+        raise ValueError(f"mixture entry {text!r}: unknown scenario {preset!r}; presets are {sorted(SCENARIOS)}")
+    fields: dict[str, tuple] = {}
+    for item in filter(None, (p.strip() for p in rest.split(","))):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in MIXTURE_FIELDS:
+            raise ValueError(
+                f"mixture entry {text!r}: {item!r} must be FIELD=VALUE or FIELD=LO-HI[/STEP] with FIELD in "
+                f"{list(MIXTURE_FIELDS)}"
+            )
+        conv = MIXTURE_FIELDS[name]
+        body, _, step_text = value.partition("/")
+        lo_text, dash, hi_text = body.strip().partition("-")
+        try:
+            lo = conv(lo_text)
+            hi = conv(hi_text) if dash else lo
+            step = conv(step_text) if step_text else None
+        except ValueError:
+            raise ValueError(f"mixture entry {text!r}: {name} needs {conv.__name__} values, got {value!r}") from None
+        if hi < lo or (step is not None and step <= 0):
+            raise ValueError(f"mixture entry {text!r}: {name} needs LO <= HI and STEP > 0, got {value!r}")
+        if name == "obstacle_speed":
+            fields[name] = ((lo, hi),)
+        elif conv is int:
+            fields[name] = tuple(range(lo, hi + 1, step or 1))
+        elif hi == lo:
+            fields[name] = (lo,)
+        else:
+            step = step if step is not None else (hi - lo) / 2
+            count = int(math.floor((hi - lo) / step + 1e-9)) + 1
+            fields[name] = tuple(round(lo + k * step, 12) for k in range(count))
+    return preset, fields
+
+
+def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
+    """Every scenario of a mixture: for each entry (:func:`parse_mixture_entry`) the product of its
+    grids, applied to the preset together with the config's common flags (``max_steps``,
+    ``on_collision``, ``rewards``, shaping). The per-scenario flags of ``cfg`` (``scenario``,
+    ``n_robots``, ``n_obstacles``, ``jitter``, ``layout_radius``, ``obstacle_speed``) must be
+    unset: entries set those. All scenarios must share one observation config."""
+    import itertools
+
+    from vcs_env.observations import observation_config
+
+    per_entry = ("n_robots", "n_obstacles", "jitter", "layout_radius", "obstacle_speed")
+    clash = [f for f in per_entry if getattr(cfg, f) is not None]
+    if clash:
+        flags = ", ".join("--" + f.replace("_", "-") for f in clash)
+        raise ValueError(f"with --mixture, set {flags} inside the mixture entries (e.g. circle:n_robots=8)")
+    out = []
+    for entry in mixture:
+        preset, fields = parse_mixture_entry(entry)
+        names = list(fields)
+        for values in itertools.product(*(fields[n] for n in names)):
+            sub = dataclasses.replace(cfg, scenario=preset, **dict(zip(names, values)))
+            out.append(build_scenario(sub))
+    if not out:
+        raise ValueError("--mixture needs at least one entry, e.g. circle:n_robots=4-12/4 crowd")
+    configs = [observation_config(s) for s in out]
+    if any(c != configs[0] for c in configs):
+        raise ValueError(f"mixture scenarios must share one observation config, got {configs[0]} and others")
+    return out

@@ -314,6 +314,35 @@ def score_seeds(
     }
 
 
+def score_scenarios(
+    controller: Controller, scenarios: Sequence[Scenario], seeds: Sequence[int], action_mode: str = "delta"
+) -> dict[str, Any]:
+    """:func:`score_seeds` over a mixture: episode ``j`` plays ``scenarios[j % len(scenarios)]``
+    with ``seeds[j]``. Episode rates are over all episodes, robot rates and ``time_to_goal`` over
+    all robots; the per-robot arrays are flattened. One scenario gives :func:`score_seeds`."""
+    if len(scenarios) == 1:
+        return score_seeds(controller, scenarios[0], seeds, action_mode)
+    parts = [
+        score_seeds(controller, s, seeds[g :: len(scenarios)], action_mode)
+        for g, s in enumerate(scenarios)
+        if seeds[g :: len(scenarios)]
+    ]
+    episodes = sum(p["episodes"] for p in parts)
+    flat = {k: np.concatenate([p[k].ravel() for p in parts]) for k in ("success", "collision", "time")}
+    reached = ~np.isnan(flat["time"])
+    robots = np.array([p["success"].size for p in parts])
+    return {
+        "episodes": episodes,
+        "episode_success": sum(p["episode_success"] * p["episodes"] for p in parts) / episodes,
+        "episode_collision": sum(p["episode_collision"] * p["episodes"] for p in parts) / episodes,
+        "robot_success": float(flat["success"].mean()),
+        "robot_collision": float(flat["collision"].mean()),
+        "time_to_goal": float(flat["time"][reached].mean()) if reached.any() else math.nan,
+        "return": float(np.dot([p["return"] for p in parts], robots) / robots.sum()),
+        **flat,
+    }
+
+
 class _Returns(Hook):
     """Sums each robot's reward over the steps it acted (``total``: ``(episodes, n)``)."""
 

@@ -1,13 +1,23 @@
 """``vcs-env evaluate`` and ``vcs-env compare``: the harness (:mod:`agents.evaluate`) and its
-report (:mod:`agents.report`) on the command line."""
+report (:mod:`agents.report`) on the command line.
+
+Episodes come from a named suite (``--suite circle-8-v0``) or, to probe a policy off its training
+distribution, from scenario flags and a seed range::
+
+    vcs-env evaluate --policy vcs --scenario circle --n-robots 12 --jitter 0.3 --seeds 5000:5100
+
+The flags start from the scenario of the suite of the same family (:func:`agents.config.probe_scenario`:
+the suites' jitter, ``on_collision="continue"``, spacing and limits), so only what is named changes.
+"""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-from vcs_env.suites import get_suite, suite_names
+from vcs_env.suites import Suite, get_suite, suite_names
 
+from .config import _SCENARIO_FLAGS, ScenarioConfig, add_config_args, config_from_args, parse_seeds, probe_scenario
 from .evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate
 from .report import fmt, table_lines, table_metrics, write_report
 
@@ -27,10 +37,29 @@ def _print_summary(res: EvalResult) -> None:
         print(f"{metric.label:<20} {fmt(st['mean'], '.3f'):>9} {ci:>21} {st['n']:>5}")
 
 
+def episodes_of(args) -> Suite:
+    """The named suite, or an ad-hoc one from the scenario flags and ``--seeds``."""
+    given = [f for f in ("scenario", *_SCENARIO_FLAGS) if getattr(args, f, None) is not None]
+    if args.suite is not None:
+        if given or args.seeds is not None:
+            flags = ", ".join("--" + f.replace("_", "-") for f in given + (["seeds"] if args.seeds else []))
+            raise ValueError(f"give either --suite or scenario flags with --seeds, not both (got --suite and {flags})")
+        return get_suite(args.suite)
+    if args.seeds is None:
+        raise ValueError("give --suite NAME, or scenario flags (--scenario circle --n-robots 12 ...) with --seeds A:B")
+    cfg = config_from_args(ScenarioConfig, args)
+    scenario = probe_scenario(cfg)
+    seeds = parse_seeds(args.seeds)
+    changes = ",".join(f"{f}={getattr(cfg, f)}" for f in _SCENARIO_FLAGS if getattr(cfg, f) is not None)
+    name = f"{cfg.scenario}" + (f"[{changes}]" if changes else "") + f"@{seeds[0]}:{seeds[-1] + 1}"
+    desc = f"ad-hoc: the {cfg.scenario} suite conventions" + (f" with {changes}" if changes else "")
+    return Suite(name.replace(" ", ""), scenario, seeds, desc)
+
+
 def cmd_evaluate(args) -> int:
     res = evaluate(
         args.policy,
-        args.suite,
+        episodes_of(args),
         action_mode=args.action_mode,
         batch_size=args.batch_size,
         progress=False if args.no_progress else None,
@@ -46,7 +75,7 @@ def cmd_evaluate(args) -> int:
 
 def cmd_compare(args) -> int:
     policies = [p.strip() for p in args.policies.split(",") if p.strip()]
-    suite = get_suite(args.suite)
+    suite = episodes_of(args)
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
     comp = compare(
@@ -66,9 +95,17 @@ def cmd_compare(args) -> int:
 def _common_args(p) -> None:
     p.add_argument(
         "--suite",
-        required=True,
-        help="suite name: " + ", ".join(suite_names(smoke=False)) + " (each also as NAME-smoke)",
+        default=None,
+        help="suite name: " + ", ".join(suite_names(smoke=False)) + " (each also as NAME-smoke); or, "
+        "instead, scenario flags with --seeds",
     )
+    p.add_argument(
+        "--seeds",
+        default=None,
+        help="seed range START:STOP (stop excluded, e.g. 5000:5100) of ad-hoc episodes built from the "
+        "scenario flags on the conventions of the family's suite",
+    )
+    add_config_args(p, ScenarioConfig, skip=("rewards", "shaping", "shaping_weight"))
     p.add_argument(
         "--action-mode",
         choices=["delta", "absolute"],

@@ -67,11 +67,14 @@ class CollectConfig(ScenarioConfig):
 
 def collect(cfg: CollectConfig) -> Path:
     """Run the expert on ``cfg.episodes`` seeds and save the dataset; returns its path."""
-    from vcs_env.observations import observation_dim
+    from vcs_env.observations import observation_config, observation_dim
+
+    from .config import print_suite_differences
 
     if cfg.episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
     scenario = build_scenario(cfg)
+    print_suite_differences(scenario, "collecting on")
     seeds = list(range(cfg.seed, cfg.seed + cfg.episodes))
     t0 = time.time()
     data = play(scenario, seeds, n_worlds=cfg.n_worlds, expert=cfg.planner)
@@ -84,6 +87,7 @@ def collect(cfg: CollectConfig) -> Path:
         "executed": "expert",
         "action_mode": "delta",
         "observation_dim": observation_dim(scenario),
+        "observation": observation_config(scenario),
         "command": config_command("collect", cfg),
     }
     path = save_dataset(cfg.out, data, meta)
@@ -239,6 +243,13 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     scenario = build_scenario(scen_cfg)
     if meta.get("observation_dim") != data["observations"].shape[1]:
         raise ValueError(f"dataset {cfg.data!r}: observation_dim in meta does not match the arrays")
+    from vcs_env.observations import observation_config
+
+    if meta.get("observation") != observation_config(scenario):
+        raise ValueError(
+            f"dataset {cfg.data!r} was collected with observation config {meta.get('observation')} (None: "
+            f"observation v0), this vcs-env observes with {observation_config(scenario)}; collect it again"
+        )
     venv = NavVecEnv(scenario, 1)  # spaces only
     pcfg = PolicyConfig(net_arch=cfg.net_arch, log_std_init=cfg.log_std_init)
     model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=policy_kwargs(pcfg))

@@ -13,13 +13,18 @@ Periodic evaluation plays ``eval_episodes`` fixed seeds (``eval_seed``, ``eval_s
 with deterministic actions on the training scenario and logs episode and robot success and
 collision rates and the mean time to goal (:func:`agents.evaluate.score_seeds`: the episode
 runner and success definition of the suites); with ``--eval-suite`` it also scores the policy
-on a named suite with :func:`agents.evaluate.evaluate`.
+on a named suite with :func:`agents.evaluate.evaluate`. With ``--mixture`` the run trains on
+several scenarios at once (:class:`agents.vec_env.MixtureVecEnv`) and evaluation episode ``j``
+plays mixture scenario ``j % S`` (:func:`agents.evaluate.score_scenarios`). Before training, the
+run prints how its scenario differs from the evaluation suite of its family (jitter, collision
+handling, spacing ...).
 
 Example::
 
     vcs-env train --scenario circle --n-robots 8 --jitter 0.1 --timesteps 2000000 --seed 0
     vcs-env train --scenario crowd --timesteps 1000000 --shaping vcs_potential
     vcs-env train --scenario crowd --init runs/bc_crowd/model.zip   # warm start from behaviour cloning
+    vcs-env train --mixture circle:n_robots=4-16/4,jitter=0-0.4 crowd:n_obstacles=3-19/8 --n-worlds 64
     vcs-env train --resume runs/ppo_circle/checkpoints/model_500000.zip --timesteps 3000000
 """
 
@@ -40,6 +45,8 @@ from .config import (
     config_command,
     config_from_args,
     config_from_dict,
+    mixture_scenarios,
+    print_suite_differences,
 )
 
 
@@ -101,6 +108,12 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     eval_suite: str | None = None
     """Also score the policy on this named suite (e.g. crowd-5-v0-smoke) with the evaluation
     harness at every periodic evaluation (logged as suite/*; not used to pick best_model)."""
+    mixture: tuple[str, ...] = ()
+    """Train on a mixture instead of one scenario: entries PRESET[:FIELD=VALUE|LO-HI[/STEP],...] with
+    FIELD in n_robots, n_obstacles, jitter, layout_radius, obstacle_speed, e.g. circle:n_robots=4-16/4,jitter=0-0.4
+    crowd:n_obstacles=3-20/8,obstacle_speed=0.5-1.5 (agents.config.parse_mixture_entry). Every grid point
+    is one scenario with a fixed share of the worlds (agents.vec_env.MixtureVecEnv); the other scenario
+    flags (max_steps, on_collision, rewards, shaping) apply to all."""
     checkpoint_freq: int = 500_000
     """Save a resumable checkpoint every this many timesteps (0: never)."""
     progress_bar: bool = True
@@ -145,14 +158,15 @@ def scalar_results(res: dict[str, Any]) -> dict[str, float]:
     return {k: v for k, v in res.items() if isinstance(v, (int, float))}
 
 
-def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
+def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from .checkpoint import save_model
+    from .checkpoint import save_model, scenario_family
     from .evaluate import evaluate as score_on_suite
-    from .evaluate import score_seeds
+    from .evaluate import score_scenarios
     from .policies import predictor_controller
 
+    scenario, family = scenarios[0], scenario_family(scenarios)
     eval_seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
 
     class RunCallback(BaseCallback):
@@ -176,7 +190,7 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
 
         def evaluate(self) -> dict[str, Any]:
             t0 = time.time()
-            res = scalar_results(score_seeds(predictor_controller(self.model.policy), scenario, eval_seeds))
+            res = scalar_results(score_scenarios(predictor_controller(self.model.policy), scenarios, eval_seeds))
             suite = ""
             if cfg.eval_suite:
                 summary = score_on_suite(self.model, cfg.eval_suite, progress=False).summary
@@ -206,7 +220,7 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
             key = (res["episode_success"], res["robot_success"], -res["robot_collision"], -res["time_to_goal"])
             if self.best is None or key > self.best:
                 self.best = key
-                save_model(self.model, out / "best_model.zip", "ppo", cfg, scenario, evaluation=res)
+                save_model(self.model, out / "best_model.zip", "ppo", cfg, scenario, family, evaluation=res)
             return res
 
         def _on_rollout_start(self) -> None:
@@ -223,6 +237,7 @@ def _callbacks(cfg: TrainConfig, scenario, out: Path, t_start: float):
                     "ppo",
                     cfg,
                     scenario,
+                    family,
                     wall_time=round(time.time() - t_start, 1),
                 )
 
@@ -236,7 +251,10 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     """Train (or resume) a shared PPO policy; returns the final evaluation and paths."""
     from .checkpoint import resolve
 
-    scenario = build_scenario(cfg)
+    scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
+    scenario = scenarios[0]
+    for s in {s.kind: s for s in scenarios}.values():  # one note per family
+        print_suite_differences(s)
     if cfg.init and resume:
         raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1:
@@ -254,13 +272,16 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     torch.set_num_threads(1)
     from stable_baselines3 import PPO
 
-    from .checkpoint import load_model, load_policy_weights, save_model
-    from .vec_env import NavVecEnv
+    from .checkpoint import load_model, load_policy_weights, save_model, scenario_family
+    from .vec_env import MixtureVecEnv, NavVecEnv
 
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.time()
-    venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
+    if len(scenarios) == 1:
+        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
+    else:
+        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma)
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:
         model = load_model(resume, scenario, env=venv)
@@ -274,10 +295,11 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
             print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
     (out / "config.json").write_text(json.dumps(dataclasses.asdict(cfg), indent=2) + "\n")
     remaining = cfg.timesteps - model.num_timesteps
-    callback = _callbacks(cfg, scenario, out, t_start)
+    callback = _callbacks(cfg, scenarios, out, t_start)
+    what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
+    what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
     print(
-        f"training {scenario.kind} (n={scenario.n_robots}, m={scenario.n_obstacles}) shaping={cfg.shaping}: "
-        f"{venv.num_envs} slots, {remaining} timesteps -> {out}",
+        f"training {what} shaping={cfg.shaping}: {venv.num_envs} slots, {remaining} timesteps -> {out}",
         flush=True,
     )
     if remaining > 0:
@@ -299,7 +321,15 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     model.logger.dump(model.num_timesteps)
     wall = round(time.time() - t_start, 1)
     path = save_model(
-        model, out / "model.zip", "ppo", cfg, scenario, evaluation=final, wall_time=wall, history=callback.history
+        model,
+        out / "model.zip",
+        "ppo",
+        cfg,
+        scenario,
+        scenario_family(scenarios),
+        evaluation=final,
+        wall_time=wall,
+        history=callback.history,
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
     print(f"reproduce: {config_command('train', cfg)}")

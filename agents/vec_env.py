@@ -1,5 +1,7 @@
 """SB3 ``VecEnv`` over one batched :class:`~vcs_env.engine.NavEngine`: one slot per (world, robot).
 
+(:class:`MixtureVecEnv` puts several of them side by side, one per scenario of a training mixture.)
+
 Parameter sharing: one SB3 policy acts for every robot. ``B`` worlds of ``n`` robots give
 ``num_envs = B * n`` slots; slot ``j = b * n + i`` is robot ``i`` of world ``b``. A ``step``
 is ONE batched engine call for all worlds (no loop over envs).
@@ -215,6 +217,119 @@ class NavVecEnv(VecEnv):
         return [None] * self.num_envs
 
     # Attribute access: every slot shares this one object.
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self, attr_name) for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        setattr(self, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
+        method = getattr(self, method_name)
+        return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+class MixtureVecEnv(VecEnv):
+    """Worlds of several scenarios (other kinds, robot and obstacle counts) as one SB3 ``VecEnv``.
+
+    Worlds are split into **groups**, one :class:`NavVecEnv` (one batched engine) per scenario;
+    the slots are the groups' slots one after the other, with the same per-slot semantics
+    (live / end / padding / world reset). World ``b`` of the whole mixture plays
+    ``scenarios[b % len(scenarios)]`` (round robin), so every scenario has a fixed share of the
+    worlds and every rollout holds all of them. Groups rather than padding to the largest robot
+    count: no slot is spent on robots that do not exist, and each group keeps the one-call step
+    of its engine; the cost is one engine call per group and step (measured in the README:
+    "Training on mixtures").
+
+    Seeding: ``seed(s)`` then ``reset()`` seeds world ``b`` of the mixture with ``s + b``, like
+    :class:`NavVecEnv`.
+
+    Args:
+        scenarios: the scenarios (all with one observation config).
+        n_worlds: total worlds B, at least ``len(scenarios)``.
+        action_mode, expert, gamma, max_steps: as :class:`NavVecEnv`.
+    """
+
+    def __init__(
+        self,
+        scenarios: Sequence[Scenario],
+        n_worlds: int,
+        action_mode: str = "delta",
+        expert=None,
+        gamma: float = 0.99,
+        max_steps: int | None = None,
+    ):
+        scenarios = list(scenarios)
+        if not scenarios:
+            raise ValueError("MixtureVecEnv needs at least one scenario")
+        if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < len(scenarios):
+            raise ValueError(
+                f"n_worlds must be an integer >= the number of mixture scenarios ({len(scenarios)}), got {n_worlds!r}"
+            )
+        counts = [len(range(g, int(n_worlds), len(scenarios))) for g in range(len(scenarios))]
+        self.scenarios = scenarios
+        self.groups = [
+            NavVecEnv(s, c, action_mode, expert=expert, gamma=gamma, max_steps=max_steps)
+            for s, c in zip(scenarios, counts)
+        ]
+        shapes = {g.observation_space.shape for g in self.groups}
+        if len(shapes) != 1:
+            raise ValueError(f"mixture scenarios must share one observation size, got {sorted(shapes)}")
+        self.n_worlds = int(n_worlds)
+        self.render_mode = None
+        self._world_offsets = np.cumsum([0] + counts[:-1]).tolist()
+        self._slot_bounds = np.cumsum([g.num_envs for g in self.groups])[:-1].tolist()
+        first = self.groups[0]
+        super().__init__(sum(g.num_envs for g in self.groups), first.observation_space, first.action_space)
+
+    def _concat(self, parts: Sequence[np.ndarray]) -> np.ndarray:
+        return np.concatenate(parts, axis=0)
+
+    def reset(self) -> np.ndarray:
+        """Reset every world of every group; returns observations ``(num_envs, D)``."""
+        base = self._seeds[0]
+        if base is not None:
+            for g, off in zip(self.groups, self._world_offsets):
+                g.seed(int(base) + off)
+        self._reset_seeds()
+        self._reset_options()
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        return self._concat([g.reset() for g in self.groups])
+
+    def step_async(self, actions: np.ndarray) -> None:
+        parts = np.split(np.asarray(actions, dtype=np.float64).reshape(self.num_envs, 2), self._slot_bounds)
+        for g, a in zip(self.groups, parts):
+            g.step_async(a)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        results = [g.step_wait() for g in self.groups]
+        infos: list[dict[str, Any]] = []
+        for r in results:
+            infos.extend(r[3])
+        return (
+            self._concat([r[0] for r in results]),
+            self._concat([r[1] for r in results]),
+            self._concat([r[2] for r in results]),
+            infos,
+        )
+
+    def expert_actions(self) -> np.ndarray:
+        """Expert actions ``(num_envs, 2)`` of every group (:meth:`NavVecEnv.expert_actions`)."""
+        return self._concat([g.expert_actions() for g in self.groups])
+
+    def live_mask(self) -> np.ndarray:
+        """``(num_envs,)`` bool: slots whose current observation is a real robot (not padding)."""
+        return self._concat([g.live_mask() for g in self.groups])
+
+    def close(self) -> None:
+        for g in self.groups:
+            g.close()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None] * self.num_envs
+
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         return [getattr(self, attr_name) for _ in self._get_indices(indices)]
 

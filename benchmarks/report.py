@@ -156,7 +156,7 @@ def _render_env(env: dict) -> list[str]:
         "",
         "### PettingZoo parallel API, B = 1",
         "",
-        "| robots n | ours (vcs_nav_v0) | MPE simple_spread | ours / MPE |",
+        "| robots n | ours (vcs_nav_v1) | MPE simple_spread | ours / MPE |",
         "|---|---|---|---|",
     ]
     for e in env["single"]:
@@ -182,7 +182,7 @@ def _render_env(env: dict) -> list[str]:
     if env.get("gym_vector"):
         L += [
             "",
-            '### Gymnasium vector API: `gym.make_vec("vcs_env/Navigation-v0", num_envs=B, vectorization_mode=...)`',
+            '### Gymnasium vector API: `gym.make_vec("vcs_env/Navigation-v1", num_envs=B, vectorization_mode=...)`',
             "",
             "Learner steps (one per env and step) per CPU second; the other robots of each world follow `others` "
             "(the VCS planner, the default, or `straight`, which leaves the env's own cost).",

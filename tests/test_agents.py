@@ -14,7 +14,14 @@ import torch  # noqa: E402
 
 torch.set_num_threads(1)
 
-from agents.checkpoint import CheckpointError, load_model, load_policy_weights  # noqa: E402
+from agents.checkpoint import (  # noqa: E402
+    CheckpointError,
+    FamilyWarning,
+    load_model,
+    load_policy_weights,
+    read_metadata,
+    save_model,
+)
 from agents.evaluate import evaluate, score_seeds  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_env import CustomLayout, NavEngine, make_scenario  # noqa: E402
@@ -209,9 +216,9 @@ def test_checkpoint_errors_are_clear(tmp_path):
     small = make_scenario("crowd", n_neighbors=2)
     model = PPO("MlpPolicy", NavVecEnv(small, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
     model.save(tmp_path / "k2.zip")
-    with pytest.raises(CheckpointError, match=r"observation space Box\(24,\).*Box\(72,\)"):
+    with pytest.raises(CheckpointError, match=r"observation space Box\(27,\).*Box\(75,\)"):
         load_model(tmp_path / "k2.zip", s)
-    assert load_model(tmp_path / "k2", small).observation_space.shape == (24,)
+    assert load_model(tmp_path / "k2", small).observation_space.shape == (27,)
     truncated = tmp_path / "truncated.zip"
     with zipfile.ZipFile(tmp_path / "k2.zip") as src, zipfile.ZipFile(truncated, "w") as dst:
         dst.writestr("data", src.read("data"))
@@ -314,11 +321,37 @@ def test_saved_command_rebuilds_the_config():
 
 
 @pytest.mark.parametrize("name,suite", [("circle8", "circle-8-v0-smoke"), ("crowd5", "crowd-5-v0-smoke")])
-def test_released_policies_load_and_solve_their_smoke_suites(name, suite):
-    """The checkpoints in policies/ still fit the env (observation layout, dynamics): each solves
-    the first episodes of its suite, as it solved all 100 when released (policies/README.md)."""
+def test_released_v0_policies_are_refused_with_the_reason(name, suite):
+    """The checkpoints in policies/ were trained on observation v0; they need retraining on v1
+    (policies/README.md) and loading them says so, with the command that rebuilds them."""
     from pathlib import Path
 
     path = Path(__file__).resolve().parent.parent / "policies" / name / "model.zip"
-    res = evaluate(str(path), suite, progress=False)
-    assert res.summary["success"]["mean"] == 1.0 and res.summary["collision"]["mean"] == 0.0
+    with pytest.raises(CheckpointError, match=r"observation v0.*changed in v1.*Retrain it on v1 with its command: vcs"):
+        evaluate(str(path), suite, progress=False)
+
+
+def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
+    from stable_baselines3 import PPO
+
+    from agents.train import TrainConfig
+
+    circle = make_scenario("circle", n_robots=2)
+    model = PPO("MlpPolicy", NavVecEnv(circle, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
+    path = save_model(model, tmp_path / "m", "ppo", TrainConfig(), circle)
+    meta = read_metadata(path)
+    assert meta["scenario_family"] == ["circle"] and meta["observation"]["version"] == 1
+    load_model(path, make_scenario("circle", n_robots=12, jitter=0.3))  # same family and config: silent
+    with pytest.warns(FamilyWarning, match=r"trained on scenario family \['circle'\], but runs on kind='crowd'"):
+        load_model(path, make_scenario("crowd"))
+    # Another observation config (here a changed scale, same size): an error naming both configs.
+    meta["observation"]["scales"]["goal_ref"] = 10.0
+    (tmp_path / "m.json").write_text(json.dumps(meta))
+    with pytest.raises(CheckpointError, match=r"trained with observation config .*goal_ref.: 10.0.*gives .*ref.: 20"):
+        load_model(path, circle)
+    # A v0 checkpoint: no observation config and the 8 + 8 K size.
+    v0 = PPO("MlpPolicy", NavVecEnv(circle, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
+    v0.observation_space = type(v0.observation_space)(-1.0, 1.0, (72,), np.float32)
+    v0.save(tmp_path / "v0.zip")
+    with pytest.raises(CheckpointError, match=r"made for observation v0 \(vcs_nav_v0: 72 = 8 \+ 8 K"):
+        load_model(tmp_path / "v0.zip", circle)

@@ -94,14 +94,14 @@ def test_gymnasium_check_env(env_id):
 
 
 def test_gym_make_overrides_and_vector_envs():
-    env = gym.make("vcs_env/Navigation-v0", scenario="crowd", n_obstacles=2, others="straight")
+    env = gym.make("vcs_env/Navigation-v1", scenario="crowd", n_obstacles=2, others="straight")
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     obs, reward, term, trunc, info = env.step(env.action_space.sample())
     assert "reward_terms" in info
     env.close()
     vec = gym.make_vec(
-        "vcs_env/Swap-v0", num_envs=2, vectorization_mode="async", vector_kwargs={"context": "spawn"}, others="straight"
+        "vcs_env/Swap-v1", num_envs=2, vectorization_mode="async", vector_kwargs={"context": "spawn"}, others="straight"
     )
     obs, _ = vec.reset(seed=1)
     assert obs.shape == (2, vec.single_observation_space.shape[0])
@@ -111,7 +111,7 @@ def test_gym_make_overrides_and_vector_envs():
 
 def test_gym_env_seeding_is_reproducible():
     def rollout(seed):
-        env = gym.make("vcs_env/Crossing-v0", others="vcs")
+        env = gym.make("vcs_env/Crossing-v1", others="vcs")
         obs, _ = env.reset(seed=seed)
         out = [obs]
         for _ in range(20):
@@ -142,7 +142,7 @@ def test_pettingzoo_registry():
     import pettingzoo
 
     env = pettingzoo.make("parallel", vcs_env.PZ_ID, scenario="swap", max_cycles=5)
-    assert env.metadata["name"] == "vcs_nav_v0" and env.max_cycles == 5
+    assert env.metadata["name"] == "vcs_nav_v1" and env.max_cycles == 5
     env.reset(seed=0)
     aec = pettingzoo.make("aec", vcs_env.PZ_ID, scenario="swap")
     aec.reset(seed=0)

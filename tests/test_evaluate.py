@@ -179,20 +179,24 @@ def test_metric_flags_match_the_documented_groups():
 
 # --------------------------------------------------------------------------- suites
 FINGERPRINTS = {
-    "circle-8-v0": "0a217f994f7deeb4",
-    "circle-16-v0": "aec18b5034bd7644",
-    "circle-24-v0": "4d84b38c13703be3",
-    "swap-v0": "0ba2bdcc30f41cb4",
-    "crossing-v0": "846e31a170c6ab3a",
-    "crowd-5-v0": "55962b93394b7116",
-    "crowd-20-v0": "b0b93eabac27ce09",
-    "dynamic-v0": "3a2f81ede1400116",
-    "corridor-v0": "b846f4fe933fbc3f",
-    "doorway-v0": "2a2cc22ab1eadcaa",
-    "door-headon-v0": "cb17a9a8abe11bab",
-    "room-v0": "ee8b61a54a202377",
-    "intersection-v0": "647bc8c6c1a25d01",
-    "walls-v0": "6f2177594228ec80",
+    "circle-8-v0": "ed883d121ce71df4",
+    "circle-16-v0": "e0bfebba614a3bb7",
+    "circle-24-v0": "b4f7ee2c4666361e",
+    "swap-v0": "3f027a8b607bd4b8",
+    "crossing-v0": "c57ebfcb7c3ca536",
+    "crowd-5-v0": "da508bb1ccbe803c",
+    "crowd-20-v0": "d058c166c0502a14",
+    "dynamic-v0": "7807d1e035719215",
+    "circle-40-v0": "6692b5af4ed37c75",
+    "circle-40-symmetric-v0": "db4964fed54eec57",
+    "random-dense-v0": "20c20a70ed1fbe31",
+    "crowd-10-v0": "e5911e00eedb3f45",
+    "corridor-v0": "91672d7d89bd25bd",
+    "doorway-v0": "941b9ed8918f51ac",
+    "door-headon-v0": "76f62c204494ad8e",
+    "room-v0": "9f5ae9c5afce0901",
+    "intersection-v0": "46883bb5cd2a1772",
+    "walls-v0": "3f7a5c20f7158643",
 }
 
 
@@ -318,9 +322,9 @@ def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):
     res = evaluate(str(tmp_path / "good.zip"), suite, progress=False)
     assert res.policy == "good" and len(res.rows) == SMOKE_SEEDS
 
-    other = gymnasium.spaces.Box(-1.0, 1.0, (16,), dtype=np.float32)
+    other = gymnasium.spaces.Box(-1.0, 1.0, (19,), dtype=np.float32)
     PPO("MlpPolicy", SpacesOnly(other), n_steps=8, batch_size=8, device="cpu").save(tmp_path / "other.zip")
-    with pytest.raises(ValueError, match=r"observation space Box\(16,\)"):
+    with pytest.raises(ValueError, match=r"observation space Box\(19,\)"):
         evaluate(tmp_path / "other.zip", suite, progress=False)
 
 

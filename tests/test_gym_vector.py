@@ -15,7 +15,7 @@ from vcs_env.gym_env import VcsNavVectorEnv
 SMALL = dict(n_robots=3, n_obstacles=2, max_steps=40)  # short episodes: many autoresets
 
 
-def make(mode, num_envs=3, env_id="vcs_env/Dynamic-v0", **kw):
+def make(mode, num_envs=3, env_id="vcs_env/Dynamic-v1", **kw):
     return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=mode, **{**SMALL, **kw})
 
 
@@ -42,9 +42,9 @@ def assert_same(a, b, path="info"):
 @pytest.mark.parametrize(
     "env_id, kw",
     [
-        ("vcs_env/Dynamic-v0", {}),
-        ("vcs_env/Crowd-v0", {"expert": "vcs", "on_collision": "continue"}),
-        ("vcs_env/Circle-v0", {"n_robots": 1, "n_obstacles": 0}),
+        ("vcs_env/Dynamic-v1", {}),
+        ("vcs_env/Crowd-v1", {"expert": "vcs", "on_collision": "continue"}),
+        ("vcs_env/Circle-v1", {"n_robots": 1, "n_obstacles": 0}),
     ],
 )
 def test_vector_entry_point_equals_sync_bit_for_bit(env_id, kw):
@@ -124,7 +124,7 @@ def test_sb3_adapter_equals_dummy_vec_env():
     from agents.gym_vec import GymVectorToSB3
 
     fast = GymVectorToSB3(make("vector_entry_point"))
-    slow = DummyVecEnv([lambda: gym.make("vcs_env/Dynamic-v0", **SMALL) for _ in range(3)])
+    slow = DummyVecEnv([lambda: gym.make("vcs_env/Dynamic-v1", **SMALL) for _ in range(3)])
     fast.seed(11)
     slow.seed(11)
     np.testing.assert_array_equal(fast.reset(), slow.reset())

@@ -7,6 +7,7 @@ import pytest
 
 import vcs_env
 from vcs_env.engine import NavEngine
+from vcs_env.observations import EGO_DIM, GOAL_REF, SENSE_REF
 from vcs_env.obstacles import MOTION_MODELS, Trajectory
 from vcs_env.scenario import CustomLayout, ObstacleTrajectory
 from vcs_env.sim import Simulator
@@ -229,10 +230,40 @@ def test_observation_sees_nearest_objects_in_robot_frame():
     obs, _ = env.reset(seed=0)
     o = obs["robot_0"]
     assert env.observation_space("robot_0").contains(o)
-    nb = o[8:].reshape(3, 8)
+    nb = o[EGO_DIM:].reshape(3, 8)
     assert nb[0, 0] == 1 and nb[0, 7] == 1  # nearest: the robot ahead
-    np.testing.assert_allclose(nb[0, 1:3], [1.0 / 6.0, 0.0], atol=1e-6)  # +x of the robot frame
+    np.testing.assert_allclose(nb[0, 1:3], [1.0 / SENSE_REF, 0.0], atol=1e-6)  # +x of the robot frame
     assert nb[1, 0] == 1 and nb[1, 7] == 0  # then the obstacle
-    np.testing.assert_allclose(nb[1, 1:3], [0.0, -2.0 / 6.0], atol=1e-6)  # to the right
+    np.testing.assert_allclose(nb[1, 1:3], [0.0, -2.0 / SENSE_REF], atol=1e-6)  # to the right
     assert nb[2, 0] == 0 and np.all(nb[2] == 0)  # padding: the third robot is out of range
     np.testing.assert_allclose(o[2:4], [1.0, 0.0], atol=1e-6)  # goal straight ahead
+
+
+def test_same_local_situation_gives_the_same_observation_whatever_the_rest_of_the_world():
+    """Fixed physical scales (observation v1): robot_0 with the same goal and the same neighbour
+    reads the same numbers when far-away robots are added, the arena grows or the layout kind
+    changes (v0 divided the goal distance by a scale that grew with the world)."""
+    near = (((0.0, 0.0), (1.5, 0.0)), ((0.0, 7.0), (1.5, -3.0)))
+    far_robots = tuple((40.0 + 2.0 * i, 30.0) for i in range(10)), tuple((-40.0 + 2.0 * i, -30.0) for i in range(10))
+    small = custom(*near, headings=(math.pi / 2, 0.0), arena_half_size=6.0)
+    big = custom(near[0] + far_robots[0], near[1] + far_robots[1], headings=(math.pi / 2,) + (0.0,) * 11)
+    bigger_arena = custom(*near, headings=(math.pi / 2, 0.0), arena_half_size=80.0)
+    assert small.world_extent < big.world_extent
+    rows = []
+    for s in (small, big, bigger_arena):
+        env = vcs_env.parallel_env(scenario=s)
+        obs, _ = env.reset(seed=0)
+        rows.append(obs["robot_0"])
+    np.testing.assert_array_equal(rows[0], rows[1])
+    np.testing.assert_array_equal(rows[0], rows[2])
+    assert rows[0][1] == pytest.approx(7.0 / GOAL_REF)  # goal 7 m ahead
+    np.testing.assert_allclose(rows[0][8:11], [6.0 / SENSE_REF, 0.1 / 2.0, 0.1])  # r_ca, r_goal, dt features
+
+
+def test_scenario_parameters_a_policy_needs_are_explicit_features():
+    base = custom(((0.0, 0.0),), ((0.0, 5.0),))
+    changed = custom(((0.0, 0.0),), ((0.0, 5.0),), r_ca=4.0, r_goal=0.3, dt=0.2)
+    o0 = vcs_env.parallel_env(scenario=base).reset(seed=0)[0]["robot_0"]
+    o1 = vcs_env.parallel_env(scenario=changed).reset(seed=0)[0]["robot_0"]
+    np.testing.assert_allclose(o1[8:11] - o0[8:11], [-2.0 / SENSE_REF, 0.2 / 2.0, 0.1], atol=1e-6)
+    np.testing.assert_array_equal(o0[:8], o1[:8])

@@ -1,7 +1,7 @@
 """vcs-env: multi-robot navigation among moving obstacles, with a Velocity-Change-Space expert.
 
 Make the PettingZoo env with :func:`parallel_env` (or :func:`env` for AEC) and the single-robot
-Gymnasium env with ``gym.make("vcs_env/Navigation-v0")`` (registered on import).
+Gymnasium env with ``gym.make("vcs_env/Navigation-v1")`` (registered on import).
 """
 
 from __future__ import annotations
@@ -28,14 +28,14 @@ from .state import WorldState
 __version__ = "0.1.0"
 
 GYM_IDS = {
-    "vcs_env/Navigation-v0": "circle",
-    "vcs_env/Circle-v0": "circle",
-    "vcs_env/Swap-v0": "swap",
-    "vcs_env/Crossing-v0": "crossing",
-    "vcs_env/Random-v0": "random",
-    "vcs_env/Crowd-v0": "crowd",
-    "vcs_env/Dynamic-v0": "dynamic",
-    "vcs_env/Custom-v0": "custom",
+    "vcs_env/Navigation-v1": "circle",
+    "vcs_env/Circle-v1": "circle",
+    "vcs_env/Swap-v1": "swap",
+    "vcs_env/Crossing-v1": "crossing",
+    "vcs_env/Random-v1": "random",
+    "vcs_env/Crowd-v1": "crowd",
+    "vcs_env/Dynamic-v1": "dynamic",
+    "vcs_env/Custom-v1": "custom",
 }
 """Registered Gymnasium ids and the preset each starts from (override with ``scenario=``). Each id has a
 ``vector_entry_point`` (:class:`~vcs_env.gym_env.VcsNavVectorEnv`): ``gym.make_vec(id, num_envs,
@@ -50,7 +50,7 @@ for _id, _preset in GYM_IDS.items():
             kwargs={"scenario": _preset},
         )
 
-PZ_ID = "vcs_env/VcsNav-v0"
+PZ_ID = "vcs_env/VcsNav-v1"
 """PettingZoo registry id: ``pettingzoo.make("parallel", PZ_ID, scenario="circle")`` (or "aec")."""
 for _type, _entry in (("parallel", "vcs_env.parallel:parallel_env"), ("aec", "vcs_env.parallel:raw_env")):
     if PZ_ID not in getattr(pettingzoo, f"{_type}_registry"):

@@ -20,7 +20,7 @@ from .spaces import action_space, observation_space
 
 class VcsNavEnv(RenderMixin, gym.Env):
     """One learning robot among planner-driven robots and passive obstacles
-    (``vcs_env/Navigation-v0``).
+    (``vcs_env/Navigation-v1``).
 
     ## Description
     The scenario's ``robot_0`` is controlled by the agent; every other robot is driven by
@@ -29,7 +29,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
 
     ## Action Space / Observation Space / Rewards
     As one robot of the PettingZoo env :class:`~vcs_env.parallel.VcsNavParallelEnv`:
-    ``Box(-1, 1, (2,))`` actions, ``Box(-1, 1, (8 + 8 K,))`` observations, weighted named
+    ``Box(-1, 1, (2,))`` actions, ``Box(-1, 1, (11 + 8 K,))`` observations, weighted named
     reward terms (``info["reward_terms"]``).
 
     ## Episode End
@@ -47,6 +47,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
+    * v1: observations in fixed physical units (goal distance / 20 m, relative positions and
+      gaps / 10 m instead of scales built from the world size and ``r_ca``) plus the sensing
+      radius, arrival radius and step as features (``11 + 8 K`` floats); policies trained on v0
+      do not carry over. Dynamics and rewards unchanged. The v0 ids are removed.
     * v0: initial release.
     """
 
@@ -117,7 +121,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
 class VcsNavVectorEnv(VectorEnv):
     """``num_envs`` copies of :class:`VcsNavEnv` stepped in one engine call: the
     ``vector_entry_point`` of the Gymnasium ids, so
-    ``gym.make_vec("vcs_env/Navigation-v0", num_envs=64, vectorization_mode="vector_entry_point")``
+    ``gym.make_vec("vcs_env/Navigation-v1", num_envs=64, vectorization_mode="vector_entry_point")``
     steps every world (and plans every other robot) at once.
 
     It returns what ``vectorization_mode="sync"`` returns for the same seeds and actions,

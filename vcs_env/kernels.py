@@ -271,14 +271,19 @@ def observe(
     obs_vel,
     obs_radius,
     r_ca,
-    goal_scale,
+    r_goal,
+    dt,
     k,
+    ego_dim,
+    goal_ref,
+    sense_ref,
+    dt_ref,
     v_ref,
     a_ref,
     omega_ref,
     r_ref,
 ):
-    """Observations ``(B, n, 8 + 8 k)`` float32 as documented in :mod:`vcs_env.observations`.
+    """Observations ``(B, n, ego_dim + 8 k)`` float32 as documented in :mod:`vcs_env.observations`.
 
     The neighbour slots hold the ``k`` sensed objects (robots still in the world, then
     obstacles, whose centres lie within ``r_ca``) with the smallest gap, ties by index (robots
@@ -287,7 +292,7 @@ def observe(
     B, n = speed.shape
     m = obs_radius.shape[1]
     total = n + m
-    out = np.zeros((B, n, 8 + 8 * k), dtype=np.float32)
+    out = np.zeros((B, n, ego_dim + 8 * k), dtype=np.float32)
     gaps = np.empty(total)
     order = np.empty(total, dtype=np.int64)
     cos_h, sin_h, vel = np.empty(n), np.empty(n), np.empty((n, 2))
@@ -305,7 +310,7 @@ def observe(
             d_goal = math.sqrt(gx * gx + gy * gy)
             o = out[b, i]
             o[0] = _clip(speed[b, i] / v_max[b, i], -1.0, 1.0)
-            o[1] = _clip(min(d_goal / goal_scale, 1.0), -1.0, 1.0)
+            o[1] = _clip(min(d_goal / goal_ref, 1.0), -1.0, 1.0)
             if d_goal > 1e-12:
                 o[2] = _clip((c * gx + s * gy) / d_goal, -1.0, 1.0)
                 o[3] = _clip((-s * gx + c * gy) / d_goal, -1.0, 1.0)
@@ -316,6 +321,9 @@ def observe(
             o[5] = _clip(a_max[b, i] / a_ref, -1.0, 1.0)
             o[6] = _clip(omega_max[b, i] / omega_ref, -1.0, 1.0)
             o[7] = _clip(radius[b, i] / r_ref, -1.0, 1.0)
+            o[8] = _clip(r_ca / sense_ref, -1.0, 1.0)
+            o[9] = _clip(r_goal / r_ref, -1.0, 1.0)
+            o[10] = _clip(dt / dt_ref, -1.0, 1.0)
             # Sensed objects and their gaps [m], kept sorted by (gap, index): insertion sort,
             # cheap for the few objects within r_ca.
             count = 0
@@ -351,14 +359,14 @@ def observe(
                     ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
                     rj = obs_radius[b, q]
                 wx, wy = ux - vx, uy - vy
-                base = 8 + 8 * t
+                base = ego_dim + 8 * t
                 o[base] = 1.0
-                o[base + 1] = _clip((c * rx + s * ry) / r_ca, -1.0, 1.0)
-                o[base + 2] = _clip((-s * rx + c * ry) / r_ca, -1.0, 1.0)
+                o[base + 1] = _clip((c * rx + s * ry) / sense_ref, -1.0, 1.0)
+                o[base + 2] = _clip((-s * rx + c * ry) / sense_ref, -1.0, 1.0)
                 o[base + 3] = _clip((c * wx + s * wy) / (2.0 * v_ref), -1.0, 1.0)
                 o[base + 4] = _clip((-s * wx + c * wy) / (2.0 * v_ref), -1.0, 1.0)
                 o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
-                o[base + 6] = _clip(gaps[t] / r_ca, -1.0, 1.0)
+                o[base + 6] = _clip(gaps[t] / sense_ref, -1.0, 1.0)
                 o[base + 7] = 1.0 if j < n else 0.0
     return out
 

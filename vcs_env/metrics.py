@@ -14,7 +14,7 @@ are NaN for robots that did not arrive.
 
 Each metric is one :class:`Metric` in :data:`METRICS`: its name, label, how it is computed from
 an episode and how the evaluation harness, its report and plots treat it (rate or mean,
-solved-only, table column, bar chart). ``docs/extending-metrics.md`` shows how to add one.
+solved-only, table column, bar chart). ``docs/extending.md`` shows how to add one.
 """
 
 from __future__ import annotations

@@ -1,17 +1,25 @@
-"""Per-robot observations in the robot's own frame, normalized into [-1, 1].
+"""Per-robot observations in the robot's own frame, in fixed physical units, within [-1, 1].
 
-Layout of one robot's vector (``EGO_DIM + n_neighbors * NEIGHBOR_DIM`` floats):
+Observation version 1 (:data:`OBSERVATION_VERSION`; env versions ``vcs_nav_v1`` and
+``vcs_env/*-v1``). Every scale is a documented constant, never derived from the scenario, so the
+same local situation reads the same numbers whatever the robot count, layout or arena size.
+What differs between scenarios and matters to a policy (sensing radius, arrival radius, step)
+is an explicit feature. Layout of one robot's vector (``EGO_DIM + n_neighbors * NEIGHBOR_DIM``
+floats):
 
 ===== ============================ ===================================================
-index feature                      normalization
+index feature                      scale
 ===== ============================ ===================================================
 0     own speed                    / v_max, in [0, 1]
-1     goal distance                / goal_scale, clipped to [0, 1] (far goals read 1)
+1     goal distance                / GOAL_REF (20 m), clipped to [0, 1] (farther goals read 1)
 2, 3  goal bearing cos, sin        robot frame
 4     v_max                        / V_REF (3 m/s)
 5     a_max                        / A_REF (10 m/s^2)
 6     omega_max                    / OMEGA_REF (2 pi rad/s)
 7     own radius                   / R_REF (2 m)
+8     sensing radius r_ca          / SENSE_REF (10 m), clipped to [0, 1]
+9     arrival radius r_goal        / R_REF (2 m), clipped to [0, 1]
+10    step dt                      / DT_REF (1 s)
 ===== ============================ ===================================================
 
 then ``n_neighbors`` slots for the nearest objects (robots still in the world and obstacles)
@@ -19,15 +27,22 @@ whose centres lie within ``r_ca``, nearest surface first, zero-padded:
 
 ===== ============================ ===================================================
 +0    mask                         1 for a real object, 0 for padding
-+1,+2 relative position x, y       robot frame, / r_ca
++1,+2 relative position x, y       robot frame, / SENSE_REF (10 m), clipped to [-1, 1]
 +3,+4 relative velocity x, y       object minus own velocity, robot frame, / (2 V_REF)
 +5    object radius                / R_REF
-+6    gap (distance - radii)       / r_ca, clipped to [-1, 1]
++6    gap (distance - radii)       / SENSE_REF, clipped to [-1, 1]
 +7    is-robot flag                1 robot, 0 obstacle
 ===== ============================ ===================================================
 
-``goal_scale`` is ``2 * scenario.world_extent`` (large enough to hold every start-goal pair of
-the generated layouts).
+:func:`observation_config` names everything that fixes this layout and its scales; a checkpoint
+stores it (:mod:`agents.checkpoint`) and may only be used where the config is the same. New
+blocks (e.g. a lidar scan) go after the neighbour slots, with their size in
+:func:`observation_dim`, their bounds in :func:`observation_bounds` and their parameters in
+:func:`observation_config`.
+
+Version history: v0 divided the goal distance by ``2 * scenario.world_extent`` and relative
+positions and gaps by ``r_ca`` (scales that moved with n, layout and arena) and had no
+features 8-10 (``EGO_DIM`` was 8).
 
 With ``scenario.lidar`` (off by default) the lidar ranges follow, ``range / max_range`` in
 ``[0, 1]``, one per beam (:mod:`vcs_env.lidar`).
@@ -35,36 +50,66 @@ With ``scenario.lidar`` (off by default) the lidar ranges follow, ``range / max_
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from . import kernels, lidar
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
 
-EGO_DIM = 8
+OBSERVATION_VERSION = 1
+"""Version of the observation layout and scales (module docstring); bumped with the env versions."""
+EGO_DIM = 11
+"""Features of the robot itself and of the scenario (indices 0-10)."""
 NEIGHBOR_DIM = 8
+"""Features per neighbour slot."""
+GOAL_REF = 20.0
+"""Goal distance that reads 1 [m]; farther goals read 1 too (the bearing still points at them)."""
+SENSE_REF = 10.0
+"""Scale of relative positions, gaps and the sensing radius [m]."""
+DT_REF = 1.0
+"""Largest allowed step [s] (``Scenario.dt`` is in (0, 1])."""
 
 
 def observation_dim(scenario: Scenario) -> int:
+    """Length D of one robot's observation."""
     lidar = scenario.lidar.n_beams if scenario.lidar is not None else 0
     return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM + lidar
+
+
+def observation_config(scenario: Scenario) -> dict:
+    """Everything that fixes the meaning of an observation vector of ``scenario``: version,
+    block sizes and scales. Two scenarios with equal configs give comparable observations, so a
+    policy trained on one may be run on the other (checked by :mod:`agents.checkpoint`)."""
+    return {
+        "version": OBSERVATION_VERSION,
+        "ego_dim": EGO_DIM,
+        "n_neighbors": scenario.n_neighbors,
+        "neighbor_dim": NEIGHBOR_DIM,
+        "scales": {
+            "goal_ref": GOAL_REF,
+            "sense_ref": SENSE_REF,
+            "dt_ref": DT_REF,
+            "v_ref": V_REF,
+            "a_ref": A_REF,
+            "omega_ref": OMEGA_REF,
+            "r_ref": R_REF,
+        },
+    } | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
 
 
 def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds ``(D,)`` float32 of every robot's observation (the tables above)."""
     dim = observation_dim(scenario)
     low = np.full(dim, -1.0, dtype=np.float32)
-    low[[0, 1, 4, 5, 6, 7]] = 0.0
+    low[[0, 1, 4, 5, 6, 7, 8, 9, 10]] = 0.0
     slots = EGO_DIM + NEIGHBOR_DIM * np.arange(scenario.n_neighbors)
     for off in (0, 5, 7):
         low[slots + off] = 0.0
     if scenario.lidar is not None:
         low[-scenario.lidar.n_beams :] = 0.0
     return low, np.ones(dim, dtype=np.float32)
-
-
-def goal_scale(scenario: Scenario) -> float:
-    return 2.0 * scenario.world_extent
 
 
 def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -126,7 +171,8 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     obs = kernels.observe(
         world.pos, world.heading, world.speed, world.radius, world.goal, world.v_max, world.a_max,
         world.omega_max, world.present, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
-        goal_scale(scenario), scenario.n_neighbors, V_REF, A_REF, OMEGA_REF, R_REF,
+        world.r_goal, world.dt, scenario.n_neighbors, EGO_DIM, GOAL_REF, SENSE_REF, DT_REF, V_REF, A_REF,
+        OMEGA_REF, R_REF,
     )  # fmt: skip
     if scenario.lidar is not None:
         obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
@@ -144,22 +190,25 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     far = d_goal > 1e-12
     safe = np.where(far, d_goal, 1.0)
     out[..., 0] = world.speed / world.v_max
-    out[..., 1] = np.minimum(d_goal / goal_scale(scenario), 1.0)
+    out[..., 1] = np.minimum(d_goal / GOAL_REF, 1.0)
     out[..., 2] = np.where(far, (c * gx + s * gy) / safe, 1.0)  # goal bearing in the robot frame
     out[..., 3] = np.where(far, (-s * gx + c * gy) / safe, 0.0)
     out[..., 4] = world.v_max / V_REF
     out[..., 5] = world.a_max / A_REF
     out[..., 6] = world.omega_max / OMEGA_REF
     out[..., 7] = world.radius / R_REF
+    out[..., 8] = world.r_ca / SENSE_REF
+    out[..., 9] = world.r_goal / R_REF
+    out[..., 10] = world.dt / DT_REF
     feats, valid = sense(world, k)
     nb = out[..., EGO_DIM:].reshape(B, n, k, NEIGHBOR_DIM)
     nb[..., 0] = valid
-    nb[..., 1:3] = feats[..., 0:2] / world.r_ca
+    nb[..., 1:3] = feats[..., 0:2] / SENSE_REF
     nb[..., 3:5] = feats[..., 2:4] / (2.0 * V_REF)
     nb[..., 5] = feats[..., 4] / R_REF
-    nb[..., 6] = feats[..., 5] / world.r_ca
+    nb[..., 6] = feats[..., 5] / SENSE_REF
     nb[..., 7] = feats[..., 6]
-    # Gaps beyond +-r_ca and rounding (an object exactly at r_ca) are clipped into the space.
+    # Far objects, long gaps, large r_ca or r_goal and rounding (an object exactly at r_ca) are clipped into the space.
     obs = np.clip(out, -1.0, 1.0).astype(np.float32)
     if scenario.lidar is not None:
         obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)

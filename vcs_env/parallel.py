@@ -19,7 +19,7 @@ from .scenario import Scenario, make_scenario
 
 
 class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
-    """Multi-robot navigation among moving obstacles (``vcs_nav_v0``).
+    """Multi-robot navigation among moving obstacles (``vcs_nav_v1``).
 
     ## Description
     ``n`` circular wheeled robots (``robot_0`` ... ``robot_{n-1}``) drive to their goals among
@@ -35,8 +35,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     and wrong shapes raise ``ValueError``. Details: :mod:`vcs_env.dynamics`.
 
     ## Observation Space
-    ``Box(-1, 1, (8 + 8 K,), float32)`` per robot, in the robot's frame: own speed, goal
-    distance and bearing, own limits and radius, then the ``K = n_neighbors`` nearest objects
+    ``Box(-1, 1, (11 + 8 K,), float32)`` per robot, in the robot's frame and fixed physical
+    scales: own speed, goal distance and bearing, own limits and radius, the scenario's sensing
+    and arrival radii and step, then the ``K = n_neighbors`` nearest objects
     within ``r_ca`` (relative position and velocity, radius, gap, robot flag, mask). Table in
     :mod:`vcs_env.observations`. ``state()`` is the global state (SI units).
 
@@ -67,11 +68,15 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v1: observations in fixed physical units (goal distance / 20 m, relative positions and
+      gaps / 10 m instead of scales built from the world size and ``r_ca``) plus the sensing
+      radius, arrival radius and step as features (``11 + 8 K`` floats); policies trained on v0
+      do not carry over. Dynamics and rewards unchanged. The v0 ids are removed.
     * v0: initial release.
     """
 
     metadata = {
-        "name": "vcs_nav_v0",
+        "name": "vcs_nav_v1",
         "render_modes": ["human", "rgb_array", "ansi"],
         "render_fps": 10,
         "is_parallelizable": True,

@@ -336,8 +336,8 @@ class Scenario:
 
     @property
     def world_extent(self) -> float:
-        """A generous half size of the area of an episode [m]; sets the goal-distance scale of
-        the observations (``vcs_env.observations``), so it is kept stable across versions."""
+        """A generous half size of the area of an episode [m] (placement bounds; observations do
+        not depend on it since observation v1)."""
         return _kinds()[self.kind].world_extent(self)
 
     @property

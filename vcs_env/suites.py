@@ -10,10 +10,15 @@ suite                      episodes content
 ``circle-8-v0``            100      8 robots to the antipodes of a circle of radius 5 m
 ``circle-16-v0``           100      16 robots, circle radius 6 m
 ``circle-24-v0``           50       24 robots, circle radius 7 m
+``circle-40-v0``           10       40 robots, circle radius 11 m, 90 s
+``circle-40-symmetric-v0`` 10       the same from perfectly symmetric starts (no jitter)
+``random-dense-v0``        100      12 robots, random starts and goals in an 8 m square (robots
+                                    park inside the traffic)
 ``swap-v0``                100      6 robots = 3 head-on pairs on lanes 1.2 m apart, 10 m long
 ``crossing-v0``            100      two groups of 4 crossing at 90 degrees, 10 m long
 ``crowd-5-v0``             100      1 robot among 5 non-reactive obstacles (CrowdNav circle
                                     crossing, radius 4 m, constant velocity 0.5-1 m/s)
+``crowd-10-v0``            100      1 robot among 10 non-reactive obstacles, radius 5 m
 ``crowd-20-v0``            100      1 robot among 20 non-reactive obstacles, radius 6 m
 ``dynamic-v0``             100      4 robots, random starts and goals, among 6 obstacles on
                                     arbitrary (random-turning, wall-bouncing) trajectories
@@ -30,7 +35,8 @@ The map suites (the last six) have static walls (:mod:`vcs_env.walls`); every pl
 the route layer's waypoints (:mod:`vcs_env.routes`).
 
 Every suite has a ``-smoke`` variant (``circle-16-v0-smoke``, ...) for CI: its first 3 seeds,
-and fewer robots where the full suite is big (``circle-24-v0-smoke`` has 12). Smoke numbers
+and fewer robots where the full suite is big (``circle-24-v0-smoke`` has 12, the 40-robot
+circles 16). Smoke numbers
 are not results; they only show that a policy runs.
 
 Conventions:
@@ -43,8 +49,8 @@ Conventions:
 * Circle, swap and crossing starts carry 0.1 m of jitter: without it every seed gives the same
   layout, and a deterministic planner would play one episode 100 times.
 * Robots: radius 0.25 m, v_max 1 m/s, a_max 0.5 m/s^2, omega_max pi/2 rad/s (unicycle), dt 0.1 s.
-  Time limits: 60 s (600 steps); crowd-5 30 s, crowd-20 40 s. Crowd bodies spawn 0.2 m apart
-  (CrowdNav's discomfort distance), the others 0.3 m.
+  Time limits: 60 s (600 steps); circle-40 90 s, crowd-5 30 s, crowd-10 35 s, crowd-20 40 s.
+  Crowd bodies spawn 0.2 m apart (CrowdNav's discomfort distance), the others 0.3 m.
 * Scenarios are written out field by field (not derived from :data:`~vcs_env.scenario.SCENARIOS`,
   whose presets may be retuned).
 
@@ -64,6 +70,12 @@ from dataclasses import dataclass
 
 from .scenario import RobotSpec, Scenario
 
+LATER_FIELDS = {
+    f.name: f.default
+    for f in dataclasses.fields(Scenario)
+    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar")
+}
+"""Scenario fields (with their defaults) added after the first suites were pinned: the maps and lidar."""
 SMOKE_SEEDS = 3
 """Episodes in a ``-smoke`` suite."""
 SMOKE_SUFFIX = "-smoke"
@@ -100,8 +112,17 @@ class Suite:
 
     @property
     def fingerprint(self) -> str:
-        """First 16 hex digits of the SHA-256 of the suite's content (scenario fields and seeds)."""
-        content = {"scenario": dataclasses.asdict(self.scenario), "seeds": list(self.seeds)}
+        """First 16 hex digits of the SHA-256 of the suite's content (scenario fields and seeds).
+
+        Scenario fields added after suites were first pinned (:data:`LATER_FIELDS`) count only
+        when they differ from their default, so adding a field with a neutral default leaves
+        every existing fingerprint as it was."""
+        scenario = {
+            k: v
+            for k, v in dataclasses.asdict(self.scenario).items()
+            if not (k in LATER_FIELDS and v == LATER_FIELDS[k])
+        }
+        content = {"scenario": scenario, "seeds": list(self.seeds)}
         blob = json.dumps(content, sort_keys=True, default=repr).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
@@ -123,8 +144,8 @@ _COMMON = dict(
 )
 
 
-def _circle(n: int, radius: float) -> Scenario:
-    return Scenario(kind="circle", n_robots=n, layout_radius=radius, jitter=0.1, max_steps=600, **_COMMON)
+def _circle(n: int, radius: float, jitter: float = 0.1, max_steps: int = 600) -> Scenario:
+    return Scenario(kind="circle", n_robots=n, layout_radius=radius, jitter=jitter, max_steps=max_steps, **_COMMON)
 
 
 def _crowd(m: int, radius: float, max_steps: int) -> Scenario:
@@ -211,7 +232,26 @@ def _build() -> dict[str, Suite]:
             _seeds(100),
             "two groups of 4 robots crossing at 90 degrees",
         ),
+        Suite(
+            "circle-40-v0",
+            _circle(40, 11.0, max_steps=900),
+            _seeds(10),
+            "40 robots swap to the antipodes of an 11 m circle",
+        ),
+        Suite(
+            "circle-40-symmetric-v0",
+            _circle(40, 11.0, jitter=0.0, max_steps=900),
+            _seeds(10),
+            "40 robots, perfectly symmetric starts (seeds change only the planners' noise)",
+        ),
+        Suite(
+            "random-dense-v0",
+            Scenario(kind="random", n_robots=12, arena_half_size=4.0, max_steps=600, **_COMMON),
+            _seeds(100),
+            "12 robots, random starts and goals in an 8 m square: robots park inside the traffic",
+        ),
         Suite("crowd-5-v0", _crowd(5, 4.0, 300), _seeds(100), "1 robot among 5 non-reactive obstacles (CrowdNav)"),
+        Suite("crowd-10-v0", _crowd(10, 5.0, 350), _seeds(100), "1 robot among 10 non-reactive obstacles"),
         Suite("crowd-20-v0", _crowd(20, 6.0, 400), _seeds(100), "1 robot among 20 non-reactive obstacles"),
         Suite(
             "dynamic-v0",
@@ -234,7 +274,7 @@ def _build() -> dict[str, Suite]:
         ),
     ]
     full += _maps()
-    smoke_robots = {"circle-24-v0": 12}
+    smoke_robots = {"circle-24-v0": 12, "circle-40-v0": 16, "circle-40-symmetric-v0": 16}
     out: dict[str, Suite] = {}
     for s in full:
         out[s.name] = s

@@ -1,0 +1,181 @@
+"""Issue 13 infrastructure: ad-hoc evaluation from scenario flags, training settings against the
+suites, training on mixtures (groups of worlds), reproducible toy runs."""
+
+import json
+
+import pytest
+
+import vcs_cli as cli
+from agents.config import (
+    ScenarioConfig,
+    build_scenario,
+    parse_seeds,
+    probe_scenario,
+    suite_differences,
+)
+from vcs_env.suites import get_suite
+
+
+def test_parse_seeds_ranges_and_errors():
+    assert parse_seeds("5000:5003") == (5000, 5001, 5002)
+    assert parse_seeds("7") == (7,)
+    for bad, msg in (("5:3", "0 <= START < STOP"), ("-1:3", "0 <= START"), ("a:b", "START:STOP"), ("1:", "START")):
+        with pytest.raises(ValueError, match=msg):
+            parse_seeds(bad)
+
+
+def test_probe_scenario_starts_from_the_family_suite():
+    suite = get_suite("circle-8-v0").scenario
+    assert probe_scenario(ScenarioConfig(scenario="circle")) == suite
+    s = probe_scenario(ScenarioConfig(scenario="circle", n_robots=12, jitter=0.3))
+    assert (s.n_robots, s.jitter, s.on_collision, s.min_separation) == (12, 0.3, "continue", 0.3)
+    assert s.circle_radius == 5.0 and probe_scenario(ScenarioConfig(n_robots=24)).circle_radius == pytest.approx(7.2)
+    crowd = probe_scenario(ScenarioConfig(scenario="crowd", n_obstacles=3, obstacle_speed=(1.0, 1.5)))
+    assert (crowd.n_obstacles, crowd.obstacle_speed, crowd.min_separation) == (3, (1.0, 1.5), 0.2)
+    assert probe_scenario(ScenarioConfig(scenario="custom")) == build_scenario(ScenarioConfig(scenario="custom"))
+
+
+def test_training_differences_from_the_suite_are_listed():
+    suite, diffs = suite_differences(build_scenario(ScenarioConfig(scenario="crowd")))
+    assert suite == "crowd-5-v0"
+    assert diffs == ["on_collision: terminate (suite: continue)", "min_separation: 0.3 (suite: 0.2)"]
+    assert suite_differences(get_suite("swap-v0").scenario) == ("swap-v0", [])
+    assert suite_differences(build_scenario(ScenarioConfig(scenario="custom"))) == (None, [])  # no custom suite
+
+
+def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
+    out = tmp_path / "out.json"
+    args = ["evaluate", "--policy", "vcs", "--scenario", "circle", "--n-robots", "5", "--jitter", "0.3"]
+    assert cli.main([*args, "--seeds", "5000:5002", "--json", str(out), "--no-progress"]) == 0
+    data = json.loads(out.read_text())
+    assert [e["seed"] for e in data["episodes"]] == [5000, 5001]
+    assert data["suite"] == "circle[n_robots=5,jitter=0.3]@5000:5002"
+    assert data["summary"]["success"]["mean"] == 1.0
+    report = tmp_path / "report"
+    args = ["compare", "--policies", "vcs,straight", "--scenario", "crowd", "--n-obstacles", "3"]
+    assert cli.main([*args, "--seeds", "10:12", "--out", str(report), "--no-plots", "--no-progress"]) == 0
+    assert json.loads((report / "results.json").read_text())["seeds"] == [10, 11]
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--scenario", "circle"], "give --suite NAME, or scenario flags"),
+        (["--seeds", "9:3"], "0 <= START < STOP"),
+        (["--suite", "swap-v0-smoke", "--n-robots", "4"], "either --suite or scenario flags"),
+        (["--scenario", "nope", "--seeds", "1:2"], "unknown scenario 'nope'"),
+        (["--scenario", "crowd", "--obstacle-speed", "1", "--seeds", "1:2"], "obstacle_speed must be two numbers"),
+    ],
+)
+def test_cli_ad_hoc_errors_are_messages(args, message, capsys):
+    assert cli.main(["evaluate", "--policy", "vcs", "--no-progress", *args]) == 2
+    assert message in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- mixtures
+def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
+    from agents.config import mixture_scenarios, parse_mixture_entry
+
+    assert parse_mixture_entry("circle:n_robots=4-16/4,jitter=0-0.4") == (
+        "circle",
+        {"n_robots": (4, 8, 12, 16), "jitter": (0.0, 0.2, 0.4)},
+    )
+    assert parse_mixture_entry("crowd:n_obstacles=3,obstacle_speed=1-1.5") == (
+        "crowd",
+        {"n_obstacles": (3,), "obstacle_speed": ((1.0, 1.5),)},
+    )
+    scenarios = mixture_scenarios(
+        ScenarioConfig(on_collision="continue"), ("circle:n_robots=4-8/4,jitter=0-0.2/0.2", "crowd")
+    )
+    assert [(s.kind, s.n_robots, s.jitter) for s in scenarios] == [
+        ("circle", 4, 0.0),
+        ("circle", 4, 0.2),
+        ("circle", 8, 0.0),
+        ("circle", 8, 0.2),
+        ("crowd", 1, 0.0),
+    ]
+    assert {s.on_collision for s in scenarios} == {"continue"}  # common flags apply to every entry
+    for entry, msg in (
+        ("circel", "unknown scenario 'circel'"),
+        ("circle:speed=1", "FIELD in"),
+        ("circle:n_robots=8-4", "LO <= HI"),
+        ("circle:n_robots=a", "needs int values"),
+    ):
+        with pytest.raises(ValueError, match=msg):
+            parse_mixture_entry(entry)
+    with pytest.raises(ValueError, match="set --n-robots inside the mixture entries"):
+        mixture_scenarios(ScenarioConfig(n_robots=8), ("circle",))
+
+
+def test_mixture_vec_env_is_its_groups_side_by_side():
+    """Slots of a MixtureVecEnv are exactly those of one NavVecEnv per scenario (world b of the
+    mixture seeded with seed + b), stepped with the same actions; robot counts differ per group."""
+    np = pytest.importorskip("numpy")
+    pytest.importorskip("stable_baselines3")
+    from agents.vec_env import MixtureVecEnv, NavVecEnv
+    from vcs_env import make_scenario
+
+    scenarios = [make_scenario("circle", n_robots=3, max_steps=30), make_scenario("crowd", n_obstacles=2)]
+    mix = MixtureVecEnv(scenarios, n_worlds=5)  # worlds 0, 2, 4 circle; 1, 3 crowd
+    assert mix.num_envs == 3 * 3 + 2 * 1
+    alone = [NavVecEnv(scenarios[0], 3), NavVecEnv(scenarios[1], 2)]
+    mix.seed(10)
+    alone[0].seed(10)
+    alone[1].seed(13)  # the crowd group's first world is world 3 of the mixture
+    np.testing.assert_array_equal(mix.reset(), np.concatenate([v.reset() for v in alone]))
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        actions = rng.uniform(-1, 1, (mix.num_envs, 2)).astype(np.float32)
+        got = mix.step(actions)
+        want = [v.step(a) for v, a in zip(alone, np.split(actions, [9]))]
+        for k in range(3):
+            np.testing.assert_array_equal(got[k], np.concatenate([w[k] for w in want]))
+        assert [sorted(i) for i in got[3]] == [sorted(i) for w in want for i in w[3]]
+    with pytest.raises(ValueError, match="n_worlds must be an integer >= the number of mixture scenarios"):
+        MixtureVecEnv(scenarios, n_worlds=1)
+    with pytest.raises(ValueError, match="one observation size"):
+        MixtureVecEnv([scenarios[0], make_scenario("crowd", n_neighbors=2)], n_worlds=2)
+
+
+def test_reproduction_command_of_a_toy_mixture_run_gives_the_same_metrics(tmp_path, capsys):
+    """Honest reproducibility (README "Reproducibility"): re-running the command saved beside a
+    checkpoint gives the same evaluation metrics on the same machine and library versions. The
+    test compares metrics, not weight bytes (those may differ across CPUs)."""
+    import shlex
+
+    pytest.importorskip("stable_baselines3")
+    from agents.checkpoint import read_metadata
+    from agents.train import TrainConfig, train
+
+    cfg = TrainConfig(
+        mixture=("circle:n_robots=2-3", "crowd:n_obstacles=2"),
+        max_steps=40,
+        timesteps=768,
+        n_worlds=3,
+        n_steps=64,
+        batch_size=128,
+        n_epochs=2,
+        net_arch=(16,),
+        eval_freq=0,
+        eval_episodes=3,
+        checkpoint_freq=0,
+        out=str(tmp_path / "a"),
+        progress_bar=False,
+        tensorboard=False,
+    )
+    first = train(cfg)
+    printed = capsys.readouterr().out
+    assert "settings unlike its suite circle-8-v0: jitter: 0.0 (suite: 0.1)" in printed
+    meta = read_metadata(first["model"])
+    assert meta["scenario_family"] == ["circle", "crowd"]
+    command = shlex.split(meta["command"])
+    assert command[:2] == ["vcs-env", "train"] and "--mixture" in command
+    out_at = command.index("--out")
+    command[out_at + 1] = str(tmp_path / "b")
+    assert cli.main([*command[1:], "--no-progress-bar", "--no-tensorboard"]) == 0
+    second = read_metadata(tmp_path / "b" / "model.zip")["evaluation"]
+    timing = ("wall_time", "eval_seconds")
+    metrics = {k: v for k, v in meta["evaluation"].items() if k not in timing}
+    assert metrics["return"] != 0.0 and metrics["episodes"] == 3  # the return depends on every weight
+    assert {k: v for k, v in second.items() if k not in timing} == metrics
