@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from vcs_env.planning import Planner
+from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
 
@@ -17,10 +18,15 @@ def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) 
     ``|sin(beta)|`` counts as 1 for goals behind): without it a fast robot can orbit its goal
     (a limit cycle of radius v / omega_max) [reconstructed].
 
+    With walls, the robot aims at its next visible waypoint and ``d`` is the remaining route
+    length (:func:`vcs_env.routes.route_direction`); without walls this is the goal itself.
+
     Returns:
         ``(B, n, 2)`` [m/s].
     """
     e = world.goal - world.pos
+    if world.n_segments:
+        e = route_direction(world)[0]
     d = np.sqrt(np.einsum("...i,...i->...", e, e))
     cap = world.v_max if v_pref_max is None else v_pref_max
     s = np.minimum(np.minimum(cap, d / world.dt), np.sqrt(2.0 * world.a_max * d))

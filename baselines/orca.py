@@ -14,6 +14,9 @@ How the world is handed to RVO2 (one call plans every robot of every world):
   horizon CrowdNav uses for ORCA);
 * obstacles and parked robots are agents that keep their current velocity (parked: 0); they see
   nothing (neighbour distance 0), and what RVO2 computes for them is discarded;
+* walls (:mod:`vcs_env.walls`) are RVO2 obstacles, each segment a 2-vertex obstacle (avoided
+  from both sides, fully: RVO2 handles obstacle edges first as hard constraints), with the
+  obstacle time horizon ``time_horizon_obst`` (default 2 s);
 * one ``do_step`` computes every agent's new velocity from the same snapshot (RVO2 computes all
   ORCA velocities before it moves anybody), and each robot's new velocity is read back as its
   desired velocity; the simulator is then dropped (no state is kept between calls).
@@ -45,8 +48,8 @@ from .common import VelocityPlanner, preferred_velocity
 
 TIME_HORIZON = 5.0
 """Default ORCA time horizon for other agents [s]."""
-TIME_HORIZON_OBST = 5.0
-"""ORCA time horizon for polygonal obstacles [s]; RVO2 wants one, none are used."""
+TIME_HORIZON_OBST = 2.0
+"""Default ORCA time horizon for walls (RVO2 obstacles) [s]."""
 
 
 def _check(field: str, value, positive: bool, unit: str) -> None:
@@ -73,6 +76,7 @@ class OrcaPlanner(VelocityPlanner):
         r_ca: neighbour distance [m]; None uses ``world.r_ca``.
         radius_margin: added to the ORCA radius of every robot that plans [m], >= 0 (CrowdNav adds
             0.01).
+        time_horizon_obst: ORCA time horizon for walls [s], > 0.
 
     Raises:
         ImportError: when ``pyrvo`` is not installed (``pip install 'vcs-env[orca]'``).
@@ -80,8 +84,15 @@ class OrcaPlanner(VelocityPlanner):
 
     name = "orca"
 
-    def __init__(self, time_horizon: float = TIME_HORIZON, r_ca: float | None = None, radius_margin: float = 0.01):
+    def __init__(
+        self,
+        time_horizon: float = TIME_HORIZON,
+        r_ca: float | None = None,
+        radius_margin: float = 0.01,
+        time_horizon_obst: float = TIME_HORIZON_OBST,
+    ):
         _check("time_horizon", time_horizon, True, "s")
+        _check("time_horizon_obst", time_horizon_obst, True, "s")
         if r_ca is not None:
             _check("r_ca", r_ca, True, "m")
         _check("radius_margin", radius_margin, False, "m")
@@ -89,6 +100,7 @@ class OrcaPlanner(VelocityPlanner):
         self.time_horizon = float(time_horizon)
         self.r_ca = r_ca
         self.radius_margin = float(radius_margin)
+        self.time_horizon_obst = float(time_horizon_obst)
 
     def desired_velocity(self, world: WorldState) -> np.ndarray:
         """Each active robot's new ORCA velocity ``(B, n, 2)`` [m/s] (0 for inactive robots)."""
@@ -103,6 +115,10 @@ class OrcaPlanner(VelocityPlanner):
                 continue
             sim = rvo.RVOSimulator()
             sim.set_time_step(float(world.dt))
+            for k in np.flatnonzero(world.seg_present[b]):
+                sim.add_obstacle([tuple(map(float, world.seg_a[b, k])), tuple(map(float, world.seg_b[b, k]))])
+            if world.seg_present[b].any():
+                sim.process_obstacles()
             ids = {}
             for i in range(n):
                 if not world.present[b, i]:
@@ -114,7 +130,7 @@ class OrcaPlanner(VelocityPlanner):
                     r_ca if planning else 0.0,  # neighbour distance [m]: parked robots plan nothing
                     n + m,  # max neighbours: everything sensed
                     self.time_horizon,
-                    TIME_HORIZON_OBST,
+                    self.time_horizon_obst,
                     float(world.radius[b, i]) + (self.radius_margin if planning else 0.0),
                     float(world.v_max[b, i]),
                     v,
@@ -127,7 +143,7 @@ class OrcaPlanner(VelocityPlanner):
                     0.0,
                     n + m,
                     self.time_horizon,
-                    TIME_HORIZON_OBST,
+                    self.time_horizon_obst,
                     float(world.obs_radius[b, k]),
                     float(np.hypot(*v)) + 1e-3,
                     v,

@@ -19,7 +19,9 @@ method    active robot neighbours                         obstacles, parked robo
 ``hrvo``  ``2 (v - a_j)``, ``a_j`` the HRVO apex            ``v - v_j``
 ========  ==============================================  ===========================
 
-Only objects whose centres are within ``r_ca`` count; parked robots have ``v_j = 0``. The cones
+Only objects whose centres are within ``r_ca`` count; parked robots have ``v_j = 0``. Walls
+within ``r_ca`` count like passive obstacles through their capsule's time to collision
+(:mod:`baselines.capsule`), when it falls within the stopping horizon ``wall_horizon``. The cones
 use the physical combined radius (no size regulation). Overlapping pairs (centre distance
 ``<= r_j``: the cone is undefined) use the half-plane rule of the HRVO library: a candidate that
 does not move the pair apart, ``(v - a_j) . p_j >= 0`` with the passive apex ``v_j`` or the RVO
@@ -45,6 +47,7 @@ from numba import njit
 from vcs_env import noise
 from vcs_env.state import WorldState
 
+from .capsule import capsule_tau, segment_range, wall_horizon
 from .common import VelocityPlanner, preferred_velocity
 from .vcs.geometry import hrvo_apex, rvo_apex
 from .vcs.kernel.neighbours import sense, sort_nearest
@@ -145,6 +148,11 @@ def choose(
     out_vel,
     out_cand,
     out_pen,
+    seg_a,
+    seg_b,
+    seg_present,
+    a_max,
+    dt,
 ):
     """Least-penalty candidate of every active robot of every world (module docstring).
 
@@ -160,6 +168,11 @@ def choose(
         store: if True, fill ``out_cand (B, n, N + 1, 2)`` [m/s] and ``out_pen (B, n, N + 1)``
             with every candidate and its penalty (no early exit); otherwise they are not touched.
         out_vel: chosen velocities ``(B, n, 2)`` [m/s] (0 for inactive robots).
+        seg_a, seg_b, seg_present: wall segments ``(B, s, 2)`` [m] and mask ``(B, s)``; walls
+            within ``r_ca`` count with their capsule's time to collision
+            (:func:`baselines.capsule.capsule_tau`, full responsibility) when it is within
+            :func:`baselines.capsule.wall_horizon` of the candidate's speed (``a_max``
+            ``(B, n)`` [m/s^2], ``dt`` [s]).
     """
     B = pos.shape[0]
     n = pos.shape[1]
@@ -171,6 +184,7 @@ def choose(
     key = np.empty(n + m)
     order = np.empty(n + m, dtype=np.int64)
     sensed = np.empty(n + m, dtype=SENSED)
+    walls = np.empty((seg_present.shape[1], 4))  # sensed walls' end points relative to the robot [m]
     for b in range(B):
         for i in range(n):
             out_vel[b, i, 0] = 0.0
@@ -208,6 +222,16 @@ def choose(
                 key[q] = o.d - o.r
             # Nearest surface first, so that the candidate loop can stop early.
             sort_nearest(order, key, count)
+            n_walls = 0
+            for k in range(seg_present.shape[1]):
+                if not seg_present[b, k]:
+                    continue
+                ax, ay = seg_a[b, k, 0] - pos[b, i, 0], seg_a[b, k, 1] - pos[b, i, 1]
+                bx, by = seg_b[b, k, 0] - pos[b, i, 0], seg_b[b, k, 1] - pos[b, i, 1]
+                if segment_range(ax, ay, bx, by) > r_ca:  # not sensed
+                    continue
+                walls[n_walls, 0], walls[n_walls, 1], walls[n_walls, 2], walls[n_walls, 3] = ax, ay, bx, by
+                n_walls += 1
             best = np.inf
             for c in range(ns + 1):
                 if c == 0:
@@ -239,6 +263,12 @@ def choose(
                     else:
                         t = tau(rc[0], rc[1], rc[4] * wx, rc[4] * wy, rc[5])
                     tc = min(tc, t)
+                if n_walls:
+                    stop = wall_horizon(math.sqrt(vx * vx + vy * vy), a_max[b, i], dt)
+                    for q in range(n_walls):
+                        t = capsule_tau(walls[q, 0], walls[q, 1], walls[q, 2], walls[q, 3], vx, vy, radius[b, i])
+                        if t < stop:
+                            tc = min(tc, t)
                 pen = weight / max(tc, T_FLOOR) + dv
                 if store:
                     out_cand[b, i, c, 0] = vx
@@ -312,6 +342,11 @@ class SamplingVOPlanner(VelocityPlanner):
             out_vel,
             out_cand,
             out_pen,
+            world.seg_a,
+            world.seg_b,
+            world.seg_present,
+            world.a_max,
+            float(world.dt),
         )
         return out_vel, out_cand, out_pen
 

@@ -26,6 +26,9 @@ measure resets). Every contestant runs episodes of :data:`EPISODE_STEPS` steps a
 when they end, so reset cost is included at the same rate. Actions come from a pool drawn
 before timing, so no contestant pays for sampling. A robot-step is one acting robot advanced
 by one step (our counts exclude robots that arrived and are parked, the peers count all).
+
+Walls (issue 16): ``engine_walls`` against ``engine_open`` steps the same worlds with and without
+a map of :data:`MAP_SEGMENTS` wall segments (:func:`map_scenarios`), one world and batched.
 """
 
 from __future__ import annotations
@@ -44,6 +47,8 @@ N_OBSTACLES = 10
 """Moving obstacles in our worlds (MPE and VMAS navigation have none that move)."""
 POOL = 16
 """Pre-drawn action sets cycled through."""
+MAP_SEGMENTS = 50
+"""Wall segments of the map of the walls comparison (the arena's 4 sides and 46 random walls)."""
 
 
 def our_scenario(n: int, n_obstacles: int = N_OBSTACLES):
@@ -105,10 +110,28 @@ def mpe_env(n: int, seed: int = 0) -> Step:
     return step
 
 
-def engine_env(n: int, B: int, seed: int = 0) -> Step:
+def map_scenarios(n: int, segments: int = MAP_SEGMENTS):
+    """One fixed map for ``n`` robots: the first layout of the ``walls`` kind with ``segments``
+    segments (arena half size as in :func:`our_scenario`) as a custom scenario, and the same
+    custom scenario without its walls: ``(with_walls, without)``. Custom maps are validated
+    once, at construction, so resets cost the same in both."""
+    import dataclasses
+
+    from vcs_env.layouts import generate
+    from vcs_env.scenario import CustomLayout, Scenario, make_scenario
+
+    half = 6.0 * max(1.0, math.sqrt(n / 32.0))
+    base = make_scenario("walls", n_robots=n, n_walls=segments - 4, arena_half_size=half)
+    lay = generate(base, np.random.default_rng(0))
+    custom = CustomLayout(start=lay.start, goal=lay.goal, walls=lay.segments)
+    walls = Scenario(kind="custom", n_robots=n, custom=custom, on_collision="continue", max_steps=EPISODE_STEPS)
+    return walls, dataclasses.replace(walls, custom=dataclasses.replace(custom, walls=()))
+
+
+def engine_env(n: int, B: int, seed: int = 0, scenario=None) -> Step:
     from vcs_env.engine import NavEngine
 
-    eng = NavEngine(our_scenario(n), B)
+    eng = NavEngine(our_scenario(n) if scenario is None else scenario, B)
     eng.reset(list(range(seed, seed + B)))
     pool = np.random.default_rng(seed).uniform(-1.0, 1.0, (POOL, B, n, 2))
     k = [0]
@@ -213,6 +236,15 @@ def batched_builders(n: int, B: int) -> dict[str, Callable[[], Step]]:
         "engine": lambda: engine_env(n, B),
         "vecenv": lambda: vecenv_env(n, B),
         "vmas": lambda: vmas_env(n, B),
+    }
+
+
+def walls_builders(n: int, B: int) -> dict[str, Callable[[], Step]]:
+    """The engine on one map of :data:`MAP_SEGMENTS` walls and on the same worlds without them."""
+    walls, open_ = map_scenarios(n)
+    return {
+        "engine_walls": lambda: engine_env(n, B, scenario=walls),
+        "engine_open": lambda: engine_env(n, B, scenario=open_),
     }
 
 

@@ -196,6 +196,20 @@ def _render_env(env: dict) -> list[str]:
                 f"{_x(ratio(_rate(e, 'gym_vector'), _rate(e, 'gym_sync')))} |"
             )
         L += _problems(env["gym_vector"])
+    if env.get("walls"):
+        L += [
+            "",
+            "### Walls: one map of 50 segments against the same worlds without walls (issue 16)",
+            "",
+            "Robot-steps per CPU second of the engine, random actions.",
+            "",
+            "| n | B | walls | no walls | cost of the walls |",
+            "|---|---|---|---|---|",
+        ]
+        for e in env["walls"]:
+            cost = ratio(_rate(e, "engine_open"), _rate(e, "engine_walls"))
+            L.append(f"| {e['n']} | {e['B']} | {_cell(e, 'engine_walls')} | {_cell(e, 'engine_open')} | {_x(cost)} |")
+        L += _problems(env["walls"])
     return L
 
 

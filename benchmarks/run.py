@@ -118,7 +118,12 @@ def env_section(sz: Sizes) -> dict:
         _log(f"env gym.make_vec n={n} B={B} others={others}: vector_entry_point vs sync")
         res = side_by_side(env_bench.gym_vector_builders(n, B, others), sz.env_budget)
         gym_vector.append({"n": n, "B": B, "others": others, "results": _results(res)})
-    return {"single": single, "batched": batched, "gym_vector": gym_vector}
+    walls = []
+    for B in (1, max(sz.env_batches)):
+        n = sz.gym_vector_robots
+        _log(f"env walls n={n} B={B}: {env_bench.MAP_SEGMENTS} segments vs none")
+        walls.append({"n": n, "B": B, "results": _results(side_by_side(env_bench.walls_builders(n, B), sz.env_budget))})
+    return {"single": single, "batched": batched, "gym_vector": gym_vector, "walls": walls}
 
 
 def planner_section(sz: Sizes) -> dict:

@@ -191,6 +191,12 @@ FINGERPRINTS = {
     "circle-40-symmetric-v0": "db4964fed54eec57",
     "random-dense-v0": "20c20a70ed1fbe31",
     "crowd-10-v0": "e5911e00eedb3f45",
+    "corridor-v0": "91672d7d89bd25bd",
+    "doorway-v0": "941b9ed8918f51ac",
+    "door-headon-v0": "76f62c204494ad8e",
+    "room-v0": "9f5ae9c5afce0901",
+    "intersection-v0": "46883bb5cd2a1772",
+    "walls-v0": "3f7a5c20f7158643",
 }
 
 

@@ -33,8 +33,15 @@ CASES = {
     "dynamic-8-3": {"n_robots": 8, "n_obstacles": 3},
     "custom": {},
     "custom-initial-state": {"initial_speed": 0.5, "jitter": 0.3},
+    "corridor": {},
+    "corridor-7-obstacles": {"n_robots": 7, "n_obstacles": 2, "corridor_width": 3.0},
+    "doorway": {},
+    "room": {},
+    "intersection": {},
+    "walls": {},
+    "walls-3-obstacles": {"n_robots": 3, "n_obstacles": 3, "n_walls": 12},
 }
-FIELDS = ("start", "goal", "heading", "speed", "obs_pos", "obs_target", "obs_radius")
+FIELDS = ("start", "goal", "heading", "speed", "obs_pos", "obs_target", "obs_radius", "segments")
 
 
 def _scenario(case: str):
@@ -50,6 +57,8 @@ def fingerprint(case: str) -> dict:
         digest = hashlib.sha256()
         for name in FIELDS:
             arr = np.ascontiguousarray(getattr(lay, name), dtype=np.float64)
+            if name == "segments" and arr.size == 0:
+                continue  # layouts without walls keep the hashes they had before walls existed
             digest.update(name.encode() + repr(arr.shape).encode() + arr.tobytes())
         out[f"seed{seed}"] = digest.hexdigest()
     return out

@@ -64,6 +64,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
             ep.obs_radius,
             ax=Figure(figsize=(6, 6)).subplots(),
             title=f"{args.planner} seed {ep.seed}",
+            segments=ep.segments,
         )
         ax.figure.savefig(args.plot, dpi=120, bbox_inches="tight")
         print(f"wrote {args.plot}")

@@ -13,6 +13,7 @@ from .engine import NavEngine, StepResult
 from .parallel import VcsNavParallelEnv, env, parallel_env, raw_env
 from .planning import PLANNERS, Planner, make_planner, register_planner
 from .scenario import (
+    MAPS,
     SCENARIOS,
     CustomLayout,
     ObstacleTrajectory,
@@ -58,6 +59,7 @@ for _type, _entry in (("parallel", "vcs_env.parallel:parallel_env"), ("aec", "vc
 __all__ = [
     "PLANNERS",
     "SCENARIOS",
+    "MAPS",
     "GYM_IDS",
     "PZ_ID",
     "CustomLayout",

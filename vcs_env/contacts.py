@@ -3,7 +3,8 @@
 A *contact* is the first step of an unbroken run of steps in which robot ``i`` touched one
 body (the simulator's swept test, :attr:`~vcs_env.rollout.Episode.robot_hits` and
 ``obstacle_hits``). The other body is an active ``"robot"``, a ``"parked"`` robot (one that no
-longer drives: it arrived, or stopped after a crash) or an ``"obstacle"``. The robot is **at
+longer drives: it arrived, or stopped after a crash), an ``"obstacle"`` or a ``"wall"`` segment
+(``wall_hits``; its "centre" is the point of the segment nearest the robot). The robot is **at
 fault** when its own velocity over that step had a component toward the other body's centre
 of more than :data:`FAULT_SPEED`: it drove into the contact. A robot hit while standing, or
 while moving away or past, is not at fault. A contact between two robots is two contacts, one
@@ -20,7 +21,7 @@ from .rollout import Episode
 
 FAULT_SPEED = 0.05
 """[m/s] speed toward the other body above which a robot is at fault for a contact."""
-KINDS = ("robot", "parked", "obstacle")
+KINDS = ("robot", "parked", "obstacle", "wall")
 """What the robot touched."""
 
 
@@ -33,9 +34,9 @@ class Contact:
     robot: int
     """The robot."""
     kind: str
-    """``"robot"``, ``"parked"`` or ``"obstacle"``."""
+    """``"robot"``, ``"parked"``, ``"obstacle"`` or ``"wall"``."""
     other: int
-    """Index of the other robot or obstacle."""
+    """Index of the other robot, obstacle or wall segment."""
     toward: float
     """The robot's speed toward the other body's centre over the first step [m/s]."""
     depth: float
@@ -54,9 +55,12 @@ def contact_events(ep: Episode) -> list[Contact]:
     """
     if ep.robot_hits is None or ep.obstacle_hits is None:
         raise ValueError("this episode has no robot_hits/obstacle_hits record: contacts cannot be explained")
-    n = ep.n_robots
-    hits = np.concatenate((ep.robot_hits, ep.obstacle_hits), axis=2)  # (T, n, n + m)
-    radius = np.concatenate((ep.radius, ep.obs_radius))
+    n, m = ep.n_robots, len(ep.obs_radius)
+    parts = [ep.robot_hits, ep.obstacle_hits]
+    if ep.wall_hits is not None and ep.wall_hits.shape[-1]:
+        parts.append(ep.wall_hits)
+    hits = np.concatenate(parts, axis=2)  # (T, n, n + m + s)
+    radius = np.concatenate((ep.radius, ep.obs_radius, np.zeros(hits.shape[2] - n - m)))
     out: list[Contact] = []
     for t, i, j in zip(*np.nonzero(hits), strict=True):
         if t > 0 and hits[t - 1, i, j]:
@@ -64,13 +68,21 @@ def contact_events(ep: Episode) -> list[Contact]:
         run = t
         while run + 1 < len(hits) and hits[run + 1, i, j]:
             run += 1
-        other = ep.pos[:, j] if j < n else ep.obs_pos[:, j - n]
+        if j < n + m:
+            other = ep.pos[:, j] if j < n else ep.obs_pos[:, j - n]
+        else:  # the nearest point of the wall segment, step by step
+            a, b = ep.segments[j - n - m]
+            ab = b - a
+            u = np.clip((ep.pos[:, i] - a) @ ab / (ab @ ab), 0.0, 1.0)
+            other = a + u[:, None] * ab
         centre = other[t + 1] - ep.pos[t + 1, i]
         dist = float(np.linalg.norm(centre))
         velocity = (ep.pos[t + 1, i] - ep.pos[t, i]) / ep.dt
         toward = float(velocity @ centre / dist) if dist > 0 else float(np.linalg.norm(velocity))
         gaps = np.linalg.norm(other[t + 1 : run + 2] - ep.pos[t + 1 : run + 2, i], axis=-1) - ep.radius[i] - radius[j]
-        if j >= n:
+        if j >= n + m:
+            kind, index = "wall", int(j - n - m)
+        elif j >= n:
             kind, index = "obstacle", int(j - n)
         else:
             kind, index = ("robot" if ep.acted[t, j] else "parked"), int(j)

@@ -41,7 +41,7 @@ class StepResult:
 
     def info(self, i: int, b: int = 0) -> dict:
         """The API ``info`` of robot ``i`` in world ``b``: unweighted ``reward_terms``,
-        ``reached_goal``, ``collided_with`` (``robot_j`` / ``obstacle_k`` names),
+        ``reached_goal``, ``collided_with`` (``robot_j`` / ``obstacle_k`` / ``wall_k`` names),
         ``min_separation`` [m] and, with an expert, ``expert_action``."""
         return self.infos((i,), b)[0]
 
@@ -57,6 +57,7 @@ class StepResult:
             if collided[i]:
                 hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, i])]
                 hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, i])]
+                hits += [f"wall_{k}" for k in np.flatnonzero(ev.wall_hits[b, i])]
             info = {
                 "reward_terms": {name: v[i] for name, v in terms.items()},
                 "reached_goal": reached[i],

@@ -180,6 +180,82 @@ def swept_events(pos, new_pos, radius, present, acted, goal, obs_pos, new_obs, o
     return robot_hits, obstacle_hits, collided, reached, min_sep, before, after
 
 
+@njit(cache=True, inline="always")
+def _det(ax, ay, bx, by):
+    """:func:`vcs_env.geometry.det` of two vectors."""
+    return ax * by - ay * bx
+
+
+@njit(cache=True)
+def _segment_distance(px, py, qx, qy, ax, ay, bx, by):
+    """:func:`vcs_env.walls.segment_distance` of the segments ``[p, q]`` and ``[a, b]`` [m]."""
+    abx, aby, pqx, pqy = bx - ax, by - ay, qx - px, qy - py
+    d1 = _det(abx, aby, px - ax, py - ay)
+    d2 = _det(abx, aby, qx - ax, qy - ay)
+    d3 = _det(pqx, pqy, ax - px, ay - py)
+    d4 = _det(pqx, pqy, bx - px, by - py)
+    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+        return 0.0  # the segments cross
+    e1 = _closest_approach(ax - px, ay - py, bx - px, by - py)
+    e2 = _closest_approach(ax - qx, ay - qy, bx - qx, by - qy)
+    e3 = _closest_approach(px - ax, py - ay, qx - ax, qy - ay)
+    e4 = _closest_approach(px - bx, py - by, qx - bx, qy - by)
+    return min(min(e1, e2), min(e3, e4))
+
+
+@njit(cache=True)
+def wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided):
+    """Swept wall contacts of one step, as :func:`vcs_env.walls.reference_wall_events`:
+    ``wall_hits (B, n, s)`` bool, ``sep`` ``(B, n)`` [m] (the smallest gap so far, e.g. to
+    robots and obstacles) lowered to the smallest gap to a wall, and ``collided`` ``(B, n)``
+    (contacts so far) or a wall contact, for the straight motions from
+    ``pos`` to ``new_pos`` ``(B, n, 2)`` [m] against the segments ``seg_a -> seg_b`` ``(B, s, 2)``
+    [m] (``seg_present`` ``(B, s)``).
+
+    Broad phase, exact: a segment whose lower bound on the gap (midpoint distance minus both
+    half lengths and the radius, by the triangle inequality) is above both 0 and the smallest
+    gap found so far can neither touch the robot nor lower ``sep``, and is skipped (compared
+    squared, without a square root).
+    """
+    B, n = radius.shape
+    s = seg_present.shape[1]
+    hits = np.zeros((B, n, s), dtype=np.bool_)
+    out = sep.copy()
+    hit_any = collided.copy()
+    mid = np.empty((s, 2))
+    half = np.empty(s)
+    for b in range(B):
+        for k in range(s):
+            mid[k, 0] = 0.5 * (seg_a[b, k, 0] + seg_b[b, k, 0])
+            mid[k, 1] = 0.5 * (seg_a[b, k, 1] + seg_b[b, k, 1])
+            dx, dy = seg_b[b, k, 0] - seg_a[b, k, 0], seg_b[b, k, 1] - seg_a[b, k, 1]
+            half[k] = 0.5 * math.sqrt(dx * dx + dy * dy)
+        for i in range(n):
+            if not (acted[b, i] and present[b, i]):
+                continue
+            px, py, qx, qy = pos[b, i, 0], pos[b, i, 1], new_pos[b, i, 0], new_pos[b, i, 1]
+            mx, my = 0.5 * (px + qx), 0.5 * (py + qy)
+            h = 0.5 * math.sqrt((qx - px) * (qx - px) + (qy - py) * (qy - py))
+            best = out[b, i]
+            for k in range(s):
+                if not seg_present[b, k]:
+                    continue
+                ex, ey = mid[k, 0] - mx, mid[k, 1] - my
+                reach = max(best, 0.0) + 1e-9 + h + half[k] + radius[b, i]  # > 0
+                if ex * ex + ey * ey > reach * reach:
+                    continue
+                gap = (
+                    _segment_distance(px, py, qx, qy, seg_a[b, k, 0], seg_a[b, k, 1], seg_b[b, k, 0], seg_b[b, k, 1])
+                    - radius[b, i]
+                )
+                best = min(best, gap)
+                if gap < 0.0:
+                    hits[b, i, k] = True
+                    hit_any[b, i] = True
+            out[b, i] = best
+    return hits, out, hit_any
+
+
 @njit(cache=True)
 def observe(
     pos,

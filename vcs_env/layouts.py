@@ -15,7 +15,6 @@ saying which fields to change.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,23 +22,22 @@ import numpy as np
 if TYPE_CHECKING:  # scenario.py looks kinds up here when it validates
     from .scenario import Scenario
 
-MIN_GOAL_DISTANCE = 1.0
-"""Random layouts put every goal at least this far from its start [m]."""
-MAX_TRIES = 2000
-"""Rejection-sampling attempts per body before a random layout is declared impossible."""
-
-
-@dataclass
-class Layout:
-    """One world's initial state (arrays without the batch axis)."""
-
-    start: np.ndarray  # (n, 2) [m]
-    goal: np.ndarray  # (n, 2) [m]
-    heading: np.ndarray  # (n,) [rad]
-    speed: np.ndarray  # (n,) [m/s]
-    obs_pos: np.ndarray  # (m, 2) [m]
-    obs_target: np.ndarray  # (m, 2) [m], second point for the motion model
-    obs_radius: np.ndarray  # (m,) [m]
+from .placement import (  # noqa: F401  (re-exported: the building blocks of every kind)
+    MAX_TRIES,
+    MIN_GOAL_DISTANCE,
+    Layout,
+    Sampler,
+    _view,
+    check_arena,
+    check_lanes,
+    check_ring,
+    check_walls,
+    circle_points,
+    finish,
+    jittered,
+    obstacle_radii,
+    place_obstacles,
+)
 
 
 class ScenarioKind:
@@ -53,6 +51,10 @@ class ScenarioKind:
     def default_radius(self, s: Scenario) -> float:
         """``layout_radius`` when the scenario leaves it None [m]."""
         return 5.0
+
+    def n_segments(self, s: Scenario) -> int:
+        """Most wall segments a layout of ``s`` has (the size of the world's segment arrays)."""
+        return 0
 
     def validate(self, s: Scenario) -> None:
         """Kind-specific field rules (``ValueError`` naming the field)."""
@@ -286,8 +288,12 @@ class Custom(ScenarioKind):
         if s.custom.speed is not None and max(s.custom.speed) > s.robot.v_max:
             raise ValueError(f"custom.speed must be <= robot.v_max = {s.robot.v_max}, got {max(s.custom.speed)}")
 
+    def n_segments(self, s: Scenario) -> int:
+        return len(s.custom.walls)
+
     def check_layout(self, s: Scenario) -> None:
         lay = self.generate(s, np.random.default_rng(0))
+        check_walls(s, lay)
         pos = np.concatenate((lay.start, lay.obs_pos))
         radius = np.concatenate((np.full(s.n_robots, s.robot.radius), lay.obs_radius))
         d = np.linalg.norm(pos[:, None] - pos[None], axis=-1) - radius[:, None] - radius[None]
@@ -301,7 +307,7 @@ class Custom(ScenarioKind):
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         c, n, m = s.custom, s.n_robots, s.n_obstacles
         obs_pos = np.array([o.positions[0] for o in c.obstacles], dtype=np.float64).reshape(m, 2)
-        return finish(
+        lay = finish(
             s,
             np.asarray(c.start, dtype=np.float64).reshape(n, 2),
             np.asarray(c.goal, dtype=np.float64).reshape(n, 2),
@@ -311,6 +317,8 @@ class Custom(ScenarioKind):
             heading=c.heading,
             speed=c.speed,
         )
+        lay.segments = np.array(c.walls, dtype=np.float64).reshape(-1, 2, 2)
+        return lay
 
     def world_extent(self, s: Scenario) -> float:
         return self._extent(s)
@@ -324,13 +332,8 @@ class Custom(ScenarioKind):
 
         pts = [c for p in s.custom.start + s.custom.goal for c in p]
         pts += [c for o in s.custom.obstacles for p in o.positions for c in p]
+        pts += [c for w in s.custom.walls for p in w for c in p]
         return max(1.0, max(abs(c) for c in pts) + R_REF)
-
-
-KINDS: dict[str, ScenarioKind] = {
-    k.name: k for k in (Circle(), Swap(), Crossing(), Random(), Crowd(), Dynamic(), Custom())
-}
-"""Every scenario kind by name (the values ``Scenario.kind`` accepts)."""
 
 
 def kinds_help(width: int = 10) -> str:
@@ -343,149 +346,34 @@ def generate(s: Scenario, rng: np.random.Generator) -> Layout:
     return KINDS[s.kind].generate(s, rng)
 
 
+def segment_capacity(s: Scenario) -> int:
+    """Most wall segments a layout of scenario ``s`` has."""
+    return KINDS[s.kind].n_segments(s)
+
+
 def check_layout(s: Scenario) -> None:
     """Raise ``ValueError`` if the layout of ``s`` cannot be placed without overlap."""
     KINDS[s.kind].check_layout(s)
 
 
-# ------------------------------------------------------------------ shared building blocks
-def _view(s: Scenario, half: float) -> float:
-    """Drawn half size [m] around robots reaching ``half`` [m], widened to the arena if it holds obstacles."""
-    if s.n_obstacles:
-        half = max(half, s.arena_half_size)
-    return half + s.robot.radius + 0.5
+# Map kinds live in map_kinds.py, which builds on the blocks above (hence the import here).
+from .map_kinds import Corridor, Doorway, Intersection, Room, Walls  # noqa: E402
 
-
-def check_ring(s: Scenario) -> None:
-    """Neighbours on the layout circle must not overlap."""
-    need = 2.0 * s.robot.radius + s.min_separation + 2.0 * s.jitter
-    if s.n_robots >= 2:
-        chord = 2.0 * s.circle_radius * math.sin(math.pi / s.n_robots)
-        if chord < need:
-            raise ValueError(
-                f"cannot place {s.n_robots} robots on a circle of radius {s.circle_radius:g} m without overlap: "
-                f"neighbours are {chord:.3f} m apart, need {need:.3f} m (2 radius + min_separation + 2 jitter); "
-                "increase layout_radius or reduce n_robots"
-            )
-
-
-def check_lanes(s: Scenario) -> float:
-    """Neighbouring lanes must not overlap; returns the body spacing needed [m]."""
-    r = s.robot.radius
-    need = 2.0 * r + s.min_separation + 2.0 * s.jitter
-    if s.lane_spacing < need:
-        raise ValueError(
-            f"lane_spacing={s.lane_spacing:g} m is too small for robots of radius {r:g} m: need >= {need:.3f} m"
-        )
-    return need
-
-
-def check_arena(s: Scenario) -> None:
-    """A loose packing bound: the bodies' discs (with half the separation) must fit in the arena."""
-    r, r_obs = s.robot.radius, s.obstacle_radius[1]
-    side = 2.0 * s.arena_half_size
-    area = math.pi * (
-        2 * s.n_robots * (r + s.min_separation / 2) ** 2 + s.n_obstacles * (r_obs + s.min_separation / 2) ** 2
+KINDS: dict[str, ScenarioKind] = {
+    k.name: k
+    for k in (
+        Circle(),
+        Swap(),
+        Crossing(),
+        Random(),
+        Crowd(),
+        Dynamic(),
+        Custom(),
+        Corridor(),
+        Doorway(),
+        Room(),
+        Intersection(),
+        Walls(),
     )
-    if area > 0.5 * side * side or s.arena_half_size <= max(r, r_obs) + s.min_separation:
-        raise ValueError(
-            f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles in an arena of half size "
-            f"{s.arena_half_size:g} m without overlap; increase arena_half_size or reduce the counts"
-        )
-
-
-def circle_points(n: int, radius: float, phase: float) -> np.ndarray:
-    """``(n, 2)`` points evenly spaced on a circle [m], the first at angle ``phase`` [rad]."""
-    ang = phase + 2.0 * np.pi * np.arange(n) / n
-    return radius * np.stack((np.cos(ang), np.sin(ang)), axis=-1)
-
-
-def jittered(rng: np.random.Generator, pts: np.ndarray, jitter: float) -> np.ndarray:
-    """``pts (n, 2)`` moved uniformly within discs of radius ``jitter`` [m] (unchanged, no draw, at 0)."""
-    if jitter <= 0.0:
-        return pts
-    ang = rng.uniform(0.0, 2.0 * np.pi, size=len(pts))
-    rad = jitter * np.sqrt(rng.uniform(0.0, 1.0, size=len(pts)))
-    return pts + rad[:, None] * np.stack((np.cos(ang), np.sin(ang)), -1)
-
-
-def obstacle_radii(s: Scenario, rng: np.random.Generator) -> np.ndarray:
-    """Obstacle radii ``(m,)`` [m] drawn from ``obstacle_radius`` (the first draw of a layout)."""
-    lo, hi = s.obstacle_radius
-    return rng.uniform(lo, hi, size=s.n_obstacles)
-
-
-def place_obstacles(
-    s: Scenario, rng: np.random.Generator, start: np.ndarray, goal: np.ndarray, radius: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Obstacles at random in the arena, clear of every start and goal, each with a random
-    second point for the motion model: ``(obs_pos (m, 2), obs_target (m, 2), radius (m,))``."""
-    m = s.n_obstacles
-    obs_pos, obs_target = np.zeros((m, 2)), np.zeros((m, 2))
-    if m:
-        sampler = Sampler(rng, s.arena_half_size, s.min_separation)
-        for p in np.concatenate((start, goal)):
-            sampler.add(p, s.robot.radius)
-        for k in range(m):
-            obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}")
-        lim = s.arena_half_size - radius[:, None]
-        obs_target = rng.uniform(-lim, lim, size=(m, 2))
-    return obs_pos, obs_target, radius
-
-
-def finish(
-    s: Scenario,
-    start: np.ndarray,
-    goal: np.ndarray,
-    obs_pos: np.ndarray,
-    obs_target: np.ndarray,
-    obs_radius: np.ndarray,
-    heading=None,
-    speed=None,
-) -> Layout:
-    """The :class:`Layout`; robots face their goal at ``initial_speed`` unless given."""
-    if heading is None:
-        d = goal - start
-        heading = np.arctan2(d[:, 1], d[:, 0])
-    if speed is None:
-        speed = np.full(s.n_robots, float(s.initial_speed))
-    return Layout(
-        start=np.ascontiguousarray(start, dtype=np.float64),
-        goal=np.ascontiguousarray(goal, dtype=np.float64),
-        heading=np.asarray(heading, dtype=np.float64),
-        speed=np.asarray(speed, dtype=np.float64),
-        obs_pos=obs_pos,
-        obs_target=obs_target,
-        obs_radius=np.asarray(obs_radius, dtype=np.float64),
-    )
-
-
-class Sampler:
-    """Rejection sampler of non-overlapping discs in a square."""
-
-    def __init__(self, rng: np.random.Generator, half: float, sep: float):
-        self.rng, self.half, self.sep = rng, half, sep
-        self.pos: list[np.ndarray] = []
-        self.rad: list[float] = []
-
-    def add(self, p: np.ndarray, r: float) -> None:
-        self.pos.append(np.asarray(p, dtype=np.float64))
-        self.rad.append(r)
-
-    def free(self, p: np.ndarray, r: float) -> bool:
-        if not self.pos:
-            return True
-        d = np.linalg.norm(np.asarray(self.pos) - p, axis=-1) - np.asarray(self.rad) - r
-        return bool(np.all(d >= self.sep))
-
-    def sample(self, r: float, what: str, accept=lambda p: True) -> np.ndarray:
-        lim = self.half - r
-        for _ in range(MAX_TRIES):
-            p = self.rng.uniform(-lim, lim, size=2)
-            if self.free(p, r) and accept(p):
-                self.add(p, r)
-                return p
-        raise ValueError(
-            f"could not place {what} without overlap after {MAX_TRIES} tries; "
-            "increase arena_half_size or reduce n_robots / n_obstacles / min_separation"
-        )
+}
+"""Every scenario kind by name (the values ``Scenario.kind`` accepts)."""

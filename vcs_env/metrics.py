@@ -133,7 +133,7 @@ class EpisodeFacts:
 
     @functools.cached_property
     def obstacle_hit(self) -> np.ndarray:
-        """``(n,)`` bool: the robot touched an obstacle."""
+        """``(n,)`` bool: the robot touched an obstacle or a wall."""
         return self.ep.obstacle_contact.any(axis=0)
 
     @functools.cached_property

@@ -43,13 +43,18 @@ blocks (e.g. a lidar scan) go after the neighbour slots, with their size in
 Version history: v0 divided the goal distance by ``2 * scenario.world_extent`` and relative
 positions and gaps by ``r_ca`` (scales that moved with n, layout and arena) and had no
 features 8-10 (``EGO_DIM`` was 8).
+
+With ``scenario.lidar`` (off by default) the lidar ranges follow, ``range / max_range`` in
+``[0, 1]``, one per beam (:mod:`vcs_env.lidar`).
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from . import kernels
+from . import kernels, lidar
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
 
@@ -69,7 +74,8 @@ DT_REF = 1.0
 
 def observation_dim(scenario: Scenario) -> int:
     """Length D of one robot's observation."""
-    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM
+    lidar = scenario.lidar.n_beams if scenario.lidar is not None else 0
+    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM + lidar
 
 
 def observation_config(scenario: Scenario) -> dict:
@@ -90,7 +96,7 @@ def observation_config(scenario: Scenario) -> dict:
             "omega_ref": OMEGA_REF,
             "r_ref": R_REF,
         },
-    }
+    } | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
 
 
 def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
@@ -101,6 +107,8 @@ def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     slots = EGO_DIM + NEIGHBOR_DIM * np.arange(scenario.n_neighbors)
     for off in (0, 5, 7):
         low[slots + off] = 0.0
+    if scenario.lidar is not None:
+        low[-scenario.lidar.n_beams :] = 0.0
     return low, np.ones(dim, dtype=np.float32)
 
 
@@ -160,12 +168,15 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
 
     One compiled call for all worlds (:func:`vcs_env.kernels.observe`); :func:`reference_observe`
     is the same computation in readable numpy, the kernel's test oracle."""
-    return kernels.observe(
+    obs = kernels.observe(
         world.pos, world.heading, world.speed, world.radius, world.goal, world.v_max, world.a_max,
         world.omega_max, world.present, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
         world.r_goal, world.dt, scenario.n_neighbors, EGO_DIM, GOAL_REF, SENSE_REF, DT_REF, V_REF, A_REF,
         OMEGA_REF, R_REF,
     )  # fmt: skip
+    if scenario.lidar is not None:
+        obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
+    return obs
 
 
 def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
@@ -198,7 +209,10 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     nb[..., 6] = feats[..., 5] / SENSE_REF
     nb[..., 7] = feats[..., 6]
     # Far objects, long gaps, large r_ca or r_goal and rounding (an object exactly at r_ca) are clipped into the space.
-    return np.clip(out, -1.0, 1.0).astype(np.float32)
+    obs = np.clip(out, -1.0, 1.0).astype(np.float32)
+    if scenario.lidar is not None:
+        obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
+    return obs
 
 
 def state_vector(world: WorldState) -> np.ndarray:

@@ -14,6 +14,7 @@ import numpy as np
 from .state import WorldState
 
 OBSTACLE_COLOR = (120, 120, 120)
+WALL_COLOR = (40, 40, 40)
 BACKGROUND = (250, 250, 250)
 
 
@@ -83,6 +84,9 @@ class Renderer:
             for i in range(n):
                 light = tuple(int(c + (255 - c) * 0.6) for c in colors[i])
                 pg.draw.lines(surf, light, False, trail[:, i].tolist(), 2)
+        for k in np.flatnonzero(world.seg_present[0]):  # walls: the collision segments themselves
+            a, b = self._px(world.seg_a[0, k]), self._px(world.seg_b[0, k])
+            pg.draw.line(surf, WALL_COLOR, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 3)
         for k in range(world.n_obstacles):
             c = self._px(world.obs_pos[0, k])
             r = max(1, int(world.obs_radius[0, k] * scale))
@@ -145,7 +149,8 @@ class RenderMixin:
 
 def ansi(world: WorldState) -> str:
     """A one-line-per-robot text view of world 0."""
-    lines = [f"t={world.time[0]:.1f}s"]
+    walls = int(world.seg_present[0].sum())
+    lines = [f"t={world.time[0]:.1f}s" + (f" walls={walls}" if walls else "")]
     for i in range(world.n_robots):
         status = "arrived" if world.reached[0, i] else ("crashed" if not world.active[0, i] else "driving")
         x, y = world.pos[0, i]
@@ -182,7 +187,9 @@ def write_video(frames: Sequence[np.ndarray], path: str, fps: int = 10) -> str:
     return path
 
 
-def plot_trajectories(pos, goal, radius, obs_pos=None, obs_radius=None, ax=None, title: str | None = None):
+def plot_trajectories(
+    pos, goal, radius, obs_pos=None, obs_radius=None, ax=None, title: str | None = None, segments=None
+):
     """Matplotlib plot of one episode.
 
     Args:
@@ -192,6 +199,8 @@ def plot_trajectories(pos, goal, radius, obs_pos=None, obs_radius=None, ax=None,
         obs_pos: obstacle positions over time ``(T, m, 2)`` [m] (optional).
         obs_radius: ``(m,)`` [m].
         ax: axes to draw on (a new figure otherwise).
+        segments: wall segments ``(s, 2, 2)`` [m] (optional; NaN rows are skipped, as in
+            :attr:`vcs_env.rollout.Episode.segments`).
 
     Returns:
         The axes.
@@ -205,6 +214,10 @@ def plot_trajectories(pos, goal, radius, obs_pos=None, obs_radius=None, ax=None,
     if ax is None:
         _, ax = plt.subplots(figsize=(6, 6))
     colors = [tuple(c / 255 for c in col) for col in robot_colors(pos.shape[1])]
+    if segments is not None:
+        for a, b in np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2):
+            if np.all(np.isfinite(a)) and np.all(np.isfinite(b)):
+                ax.plot((a[0], b[0]), (a[1], b[1]), color=tuple(c / 255 for c in WALL_COLOR), lw=2.5)
     if obs_pos is not None and np.asarray(obs_pos).size:
         obs_pos = np.asarray(obs_pos)
         for k in range(obs_pos.shape[1]):

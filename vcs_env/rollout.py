@@ -46,7 +46,7 @@ class Episode:
     acted: np.ndarray  # (T, n) bool
     collided: np.ndarray  # (T, n) bool, robot touched something in that step
     robot_contact: np.ndarray  # (T, n) bool, ... a robot
-    obstacle_contact: np.ndarray  # (T, n) bool, ... an obstacle
+    obstacle_contact: np.ndarray  # (T, n) bool, ... an obstacle or a wall
     min_separation: np.ndarray  # (T, n) smallest swept gap in that step [m] (inf if not acting)
     reached_step: np.ndarray  # (n,) int, step count at arrival (-1: never)
     straight_time: np.ndarray  # (n,) time a robot at v_max would need for the straight line [s]
@@ -55,6 +55,8 @@ class Episode:
     frames: list = field(default_factory=list)  # rendered frames, if requested
     robot_hits: np.ndarray | None = None  # (T, n, n) bool, robot i touched robot j in that step
     obstacle_hits: np.ndarray | None = None  # (T, n, m) bool, robot i touched obstacle k
+    wall_hits: np.ndarray | None = None  # (T, n, s) bool, robot i touched wall segment k
+    segments: np.ndarray | None = None  # (s, 2, 2) the world's wall segments [m] (absent ones are NaN)
 
     @property
     def steps(self) -> int:
@@ -171,6 +173,7 @@ class EpisodeRecorder(Hook):
         self.dt, self.seeds = engine.scenario.dt, [int(s) for s in seeds]
         self.w = w
         self.radius, self.goal, self.obs_radius = w.radius.copy(), w.goal.copy(), w.obs_radius.copy()
+        self.segments = np.where(w.seg_present[..., None, None], np.stack((w.seg_a, w.seg_b), axis=2), np.nan)
         self.straight = np.linalg.norm(w.goal - w.pos, axis=-1) / w.v_max
         self.states = {k: [getattr(w, k).copy()] for k in ("pos", "heading", "speed", "obs_pos")}
         self.per_step: dict[str, list[np.ndarray]] = {
@@ -184,6 +187,7 @@ class EpisodeRecorder(Hook):
                 "min_separation",
                 "robot_hits",
                 "obstacle_hits",
+                "wall_hits",
             )
         }
         self.reached_step = np.full((B, n), -1, dtype=np.int64)
@@ -200,10 +204,11 @@ class EpisodeRecorder(Hook):
         self.per_step["acted"].append(ev.acted)
         self.per_step["collided"].append(ev.collided)
         self.per_step["robot_contact"].append(ev.robot_hits.any(axis=2))
-        self.per_step["obstacle_contact"].append(ev.obstacle_hits.any(axis=2))
+        self.per_step["obstacle_contact"].append(ev.obstacle_hits.any(axis=2) | ev.wall_hits.any(axis=2))
         self.per_step["min_separation"].append(ev.min_separation)
         self.per_step["robot_hits"].append(ev.robot_hits.copy())
         self.per_step["obstacle_hits"].append(ev.obstacle_hits.copy())
+        self.per_step["wall_hits"].append(ev.wall_hits.copy())
         for k, v in self.states.items():
             v.append(getattr(w, k).copy())
         self.reached_step = np.where(ev.reached & (self.reached_step < 0), w.steps[:, None], self.reached_step)
@@ -221,6 +226,7 @@ class EpisodeRecorder(Hook):
                     radius=self.radius[b],
                     goal=self.goal[b],
                     obs_radius=self.obs_radius[b],
+                    segments=self.segments[b],
                     **{k: np.ascontiguousarray(v[b, : t_end + 1]) for k, v in states.items()},
                     **{k: np.ascontiguousarray(v[b, :t_end]) for k, v in per_step.items()},
                     reached_step=self.reached_step[b],

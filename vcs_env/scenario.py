@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .lidar import LidarSpec
+
 MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go")
 COLLISION_MODES = ("terminate", "continue")
 
@@ -173,6 +175,9 @@ class CustomLayout:
     """Initial speeds [m/s], shape (n,); default 0."""
     obstacles: tuple[ObstacleTrajectory, ...] = ()
     """Scripted obstacles."""
+    walls: tuple = ()
+    """Static wall segments [m], shape (s, 2, 2): ``((ax, ay), (bx, by))`` each; a polygon is the
+    closed chain :func:`vcs_env.walls.polygon_segments` of its vertices."""
 
     def __post_init__(self) -> None:
         def pts(name, value):
@@ -195,6 +200,10 @@ class CustomLayout:
                 object.__setattr__(self, name, tuple(arr.tolist()))
         if self.speed is not None and min(self.speed) < 0:
             raise ValueError("CustomLayout.speed must be >= 0")
+        from .walls import check_segments
+
+        walls = check_segments(self.walls, "CustomLayout.walls")
+        object.__setattr__(self, "walls", tuple(tuple(map(tuple, w)) for w in walls.tolist()))
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for o in self.obstacles:
             if not isinstance(o, ObstacleTrajectory):
@@ -219,7 +228,7 @@ class Scenario:
     lane_spacing: float = 1.2
     """Distance between neighbouring lanes (swap) or robots in a group (crossing) [m]."""
     jitter: float = 0.0
-    """Uniform noise on start positions [m] (circle, swap, crossing); 0 = perfectly symmetric."""
+    """Uniform noise on start positions [m] (circle, swap, crossing and the map kinds); 0 = perfectly symmetric."""
     min_separation: float = 0.3
     """Smallest gap between spawned bodies and between starts/goals [m]."""
     initial_speed: float = 0.0
@@ -260,8 +269,18 @@ class Scenario:
     leave the world (no collisions, not observed)."""
     rewards: RewardWeights = field(default_factory=RewardWeights)
     """Reward weights."""
+    corridor_width: float = 2.0
+    """Width between the walls of a corridor (``corridor``, ``intersection``) [m]."""
+    door_width: float = 1.2
+    """Width of a door (``doorway``, ``room``) [m]."""
+    n_walls: int = 8
+    """``walls``: number of random wall segments in the arena (besides its four sides), in [0, 256]."""
+    wall_length: tuple[float, float] = (1.0, 3.0)
+    """``walls``: length range of the random wall segments [m], drawn uniformly."""
     custom: CustomLayout | None = None
     """Explicit layout, required by and only allowed with ``kind="custom"``."""
+    lidar: LidarSpec | None = None
+    """Optional lidar beams appended to every robot's observation (:mod:`vcs_env.lidar`); None: off."""
 
     def __post_init__(self) -> None:
         _check_choice("kind", self.kind, list(_kinds()))
@@ -294,6 +313,12 @@ class Scenario:
         _check_int("n_neighbors", self.n_neighbors, 1, 64)
         _check_int("max_steps", self.max_steps, 1, 10**7)
         _check_choice("on_collision", self.on_collision, COLLISION_MODES)
+        _check_range("corridor_width", self.corridor_width, 0.0, 1e3, lo_open=True)
+        _check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)
+        _check_int("n_walls", self.n_walls, 0, 256)
+        _check_interval("wall_length", self.wall_length, 0.01, 1e3)
+        if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
+            raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
@@ -364,6 +389,18 @@ SCENARIOS: dict[str, Scenario] = {
 """Named presets; build variants with :func:`make_scenario` or ``dataclasses.replace``."""
 
 
+MAPS: dict[str, Scenario] = {
+    "corridor": Scenario(kind="corridor", n_robots=4, corridor_width=2.5, max_steps=400),
+    "doorway": Scenario(kind="doorway", n_robots=4, arena_half_size=4.0, layout_radius=2.5, max_steps=400),
+    "room": Scenario(kind="room", n_robots=4, max_steps=400),
+    "intersection": Scenario(kind="intersection", n_robots=4, corridor_width=2.5, max_steps=400),
+    "walls": Scenario(kind="walls", n_robots=4, n_walls=8, max_steps=600),
+}
+"""Named presets with static walls (:mod:`vcs_env.walls`), one per map kind; ``make_scenario``
+finds them like :data:`SCENARIOS`. They stay out of :data:`SCENARIOS` (which the VCS expert must
+solve on every seed) until the VCS planner's kernel sees walls."""
+
+
 def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> Scenario:
     """A preset by name (or a given scenario) with fields replaced by ``overrides``.
 
@@ -371,10 +408,10 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
     """
     if isinstance(name_or_scenario, Scenario):
         base = name_or_scenario
-    elif name_or_scenario in SCENARIOS:
-        base = SCENARIOS[name_or_scenario]
+    elif name_or_scenario in SCENARIOS or name_or_scenario in MAPS:
+        base = SCENARIOS.get(name_or_scenario) or MAPS[name_or_scenario]
     else:
-        raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted(SCENARIOS)}")
+        raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted({**SCENARIOS, **MAPS})}")
     if not overrides:
         return base
     names = {f.name for f in dataclasses.fields(Scenario)}

@@ -18,7 +18,7 @@ import numpy as np
 
 from . import kernels
 from .dynamics import ACTION_MODES, check_actions
-from .layouts import generate
+from .layouts import generate, segment_capacity
 from .obstacles import ObstacleMotion, make_motion
 from .scenario import Scenario
 from .state import WorldState
@@ -34,9 +34,14 @@ class StepEvents:
     collided: np.ndarray  # (B, n) bool: touched something during this step
     robot_hits: np.ndarray  # (B, n, n) bool: [b, i, j] robot i touched robot j
     obstacle_hits: np.ndarray  # (B, n, m) bool: [b, i, k] robot i touched obstacle k
-    min_separation: np.ndarray  # (B, n) smallest swept gap to any object this step [m]
+    min_separation: np.ndarray  # (B, n) smallest swept gap to any object or wall this step [m]
     goal_dist_before: np.ndarray  # (B, n) [m]
     goal_dist_after: np.ndarray  # (B, n) [m]
+    wall_hits: np.ndarray | None = None  # (B, n, s) bool: [b, i, k] robot i touched wall segment k
+
+    def __post_init__(self) -> None:
+        if self.wall_hits is None:
+            self.wall_hits = np.zeros((*self.acted.shape, 0), dtype=bool)
 
 
 class Simulator:
@@ -76,6 +81,7 @@ class Simulator:
     def _empty_world(self) -> WorldState:
         s, B, n, m = self.scenario, self.batch_size, self.scenario.n_robots, self.scenario.n_obstacles
         rs = s.robot
+        n_seg = segment_capacity(s)
         return WorldState(
             time=np.zeros(B),
             steps=np.zeros(B, dtype=np.int64),
@@ -99,6 +105,9 @@ class Simulator:
             r_goal=s.r_goal,
             r_ca=s.r_ca,
             holonomic=rs.holonomic,
+            seg_a=np.zeros((B, n_seg, 2)),
+            seg_b=np.zeros((B, n_seg, 2)),
+            seg_present=np.zeros((B, n_seg), dtype=bool),
         )
 
     def reset(self, seeds: int | Sequence[int | None] | None = None, worlds: Sequence[int] | None = None) -> WorldState:
@@ -141,6 +150,10 @@ class Simulator:
             w.obs_pos[b] = lay.obs_pos
             w.obs_radius[b] = lay.obs_radius
             w.obs_vel[b] = 0.0
+            k = len(lay.segments)
+            w.seg_a[b, :k], w.seg_b[b, :k] = lay.segments[:, 0], lay.segments[:, 1]
+            w.seg_a[b, k:], w.seg_b[b, k:] = 0.0, 0.0
+            w.seg_present[b] = np.arange(w.n_segments) < k
             for key, value in params.items():
                 if key not in self.motion_params:
                     self.motion_params[key] = np.zeros((self.batch_size, *value.shape), dtype=value.dtype)
@@ -192,6 +205,13 @@ class Simulator:
             old_pos, new_pos, w.radius, w.present, acted, w.goal, w.obs_pos, new_obs, w.obs_radius, s.r_goal
         )
 
+        if w.n_segments:  # walls: contacts like obstacles, swept over the step (no tunnelling)
+            wall_hits, min_sep, collided = kernels.wall_events(
+                old_pos, new_pos, w.radius, w.present, acted, w.seg_a, w.seg_b, w.seg_present, min_sep, collided
+            )
+        else:
+            wall_hits = np.zeros((B, n, 0), dtype=bool)
+
         # Commit.
         w.pos, w.speed, w.heading = new_pos, speed, heading
         w.obs_pos, w.obs_vel = new_obs, obs_vel
@@ -210,6 +230,7 @@ class Simulator:
             min_separation=min_sep,
             goal_dist_before=goal_before,
             goal_dist_after=goal_after,
+            wall_hits=wall_hits,
         )
 
     def _obstacle_velocity(self) -> np.ndarray:

@@ -1,6 +1,6 @@
 """The world state: a struct of flat arrays with a leading batch axis ``B`` (worlds).
 
-``n`` robots and ``m`` obstacles per world. Robots that finish are masked (``active``), never
+``n`` robots, ``m`` obstacles and ``s`` wall segments per world. Robots that finish are masked (``active``), never
 deleted. Planners read this (privileged) state; learned policies see observations.
 """
 
@@ -40,6 +40,15 @@ class WorldState:
     r_goal: float  # arrival radius [m]
     r_ca: float  # sensing radius [m]
     holonomic: bool  # robots are holonomic (else unicycle)
+    seg_a: np.ndarray | None = None  # (B, s, 2) wall segment start points [m] (vcs_env.walls); None: no walls
+    seg_b: np.ndarray | None = None  # (B, s, 2) wall segment end points [m]
+    seg_present: np.ndarray | None = None  # (B, s) bool: segment k exists in world b
+
+    def __post_init__(self) -> None:
+        if self.seg_a is None:
+            B = self.pos.shape[0]
+            self.seg_a, self.seg_b = np.zeros((B, 0, 2)), np.zeros((B, 0, 2))
+            self.seg_present = np.zeros((B, 0), dtype=bool)
 
     @property
     def batch_size(self) -> int:
@@ -52,6 +61,11 @@ class WorldState:
     @property
     def n_obstacles(self) -> int:
         return self.obs_pos.shape[1]
+
+    @property
+    def n_segments(self) -> int:
+        """Wall segments per world (some may be absent, ``seg_present``)."""
+        return self.seg_present.shape[1]
 
     @property
     def vel(self) -> np.ndarray:

@@ -22,7 +22,17 @@ suite                      episodes content
 ``crowd-20-v0``            100      1 robot among 20 non-reactive obstacles, radius 6 m
 ``dynamic-v0``             100      4 robots, random starts and goals, among 6 obstacles on
                                     arbitrary (random-turning, wall-bouncing) trajectories
+``corridor-v0``            100      6 robots, two-way traffic in a corridor 2.5 m wide
+``doorway-v0``             100      6 robots, two groups swap sides through a 1.2 m door
+``door-headon-v0``         20       2 robots head-on through a door 0.7 m wide (one robot
+                                    diameter + 0.2 m), perfectly symmetric
+``room-v0``                100      8 robots leave a 6 m room with a 1.2 m door on each side
+``intersection-v0``        100      8 robots, two groups cross where two 2.5 m corridors meet
+``walls-v0``               100      6 robots, random starts and goals among 12 random walls
 ========================== ======== =============================================================
+
+The map suites (the last six) have static walls (:mod:`vcs_env.walls`); every planner aims at
+the route layer's waypoints (:mod:`vcs_env.routes`).
 
 Every suite has a ``-smoke`` variant (``circle-16-v0-smoke``, ...) for CI: its first 3 seeds,
 and fewer robots where the full suite is big (``circle-24-v0-smoke`` has 12, the 40-robot
@@ -60,6 +70,12 @@ from dataclasses import dataclass
 
 from .scenario import RobotSpec, Scenario
 
+LATER_FIELDS = {
+    f.name: f.default
+    for f in dataclasses.fields(Scenario)
+    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar")
+}
+"""Scenario fields (with their defaults) added after the first suites were pinned: the maps and lidar."""
 SMOKE_SEEDS = 3
 """Episodes in a ``-smoke`` suite."""
 SMOKE_SUFFIX = "-smoke"
@@ -96,8 +112,17 @@ class Suite:
 
     @property
     def fingerprint(self) -> str:
-        """First 16 hex digits of the SHA-256 of the suite's content (scenario fields and seeds)."""
-        content = {"scenario": dataclasses.asdict(self.scenario), "seeds": list(self.seeds)}
+        """First 16 hex digits of the SHA-256 of the suite's content (scenario fields and seeds).
+
+        Scenario fields added after suites were first pinned (:data:`LATER_FIELDS`) count only
+        when they differ from their default, so adding a field with a neutral default leaves
+        every existing fingerprint as it was."""
+        scenario = {
+            k: v
+            for k, v in dataclasses.asdict(self.scenario).items()
+            if not (k in LATER_FIELDS and v == LATER_FIELDS[k])
+        }
+        content = {"scenario": scenario, "seeds": list(self.seeds)}
         blob = json.dumps(content, sort_keys=True, default=repr).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
 
@@ -138,6 +163,52 @@ def _crowd(m: int, radius: float, max_steps: int) -> Scenario:
         max_steps=max_steps,
         **common,
     )
+
+
+def _maps() -> list[Suite]:
+    def door(n: int, width: float, half: float, radius: float, jitter: float) -> Scenario:
+        return Scenario(
+            kind="doorway", n_robots=n, door_width=width, arena_half_size=half, layout_radius=radius,
+            lane_spacing=1.2, jitter=jitter, max_steps=600, **_COMMON,
+        )  # fmt: skip
+
+    def lanes(kind: str, n: int) -> Scenario:
+        return Scenario(
+            kind=kind, n_robots=n, corridor_width=2.5, layout_radius=4.0, lane_spacing=1.2, jitter=0.1,
+            max_steps=600, **_COMMON,
+        )  # fmt: skip
+
+    return [
+        Suite("corridor-v0", lanes("corridor", 6), _seeds(100), "two-way traffic of 6 robots in a 2.5 m corridor"),
+        Suite("doorway-v0", door(6, 1.2, 5.0, 3.0, 0.1), _seeds(100), "two groups of 3 swap sides through a door"),
+        Suite(
+            "door-headon-v0",
+            door(2, 2 * _ROBOT.radius + 0.2, 4.0, 2.5, 0.0),
+            _seeds(20),
+            "2 robots head-on through a door one robot diameter + 0.2 m wide",
+        ),
+        Suite(
+            "room-v0",
+            Scenario(kind="room", n_robots=8, layout_radius=3.0, door_width=1.2, jitter=0.1, max_steps=600, **_COMMON),
+            _seeds(100),
+            "8 robots leave a room through its 4 doors",
+        ),
+        Suite("intersection-v0", lanes("intersection", 8), _seeds(100), "two groups of 4 cross at a junction"),
+        Suite(
+            "walls-v0",
+            Scenario(
+                kind="walls",
+                n_robots=6,
+                n_walls=12,
+                wall_length=(1.0, 3.0),
+                arena_half_size=6.0,
+                max_steps=600,
+                **_COMMON,
+            ),  # fmt: skip
+            _seeds(100),
+            "6 robots among 12 random walls",
+        ),
+    ]
 
 
 def _build() -> dict[str, Suite]:
@@ -202,6 +273,7 @@ def _build() -> dict[str, Suite]:
             "4 robots among 6 obstacles on random-turning, wall-bouncing trajectories",
         ),
     ]
+    full += _maps()
     smoke_robots = {"circle-24-v0": 12, "circle-40-v0": 16, "circle-40-symmetric-v0": 16}
     out: dict[str, Suite] = {}
     for s in full:

@@ -1,0 +1,133 @@
+"""Lidar (vcs_env.lidar): ranges against an analytic scalar twin on random scenes, noise, the
+optional observation block."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vcs_env
+from vcs_env.lidar import LidarSpec, cast, scan
+from vcs_env.observations import observation_bounds, observation_dim
+from vcs_env.scenario import CustomLayout, Scenario
+from vcs_env.sim import Simulator
+
+
+def twin_range(origin, angle, discs, segments, max_range):
+    """Slow twin: the first hit of the ray origin + t (cos, sin) solved in closed form, object by
+    object: |o + t d - c|^2 = rho^2 for a disc (the smaller root), o + t d = a + u (b - a) for a
+    segment (Cramer's rule on the 2x2 system)."""
+    o = np.asarray(origin, dtype=float)
+    d = np.array([math.cos(angle), math.sin(angle)])
+    best = max_range
+    for c, rho in discs:
+        f = o - np.asarray(c)
+        if f @ f <= rho * rho:
+            return 0.0
+        # t^2 + 2 (f.d) t + |f|^2 - rho^2 = 0
+        half_b, cc = f @ d, f @ f - rho * rho
+        disc = half_b * half_b - cc
+        if disc >= 0.0:
+            t = -half_b - math.sqrt(disc)
+            if t >= 0.0:
+                best = min(best, t)
+    for a, b in segments:
+        a, b = np.asarray(a), np.asarray(b)
+        m = np.array([[d[0], a[0] - b[0]], [d[1], a[1] - b[1]]])
+        det = np.linalg.det(m)
+        if abs(det) < 1e-12:
+            continue
+        t, u = np.linalg.solve(m, a - o)
+        if t >= 0.0 and 0.0 <= u <= 1.0:
+            best = min(best, t)
+    return best
+
+
+def test_ranges_match_the_analytic_twin_on_random_scenes():
+    rng = np.random.default_rng(0)
+    spec = LidarSpec(n_beams=24, fov=5.0, max_range=5.0)
+    hits = 0
+    for _ in range(15):
+        B, n, m, s = 2, 4, 3, 5
+        pos = rng.uniform(-4, 4, (B, n, 2))
+        heading = rng.uniform(-np.pi, np.pi, (B, n))
+        present = rng.random((B, n)) < 0.8
+        radius = rng.uniform(0.1, 0.4, (B, n))
+        obs_pos, obs_radius = rng.uniform(-4, 4, (B, m, 2)), rng.uniform(0.2, 0.6, (B, m))
+        seg_a = rng.uniform(-4, 4, (B, s, 2))
+        seg_b = seg_a + rng.uniform(-3, 3, (B, s, 2))
+        seg_present = rng.random((B, s)) < 0.8
+        got = cast(pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, spec.offsets, 5.0)
+        for b in range(B):
+            for i in range(n):
+                if not present[b, i]:
+                    assert np.all(got[b, i] == 5.0)
+                    continue
+                discs = [(pos[b, j], radius[b, j]) for j in range(n) if j != i and present[b, j]]
+                discs += [(obs_pos[b, j], obs_radius[b, j]) for j in range(m)]
+                segs = [(seg_a[b, j], seg_b[b, j]) for j in range(s) if seg_present[b, j]]
+                for q, off in enumerate(spec.offsets):
+                    want = twin_range(pos[b, i], heading[b, i] + off, discs, segs, 5.0)
+                    assert got[b, i, q] == pytest.approx(want, abs=1e-9)
+                    hits += want < 5.0
+    assert hits > 300
+
+
+def test_beams_by_hand():
+    """A robot at the origin facing +x: a wall at x = 2, an obstacle of radius 0.5 at (0, 3)."""
+    s = Scenario(
+        kind="custom",
+        n_robots=1,
+        n_obstacles=1,
+        custom=CustomLayout(
+            start=((0.0, 0.0),),
+            goal=((0.0, -2.0),),
+            heading=(0.0,),
+            walls=(((2.0, -5.0), (2.0, 5.0)),),
+            obstacles=(vcs_env.ObstacleTrajectory(times=(0.0,), positions=((0.0, 3.0),), radius=0.5),),
+        ),
+        lidar=LidarSpec(n_beams=4, fov=2 * math.pi, max_range=10.0),
+    )
+    w = Simulator(s).reset(0)
+    # Beams at -135, -45, 45, 135 degrees from +x.
+    r = scan(w, s.lidar)[0, 0]
+    assert r[1] == pytest.approx(2.0 * math.sqrt(2.0)) and r[2] == pytest.approx(2.0 * math.sqrt(2.0))
+    assert r[0] == 10.0 and r[3] == 10.0
+    s2 = Scenario(**{**s.__dict__, "lidar": LidarSpec(n_beams=1, fov=0.5, max_range=10.0)})
+    w.heading[:] = math.pi / 2  # straight at the obstacle
+    assert scan(w, s2.lidar)[0, 0, 0] == pytest.approx(2.5)
+
+
+def test_noise_is_seeded_by_the_world_and_clipped():
+    spec = LidarSpec(n_beams=32, max_range=3.0, noise=0.05)
+    s = vcs_env.make_scenario("doorway", lidar=spec)
+    a = Simulator(s).reset(5)
+    b = Simulator(s).reset(5)
+    clean = scan(a, LidarSpec(n_beams=32, max_range=3.0))
+    np.testing.assert_array_equal(scan(a, spec), scan(b, spec))  # same world state, same scan
+    diff = scan(a, spec) - clean
+    assert 0.02 < diff[clean < 2.5].std() < 0.08 and np.all(scan(a, spec) <= 3.0) and np.all(scan(a, spec) >= 0.0)
+
+
+def test_lidar_is_an_optional_observation_block():
+    base = vcs_env.make_scenario("doorway")
+    with_lidar = vcs_env.make_scenario("doorway", lidar=LidarSpec(n_beams=12, max_range=4.0))
+    assert observation_dim(with_lidar) == observation_dim(base) + 12
+    low, high = observation_bounds(with_lidar)
+    assert np.all(low[-12:] == 0.0) and np.all(high[-12:] == 1.0)
+    env = vcs_env.parallel_env(scenario=with_lidar)
+    obs, _ = env.reset(seed=0)
+    o = obs["robot_0"]
+    plain, _ = vcs_env.parallel_env(scenario=base).reset(seed=0)
+    np.testing.assert_array_equal(o[:-12], plain["robot_0"])  # the default observation is unchanged
+    w = env.engine.world
+    np.testing.assert_allclose(o[-12:], scan(w, with_lidar.lidar)[0, 0] / 4.0, rtol=1e-6)
+    assert env.observation_space("robot_0").contains(o)
+
+
+def test_bad_lidar_specs_are_refused():
+    for kw, field in (({"n_beams": 0}, "n_beams"), ({"fov": 7.0}, "fov"), ({"max_range": -1.0}, "max_range")):
+        with pytest.raises(ValueError, match=field):
+            LidarSpec(**kw)
+    with pytest.raises(ValueError, match="lidar"):
+        vcs_env.make_scenario("circle", lidar="yes")

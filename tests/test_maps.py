@@ -1,0 +1,164 @@
+"""Map scenario kinds (corridor, doorway, room, intersection, random walls) and the route layer."""
+
+import math
+
+import numpy as np
+import pytest
+from pettingzoo.test import parallel_api_test
+
+import vcs_env
+from baselines.common import preferred_velocity
+from vcs_env.layouts import KINDS, generate
+from vcs_env.routes import Roadmap, route_direction, waypoints
+from vcs_env.scenario import MAPS, CustomLayout, Scenario, make_scenario
+from vcs_env.sim import Simulator
+from vcs_env.walls import clearance
+
+
+@pytest.mark.parametrize("name", sorted(MAPS))
+def test_map_layouts_are_clear_of_walls_and_routed(name):
+    s = make_scenario(name, n_obstacles=2)
+    for seed in range(3):
+        lay = generate(s, np.random.default_rng(seed))
+        assert 0 < len(lay.segments) <= KINDS[s.kind].n_segments(s)
+        r = s.robot.radius
+        assert np.all(clearance(lay.start, lay.segments) - r >= s.min_separation)
+        assert np.all(clearance(lay.goal, lay.segments) - r >= s.min_separation)
+        assert np.all(clearance(lay.obs_pos, lay.segments) - lay.obs_radius >= s.min_separation)
+        rm = Roadmap(lay.segments, r)
+        for i in range(s.n_robots):
+            length = rm.route_length(lay.start[i], lay.goal[i])
+            assert np.linalg.norm(lay.goal[i] - lay.start[i]) - 1e-9 <= length < math.inf
+
+
+@pytest.mark.parametrize("name", sorted(MAPS))
+def test_map_presets_pass_the_pettingzoo_api_test(name):
+    parallel_api_test(vcs_env.parallel_env(scenario=name, max_steps=30), num_cycles=30)
+
+
+def test_random_walls_differ_by_seed():
+    s = make_scenario("walls")
+    a, b = (generate(s, np.random.default_rng(seed)).segments for seed in (0, 1))
+    assert a.shape == b.shape == (4 + s.n_walls, 2, 2) and not np.array_equal(a, b)
+
+
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        ({"kind": "doorway", "door_width": 0.4}, "no route"),  # narrower than a robot
+        ({"kind": "corridor", "corridor_width": 0.6}, "passage"),
+        ({"kind": "room", "door_width": 7.0}, "door_width"),
+        ({"kind": "doorway", "layout_radius": 0.3}, "from a wall"),
+    ],
+)
+def test_bad_maps_are_refused_with_a_clear_error(overrides, message):
+    with pytest.raises(ValueError, match=message):
+        Scenario(**{"n_robots": 4, **overrides})
+
+
+def door_world():
+    """A wall at x = 0 with a 1 m door centred at y = 1; robot from (-2, 0) to (2, 0)."""
+    walls = (((0.0, -4.0), (0.0, 0.5)), ((0.0, 1.5), (0.0, 4.0)))
+    s = Scenario(kind="custom", n_robots=1, custom=CustomLayout(start=((-2.0, 0.0),), goal=((2.0, 0.0),), walls=walls))
+    return s, Simulator(s).reset(0)
+
+
+def test_route_goes_through_the_door():
+    s, w = door_world()
+    target, length = waypoints(w)
+    r = s.robot.radius
+    # The shortest route bends around the door's lower edge (0, 0.5), kept r + margin away.
+    straight_around_edge = 2 * math.hypot(2.0, 0.5 + r)
+    assert straight_around_edge - 0.05 < length[0, 0] < straight_around_edge + 0.3
+    assert target[0, 0, 0] < 0.0 and target[0, 0, 1] > 0.5 + r  # a node left of the wall, above the edge
+    e, d = route_direction(w)
+    np.testing.assert_allclose(np.linalg.norm(e, axis=-1), d)
+
+
+def test_following_the_route_reaches_the_goal_without_contact():
+    s, _ = door_world()
+    planner = vcs_env.make_planner("straight")
+    engine = vcs_env.NavEngine(s)
+    engine.reset(0)
+    for _ in range(s.max_steps):
+        res = engine.step(planner.act(engine.world))
+        assert not res.events.collided.any()
+        if not engine.world.active.any():
+            break
+    assert engine.world.reached.all()
+
+
+def test_without_walls_the_route_is_the_goal_and_preferred_velocity_unchanged():
+    w = Simulator(make_scenario("circle", n_robots=5)).reset(3)
+    target, length = waypoints(w)
+    np.testing.assert_array_equal(target, w.goal)
+    e = w.goal - w.pos
+    np.testing.assert_array_equal(route_direction(w)[0], e)
+    # preferred_velocity of a world with walls that never block equals the wall-free one
+    # along the same direction (the route is the straight line).
+    far = make_scenario(
+        "custom",
+        custom=CustomLayout(start=((-2.0, 0.0),), goal=((2.0, 0.0),), walls=(((-5.0, 9.0), (5.0, 9.0)),)),
+        n_robots=1,
+        n_obstacles=0,
+    )
+    wf = Simulator(far).reset(0)
+    bare = Simulator(
+        make_scenario(
+            "custom", custom=CustomLayout(start=((-2.0, 0.0),), goal=((2.0, 0.0),)), n_robots=1, n_obstacles=0
+        )
+    ).reset(0)
+    np.testing.assert_array_equal(preferred_velocity(wf), preferred_velocity(bare))
+
+
+def facing_wall_world(holonomic=True):
+    """One robot at the origin moving at 1 m/s along +x, a long wall at x = 0.6."""
+    s = Scenario(
+        kind="custom",
+        n_robots=1,
+        custom=CustomLayout(
+            start=((0.0, 0.0),), goal=((0.0, 3.0),), heading=(0.0,), speed=(1.0,), walls=(((0.6, -5.0), (0.6, 5.0)),)
+        ),
+        robot=vcs_env.RobotSpec(holonomic=holonomic),
+    )
+    return Simulator(s).reset(0)
+
+
+@pytest.mark.parametrize("name", ["vo", "hrvo", "orca"])
+def test_local_avoidance_sees_walls(name, monkeypatch):
+    """With the preferred velocity forced straight into the wall, the chosen velocity keeps off it."""
+    import baselines.orca
+    import baselines.vo
+    from baselines.capsule import capsule_tau
+
+    module = baselines.orca if name == "orca" else baselines.vo
+    monkeypatch.setattr(module, "preferred_velocity", lambda world: np.array([[[1.0, 0.0]]]))
+    w = facing_wall_world()
+    v = vcs_env.make_planner(name).desired_velocity(w)[0, 0]
+    assert capsule_tau(0.6, -5.0, 0.6, 5.0, v[0], v[1], 0.25) >= 1.5  # (1, 0) would touch it after 0.35 s
+    w.seg_present[:] = False  # the same world without its wall: straight ahead
+    np.testing.assert_allclose(vcs_env.make_planner(name).desired_velocity(w)[0, 0], [1.0, 0.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("name", ["vo", "hrvo"])
+def test_vo_family_touches_no_wall_on_room_and_walls_maps(name):
+    from vcs_env.contacts import contact_events
+    from vcs_env.rollout import planner_controller, run_episodes
+
+    for preset in ("room", "walls"):
+        s = make_scenario(preset, on_collision="continue")
+        episodes = run_episodes(s, planner_controller(vcs_env.make_planner(name)), range(3))
+        assert not any(c.kind == "wall" for e in episodes for c in contact_events(e))
+        assert np.mean([e.reached_step >= 0 for e in episodes]) >= 0.9
+
+
+def test_renderers_draw_the_walls():
+    from vcs_env.render import WALL_COLOR, Renderer, ansi
+
+    s = make_scenario("doorway")
+    w = Simulator(s).reset(0)
+    renderer = Renderer(s.view_extent, size=200)
+    frame = renderer.draw(w)
+    mid = renderer._px(np.array([0.0, -2.0])).astype(int)
+    assert tuple(frame[mid[1], mid[0]]) == WALL_COLOR  # the wall x = 0 below the door
+    assert "walls=6" in ansi(w)

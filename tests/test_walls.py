@@ -1,0 +1,148 @@
+"""Static walls: segment geometry, the swept wall kernel against its numpy oracle, tunnelling,
+custom maps from arrays and their validation, wall contacts in episodes."""
+
+import numpy as np
+import pytest
+
+from vcs_env import kernels
+from vcs_env.contacts import contact_events
+from vcs_env.rollout import run_episodes
+from vcs_env.scenario import CustomLayout, RobotSpec, Scenario
+from vcs_env.sim import Simulator
+from vcs_env.walls import box_segments, polygon_segments, reference_wall_events, segment_distance
+
+
+def scalar_segment_distance(p, q, a, b):
+    """Slow twin: the distance from a point of [p, q] to [a, b] is convex along [p, q];
+    ternary search on it, each point's distance to [a, b] by projection."""
+
+    def to_ab(x):
+        ab = b - a
+        u = min(max(float((x - a) @ ab / (ab @ ab)), 0.0), 1.0)
+        return float(np.linalg.norm(x - (a + u * ab)))
+
+    lo, hi = 0.0, 1.0
+    for _ in range(200):
+        m1, m2 = lo + (hi - lo) / 3, hi - (hi - lo) / 3
+        if to_ab(p + m1 * (q - p)) <= to_ab(p + m2 * (q - p)):
+            hi = m2
+        else:
+            lo = m1
+    return min(to_ab(p), to_ab(q), to_ab(p + lo * (q - p)))
+
+
+def test_segment_distance_matches_scalar_twin():
+    rng = np.random.default_rng(0)
+    p, q, a, b = (rng.uniform(-2, 2, (400, 2)) for _ in range(4))
+    got = segment_distance(p, q, a, b)
+    want = np.array([scalar_segment_distance(*x) for x in zip(p, q, a, b)])
+    np.testing.assert_allclose(got, want, atol=1e-9)
+    assert (got == 0).sum() > 40 and (got > 0.1).sum() > 100  # crossings and clear pairs both exercised
+
+
+def test_segment_distance_by_hand():
+    a, b = np.array([0.0, -1.0]), np.array([0.0, 1.0])
+    assert segment_distance(np.array([-1.0, 0.0]), np.array([1.0, 0.0]), a, b) == 0.0  # crossing
+    assert segment_distance(np.array([-2.0, 0.0]), np.array([-0.5, 0.0]), a, b) == 0.5
+    assert segment_distance(np.array([1.0, 2.0]), np.array([1.0, 5.0]), a, b) == pytest.approx(np.sqrt(2.0))
+
+
+def test_wall_kernel_equals_numpy_oracle_bit_for_bit():
+    rng = np.random.default_rng(1)
+    hits = 0
+    for trial in range(30):
+        B, n, s = 3, 5, 7
+        spread = 3.0 if trial % 2 else 10.0  # wide worlds exercise the broad phase's skips
+        pos = rng.uniform(-spread, spread, (B, n, 2))
+        new_pos = pos + rng.uniform(-1.5, 1.5, (B, n, 2))
+        radius = rng.uniform(0.1, 0.5, (B, n))
+        present, acted = rng.random((B, n)) < 0.9, rng.random((B, n)) < 0.8
+        seg_a = rng.uniform(-spread, spread, (B, s, 2))
+        seg_b = seg_a + rng.uniform(-2, 2, (B, s, 2))
+        seg_present = rng.random((B, s)) < 0.8
+        # The smallest gap so far (to robots and obstacles): some inf, some below the walls' gaps.
+        sep = np.where(rng.random((B, n)) < 0.5, np.inf, rng.uniform(-0.2, 1.0, (B, n)))
+        collided = rng.random((B, n)) < 0.2
+        got = kernels.wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided)
+        want = reference_wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided)
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g, w)
+        hits += int(got[0].sum())
+    assert hits > 50
+
+
+def wall_scenario(start, goal, walls, **kw):
+    return Scenario(
+        kind="custom",
+        n_robots=len(start),
+        custom=CustomLayout(start=start, goal=goal, walls=walls),
+        on_collision="continue",
+        **kw,
+    )
+
+
+def test_fast_robot_cannot_tunnel_through_a_thin_wall():
+    """3 m/s for 0.3 s is 0.9 m: from x = -0.4 to x = 0.5, both ends clear of the wall at x = 0."""
+    fast = RobotSpec(radius=0.1, v_max=3.0, a_max=10.0, holonomic=True)
+    walls = (((0.0, -3.0), (0.0, 3.0)),)
+    s = wall_scenario(((-0.4, 0.0),), ((3.0, 0.0),), walls, robot=fast, initial_speed=3.0, dt=0.3)
+    sim = Simulator(s)
+    sim.reset(0)
+    ev = sim.step(np.zeros((1, 1, 2)))  # holonomic delta 0: keep 3 m/s along +x
+    assert sim.world.pos[0, 0, 0] == pytest.approx(0.5)
+    assert ev.wall_hits[0, 0, 0] and ev.collided[0, 0] and ev.min_separation[0, 0] == pytest.approx(-0.1)
+    # The same motion through a door in the wall touches nothing.
+    door = (((0.0, -3.0), (0.0, -0.3)), ((0.0, 0.3), (0.0, 3.0)))
+    sim = Simulator(wall_scenario(((-0.4, 0.0),), ((3.0, 0.0),), door, robot=fast, initial_speed=3.0, dt=0.3))
+    sim.reset(0)
+    ev = sim.step(np.zeros((1, 1, 2)))
+    assert not ev.collided[0, 0] and ev.min_separation[0, 0] == pytest.approx(0.2)
+
+
+def test_walls_are_per_world_arrays_with_a_mask():
+    s = wall_scenario(((-2.0, 0.0),), ((2.0, 0.0),), box_segments(4.0))
+    sim = Simulator(s, batch_size=3)
+    w = sim.reset(0)
+    assert w.seg_a.shape == (3, 4, 2) and w.seg_present.all()
+    np.testing.assert_array_equal(w.world(1).seg_b[0], box_segments(4.0)[:, 1])
+
+
+def test_no_walls_gives_empty_arrays():
+    w = Simulator(Scenario(kind="swap", n_robots=2), batch_size=2).reset(0)
+    assert w.seg_a.shape == (2, 0, 2) and w.n_segments == 0
+
+
+@pytest.mark.parametrize(
+    "walls, start, message",
+    [
+        ((((0.0, 0.0), (0.0, 0.0)),), ((-2.0, 0.0),), "degenerate"),
+        ((((0.0, 0.0), (0.0, np.nan)),), ((-2.0, 0.0),), "finite"),
+        ((((0.0, 0.0), (1.0, 0.0), (2.0, 0.0)),), ((-2.0, 0.0),), "shape"),
+        ((((-2.1, -1.0), (-2.1, 1.0)),), ((-2.0, 0.0),), "start 0"),
+        (tuple(map(tuple, box_segments(1.0).tolist())), ((0.0, 0.0),), "no route"),
+    ],
+)
+def test_bad_custom_walls_are_refused_with_a_clear_error(walls, start, message):
+    with pytest.raises(ValueError, match=message):
+        wall_scenario(start, ((2.0, 0.0),), walls)
+
+
+def test_polygon_is_a_closed_chain():
+    seg = polygon_segments(((0, 0), (1, 0), (0, 1)))
+    np.testing.assert_array_equal(seg[-1], [[0, 1], [0, 0]])
+    with pytest.raises(ValueError, match="3 vertices"):
+        polygon_segments(((0, 0), (1, 0)))
+
+
+def test_wall_contacts_are_recorded_and_explained():
+    """A robot driven straight into a wall: an obstacle-like contact of kind "wall", at fault."""
+    s = wall_scenario(((-1.0, 0.0),), ((1.0, 0.0),), (((0.0, -1.0), (0.0, 1.0)),), max_steps=40)
+    full = np.array([[[1.0, 0.0]]])
+
+    def control(world, obs):
+        return full
+
+    (ep,) = run_episodes(s, control, seeds=[0])
+    assert ep.wall_hits.shape[-1] == 1 and ep.wall_hits.any() and ep.obstacle_contact.any()
+    first = contact_events(ep)[0]
+    assert first.kind == "wall" and first.other == 0 and first.at_fault

@@ -1,0 +1,153 @@
+"""Lidar: range beams from every robot, cast against walls, obstacles and other robots.
+
+Optional and off by default (``Scenario.lidar = None``). With a :class:`LidarSpec`, every robot
+casts ``n_beams`` beams spread evenly over a field of view ``fov`` centred on its heading (beam
+``k`` at ``heading - fov / 2 + (k + 1/2) fov / n_beams``). A beam's range is the distance [m]
+from the robot's centre to the first surface it meets: a wall segment itself (the same segments
+the collision test and the route layer use, :mod:`vcs_env.walls`), the circle of an obstacle or
+of another robot still in the world; ``max_range`` when it meets nothing. A robot whose centre
+lies inside a disc reads 0 along every beam.
+
+Noise (``noise`` > 0, the standard deviation [m]) is Gaussian, drawn from the world's
+counter-based noise (:mod:`vcs_env.noise`): a pure function of the world key, the step and the
+robot, so a scan depends on the world state only. Noisy ranges are clipped to ``[0, max_range]``.
+
+In the observation (:mod:`vcs_env.observations`) the scan is appended after the neighbour slots
+as ``range / max_range`` in ``[0, 1]``, beam 0 first.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from . import noise
+from .state import WorldState
+
+_ROBOT_STRIDE = np.uint64(0x9FB21C651E98DF25)  # odd: robot i draws with key + (i + 1) * stride
+_STREAM = 13
+
+
+@dataclass(frozen=True)
+class LidarSpec:
+    """Beams of every robot's lidar."""
+
+    n_beams: int = 16
+    """Beams per robot, in [1, 1024]."""
+    fov: float = 2.0 * math.pi
+    """Field of view centred on the heading [rad], in (0, 2 pi]."""
+    max_range: float = 4.0
+    """Largest measured range [m], > 0; also the observation scale."""
+    noise: float = 0.0
+    """Standard deviation of Gaussian range noise [m], >= 0."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.n_beams, bool) or not isinstance(self.n_beams, (int, np.integer)):
+            raise ValueError(f"lidar.n_beams must be an integer in [1, 1024], got {self.n_beams!r}")
+        if not 1 <= self.n_beams <= 1024:
+            raise ValueError(f"lidar.n_beams must be an integer in [1, 1024], got {self.n_beams!r}")
+        for name, lo, hi, lo_open in (
+            ("fov", 0.0, 2.0 * math.pi, True),
+            ("max_range", 0.0, 1e4, True),
+            ("noise", 0.0, 1e3, False),
+        ):
+            v = getattr(self, name)
+            ok = isinstance(v, (int, float, np.number)) and not isinstance(v, bool) and math.isfinite(v)
+            ok = ok and (v > lo if lo_open else v >= lo) and v <= hi
+            if not ok:
+                left = "(" if lo_open else "["
+                raise ValueError(f"lidar.{name} must be a finite number in {left}{lo:g}, {hi:g}], got {v!r}")
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """Beam angles relative to the heading ``(n_beams,)`` [rad]."""
+        return -0.5 * self.fov + (np.arange(self.n_beams) + 0.5) * self.fov / self.n_beams
+
+
+@njit(cache=True, inline="always")
+def _ray_disc(ox, oy, dx, dy, cx, cy, rho):
+    """Distance along the unit ray ``o + t d`` to the circle of radius ``rho`` at ``c`` (0 from
+    inside, inf if missed)."""
+    px, py = cx - ox, cy - oy
+    c = px * px + py * py - rho * rho
+    if c <= 0.0:
+        return 0.0
+    b = px * dx + py * dy
+    disc = b * b - c
+    if b <= 0.0 or disc < 0.0:
+        return np.inf
+    return b - math.sqrt(disc)
+
+
+@njit(cache=True, inline="always")
+def _ray_segment(ox, oy, dx, dy, ax, ay, bx, by):
+    """Distance along the unit ray ``o + t d`` to the segment ``[a, b]`` (inf if missed or parallel)."""
+    ex, ey = bx - ax, by - ay
+    den = dx * ey - dy * ex
+    if den == 0.0:
+        return np.inf
+    wx, wy = ax - ox, ay - oy
+    t = (wx * ey - wy * ex) / den
+    u = (wx * dy - wy * dx) / den
+    if t < 0.0 or u < 0.0 or u > 1.0:
+        return np.inf
+    return t
+
+
+@njit(cache=True)
+def cast(pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range):
+    """Ranges ``(B, n, k)`` [m] of the beams at ``offsets`` ``(k,)`` [rad] from every robot (module
+    docstring), without noise; robots not in the world read ``max_range``."""
+    B, n = radius.shape
+    m = obs_radius.shape[1]
+    s = seg_present.shape[1]
+    k = offsets.shape[0]
+    out = np.full((B, n, k), max_range)
+    for b in range(B):
+        for i in range(n):
+            if not present[b, i]:
+                continue
+            ox, oy = pos[b, i, 0], pos[b, i, 1]
+            for q in range(k):
+                a = heading[b, i] + offsets[q]
+                dx, dy = math.cos(a), math.sin(a)
+                best = max_range
+                for j in range(n):
+                    if j != i and present[b, j]:
+                        best = min(best, _ray_disc(ox, oy, dx, dy, pos[b, j, 0], pos[b, j, 1], radius[b, j]))
+                for j in range(m):
+                    best = min(best, _ray_disc(ox, oy, dx, dy, obs_pos[b, j, 0], obs_pos[b, j, 1], obs_radius[b, j]))
+                for j in range(s):
+                    if seg_present[b, j]:
+                        best = min(
+                            best,
+                            _ray_segment(
+                                ox, oy, dx, dy, seg_a[b, j, 0], seg_a[b, j, 1], seg_b[b, j, 0], seg_b[b, j, 1]
+                            ),
+                        )
+                out[b, i, q] = best
+    return out
+
+
+def scan(world: WorldState, spec: LidarSpec) -> np.ndarray:
+    """Every robot's lidar ranges ``(B, n, n_beams)`` [m], with the spec's noise, in ``[0, max_range]``."""
+    ranges = cast(
+        world.pos, world.heading, world.present, world.radius, world.obs_pos, world.obs_radius,
+        world.seg_a, world.seg_b, world.seg_present, spec.offsets, float(spec.max_range),
+    )  # fmt: skip
+    if spec.noise > 0.0:
+        B, n, k = ranges.shape
+        with np.errstate(over="ignore"):
+            keys = world.key.astype(np.uint64)[:, None] + np.arange(1, n + 1, dtype=np.uint64) * _ROBOT_STRIDE
+        u = noise.uniform(keys.ravel(), np.repeat(world.steps, n), 2 * k, stream=_STREAM).reshape(B, n, 2, k)
+        gauss = np.sqrt(-2.0 * np.log1p(-u[:, :, 0])) * np.cos(2.0 * np.pi * u[:, :, 1])  # Box-Muller
+        ranges = np.clip(ranges + spec.noise * gauss, 0.0, spec.max_range)
+    return ranges
+
+
+def observation_block(world: WorldState, spec: LidarSpec) -> np.ndarray:
+    """The scan as observed: ``range / max_range`` ``(B, n, n_beams)`` float32 in ``[0, 1]``."""
+    return (scan(world, spec) / spec.max_range).astype(np.float32)

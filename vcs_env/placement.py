@@ -1,0 +1,219 @@
+"""Building blocks of the scenario kinds (:mod:`vcs_env.layouts`, :mod:`vcs_env.map_kinds`):
+the :class:`Layout` record, placement on rings, lanes and arenas with jitter, obstacle
+placement clear of starts, goals and walls, the layout checks, and the rejection sampler."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .walls import clearance
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
+
+MIN_GOAL_DISTANCE = 1.0
+"""Random layouts put every goal at least this far from its start [m]."""
+MAX_TRIES = 2000
+"""Rejection-sampling attempts per body before a random layout is declared impossible."""
+
+
+@dataclass
+@dataclass
+class Layout:
+    """One world's initial state (arrays without the batch axis)."""
+
+    start: np.ndarray  # (n, 2) [m]
+    goal: np.ndarray  # (n, 2) [m]
+    heading: np.ndarray  # (n,) [rad]
+    speed: np.ndarray  # (n,) [m/s]
+    obs_pos: np.ndarray  # (m, 2) [m]
+    obs_target: np.ndarray  # (m, 2) [m], second point for the motion model
+    obs_radius: np.ndarray  # (m,) [m]
+    segments: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 2)))  # (s, 2, 2) walls [m]
+
+
+def _view(s: Scenario, half: float) -> float:
+    """Drawn half size [m] around robots reaching ``half`` [m], widened to the arena if it holds obstacles."""
+    if s.n_obstacles:
+        half = max(half, s.arena_half_size)
+    return half + s.robot.radius + 0.5
+
+
+def check_ring(s: Scenario) -> None:
+    """Neighbours on the layout circle must not overlap."""
+    need = 2.0 * s.robot.radius + s.min_separation + 2.0 * s.jitter
+    if s.n_robots >= 2:
+        chord = 2.0 * s.circle_radius * math.sin(math.pi / s.n_robots)
+        if chord < need:
+            raise ValueError(
+                f"cannot place {s.n_robots} robots on a circle of radius {s.circle_radius:g} m without overlap: "
+                f"neighbours are {chord:.3f} m apart, need {need:.3f} m (2 radius + min_separation + 2 jitter); "
+                "increase layout_radius or reduce n_robots"
+            )
+
+
+def check_lanes(s: Scenario) -> float:
+    """Neighbouring lanes must not overlap; returns the body spacing needed [m]."""
+    r = s.robot.radius
+    need = 2.0 * r + s.min_separation + 2.0 * s.jitter
+    if s.lane_spacing < need:
+        raise ValueError(
+            f"lane_spacing={s.lane_spacing:g} m is too small for robots of radius {r:g} m: need >= {need:.3f} m"
+        )
+    return need
+
+
+def check_arena(s: Scenario) -> None:
+    """A loose packing bound: the bodies' discs (with half the separation) must fit in the arena."""
+    r, r_obs = s.robot.radius, s.obstacle_radius[1]
+    side = 2.0 * s.arena_half_size
+    area = math.pi * (
+        2 * s.n_robots * (r + s.min_separation / 2) ** 2 + s.n_obstacles * (r_obs + s.min_separation / 2) ** 2
+    )
+    if area > 0.5 * side * side or s.arena_half_size <= max(r, r_obs) + s.min_separation:
+        raise ValueError(
+            f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles in an arena of half size "
+            f"{s.arena_half_size:g} m without overlap; increase arena_half_size or reduce the counts"
+        )
+
+
+def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, extra: float = 0.0) -> None:
+    """Starts, goals and obstacles must be clear of the walls (``segments``, default
+    ``lay.segments``) by ``min_separation`` (plus ``extra`` [m] for starts), and every robot must
+    have a route to its goal (:mod:`vcs_env.routes`); ``ValueError`` otherwise."""
+    seg = lay.segments if segments is None else segments
+    if len(seg) == 0:
+        return
+    r = s.robot.radius
+    for what, pts, rad, more in (
+        ("start", lay.start, r, extra),
+        ("goal", lay.goal, r, 0.0),
+        ("obstacle", lay.obs_pos, lay.obs_radius, 0.0),
+    ):
+        gap = clearance(pts, seg) - rad
+        if np.any(gap < s.min_separation + more):
+            i = int(np.argmin(gap))
+            raise ValueError(
+                f"{s.kind} layout: {what} {i} at {np.round(pts[i], 3).tolist()} is {gap[i]:.3f} m from a wall, "
+                f"need >= min_separation = {s.min_separation} m" + (f" + jitter = {more} m" if more else "")
+            )
+    from .routes import Roadmap
+
+    roadmap = Roadmap(seg, r)
+    for i in range(s.n_robots):
+        if not np.isfinite(roadmap.route_length(lay.start[i], lay.goal[i])):
+            raise ValueError(
+                f"{s.kind} layout: no route for robot {i} from {np.round(lay.start[i], 3).tolist()} to "
+                f"{np.round(lay.goal[i], 3).tolist()} between the walls (robot radius {r} m)"
+            )
+
+
+def circle_points(n: int, radius: float, phase: float) -> np.ndarray:
+    """``(n, 2)`` points evenly spaced on a circle [m], the first at angle ``phase`` [rad]."""
+    ang = phase + 2.0 * np.pi * np.arange(n) / n
+    return radius * np.stack((np.cos(ang), np.sin(ang)), axis=-1)
+
+
+def jittered(rng: np.random.Generator, pts: np.ndarray, jitter: float) -> np.ndarray:
+    """``pts (n, 2)`` moved uniformly within discs of radius ``jitter`` [m] (unchanged, no draw, at 0)."""
+    if jitter <= 0.0:
+        return pts
+    ang = rng.uniform(0.0, 2.0 * np.pi, size=len(pts))
+    rad = jitter * np.sqrt(rng.uniform(0.0, 1.0, size=len(pts)))
+    return pts + rad[:, None] * np.stack((np.cos(ang), np.sin(ang)), -1)
+
+
+def obstacle_radii(s: Scenario, rng: np.random.Generator) -> np.ndarray:
+    """Obstacle radii ``(m,)`` [m] drawn from ``obstacle_radius`` (the first draw of a layout)."""
+    lo, hi = s.obstacle_radius
+    return rng.uniform(lo, hi, size=s.n_obstacles)
+
+
+def place_obstacles(
+    s: Scenario,
+    rng: np.random.Generator,
+    start: np.ndarray,
+    goal: np.ndarray,
+    radius: np.ndarray,
+    segments: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Obstacles at random in the arena, clear of every start and goal (and of the wall
+    ``segments`` ``(s, 2, 2)``, if given, by ``min_separation``), each with a random second point
+    for the motion model: ``(obs_pos (m, 2), obs_target (m, 2), radius (m,))``."""
+    m = s.n_obstacles
+    obs_pos, obs_target = np.zeros((m, 2)), np.zeros((m, 2))
+    if m:
+        sampler = Sampler(rng, s.arena_half_size, s.min_separation)
+        for p in np.concatenate((start, goal)):
+            sampler.add(p, s.robot.radius)
+        for k in range(m):
+            if segments is None or len(segments) == 0:
+                obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}")
+            else:
+                clear = lambda p, k=k: clearance(p, segments) - radius[k] >= s.min_separation  # noqa: E731
+                obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}", clear)
+        lim = s.arena_half_size - radius[:, None]
+        obs_target = rng.uniform(-lim, lim, size=(m, 2))
+    return obs_pos, obs_target, radius
+
+
+def finish(
+    s: Scenario,
+    start: np.ndarray,
+    goal: np.ndarray,
+    obs_pos: np.ndarray,
+    obs_target: np.ndarray,
+    obs_radius: np.ndarray,
+    heading=None,
+    speed=None,
+) -> Layout:
+    """The :class:`Layout`; robots face their goal at ``initial_speed`` unless given."""
+    if heading is None:
+        d = goal - start
+        heading = np.arctan2(d[:, 1], d[:, 0])
+    if speed is None:
+        speed = np.full(s.n_robots, float(s.initial_speed))
+    return Layout(
+        start=np.ascontiguousarray(start, dtype=np.float64),
+        goal=np.ascontiguousarray(goal, dtype=np.float64),
+        heading=np.asarray(heading, dtype=np.float64),
+        speed=np.asarray(speed, dtype=np.float64),
+        obs_pos=obs_pos,
+        obs_target=obs_target,
+        obs_radius=np.asarray(obs_radius, dtype=np.float64),
+    )
+
+
+class Sampler:
+    """Rejection sampler of non-overlapping discs in a square."""
+
+    def __init__(self, rng: np.random.Generator, half: float, sep: float):
+        self.rng, self.half, self.sep = rng, half, sep
+        self.pos: list[np.ndarray] = []
+        self.rad: list[float] = []
+
+    def add(self, p: np.ndarray, r: float) -> None:
+        self.pos.append(np.asarray(p, dtype=np.float64))
+        self.rad.append(r)
+
+    def free(self, p: np.ndarray, r: float) -> bool:
+        if not self.pos:
+            return True
+        d = np.linalg.norm(np.asarray(self.pos) - p, axis=-1) - np.asarray(self.rad) - r
+        return bool(np.all(d >= self.sep))
+
+    def sample(self, r: float, what: str, accept=lambda p: True) -> np.ndarray:
+        lim = self.half - r
+        for _ in range(MAX_TRIES):
+            p = self.rng.uniform(-lim, lim, size=2)
+            if self.free(p, r) and accept(p):
+                self.add(p, r)
+                return p
+        raise ValueError(
+            f"could not place {what} without overlap after {MAX_TRIES} tries; "
+            "increase arena_half_size or reduce n_robots / n_obstacles / min_separation"
+        )

@@ -1,0 +1,203 @@
+"""The route layer shared by every planner: a visibility graph over the walls grown by the robot
+radius gives each robot its next visible waypoint.
+
+Walls are segments (:mod:`vcs_env.walls`); a robot of radius ``r`` fits wherever its centre
+stays at least ``r`` from every segment (outside every *capsule*). The roadmap's nodes sit around
+each segment end point, on a circle of radius ``rho = (r + MARGIN) / cos(pi / 8)`` (those of
+eight directions that point beyond the end, kept where they are clear of the capsules): the
+chord between two neighbouring nodes keeps ``r + MARGIN`` from the end point, so a route can turn around a wall end. Two
+points *see* each other when the segment between them keeps at least ``r`` from every wall.
+A goal's cost-to-go is Dijkstra over the visibility edges; a robot's next waypoint is its goal
+if it sees it, else the visible node that minimizes ``|p - node| + cost(node)`` (the first
+corner of the shortest route through the roadmap).
+
+Without walls the waypoint is the goal and nothing here runs: planners are unchanged.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+from numba import njit
+
+from .kernels import _segment_distance
+from .state import WorldState
+from .walls import clearance
+
+MARGIN = 0.15
+"""Clearance beyond the robot radius of the roadmap's nodes [m]; the lines of sight between
+them keep half of it (room for a unicycle's turn), a door one robot diameter plus 0.2 m wide
+still holds nodes."""
+_DIRECTIONS = 8
+
+
+@njit(cache=True)
+def _visible(p, q, seg, r):
+    """``(k, l)`` bool: the segment from ``p[i]`` to ``q[j]`` keeps >= ``r`` [m] from every wall
+    segment ``seg`` ``(s, 2, 2)``."""
+    k, l_, s = p.shape[0], q.shape[0], seg.shape[0]
+    out = np.ones((k, l_), dtype=np.bool_)
+    for i in range(k):
+        for j in range(l_):
+            for w in range(s):
+                d = _segment_distance(
+                    p[i, 0], p[i, 1], q[j, 0], q[j, 1], seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
+                )
+                if d < r:
+                    out[i, j] = False
+                    break
+    return out
+
+
+@njit(cache=True)
+def _visible_pairs(p, seg, r):
+    """:func:`_visible` of the points ``p`` ``(k, 2)`` among themselves (symmetric: half the work)."""
+    k, s = p.shape[0], seg.shape[0]
+    out = np.ones((k, k), dtype=np.bool_)
+    for i in range(k):
+        for j in range(i + 1, k):
+            for w in range(s):
+                d = _segment_distance(
+                    p[i, 0], p[i, 1], p[j, 0], p[j, 1], seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
+                )
+                if d < r:
+                    out[i, j] = False
+                    out[j, i] = False
+                    break
+    return out
+
+
+@njit(cache=True)
+def _dijkstra(edge, start):
+    """Shortest distances ``(N,)`` [m] over the dense edge lengths ``edge`` ``(N, N)`` (inf: no
+    edge) from the initial distances ``start`` ``(N,)``."""
+    N = start.shape[0]
+    dist = start.copy()
+    done = np.zeros(N, dtype=np.bool_)
+    for _ in range(N):
+        u, best = -1, np.inf
+        for v in range(N):
+            if not done[v] and dist[v] < best:
+                u, best = v, dist[v]
+        if u < 0:
+            break
+        done[u] = True
+        for v in range(N):
+            alt = best + edge[u, v]
+            if alt < dist[v]:
+                dist[v] = alt
+    return dist
+
+
+class Roadmap:
+    """Visibility graph of one set of walls for robots of one radius.
+
+    Args:
+        segments: walls ``(s, 2, 2)`` [m].
+        radius: robot radius [m].
+    """
+
+    def __init__(self, segments: np.ndarray, radius: float):
+        self.segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+        self.radius = float(radius)
+        self._r = self.radius + 0.5 * MARGIN  # lines of sight keep this from every wall
+        rho = (self.radius + MARGIN) / math.cos(math.pi / _DIRECTIONS)
+        ang = 2.0 * math.pi * np.arange(_DIRECTIONS) / _DIRECTIONS + math.pi / _DIRECTIONS
+        ends = self.segments.reshape(-1, 2)
+        dirs = np.stack((np.cos(ang), np.sin(ang)), -1)  # (8, 2)
+        # Only directions beyond each end (away from its own segment): a route turns around an end.
+        out = self.segments - self.segments[:, ::-1]  # (s, 2, 2): at end a, a - b; at end b, b - a
+        outward = (out.reshape(-1, 2) @ dirs.T) > 0.0  # (2 s, 8)
+        cand = (ends[:, None] + rho * dirs)[outward]
+        clear = clearance(cand, self.segments) >= self._r
+        self.nodes = np.ascontiguousarray(cand[clear])  # (N, 2) [m]
+        vis = _visible_pairs(self.nodes, self.segments, self._r)
+        diff = self.nodes[:, None] - self.nodes[None]
+        self._edge = np.where(vis, np.sqrt(np.einsum("...i,...i->...", diff, diff)), np.inf)
+        self._costs: dict[tuple[float, float], np.ndarray] = {}
+
+    def sees(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """``(k, l)`` bool: points ``p`` ``(k, 2)`` see points ``q`` ``(l, 2)``: the lines keep
+        ``radius + MARGIN / 2`` from every wall, or less if a point already sits closer (a robot
+        pushed near a wall still sees the way out)."""
+        p = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
+        q = np.ascontiguousarray(q, dtype=np.float64).reshape(-1, 2)
+        near = min(clearance(p, self.segments).min(initial=np.inf), clearance(q, self.segments).min(initial=np.inf))
+        return _visible(p, q, self.segments, min(self._r, near * (1.0 - 1e-9)))
+
+    def cost_to_go(self, goal: np.ndarray) -> np.ndarray:
+        """Route length from every node to ``goal`` ``(2,)`` [m], ``(N,)`` (inf: unreachable)."""
+        key = (float(goal[0]), float(goal[1]))
+        cost = self._costs.get(key)
+        if cost is None:
+            g = np.asarray(key)[None]
+            start = np.where(self.sees(g, self.nodes)[0], np.linalg.norm(self.nodes - g, axis=-1), np.inf)
+            cost = _dijkstra(self._edge, start)
+            if len(self._costs) > 4096:
+                self._costs.clear()
+            self._costs[key] = cost
+        return cost
+
+    def next_waypoint(self, p: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, float]:
+        """The point ``(2,)`` [m] to aim at from ``p`` ``(2,)`` toward ``goal`` ``(2,)`` and the
+        route length [m] through it (inf and the goal itself when no route is seen)."""
+        p, goal = np.asarray(p, dtype=np.float64), np.asarray(goal, dtype=np.float64)
+        if self.sees(p[None], goal[None])[0, 0]:
+            return goal, float(np.linalg.norm(goal - p))
+        if len(self.nodes) == 0:
+            return goal, math.inf
+        total = np.where(
+            self.sees(p[None], self.nodes)[0], np.linalg.norm(self.nodes - p, axis=-1) + self.cost_to_go(goal), np.inf
+        )
+        j = int(np.argmin(total))
+        if not np.isfinite(total[j]):
+            return goal, math.inf
+        return self.nodes[j], float(total[j])
+
+    def route_length(self, p: np.ndarray, goal: np.ndarray) -> float:
+        """Length of the shortest roadmap route from ``p`` to ``goal`` [m] (inf: none)."""
+        return self.next_waypoint(p, goal)[1]
+
+
+@functools.lru_cache(maxsize=64)
+def _cached(key: bytes, count: int, radius: float) -> Roadmap:
+    return Roadmap(np.frombuffer(key, dtype=np.float64).reshape(count, 2, 2), radius)
+
+
+def roadmap(world: WorldState, b: int, radius: float) -> Roadmap:
+    """The (cached) roadmap of world ``b``'s walls for robots of ``radius`` [m]."""
+    seg = np.stack((world.seg_a[b], world.seg_b[b]), axis=1)[world.seg_present[b]]
+    seg = np.ascontiguousarray(seg, dtype=np.float64)
+    return _cached(seg.tobytes(), len(seg), float(radius))
+
+
+def waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
+    """Every robot's next visible waypoint ``(B, n, 2)`` [m] and remaining route length
+    ``(B, n)`` [m]: the goal and the straight distance without walls, for robots that are not
+    active, or where no route is seen (then the planner aims straight at the goal)."""
+    target = world.goal.copy()
+    diff = world.goal - world.pos
+    length = np.sqrt(np.einsum("...i,...i->...", diff, diff))
+    if world.n_segments == 0:
+        return target, length
+    for b in range(world.batch_size):
+        if not world.seg_present[b].any():
+            continue
+        for i in np.flatnonzero(world.active[b]):
+            rm = roadmap(world, b, world.radius[b, i])
+            wp, total = rm.next_waypoint(world.pos[b, i], world.goal[b, i])
+            if np.isfinite(total):
+                target[b, i], length[b, i] = wp, total
+    return target, length
+
+
+def route_direction(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
+    """The vector toward each robot's next waypoint, scaled to the remaining route length
+    ``(B, n, 2)`` [m], and that length ``(B, n)`` [m]: the goal offset and its length without
+    walls (what :func:`baselines.common.preferred_velocity` aims along)."""
+    target, length = waypoints(world)
+    e = target - world.pos
+    d = np.sqrt(np.einsum("...i,...i->...", e, e))
+    return e * (length / np.maximum(d, 1e-12))[..., None], length

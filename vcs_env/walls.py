@@ -1,0 +1,104 @@
+"""Static walls: line segments (polygons are closed chains of them), one geometry for everything.
+
+A world's walls are segments ``seg_a -> seg_b`` ``(B, s, 2)`` [m] with a mask ``seg_present
+(B, s)`` (kinds of one scenario may use fewer segments than the array holds). The same segments
+serve the swept collision test (:func:`vcs_env.kernels.wall_events`), the route layer
+(:mod:`vcs_env.routes`), the renderers and ray casting: a robot of radius ``r`` touches a wall
+when its centre comes within ``r`` of the segment, i.e. enters the *capsule* of the segment
+grown by ``r``. The test is swept over the straight motion of a step, so a fast robot cannot
+tunnel through a thin wall: the gap is the distance between the motion segment and the wall
+segment (0 when they cross), minus the radius.
+
+This module holds the readable numpy geometry (the oracle of the numba kernels in
+:mod:`vcs_env.kernels`) and the helpers that build and check segment arrays.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .geometry import det, point_segment_distance
+
+MIN_LENGTH = 1e-3
+"""Shortest allowed wall segment [m]; shorter ones are degenerate and refused."""
+
+
+def segment_distance(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance between the segments ``[p, q]`` and ``[a, b]``, all ``(..., 2)`` -> ``(...)`` [m].
+
+    0 when they cross; otherwise the smallest distance from an end point of one to the other
+    (the closest pair of two non-crossing segments always includes an end point).
+    """
+    ab, pq = b - a, q - p
+    d1, d2 = det(ab, p - a), det(ab, q - a)
+    d3, d4 = det(pq, a - p), det(pq, b - p)
+    # Proper crossing: each segment's end points lie strictly on both sides of the other's line.
+    cross = (d1 * d2 < 0.0) & (d3 * d4 < 0.0)
+    ends = np.minimum(
+        np.minimum(point_segment_distance(p, a, b), point_segment_distance(q, a, b)),
+        np.minimum(point_segment_distance(a, p, q), point_segment_distance(b, p, q)),
+    )
+    return np.where(cross, 0.0, ends)
+
+
+def reference_wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided):
+    """Numpy oracle of :func:`vcs_env.kernels.wall_events`: ``wall_hits (B, n, s)`` bool (robot
+    ``i``'s motion from ``pos`` to ``new_pos`` ``(B, n, 2)`` [m] came within its radius of
+    segment ``k``), ``sep`` ``(B, n)`` [m] lowered to the smallest swept gap to any wall
+    (unchanged for robots that did not act or are not present) and ``collided`` ``(B, n)`` or
+    any wall hit."""
+    gap = (
+        segment_distance(pos[:, :, None], new_pos[:, :, None], seg_a[:, None], seg_b[:, None]) - radius[..., None]
+    )  # (B, n, s)
+    live = (acted & present)[..., None] & seg_present[:, None, :]
+    gap = np.where(live, gap, np.inf)
+    min_gap = gap.min(axis=2) if gap.shape[2] else np.full(radius.shape, np.inf)
+    hits = gap < 0.0
+    return hits, np.minimum(sep, min_gap), collided | hits.any(axis=2)
+
+
+def polygon_segments(vertices: Sequence[Sequence[float]]) -> np.ndarray:
+    """The closed chain of a polygon: ``(v, 2)`` vertices [m] -> ``(v, 2, 2)`` segments
+    ``[[a, b], ...]`` from each vertex to the next, the last back to the first."""
+    v = np.asarray(vertices, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
+        raise ValueError(f"a polygon needs >= 3 vertices of shape (v, 2), got shape {v.shape}")
+    return check_segments(np.stack((v, np.roll(v, -1, axis=0)), axis=1), "polygon")
+
+
+def box_segments(half_x: float, half_y: float | None = None) -> np.ndarray:
+    """The four walls ``(4, 2, 2)`` [m] of the rectangle ``[-half_x, half_x] x [-half_y, half_y]``."""
+    hy = half_x if half_y is None else half_y
+    return polygon_segments(((-half_x, -hy), (half_x, -hy), (half_x, hy), (-half_x, hy)))
+
+
+def check_segments(segments, what: str = "walls") -> np.ndarray:
+    """``segments`` as a finite ``(s, 2, 2)`` float array (``[[ax, ay], [bx, by]]`` per row);
+    raises ``ValueError`` naming ``what`` for a bad shape, non-finite values, or a degenerate
+    segment shorter than :data:`MIN_LENGTH`."""
+    seg = np.asarray(segments, dtype=np.float64)
+    if seg.size == 0:
+        return np.zeros((0, 2, 2))
+    if seg.ndim != 3 or seg.shape[1:] != (2, 2):
+        raise ValueError(f"{what} must be segments of shape (s, 2, 2) ([[ax, ay], [bx, by]] each), got {seg.shape}")
+    if not np.all(np.isfinite(seg)):
+        raise ValueError(f"{what} must be finite")
+    length = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=-1)
+    if np.any(length < MIN_LENGTH):
+        k = int(np.argmin(length))
+        raise ValueError(
+            f"{what}: segment {k} {seg[k].tolist()} is degenerate (length {length[k]:.2g} m < {MIN_LENGTH} m)"
+        )
+    return seg
+
+
+def clearance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Distance from each point ``(..., 2)`` to the nearest of ``segments`` ``(s, 2, 2)`` [m]
+    (inf without segments): ``(...)``."""
+    points = np.asarray(points, dtype=np.float64)
+    if len(segments) == 0:
+        return np.full(points.shape[:-1], np.inf)
+    d = point_segment_distance(points[..., None, :], segments[:, 0], segments[:, 1])
+    return d.min(axis=-1)
