@@ -31,8 +31,6 @@ from vcs_env.engine import NavEngine
 from vcs_env.observations import observation_space
 from vcs_env.scenario import Scenario
 
-ADAPTERS = ("batched", "pettingzoo")
-
 
 def world_seeds(seed: int, worker_index: int, n_worlds: int) -> list[int]:
     """Distinct reset seeds of ``n_worlds`` worlds from RLlib's runner seed and ``worker_index``."""
@@ -124,7 +122,7 @@ class PettingZooNavEnv(ParallelPettingZooEnv):
 def make_env(env_config) -> MultiAgentEnv:
     """The env of one RLlib runner from ``env_config = {"config": <RLlibConfig as dict>}``."""
     from .config import build_scenario, config_from_dict
-    from .rllib_train import RLlibConfig
+    from .rllib_train import ADAPTERS, RLlibConfig
 
     cfg = config_from_dict(RLlibConfig, env_config["config"])
     worker = int(getattr(env_config, "worker_index", 0))

@@ -47,6 +47,11 @@ from .train import TrainConfig, scalar_results
 MODULE_ID = "shared"
 METADATA = "vcs_env.json"
 """Name of the metadata file inside an RLlib checkpoint directory."""
+ADAPTERS = ("batched", "pettingzoo")
+"""Env adapters of :mod:`agents.rllib_env`."""
+LOCAL_NODE_IP = "127.0.0.2"
+"""Node address of a local Ray instance: loopback. Ray replaces 127.0.0.1 and localhost by the
+machine's network address (to be reachable from other nodes), but not other 127.x addresses."""
 INSTALL_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
 
 
@@ -173,10 +178,21 @@ def init_ray(cfg: RLlibConfig):
     env = {"OMP_NUM_THREADS": "1", "RAY_DEDUP_LOGS": "0"}
     kw: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": env})
     if cfg.address:
-        ray.init(address=cfg.address, **kw)
+        host = cfg.address.rpartition(":")[0]
+        if host.startswith("127."):  # a cluster on this machine: the driver joins it on loopback too
+            kw["_node_ip_address"] = host
+        try:
+            ray.init(address=cfg.address, **kw)
+        except ConnectionError as e:
+            raise RuntimeError(
+                f"could not join the Ray cluster at {cfg.address} ({str(e).splitlines()[0]}); a cluster with token "
+                f"authentication needs RAY_AUTH_MODE=token and its token (RAY_AUTH_TOKEN) here too"
+            ) from None
     else:
-        ray.init(num_cpus=max(1, cfg.num_env_runners), **kw)
-    check_cluster(ray)
+        ray.init(num_cpus=max(1, cfg.num_env_runners), _node_ip_address=LOCAL_NODE_IP, **kw)
+    nodes = check_cluster(ray)
+    cpus = int(ray.cluster_resources().get("CPU", 0))
+    print(f"ray cluster: {len(nodes)} node{'s' * (len(nodes) != 1)}, {cpus} CPUs", flush=True)
     return ray
 
 
@@ -382,7 +398,6 @@ def evaluate_module(module, cfg: RLlibConfig, scenario) -> dict[str, Any]:
 def train(cfg: RLlibConfig) -> dict[str, Any]:
     """Train a shared PPO policy with RLlib; returns the final evaluation, paths and throughput."""
     from .checkpoint import jsonable
-    from .rllib_env import ADAPTERS
 
     scenario = build_scenario(cfg)
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1 or cfg.num_env_runners < 0:
