@@ -124,49 +124,53 @@ def check_address(address: str, timeout: float = 3.0) -> None:
         ) from None
 
 
-def _node_packages() -> dict[str, Any]:
-    """What a cluster node can import (run as a Ray task on each node)."""
-    import importlib.metadata as md
-    import socket as _socket
+def _package_probe():
+    """What a cluster node can import. Run as a Ray task on every node, so it refers to nothing
+    of this module (a nested copy is shipped by value: a node without vcs-env can still run it)."""
 
-    out: dict[str, Any] = {"node": _socket.gethostname()}
-    for name in ("vcs-env", "ray", "torch"):
-        try:
-            out[name] = md.version(name)
-        except md.PackageNotFoundError:
-            out[name] = None
-    try:
-        import ray.rllib  # noqa: F401
+    def probe() -> dict[str, Any]:
+        import importlib
+        import importlib.metadata as md
+        import socket
 
-        import agents.rllib_env  # noqa: F401
-    except ImportError as e:
-        out["error"] = str(e)
-    return out
+        out: dict[str, Any] = {"node": socket.gethostname(), "missing": []}
+        for dist, module in (("vcs-env", "agents.rllib_env"), ("torch", "torch"), ("ray", "ray.rllib")):
+            try:
+                out[dist] = md.version(dist)
+                importlib.import_module(module)
+            except Exception as e:  # not installed, or not importable there
+                out["missing"].append(f"{dist} ({type(e).__name__}: {e})")
+        return out
+
+    return probe
 
 
 def check_cluster(ray) -> list[dict[str, Any]]:
-    """Run :func:`_node_packages` on every alive node; a node that lacks vcs-env, torch or Ray
-    RLlib (or another Ray version than this driver's) raises a one-line ``RuntimeError``."""
+    """Probe every alive node; a node that cannot import vcs-env, torch or Ray RLlib, or runs
+    another Ray version than this driver, raises a one-line ``RuntimeError``."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
-    probe = ray.remote(num_cpus=0)(_node_packages)
+    probe = ray.remote(num_cpus=0, max_retries=0)(_package_probe())
     nodes = [n for n in ray.nodes() if n.get("Alive")]
-    found = ray.get(
-        [
-            probe.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)).remote()
-            for n in nodes
-        ]
-    )
-    for node, got in zip(nodes, found):
-        where = f"node {node.get('NodeManagerAddress')} ({got['node']})"
-        missing = [k for k in ("vcs-env", "torch") if got[k] is None]
-        if missing or "error" in got:
+    refs = [
+        probe.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)).remote()
+        for n in nodes
+    ]
+    found = []
+    for node, ref in zip(nodes, refs):
+        where = f"the Ray cluster's node {node.get('NodeManagerAddress')}"
+        try:
+            got = ray.get(ref, timeout=120)
+        except Exception as e:
+            raise RuntimeError(f"{where} cannot run a probe task: {str(e).splitlines()[0]}") from None
+        if got["missing"]:
             raise RuntimeError(
-                f"the Ray cluster's {where} lacks {', '.join(missing) or got.get('error')}: install the same "
-                f"environment on every node ({INSTALL_HINT}, and vcs-env itself)"
+                f"{where} ({got['node']}) lacks {'; '.join(got['missing'])}: install the same environment "
+                f"on every node (vcs-env with the rllib extra)"
             )
         if got["ray"] != ray.__version__:
-            raise RuntimeError(f"the Ray cluster's {where} runs ray {got['ray']}, this driver {ray.__version__}")
+            raise RuntimeError(f"{where} ({got['node']}) runs ray {got['ray']}, this driver {ray.__version__}")
+        found.append(got)
     return found
 
 
@@ -176,7 +180,9 @@ def init_ray(cfg: RLlibConfig):
         check_address(cfg.address)
     ray = import_ray()
     env = {"OMP_NUM_THREADS": "1", "RAY_DEDUP_LOGS": "0"}
-    kw: dict[str, Any] = dict(include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": env})
+    kw: dict[str, Any] = dict(
+        include_dashboard=False, log_to_driver=False, logging_level="WARNING", runtime_env={"env_vars": env}
+    )
     if cfg.address:
         host = cfg.address.rpartition(":")[0]
         if host.startswith("127."):  # a cluster on this machine: the driver joins it on loopback too

@@ -179,59 +179,45 @@ def _kill_leftovers(marker: str) -> None:
             pass
 
 
-@pytest.fixture(scope="module")
-def ray_cluster():
-    """Two raylets (1 CPU each) on a loopback address with their own temp dir and token; yields
-    the head address.
+class Cluster:
+    """Raylets of one Ray cluster on a loopback address, each a ``ray start --block`` process."""
 
-    Each ``ray start --block`` runs in its own session; teardown stops them (Ray then stops the
-    processes it started), kills the process groups, and then any process still naming the
-    temp dir, so nothing is left behind and no other Ray instance on the machine is touched.
-    """
-    temp = tempfile.mkdtemp(prefix="vr", dir="/tmp")  # short: Ray's socket paths have a length limit
-    port = free_port()
-    address = f"{LOOPBACK}:{port}"
-    common = [f"--node-ip-address={LOOPBACK}", "--num-cpus=1", "--block", "--disable-usage-stats"]
-    common += [f"--temp-dir={temp}"]
+    def __init__(self):
+        self.temp = tempfile.mkdtemp(prefix="vr", dir="/tmp")  # short: Ray's socket paths have a length limit
+        self.port = free_port()
+        self.address = f"{LOOPBACK}:{self.port}"
+        self.procs: list[subprocess.Popen] = []
+        self.log = open(Path(self.temp) / "ray_start.log", "w")
 
-    def ports() -> list[str]:
-        return [
-            f"--dashboard-agent-listen-port={free_port()}",
-            f"--metrics-export-port={free_port()}",
-            f"--runtime-env-agent-port={free_port()}",
-        ]
+    def start(self, head: bool, env: dict[str, str] = ENV) -> None:
+        cmd = [RAY, "start", f"--node-ip-address={LOOPBACK}", "--num-cpus=1", "--block", "--disable-usage-stats"]
+        cmd += [f"--temp-dir={self.temp}", f"--dashboard-agent-listen-port={free_port()}"]
+        cmd += [f"--metrics-export-port={free_port()}", f"--runtime-env-agent-port={free_port()}"]
+        if head:
+            cmd += ["--head", f"--port={self.port}", "--include-dashboard=false"]
+            cmd += [f"--ray-client-server-port={free_port()}"]
+        else:
+            cmd += [f"--address={self.address}"]
+        self.procs.append(subprocess.Popen(cmd, stdout=self.log, stderr=self.log, start_new_session=True, env=env))
 
-    head = [RAY, "start", "--head", f"--port={port}", "--include-dashboard=false", *common, *ports()]
-    head += [f"--ray-client-server-port={free_port()}"]
-    worker = [RAY, "start", f"--address={address}", *common, *ports()]
-    procs: list[subprocess.Popen] = []
-    log = open(Path(temp) / "ray_start.log", "w")
-    try:
-        procs.append(subprocess.Popen(head, stdout=log, stderr=log, start_new_session=True, env=ENV))
-        deadline = time.time() + 60
-        while True:
-            try:
-                socket.create_connection((LOOPBACK, port), timeout=1).close()
-                break
-            except OSError:
-                if time.time() > deadline or procs[0].poll() is not None:
-                    raise RuntimeError("no Ray head: " + (Path(temp) / "ray_start.log").read_text()) from None
-                time.sleep(0.5)
-        procs.append(subprocess.Popen(worker, stdout=log, stderr=log, start_new_session=True, env=ENV))
+    def wait_for_nodes(self, n: int) -> None:
         wait = (
             "import sys, time, ray; t = time.time()\n"
             "ray.init(address=sys.argv[1], _node_ip_address=sys.argv[1].split(':')[0], log_to_driver=False)\n"
-            "while sum(n['Alive'] for n in ray.nodes()) < 2 and time.time() - t < 60: time.sleep(0.5)\n"
-            "sys.exit(0 if sum(n['Alive'] for n in ray.nodes()) == 2 else 1)"
+            f"while sum(n['Alive'] for n in ray.nodes()) < {n} and time.time() - t < 60: time.sleep(0.5)\n"
+            f"sys.exit(0 if sum(n['Alive'] for n in ray.nodes()) == {n} else 1)"
         )
-        res = _run(address, code=wait, timeout=120)
-        assert res.returncode == 0, "the second raylet did not join: " + res.stderr[-2000:]
-        yield address
-    finally:
-        for p in reversed(procs):
+        res = _run(self.address, code=wait, timeout=120)
+        assert res.returncode == 0, f"the cluster did not reach {n} nodes: " + res.stderr[-2000:]
+
+    def stop(self) -> None:
+        """Stop the raylets (Ray stops what it started), kill their process groups, then any
+        process still naming the temp dir, and remove it: nothing is left behind and no other
+        Ray instance on the machine is touched."""
+        for p in reversed(self.procs):
             if p.poll() is None:
                 p.send_signal(signal.SIGTERM)
-        for p in reversed(procs):
+        for p in reversed(self.procs):
             try:
                 p.wait(timeout=20)
             except subprocess.TimeoutExpired:
@@ -240,9 +226,31 @@ def ray_cluster():
                 os.killpg(p.pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
-        _kill_leftovers(temp)
-        log.close()
-        subprocess.run(["rm", "-rf", temp], check=False)
+        _kill_leftovers(self.temp)
+        self.log.close()
+        subprocess.run(["rm", "-rf", self.temp], check=False)
+
+
+@pytest.fixture(scope="module")
+def ray_cluster():
+    """Two raylets (1 CPU each) on a loopback address with their own temp dir and token."""
+    cluster = Cluster()
+    try:
+        cluster.start(head=True)
+        deadline = time.time() + 60
+        while True:
+            try:
+                socket.create_connection((LOOPBACK, cluster.port), timeout=1).close()
+                break
+            except OSError:
+                if time.time() > deadline or cluster.procs[0].poll() is not None:
+                    raise RuntimeError("no Ray head: " + (Path(cluster.temp) / "ray_start.log").read_text()) from None
+                time.sleep(0.5)
+        cluster.start(head=False)
+        cluster.wait_for_nodes(2)
+        yield cluster
+    finally:
+        cluster.stop()
 
 
 def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tmp_path):
@@ -253,7 +261,7 @@ def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tm
     from agents.rllib_train import load_policy
 
     out = tmp_path / "run"
-    args = ["train", "--backend", "rllib", "--address", ray_cluster, "--num-env-runners", "2"]
+    args = ["train", "--backend", "rllib", "--address", ray_cluster.address, "--num-env-runners", "2"]
     args += ["--scenario", "circle", "--n-robots", "4", "--n-worlds", "2", "--n-steps", "16", "--batch-size", "64"]
     args += ["--n-epochs", "2", "--timesteps", "600", "--eval-freq", "200", "--eval-episodes", "2"]
     args += ["--eval-suite", "circle-8-v0-smoke", "--out", str(out)]
@@ -263,7 +271,10 @@ def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tm
     ckpt = out / "checkpoint"
     meta = json.loads((ckpt / "vcs_env.json").read_text())
     assert meta["kind"] == "rllib_ppo" and meta["num_timesteps"] >= 600
-    assert meta["command"].startswith("vcs-env train --backend rllib") and f"--address {ray_cluster}" in meta["command"]
+    assert (
+        meta["command"].startswith("vcs-env train --backend rllib")
+        and f"--address {ray_cluster.address}" in meta["command"]
+    )
     assert json.loads((out / "config.json").read_text())["num_env_runners"] == 2
     evals = [json.loads(line) for line in (out / "eval.jsonl").read_text().splitlines()]
     assert len(evals) >= 2 and evals[-1]["timesteps"] == meta["num_timesteps"]
@@ -277,3 +288,18 @@ def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tm
     with pytest.raises(CheckpointError, match="observations of size 72") as err:
         load_policy(ckpt, make_scenario("circle", n_robots=4, n_neighbors=2))
     assert "\n" not in str(err.value)
+
+
+def test_a_node_without_the_package_is_named(ray_cluster, tmp_path):
+    """A third raylet whose Python cannot import vcs_env: the run stops before training, with
+    a one-line error naming the node and the package."""
+    blocker = tmp_path / "site"
+    blocker.mkdir()
+    (blocker / "sitecustomize.py").write_text("import sys\nsys.modules['vcs_env'] = None\n")
+    ray_cluster.start(head=False, env={**ENV, "PYTHONPATH": str(blocker)})
+    ray_cluster.wait_for_nodes(3)
+    res = _run("train", "--backend", "rllib", "--address", ray_cluster.address, "--out", str(tmp_path / "run"))
+    errors = [line for line in res.stderr.splitlines() if "error" in line.lower()]  # Ray may log warnings
+    assert res.returncode == 2 and len(errors) == 1 and errors[0].startswith("vcs-env train: error:"), res.stderr
+    assert "lacks vcs-env" in errors[0] and ray_cluster.address.split(":")[0] in errors[0], errors[0]
+    assert not (tmp_path / "run").exists()
