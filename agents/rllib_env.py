@@ -3,7 +3,7 @@
 Two adapters, both built by :func:`make_env` from RLlib's ``env_config``:
 
 * ``batched`` (:class:`NavMultiAgentEnv`): ``B`` worlds of one :class:`~vcs_env.engine.NavEngine`
-  stepped in ONE numpy call; every robot of every world is an agent (``w{b}/robot_{i}``). One
+  stepped in ONE numpy call; every robot of every world is an agent (id ``b * n + i``). One
   RLlib episode is one episode of every world: a world whose robots all finished waits (its
   robots inactive, no agent steps) until the last world ends, then all ``B`` restart together.
 * ``pettingzoo``: RLlib's ``ParallelPettingZooEnv`` over :func:`vcs_env.parallel_env` (one world
@@ -16,6 +16,8 @@ Seeding: RLlib resets a runner's envs once with ``seed + worker_index (+ vector 
 that overlap between runners; the worlds are seeded from the pair ``(that seed, worker_index)``
 instead, through ``np.random.SeedSequence``, so no two worlds of a run share a start, and a run
 is a function of ``seed`` and the number of runners. Later episodes continue each world's stream.
+(The ``pettingzoo`` adapter's string agent ids make RLlib's order of agents, and so a run, depend
+on the processes' hash seeds too: it repeats only with ``PYTHONHASHSEED`` set.)
 """
 
 from __future__ import annotations
@@ -54,17 +56,19 @@ class NavMultiAgentEnv(MultiAgentEnv):
         self.engine = NavEngine(scenario, n_worlds, gamma=gamma)
         self.n_worlds, self.n_robots = n_worlds, scenario.n_robots
         self.worker_index = worker_index
-        self.possible_agents = [f"w{b}/robot_{i}" for b in range(n_worlds) for i in range(scenario.n_robots)]
+        # Integer ids (slot b * n + i): RLlib iterates over sets of agent ids, and the order of a
+        # set of strings changes with every process's hash seed (then runs do not repeat).
+        self.possible_agents = list(range(n_worlds * scenario.n_robots))
         self.agents = list(self.possible_agents)
         obs_space = observation_space(scenario)
         act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_spaces = {a: obs_space for a in self.possible_agents}
         self.action_spaces = {a: act_space for a in self.possible_agents}
         self._live = np.zeros((n_worlds, scenario.n_robots), dtype=bool)
-        self._ids = np.array(self.possible_agents, dtype=object).reshape(n_worlds, scenario.n_robots)
+        self._ids = np.arange(n_worlds * scenario.n_robots).reshape(n_worlds, scenario.n_robots)
 
-    def _obs(self, obs: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
-        return {a: o for a, o in zip(self._ids[mask], obs[mask].astype(np.float32))}
+    def _obs(self, obs: np.ndarray, mask: np.ndarray) -> dict[int, np.ndarray]:
+        return dict(zip(self._ids[mask].tolist(), obs[mask].astype(np.float32)))
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         seeds = None if seed is None else world_seeds(seed, self.worker_index, self.n_worlds)
@@ -73,16 +77,16 @@ class NavMultiAgentEnv(MultiAgentEnv):
         self.agents = list(self.possible_agents)
         return self._obs(obs, self._live), {}
 
-    def step(self, action_dict: dict[str, Any]):
-        actions = np.zeros((self.n_worlds, self.n_robots, 2))
+    def step(self, action_dict: dict[int, Any]):
+        actions = np.zeros((self.n_worlds * self.n_robots, 2))
         for agent, act in action_dict.items():
-            w, _, r = agent.partition("/robot_")
-            actions[int(w[1:]), int(r)] = act
+            actions[agent] = act
+        actions = actions.reshape(self.n_worlds, self.n_robots, 2)
         live = self._live.copy()
         res = self.engine.step(actions)
         done = live & (res.terminated | res.truncated)
         self._live &= ~done
-        ids = self._ids[live]
+        ids = self._ids[live].tolist()
         obs = self._obs(res.obs, live)
         rewards = dict(zip(ids, res.reward[live].tolist()))
         terminated = dict(zip(ids, (live & res.terminated)[live].tolist()))
@@ -91,7 +95,7 @@ class NavMultiAgentEnv(MultiAgentEnv):
         timed_out = bool(res.truncated[live].any())
         terminated["__all__"] = over and not timed_out
         truncated["__all__"] = over and timed_out
-        self.agents = list(self._ids[self._live])
+        self.agents = self._ids[self._live].tolist()
         return obs, rewards, terminated, truncated, {}
 
 

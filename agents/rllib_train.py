@@ -3,8 +3,8 @@
 The run is configured by :class:`RLlibConfig`, the SB3 :class:`~agents.train.TrainConfig` plus
 where to run (``num_env_runners``, ``address``) and which env adapter to sample with. It maps onto
 RLlib's new API stack: one shared RLModule (``"shared"``, MLP ``net_arch`` with separate policy
-and value networks, state-independent log std starting at ``log_std_init``, as SB3's
-``MlpPolicy``) acts for every robot; ``num_env_runners`` env runners each own ``n_worlds`` worlds
+and value networks, state-independent log std starting at ``log_std_init``, initialized as SB3's
+``MlpPolicy``: :func:`init_like_sb3`) acts for every robot; ``num_env_runners`` env runners each own ``n_worlds`` worlds
 (:mod:`agents.rllib_env`); one PPO update per ``n_steps * n_worlds * n_robots`` robot slot steps
 (whatever the number of runners), in minibatches of ``batch_size`` for ``n_epochs`` epochs, with
 SB3's loss (no KL penalty, no value clipping). ``timesteps`` counts slot steps as SB3 does: a
@@ -179,7 +179,9 @@ def init_ray(cfg: RLlibConfig):
     if cfg.address:
         check_address(cfg.address)
     ray = import_ray()
-    env = {"OMP_NUM_THREADS": "1", "RAY_DEDUP_LOGS": "0"}
+    # PYTHONHASHSEED: RLlib iterates over sets of agent ids, whose order (and so which robot gets
+    # which exploration noise) otherwise changes with every runner process (measured).
+    env = {"OMP_NUM_THREADS": "1", "RAY_DEDUP_LOGS": "0", "PYTHONHASHSEED": "0"}
     kw: dict[str, Any] = dict(
         include_dashboard=False, log_to_driver=False, logging_level="WARNING", runtime_env={"env_vars": env}
     )
@@ -274,13 +276,23 @@ def learner_module(algo):
     return algo.learner_group._learner.module[MODULE_ID]
 
 
-def set_log_std(algo, value: float) -> None:
-    """Start the free log std of the shared module at ``value`` (RLlib starts it at 0) everywhere."""
+def init_like_sb3(algo, log_std: float) -> None:
+    """Start the shared module as SB3's ``MlpPolicy`` starts (orthogonal weights with gain sqrt(2)
+    in the hidden layers, 0.01 on the action mean, 1 on the value; zero biases; the free log std
+    at ``log_std``) instead of RLlib's defaults, then copy it to every env runner.
+
+    With RLlib's default initialization (torch's, log std 0) 1 of 3 seeds on circle-8 learned to
+    stand still (policies/README.md)."""
     import torch
 
     module = learner_module(algo)
+    gains = {"encoder": 2**0.5, "pi": 0.01, "vf": 1.0}
     with torch.no_grad():
-        module.pi.log_std.fill_(value)
+        for name, layer in module.named_modules():
+            if isinstance(layer, torch.nn.Linear):
+                torch.nn.init.orthogonal_(layer.weight, gain=gains[name.split(".")[0]])
+                torch.nn.init.zeros_(layer.bias)
+        module.pi.log_std.fill_(log_std)
     algo.env_runner_group.sync_weights(from_worker_or_learner_group=algo.learner_group, inference_only=True)
 
 
@@ -426,7 +438,7 @@ def train(cfg: RLlibConfig) -> dict[str, Any]:
     t_start = time.time()
     algo = ppo_config(cfg).build_algo()
     try:
-        set_log_std(algo, cfg.log_std_init)
+        init_like_sb3(algo, cfg.log_std_init)
         module = learner_module(algo)
         print(
             f"training {scenario.kind} (n={scenario.n_robots}, m={scenario.n_obstacles}) with RLlib: "

@@ -49,6 +49,10 @@ def test_batched_adapter_is_independent_worlds_of_the_parallel_env():
     seeds = world_seeds(7, 1, B)
     assert len(set(seeds)) == B and seeds != world_seeds(7, 2, B) and seeds != world_seeds(8, 1, B)
     refs = [parallel_env(scenario=scenario) for _ in range(B)]
+
+    def slot(b: int, agent: str) -> int:  # robot_i of world b
+        return b * scenario.n_robots + int(agent.rpartition("_")[2])
+
     obs, _ = env.reset(seed=7)
     ref_obs = [r.reset(seed=s)[0] for r, s in zip(refs, seeds)]
     rng = np.random.default_rng(0)
@@ -56,8 +60,8 @@ def test_batched_adapter_is_independent_worlds_of_the_parallel_env():
     while True:
         for b in range(B):
             for a, o in ref_obs[b].items():
-                np.testing.assert_array_equal(obs[f"w{b}/{a}"], o)
-        assert set(obs) == {f"w{b}/{a}" for b in range(B) for a in refs[b].agents}
+                np.testing.assert_array_equal(obs[slot(b, a)], o)
+        assert set(obs) == {slot(b, a) for b in range(B) for a in refs[b].agents}
         actions = {a: rng.uniform(-1, 1, 2).astype(np.float32) for a in obs}
         obs, rew, term, trunc, _ = env.step(actions)
         steps += 1
@@ -66,10 +70,10 @@ def test_batched_adapter_is_independent_worlds_of_the_parallel_env():
             if not r.agents:
                 ref_obs.append({})
                 continue
-            o, rw, te, tr, _ = r.step({a: actions[f"w{b}/{a}"] for a in r.agents})
+            o, rw, te, tr, _ = r.step({a: actions[slot(b, a)] for a in r.agents})
             for a in rw:
-                assert rew[f"w{b}/{a}"] == pytest.approx(rw[a])
-                assert term[f"w{b}/{a}"] == te[a] and trunc[f"w{b}/{a}"] == (tr[a] and not te[a])
+                assert rew[slot(b, a)] == pytest.approx(rw[a])
+                assert term[slot(b, a)] == te[a] and trunc[slot(b, a)] == (tr[a] and not te[a])
             ref_obs.append({a: o[a] for a in r.agents})
         over = not any(r.agents for r in refs)
         assert term["__all__"] or trunc["__all__"] if over else not (term["__all__"] or trunc["__all__"])
