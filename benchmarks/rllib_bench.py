@@ -5,11 +5,13 @@ start jitter; 16 worlds per sampler, 128 steps per rollout slot, minibatch 2048,
 torch on one thread everywhere. Contestants:
 
 * ``sb3`` - SB3 PPO on ``NavVecEnv`` (one process): robot steps per wall second of rollout
-  collection (:func:`benchmarks.train_bench.run`, its collection share of the time);
+  collection, of the update, and of the whole (:func:`benchmarks.train_bench.run`, split by its
+  collection share of the CPU time);
 * ``rllib-<adapter>-<K>`` - RLlib PPO with ``K`` env runners (separate processes, one CPU each
   on a local Ray instance) and each env adapter of :mod:`agents.rllib_env`: robot steps sampled
   per wall second of ``EnvRunnerGroup.sample`` (RLlib's ``env_runner_sampling_timer``, which
-  waits for all runners), and per wall second of the whole iteration (sampling + learner update).
+  waits for all runners), per wall second of the rest of the iteration (the learner's update and
+  the weight sync: the ceiling that more runners cannot lift), and of the whole iteration.
 
 The first ``warmup`` iterations (actor start-up, first episodes) are not counted. Wall time, not
 CPU time: the samplers are other processes, and on this 2-core machine two runners plus the
@@ -24,6 +26,7 @@ import argparse
 import json
 import platform
 import statistics
+import sys
 import time
 
 from .timing import machine_info
@@ -42,7 +45,7 @@ def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) ->
     cfg = RLlibConfig(**SCENARIO, **PPO, num_env_runners=runners, env_adapter=adapter, timesteps=10**9)
     ray = init_ray(cfg)
     algo = ppo_config(cfg).build_algo()
-    sample, whole = [], []
+    sample, whole, rest = [], [], []
     try:
         init_like_sb3(algo, cfg.log_std_init)
         before = 0
@@ -53,12 +56,18 @@ def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) ->
             steps = sampled_agent_steps(result)
             new, before = steps - before, steps
             if it >= warmup:
-                sample.append(new / result["timers"]["env_runner_sampling_timer"])
+                t_sample = result["timers"]["env_runner_sampling_timer"]
+                sample.append(new / t_sample)
                 whole.append(new / wall)
+                rest.append(new / max(wall - t_sample, 1e-9))
     finally:
         algo.stop()
         ray.shutdown()
-    return {"sampled_per_s": statistics.median(sample), "iteration_per_s": statistics.median(whole)}
+    return {
+        "sampled_per_s": statistics.median(sample),
+        "iteration_per_s": statistics.median(whole),
+        "update_per_s": statistics.median(rest),
+    }
 
 
 def sb3_rates(repeats: int) -> dict[str, float]:
@@ -68,7 +77,32 @@ def sb3_rates(repeats: int) -> dict[str, float]:
     res = run(TrainSizes(repeats=repeats), variants=("none",))["none"]
     wall = statistics.median(res.wall_rates)
     share = statistics.median(res.collect_fraction)
-    return {"sampled_per_s": wall / share, "iteration_per_s": wall}
+    return {"sampled_per_s": wall / share, "iteration_per_s": wall, "update_per_s": wall / (1 - share)}
+
+
+def ray_version() -> str:
+    from importlib import metadata
+
+    return metadata.version("ray")
+
+
+SECTION = "## 6. Ray RLlib: sampling throughput beside SB3"
+
+
+def write_section(path: str, text: str) -> None:
+    """Put ``text`` (starting with :data:`SECTION`) into the Markdown file ``path``: replace the
+    section if it is there (up to the next ``## `` heading), else append it."""
+    from pathlib import Path
+
+    p = Path(path)
+    old = p.read_text() if p.exists() else ""
+    start = old.find(SECTION)
+    if start < 0:
+        p.write_text(old.rstrip("\n") + "\n\n" + text)
+        return
+    end = old.find("\n## ", start + len(SECTION))
+    rest = "" if end < 0 else "\n" + old[end + 1 :]
+    p.write_text(old[:start] + text.rstrip("\n") + "\n" + rest)
 
 
 def main(argv=None) -> int:
@@ -77,6 +111,7 @@ def main(argv=None) -> int:
     p.add_argument("--adapters", default="batched,pettingzoo", help="env adapters to measure")
     p.add_argument("--runners", default="1,2", help="numbers of env runners to measure")
     p.add_argument("--json", default=None, help="write the results to this JSON file")
+    p.add_argument("--markdown", default=None, help="write the table as a section of this file (RESULTS.md)")
     args = p.parse_args(argv)
     rows = {"sb3": sb3_rates(args.iterations)}
     print(f"sb3: {rows['sb3']}", flush=True)
@@ -92,10 +127,25 @@ def main(argv=None) -> int:
         "ppo": PPO,
         "rates": rows,
     }
-    print("| contestant | sampled agent-steps/s | whole iteration agent-steps/s |")
-    print("|---|---|---|")
+    table = ["| contestant | sampling | update (rest of the iteration) | whole iteration |"]
+    table.append("|---|---|---|---|")
     for name, r in rows.items():
-        print(f"| {name} | {r['sampled_per_s']:,.0f} | {r['iteration_per_s']:,.0f} |")
+        table.append(f"| {name} | {r['sampled_per_s']:,.0f} | {r['update_per_s']:,.0f} | {r['iteration_per_s']:,.0f} |")
+    print("\n".join(table))
+    if args.markdown:
+        m = out["machine"]
+        head = [
+            SECTION,
+            "",
+            f"Generated by `python -m benchmarks.rllib_bench {' '.join(argv if argv is not None else sys.argv[1:])}` "
+            f"on {out['date']}; {m['cpu']}, {m['usable_cores']} cores, load average "
+            f"{', '.join(f'{x:.2f}' for x in m['load_average'] or [])} at start; ray {ray_version()}. "
+            f"Wall-clock rates, median of {args.iterations} iterations "
+            f"after one warm-up. Scenario circle, 8 robots, 0.1 m jitter; 16 worlds per sampler, 128 steps "
+            f"per slot per update, minibatch 2048, 10 epochs (the `vcs-env train` defaults).",
+            "",
+        ]
+        write_section(args.markdown, "\n".join(head + table) + "\n")
     if args.json:
         with open(args.json, "w") as f:
             json.dump(out, f, indent=1)
