@@ -39,7 +39,7 @@ def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) ->
     """Median sampled and whole-iteration agent-steps/s of ``iterations`` RLlib PPO iterations."""
     import torch
 
-    from agents.rllib_train import RLlibConfig, init_like_sb3, init_ray, ppo_config, sampled_agent_steps
+    from agents.rllib_train import RLlibConfig, init_ray, ppo_config, sampled_agent_steps, set_log_std
 
     torch.set_num_threads(1)
     cfg = RLlibConfig(**SCENARIO, **PPO, num_env_runners=runners, env_adapter=adapter, timesteps=10**9)
@@ -47,7 +47,7 @@ def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) ->
     algo = ppo_config(cfg).build_algo()
     sample, whole, rest = [], [], []
     try:
-        init_like_sb3(algo, cfg.log_std_init)
+        set_log_std(algo, cfg.log_std_init)
         before = 0
         for it in range(warmup + iterations):
             t0 = time.perf_counter()
