@@ -16,8 +16,8 @@ Seeding: RLlib resets a runner's envs once with ``seed + worker_index (+ vector 
 that overlap between runners; the worlds are seeded from the pair ``(that seed, worker_index)``
 instead, through ``np.random.SeedSequence``, so no two worlds of a run share a start, and a run
 is a function of ``seed`` and the number of runners. Later episodes continue each world's stream.
-(The ``pettingzoo`` adapter's string agent ids make RLlib's order of agents, and so a run, depend
-on the processes' hash seeds too: it repeats only with ``PYTHONHASHSEED`` set.)
+Agent ids are integers in both adapters: RLlib iterates over sets of agent ids, and the order of
+a set of strings changes with every process's hash seed (then runs do not repeat).
 """
 
 from __future__ import annotations
@@ -101,26 +101,39 @@ class NavMultiAgentEnv(MultiAgentEnv):
 
 class PettingZooNavEnv(ParallelPettingZooEnv):
     """RLlib's PettingZoo wrapper over one :class:`~vcs_env.parallel.VcsNavParallelEnv` with the
-    episode ending when no robot is left, and runner-aware seeding (module docstring)."""
+    episode ending when no robot is left, runner-aware seeding, and integer agent ids (robot
+    ``i`` is agent ``i``, for repeatable runs as in :class:`NavMultiAgentEnv`)."""
 
     def __init__(self, scenario: Scenario, gamma: float = 0.99, worker_index: int = 0):
         from vcs_env.parallel import parallel_env
 
         super().__init__(parallel_env(scenario=scenario, gamma=gamma))
         self.worker_index = worker_index
+        self.possible_agents = list(range(scenario.n_robots))
+        self.agents = list(self.possible_agents)
+        self.observation_spaces = {i: self.par_env.observation_space(f"robot_{i}") for i in self.possible_agents}
+        self.action_spaces = {i: self.par_env.action_space(f"robot_{i}") for i in self.possible_agents}
+
+    @staticmethod
+    def _ints(d: dict) -> dict:
+        return {int(k[6:]): v for k, v in d.items()}  # "robot_3" -> 3
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         if seed is not None:
             seed = world_seeds(seed, self.worker_index, 1)[0]
-        return super().reset(seed=seed, options=options)
+        obs, infos = self.par_env.reset(seed=seed, options=options)
+        self.agents = list(self.possible_agents)
+        return self._ints(obs), {}
 
     def step(self, action_dict):
-        obs, rewards, terminated, truncated, infos = super().step(action_dict)
+        obs, rewards, terminated, truncated, _ = self.par_env.step({f"robot_{i}": a for i, a in action_dict.items()})
         over = not self.par_env.agents
-        timed_out = any(v for k, v in truncated.items() if k != "__all__")
+        terminated, truncated = self._ints(terminated), self._ints(truncated)
+        timed_out = any(truncated.values())
         terminated["__all__"] = over and not timed_out
         truncated["__all__"] = over and timed_out
-        return obs, rewards, terminated, truncated, {}
+        self.agents = [int(a[6:]) for a in self.par_env.agents]
+        return self._ints(obs), self._ints(rewards), terminated, truncated, {}
 
 
 def make_env(env_config) -> MultiAgentEnv:

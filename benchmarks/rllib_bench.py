@@ -36,38 +36,41 @@ PPO = dict(n_worlds=16, n_steps=128, batch_size=2048, n_epochs=10)
 
 
 def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) -> dict[str, float]:
-    """Median sampled and whole-iteration agent-steps/s of ``iterations`` RLlib PPO iterations."""
+    """Median agent-steps/s of RLlib PPO: sampling alone (every runner's ``sample()`` at once, as
+    one PPO iteration asks for it), and whole ``Algorithm.train()`` iterations (sampling, update,
+    weight sync); the update's own rate follows from the two (the iteration is synchronous)."""
     import torch
 
-    from agents.rllib_train import RLlibConfig, init_ray, ppo_config, sampled_agent_steps, set_log_std
+    from agents.rllib_train import RLlibConfig, init_ray, ppo_config, set_log_std
 
     torch.set_num_threads(1)
     cfg = RLlibConfig(**SCENARIO, **PPO, num_env_runners=runners, env_adapter=adapter, timesteps=10**9)
     ray = init_ray(cfg)
     algo = ppo_config(cfg).build_algo()
-    sample, whole, rest = [], [], []
+    group = algo.env_runner_group
+    sample, whole = [], []
     try:
         set_log_std(algo, cfg.log_std_init)
-        before = 0
         for it in range(warmup + iterations):
             t0 = time.perf_counter()
+            if runners:
+                batches = group.foreach_env_runner(lambda er: er.sample(), local_env_runner=False)
+            else:
+                batches = [group.local_env_runner.sample()]
+            t1 = time.perf_counter()
+            steps = sum(e.agent_steps() for eps in batches for e in eps)
             result = algo.train()
-            wall = time.perf_counter() - t0
-            steps = sampled_agent_steps(result)
-            new, before = steps - before, steps
+            wall = time.perf_counter() - t1
+            per_agent = result["env_runners"]["num_agent_steps_sampled"].values()
+            trained = sum(float(v) for v in per_agent if v == v)  # robot steps this iteration (NaN: none)
             if it >= warmup:
-                t_sample = result["timers"]["env_runner_sampling_timer"]
-                sample.append(new / t_sample)
-                whole.append(new / wall)
-                rest.append(new / max(wall - t_sample, 1e-9))
+                sample.append(steps / (t1 - t0))
+                whole.append(trained / wall)
     finally:
         algo.stop()
         ray.shutdown()
-    return {
-        "sampled_per_s": statistics.median(sample),
-        "iteration_per_s": statistics.median(whole),
-        "update_per_s": statistics.median(rest),
-    }
+    s, w = statistics.median(sample), statistics.median(whole)
+    return {"sampled_per_s": s, "iteration_per_s": float(w), "update_per_s": 1 / max(1 / w - 1 / s, 1e-12)}
 
 
 def sb3_rates(repeats: int) -> dict[str, float]:

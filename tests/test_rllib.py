@@ -88,10 +88,14 @@ def test_pettingzoo_adapter_ends_when_no_robot_is_left():
     scenario = make_scenario("circle", n_robots=2, max_steps=5)
     env = PettingZooNavEnv(scenario)
     obs, _ = env.reset(seed=0)
+    assert sorted(obs) == env.agents == [0, 1]
+    np.testing.assert_array_equal(
+        obs[1], parallel_env(scenario=scenario).reset(seed=world_seeds(0, 0, 1)[0])[0]["robot_1"]
+    )
     for t in range(5):
         obs, _, term, trunc, _ = env.step({a: np.zeros(2, np.float32) for a in obs})
         assert bool(term["__all__"] or trunc["__all__"]) == (t == 4)
-    assert trunc["__all__"] and not term["__all__"] and not env.par_env.agents
+    assert trunc["__all__"] and not term["__all__"] and not env.par_env.agents and env.agents == []
 
 
 # --------------------------------------------------------------------------- policy and config
