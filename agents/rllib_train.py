@@ -10,8 +10,9 @@ update per ``n_steps * n_worlds * n_robots`` robot slot steps (whatever the numb
 in minibatches of ``batch_size`` for ``n_epochs`` epochs, with SB3's loss (no KL penalty, no
 value clipping). ``timesteps`` counts slot steps as SB3 does: a
 robot that finished early still fills its slot until its world ends (SB3 feeds it padding, RLlib
-skips it), so a budget buys the same number of world steps on both backends. A run with the same
-seed and the same number of runners is repeatable.
+skips it), so a budget buys the same number of world steps on both backends. With the batched
+adapter a run with the same seed and number of runners is repeatable bit for bit (tested); with
+the pettingzoo adapter it is not (RLlib's vectorized envs; cause not found).
 
 A run directory holds::
 
@@ -68,10 +69,12 @@ class RLlibConfig(TrainConfig):
     None: start a local Ray instance for this run."""
     out: str = "runs/rllib"
     """Run directory (config.json, eval.jsonl, checkpoint/)."""
-    env_adapter: str = "batched"
-    """Env adapter for --backend rllib: batched (n_worlds worlds in one numpy call per runner;
-    measured the faster, benchmarks/RESULTS.md) or pettingzoo (RLlib's ParallelPettingZooEnv over
-    vcs_env.parallel_env, n_worlds of them per runner)."""
+    env_adapter: str = "pettingzoo"
+    """Env adapter for --backend rllib: pettingzoo (RLlib's ParallelPettingZooEnv over
+    vcs_env.parallel_env, n_worlds of them per runner, each world restarting on its own as in
+    the SB3 path) or batched (n_worlds worlds in one numpy call that restart together: 1.6x the
+    sampling rate, but the worlds that finish early wait for the slowest, and from scratch it
+    learned to stand still in 4 of 6 circle-8 runs; policies/README.md)."""
 
 
 RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not in TrainConfig.__dataclass_fields__)
@@ -281,7 +284,7 @@ def set_log_std(algo, value: float) -> None:
     """Start the free log std of the shared module at ``value`` (RLlib starts it at 0), then copy
     the module to every env runner. The weights keep RLlib's (torch's) initialization: SB3's
     orthogonal one (gains sqrt(2), 0.01 on the action mean, 1 on the value) made 2 of 2 seeds on
-    circle-8 learn to stand still, against 1 of 3 with RLlib's (policies/README.md)."""
+    circle-8 learn to stand still, against 1 of 3 with RLlib's (batched adapter, policies/README.md)."""
     import torch
 
     with torch.no_grad():
