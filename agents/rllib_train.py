@@ -10,9 +10,10 @@ update per ``n_steps * n_worlds * n_robots`` robot slot steps (whatever the numb
 in minibatches of ``batch_size`` for ``n_epochs`` epochs, with SB3's loss (no KL penalty, no
 value clipping). ``timesteps`` counts slot steps as SB3 does: a
 robot that finished early still fills its slot until its world ends (SB3 feeds it padding, RLlib
-skips it), so a budget buys the same number of world steps on both backends. With the batched
-adapter a run with the same seed and number of runners is repeatable bit for bit (tested); with
-the pettingzoo adapter it is not (RLlib's vectorized envs; cause not found).
+skips it), so a budget buys the same number of world steps on both backends. Runs are seeded but
+not repeatable bit for bit yet: two runs of the batched adapter with one runner gave the same
+weights on a quiet machine (3 times) and different ones under heavy load (2 times); pettingzoo
+runs differed (cause not found: something in RLlib's sampling loop is not a function of the seed).
 
 A run directory holds::
 
