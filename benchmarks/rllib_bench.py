@@ -70,7 +70,8 @@ def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) ->
         algo.stop()
         ray.shutdown()
     s, w = statistics.median(sample), statistics.median(whole)
-    return {"sampled_per_s": s, "iteration_per_s": float(w), "update_per_s": 1 / max(1 / w - 1 / s, 1e-12)}
+    rest = 1 / w - 1 / s  # seconds per robot step outside sampling; < 0 when load made sampling slower alone
+    return {"sampled_per_s": s, "iteration_per_s": float(w), "update_per_s": 1 / rest if rest > 0 else float("nan")}
 
 
 def sb3_rates(repeats: int) -> dict[str, float]:
@@ -81,6 +82,10 @@ def sb3_rates(repeats: int) -> dict[str, float]:
     wall = statistics.median(res.wall_rates)
     share = statistics.median(res.collect_fraction)
     return {"sampled_per_s": wall / share, "iteration_per_s": wall, "update_per_s": wall / (1 - share)}
+
+
+def _fmt(x: float) -> str:
+    return "-" if x != x else f"{x:,.0f}"
 
 
 def ray_version() -> str:
@@ -133,7 +138,8 @@ def main(argv=None) -> int:
     table = ["| contestant | sampling | update (rest of the iteration) | whole iteration |"]
     table.append("|---|---|---|---|")
     for name, r in rows.items():
-        table.append(f"| {name} | {r['sampled_per_s']:,.0f} | {r['update_per_s']:,.0f} | {r['iteration_per_s']:,.0f} |")
+        rates = (r["sampled_per_s"], r["update_per_s"], r["iteration_per_s"])
+        table.append(f"| {name} | " + " | ".join(_fmt(x) for x in rates) + " |")
     print("\n".join(table))
     if args.markdown:
         m = out["machine"]
