@@ -70,12 +70,12 @@ class RLlibConfig(TrainConfig):
     None: start a local Ray instance for this run."""
     out: str = "runs/rllib"
     """Run directory (config.json, eval.jsonl, checkpoint/)."""
-    env_adapter: str = "pettingzoo"
-    """Env adapter for --backend rllib: pettingzoo (RLlib's ParallelPettingZooEnv over
-    vcs_env.parallel_env, n_worlds of them per runner, each world restarting on its own as in
-    the SB3 path) or batched (n_worlds worlds in one numpy call that restart together: 1.6x the
-    sampling rate, but the worlds that finish early wait for the slowest, and from scratch it
-    learned to stand still in 4 of 6 circle-8 runs; policies/README.md)."""
+    env_adapter: str = "batched"
+    """Env adapter for --backend rllib: batched (n_worlds worlds in one numpy call per runner,
+    restarting together) or pettingzoo (RLlib's ParallelPettingZooEnv over vcs_env.parallel_env,
+    n_worlds of them per runner, each restarting on its own as in the SB3 path). batched trains
+    1.2x faster (benchmarks/RESULTS.md); from scratch on circle-8 either learned to stand still in
+    about half the runs (policies/README.md)."""
 
 
 RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not in TrainConfig.__dataclass_fields__)
