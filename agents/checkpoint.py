@@ -226,16 +226,24 @@ def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, 
     """Load an SB3 PPO checkpoint, checking it first.
 
     Args:
-        checkpoint: path to the ``.zip`` (suffix optional) or a run directory holding ``model.zip``.
+        checkpoint: path to the ``.zip`` (suffix optional) or a run directory holding ``model.zip``;
+            an RLlib checkpoint directory of ``vcs-env train --backend rllib`` gives an
+            :class:`agents.rllib_train.RLlibPolicy` (``predict`` only).
         scenario: if given, the policy must fit this scenario (:func:`check_checkpoint_fits`:
             same observation config, else :class:`CheckpointError`; another scenario family
-            gives a :class:`FamilyWarning`).
+            gives a :class:`FamilyWarning`; an RLlib policy: the same observation size).
         env: optional VecEnv to attach (for continuing training).
         device: torch device.
 
     Raises:
         CheckpointError: missing, corrupt, made for observation v0, or for another observation config.
     """
+    from .rllib_train import is_rllib_checkpoint, load_policy
+
+    if is_rllib_checkpoint(checkpoint):  # an RLlib run: a predictor, not an SB3 model
+        if env is not None:
+            raise CheckpointError(f"{str(checkpoint)!r} is an RLlib checkpoint; SB3 training cannot continue it")
+        return load_policy(checkpoint, scenario)
     from stable_baselines3 import PPO
     from stable_baselines3.common.save_util import load_from_zip_file
 

@@ -337,6 +337,11 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    from . import rllib_train
+
+    if args.backend == "rllib":
+        return rllib_train.cmd_train(args)
+    rllib_train.reject_rllib_flags(args)
     base = None
     if args.resume:
         from .checkpoint import read_metadata
@@ -357,6 +362,10 @@ def add_commands(sub) -> None:
         description=__doc__.split("\n\n")[0],
     )
     add_config_args(p, TrainConfig)
+    p.add_argument("--backend", choices=["sb3", "rllib"], default="sb3", help="sb3 (one process) or rllib (Ray)")
+    from .rllib_train import add_rllib_args
+
+    add_rllib_args(p)
     p.add_argument(
         "--resume",
         default=None,

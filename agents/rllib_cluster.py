@@ -1,0 +1,127 @@
+"""Where an RLlib run executes: importing Ray with a clear error, checking a cluster address and
+that every node can import vcs-env, and starting or joining Ray (:func:`init_ray`)."""
+
+from __future__ import annotations
+
+import socket
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .rllib_train import RLlibConfig
+
+LOCAL_NODE_IP = "127.0.0.2"
+"""Node address of a local Ray instance: loopback. Ray replaces 127.0.0.1 and localhost by the
+machine's network address (to be reachable from other nodes), but not other 127.x addresses."""
+INSTALL_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
+
+
+def import_ray():
+    """``ray`` with RLlib, or a one-line ImportError naming the extra."""
+    try:
+        import ray
+        import ray.rllib  # noqa: F401
+    except ImportError as e:
+        raise ImportError(f"--backend rllib needs Ray RLlib; install it with: {INSTALL_HINT} ({e})") from None
+    return ray
+
+
+def check_address(address: str, timeout: float = 3.0) -> None:
+    """Raise a one-line ``ValueError`` unless a Ray head answers at ``host:port`` (``auto`` passes)."""
+    if address == "auto":
+        return
+    host, sep, port = address.rpartition(":")
+    if address.startswith("ray://"):
+        raise ValueError(f"--address {address!r}: Ray Client addresses are not supported; give the head's host:port")
+    if not sep or not host or not port.isdigit():
+        raise ValueError(f"--address must be host:port of a Ray head (ray start --head), got {address!r}")
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout):
+            pass
+    except OSError as e:
+        raise ValueError(
+            f"--address {address!r}: no Ray head answers there ({e.strerror or e}); start one with "
+            f"`ray start --head --port={port}` or fix the address"
+        ) from None
+
+
+def _package_probe():
+    """What a cluster node can import. Run as a Ray task on every node, so it refers to nothing
+    of this module (a nested copy is shipped by value: a node without vcs-env can still run it)."""
+
+    def probe() -> dict[str, Any]:
+        import importlib
+        import importlib.metadata as md
+        import socket
+
+        out: dict[str, Any] = {"node": socket.gethostname(), "missing": []}
+        for dist, module in (("vcs-env", "agents.rllib_env"), ("torch", "torch"), ("ray", "ray.rllib")):
+            try:
+                out[dist] = md.version(dist)
+                importlib.import_module(module)
+            except Exception as e:  # not installed, or not importable there
+                out["missing"].append(f"{dist} ({type(e).__name__}: {e})")
+        return out
+
+    return probe
+
+
+def check_cluster(ray) -> list[dict[str, Any]]:
+    """Probe every alive node; a node that cannot import vcs-env, torch or Ray RLlib, or runs
+    another Ray version than this driver, raises a one-line ``RuntimeError``."""
+    from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
+    probe = ray.remote(num_cpus=0, max_retries=0)(_package_probe())
+    nodes = [n for n in ray.nodes() if n.get("Alive")]
+    refs = [
+        probe.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)).remote()
+        for n in nodes
+    ]
+    found = []
+    for node, ref in zip(nodes, refs):
+        where = f"the Ray cluster's node {node.get('NodeManagerAddress')}"
+        try:
+            got = ray.get(ref, timeout=120)
+        except Exception as e:
+            raise RuntimeError(f"{where} cannot run a probe task: {str(e).splitlines()[0]}") from None
+        if got["missing"]:
+            raise RuntimeError(
+                f"{where} ({got['node']}) lacks {'; '.join(got['missing'])}: install the same environment "
+                f"on every node (vcs-env with the rllib extra)"
+            )
+        if got["ray"] != ray.__version__:
+            raise RuntimeError(f"{where} ({got['node']}) runs ray {got['ray']}, this driver {ray.__version__}")
+        found.append(got)
+    return found
+
+
+def init_ray(cfg: RLlibConfig):
+    """Join ``cfg.address`` or start a local Ray instance; check every node can run the envs."""
+    if cfg.address:
+        check_address(cfg.address)
+    ray = import_ray()
+    # PYTHONHASHSEED: RLlib iterates over sets of agent ids, whose order (and so which robot gets
+    # which exploration noise) otherwise changes with every runner process (measured).
+    env = {"OMP_NUM_THREADS": "1", "RAY_DEDUP_LOGS": "0", "PYTHONHASHSEED": "0"}
+    kw: dict[str, Any] = dict(
+        include_dashboard=False, log_to_driver=False, logging_level="WARNING", runtime_env={"env_vars": env}
+    )
+    if cfg.address:
+        host = cfg.address.rpartition(":")[0]
+        if host.startswith("127."):  # a cluster on this machine: the driver joins it on loopback too
+            kw["_node_ip_address"] = host
+        try:
+            ray.init(address=cfg.address, **kw)
+        except ConnectionError as e:
+            raise RuntimeError(
+                f"could not join the Ray cluster at {cfg.address} ({str(e).splitlines()[0]}); a cluster with token "
+                f"authentication needs RAY_AUTH_MODE=token and its token (RAY_AUTH_TOKEN) here too"
+            ) from None
+    else:
+        ray.init(num_cpus=max(1, cfg.num_env_runners), _node_ip_address=LOCAL_NODE_IP, **kw)
+    nodes = check_cluster(ray)
+    cpus = int(ray.cluster_resources().get("CPU", 0))
+    print(f"ray cluster: {len(nodes)} node{'s' * (len(nodes) != 1)}, {cpus} CPUs", flush=True)
+    return ray
+
+
+# --------------------------------------------------------------------------- config
