@@ -320,15 +320,31 @@ def test_saved_command_rebuilds_the_config():
     assert config_command("train", TrainConfig()) == "vcs-env train"
 
 
-@pytest.mark.parametrize("name,suite", [("circle8", "circle-8-v0-smoke"), ("crowd5", "crowd-5-v0-smoke")])
-def test_released_v0_policies_are_refused_with_the_reason(name, suite):
-    """The checkpoints in policies/ were trained on observation v0; they need retraining on v1
-    (policies/README.md) and loading them says so, with the command that rebuilds them."""
+RELEASED = [("circle8", "circle-8-v0-smoke")]
+"""Released v1 policies and the smoke suite each must solve."""
+
+
+@pytest.mark.parametrize("name,suite", RELEASED)
+def test_released_policies_solve_their_smoke_suites(name, suite):
     from pathlib import Path
 
     path = Path(__file__).resolve().parent.parent / "policies" / name / "model.zip"
+    res = evaluate(str(path), suite, progress=False)
+    assert res.summary["success"]["mean"] == 1.0 and res.summary["collision"]["mean"] == 0.0
+
+
+def test_a_v0_checkpoint_is_refused_with_the_reason():
+    """A checkpoint of observation v0 (no observation config saved, 8 + 8 K floats) is refused,
+    saying why and with the command that rebuilds it."""
+    from gymnasium import spaces
+
+    from agents.checkpoint import check_checkpoint_fits
+
+    scenario = make_scenario("circle")
+    space = spaces.Box(-1.0, 1.0, shape=(8 + 8 * scenario.n_neighbors,))
+    meta = {"command": "vcs-env train --n-robots 8"}
     with pytest.raises(CheckpointError, match=r"observation v0.*changed in v1.*Retrain it on v1 with its command: vcs"):
-        evaluate(str(path), suite, progress=False)
+        check_checkpoint_fits(meta, space, scenario, "policy")
 
 
 def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
