@@ -223,7 +223,7 @@ def load_policy(path: str | os.PathLike, scenario=None) -> RLlibPolicy:
             another observation space.
         ImportError: Ray RLlib is not installed.
     """
-    from .checkpoint import CheckpointError, check_observation_space
+    from .checkpoint import CheckpointError, check_checkpoint_fits
 
     p = Path(path)
     if not (p / METADATA).is_file() and (p / "checkpoint" / METADATA).is_file():
@@ -259,7 +259,7 @@ def load_policy(path: str | os.PathLike, scenario=None) -> RLlibPolicy:
     except Exception as e:
         raise CheckpointError(f"RLlib checkpoint {str(p)!r} could not be loaded: {type(e).__name__}: {e}") from None
     if scenario is not None:
-        check_observation_space(module.observation_space, scenario, f"RLlib checkpoint {str(p)!r}")
+        check_checkpoint_fits(meta, module.observation_space, scenario, f"RLlib checkpoint {str(p)!r}")
     module.eval()
     return RLlibPolicy(module, name=Path(meta.get("config", {}).get("out", p.parent.name)).name)
 
@@ -299,7 +299,9 @@ def evaluate_module(module, cfg: RLlibConfig, scenario) -> dict[str, Any]:
 
 def train(cfg: RLlibConfig) -> dict[str, Any]:
     """Train a shared PPO policy with RLlib; returns the final evaluation, paths and throughput."""
-    from .checkpoint import jsonable
+    from vcs_env.observations import observation_config
+
+    from .checkpoint import jsonable, scenario_family
 
     scenario = build_scenario(cfg)
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1 or cfg.num_env_runners < 0:
@@ -369,6 +371,8 @@ def train(cfg: RLlibConfig) -> dict[str, Any]:
     meta = {
         "kind": "rllib_ppo",
         "observation_dim": int(np.prod(module.observation_space.shape)),
+        "observation": jsonable(observation_config(scenario)),
+        "scenario_family": scenario_family(scenario),
         "num_timesteps": steps,
         "config": jsonable(cfg),
         "command": rebuild_command(cfg),
