@@ -320,7 +320,7 @@ def test_saved_command_rebuilds_the_config():
     assert config_command("train", TrainConfig()) == "vcs-env train"
 
 
-RELEASED = [("circle8", "circle-8-v0-smoke")]
+RELEASED = [("circle8", "circle-8-v0-smoke"), ("crowd5", "crowd-5-v0-smoke")]
 """Released v1 policies and the smoke suite each must solve."""
 
 
