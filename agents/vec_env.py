@@ -55,7 +55,28 @@ from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
 
-class NavVecEnv(VecEnv):
+class SharedSlots(VecEnv):
+    """SB3 ``VecEnv`` plumbing for a VecEnv whose slots are all one object: attribute access and
+    method calls go to that object, there are no per-slot images and no wrappers."""
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None] * self.num_envs
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self, attr_name) for _ in self._get_indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        setattr(self, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
+        method = getattr(self, method_name)
+        return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+
+class NavVecEnv(SharedSlots):
     """``B`` worlds x ``n`` robots as ``B * n`` SB3 slots sharing one policy (module docstring).
 
     Args:
@@ -213,25 +234,8 @@ class NavVecEnv(VecEnv):
     def close(self) -> None:
         pass
 
-    def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None] * self.num_envs
 
-    # Attribute access: every slot shares this one object.
-    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        return [getattr(self, attr_name) for _ in self._get_indices(indices)]
-
-    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        setattr(self, attr_name, value)
-
-    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
-        method = getattr(self, method_name)
-        return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]
-
-
-class MixtureVecEnv(VecEnv):
+class MixtureVecEnv(SharedSlots):
     """Worlds of several scenarios (other kinds, robot and obstacle counts) as one SB3 ``VecEnv``.
 
     Worlds are split into **groups**, one :class:`NavVecEnv` (one batched engine) per scenario;
@@ -326,19 +330,3 @@ class MixtureVecEnv(VecEnv):
     def close(self) -> None:
         for g in self.groups:
             g.close()
-
-    def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None] * self.num_envs
-
-    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        return [getattr(self, attr_name) for _ in self._get_indices(indices)]
-
-    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        setattr(self, attr_name, value)
-
-    def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
-        method = getattr(self, method_name)
-        return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
-
-    def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]

@@ -9,10 +9,11 @@ import pytest
 
 import vcs_env
 from baselines.vcs import VCSPlanner
+from baselines.vcs import experiments as X
 from vcs_env.engine import NavEngine
 from vcs_env.metrics import episode_metrics
 from vcs_env.rollout import planner_controller, run_episodes
-from vcs_env.scenario import CustomLayout, ObstacleTrajectory, Scenario
+from vcs_env.scenario import ObstacleTrajectory
 from vcs_env.suites import get_suite
 
 SAFETY_OFF = dict(arriving_non_reactive=False, stop_margin=False, ramp_check=False, fallback="penalty")
@@ -61,27 +62,13 @@ def test_crowd_margin_watches_a_crowd_further_ahead():
     assert np.mean(full) >= np.mean(alone) + 0.2
 
 
-def _custom(start, goal, heading, speed, obstacles=(), max_steps=200):
-    layout = CustomLayout(start=start, goal=goal, heading=heading, speed=speed, obstacles=tuple(obstacles))
-    return Scenario(
-        kind="custom",
-        n_robots=len(start),
-        n_obstacles=len(obstacles),
-        custom=layout,
-        r_ca=6.0,
-        max_steps=max_steps,
-        on_collision="continue",
-        min_separation=0.0,
-    )
-
-
 @pytest.mark.parametrize("fallback", ["least_harm", "penalty"])
 def test_fallback_never_speeds_up_into_what_it_touches(fallback):
     """A robot already overlapping a static obstacle that lies between it and its goal: no
     velocity is admissible. The least-harm fallback brakes and turns away; the plain penalty
     (every candidate has t_c = 0) falls back on the goal term and drives on into it."""
     wall = ObstacleTrajectory(times=(0.0,), positions=((0.45, 0.0),), radius=0.25)
-    scenario = _custom(((-1.0, 0.0),), ((5.0, 0.0),), (0.0,), (0.6,), [wall])
+    scenario = X._scenario(((-1.0, 0.0),), ((5.0, 0.0),), [wall], r_ca=6.0, speeds=(0.6,), headings=(0.0,))
     eng = NavEngine(scenario)
     eng.reset([0])
     eng.world.pos[0, 0] = (0.0, 0.0)  # 0.05 m deep inside the obstacle
@@ -102,7 +89,7 @@ def test_fallback_never_speeds_up_into_what_it_touches(fallback):
 def test_progress_stall_detects_creeping_without_a_slow_speed():
     """A robot that circles its goal at 0.3 m/s (well above the stall speed) gains no ground:
     after ``progress_window`` it detours; with the progress test off it never does."""
-    scenario = _custom(((2.0, 0.0),), ((0.0, 0.0),), (math.pi / 2,), (0.3,))
+    scenario = X._scenario(((2.0, 0.0),), ((0.0, 0.0),), [], r_ca=6.0, speeds=(0.3,), headings=(math.pi / 2,))
     for window, expect in ((3.0, True), (0.0, False)):
         eng = NavEngine(scenario)
         eng.reset([0])
