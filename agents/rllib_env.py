@@ -25,13 +25,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 from ray.rllib.env.multi_agent_env import MultiAgentEnv
 from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
 
 from vcs_env.engine import NavEngine
 from vcs_env.scenario import Scenario
-from vcs_env.spaces import observation_space
+from vcs_env.spaces import action_space, observation_space
 
 
 def world_seeds(seed: int, worker_index: int, n_worlds: int) -> list[int]:
@@ -61,7 +60,7 @@ class NavMultiAgentEnv(MultiAgentEnv):
         self.possible_agents = list(range(n_worlds * scenario.n_robots))
         self.agents = list(self.possible_agents)
         obs_space = observation_space(scenario)
-        act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        act_space = action_space()
         self.observation_spaces = {a: obs_space for a in self.possible_agents}
         self.action_spaces = {a: act_space for a in self.possible_agents}
         self._live = np.zeros((n_worlds, scenario.n_robots), dtype=bool)

@@ -95,7 +95,7 @@ def rebuild_command(cfg: RLlibConfig) -> str:
     return f"{head} train --backend rllib{rest}"
 
 
-# --------------------------------------------------------------------------- cluster
+# --------------------------------------------------------------------------- PPO
 def ppo_config(cfg: RLlibConfig):
     """RLlib ``PPOConfig`` of a run (see the module docstring for the mapping)."""
     from ray.rllib.algorithms.ppo import PPOConfig

@@ -46,13 +46,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from gymnasium import spaces
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
 from vcs_env.engine import NavEngine
 from vcs_env.metrics import robots_succeeded
 from vcs_env.scenario import Scenario
-from vcs_env.spaces import observation_space
+from vcs_env.spaces import action_space, observation_space
 
 
 class SharedSlots(VecEnv):
@@ -107,7 +106,7 @@ class NavVecEnv(SharedSlots):
         self.n_robots = scenario.n_robots
         self.render_mode = None
         obs_space = observation_space(scenario)
-        act_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        act_space = action_space()
         super().__init__(self.n_worlds * self.n_robots, obs_space, act_space)
         B, n = self.n_worlds, self.n_robots
         self._obs = np.zeros((B, n, obs_space.shape[0]), dtype=np.float32)

@@ -6,7 +6,6 @@ from collections.abc import Mapping
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -165,7 +164,7 @@ class VcsNavVectorEnv(VectorEnv):
         self.engine = NavEngine(self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma)
         self.others = make_planner(others) if self.scenario.n_robots > 1 else None
         self.single_observation_space = observation_space(self.scenario)
-        self.single_action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self.single_action_space = action_space()
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self._world_rngs: list[np.random.Generator | None] = [None] * self.num_envs  # VcsNavEnv.np_random
