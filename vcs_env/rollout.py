@@ -182,8 +182,6 @@ class EpisodeRecorder(Hook):
                 "actions",
                 "acted",
                 "collided",
-                "robot_contact",
-                "obstacle_contact",
                 "min_separation",
                 "robot_hits",
                 "obstacle_hits",
@@ -203,8 +201,6 @@ class EpisodeRecorder(Hook):
         self.per_step["actions"].append(np.where(s.acting[..., None], np.clip(s.actions, -1, 1), 0.0))
         self.per_step["acted"].append(ev.acted)
         self.per_step["collided"].append(ev.collided)
-        self.per_step["robot_contact"].append(ev.robot_hits.any(axis=2))
-        self.per_step["obstacle_contact"].append(ev.obstacle_hits.any(axis=2) | ev.wall_hits.any(axis=2))
         self.per_step["min_separation"].append(ev.min_separation)
         self.per_step["robot_hits"].append(ev.robot_hits.copy())
         self.per_step["obstacle_hits"].append(ev.obstacle_hits.copy())
@@ -217,6 +213,9 @@ class EpisodeRecorder(Hook):
     def end(self) -> None:
         states = {k: np.stack(v, axis=1) for k, v in self.states.items()}  # (B, T+1, ...)
         per_step = {k: np.stack(v, axis=1) for k, v in self.per_step.items()}  # (B, T, ...)
+        # Who touched anything, derived once from who touched whom.
+        per_step["robot_contact"] = per_step["robot_hits"].any(axis=3)
+        per_step["obstacle_contact"] = per_step["obstacle_hits"].any(axis=3) | per_step["wall_hits"].any(axis=3)
         for b, seed in enumerate(self.seeds):
             t_end = int(self.end_step[b])
             self.episodes.append(
