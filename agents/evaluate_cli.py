@@ -92,6 +92,32 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_probe(args) -> int:
+    import shlex
+
+    from .policies import is_checkpoint_spec
+    from .probes import policy_labels, run_probes, select_probes, table_lines, write_probes
+
+    specs = [p.strip() for p in args.policies.split(",") if p.strip()]
+    policies = policy_labels(specs)
+    probes = select_probes(args.families)
+    table = run_probes(
+        policies,
+        probes,
+        args.episodes,
+        action_mode=args.action_mode,
+        batch_size=args.batch_size,
+        progress=False if args.no_progress else None,
+    )
+    planners = {label for label, spec in policies.items() if not is_checkpoint_spec(spec)}
+    command = f"vcs-env probe --policies {shlex.quote(args.policies)} --out {shlex.quote(str(args.out))}"
+    command += f" --episodes {args.episodes}" + (f" --families {args.families}" if args.families else "")
+    print("\n".join(table_lines(table, planners)))
+    files = write_probes(table, args.out, planners, command)
+    print(f"wrote {', '.join(str(f) for f in files)}")
+    return 0
+
+
 def _common_args(p) -> None:
     p.add_argument(
         "--suite",
@@ -131,3 +157,15 @@ def add_commands(sub) -> None:
     p.add_argument("--episode", type=int, default=0, help="index of the episode whose trajectories to plot")
     p.add_argument("--no-plots", action="store_true", help="skip the matplotlib plots")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser(
+        "probe", help="score policies beside the VCS expert off their training distribution (the probe table)"
+    )
+    p.add_argument("--policies", required=True, help="comma-separated planner names and/or checkpoint paths")
+    p.add_argument("--out", required=True, help="output directory for probes.md and probes.json")
+    p.add_argument("--families", default=None, help="comma-separated families to probe (default: all)")
+    p.add_argument("--episodes", type=int, default=100, help="episodes per probe (seeds from 5000)")
+    p.add_argument("--action-mode", choices=["delta", "absolute"], default="delta", help="as for compare")
+    p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_probe)

@@ -1,0 +1,178 @@
+"""The probe table: policies scored off their training distribution, beside the VCS expert.
+
+A probe is one change along one axis (robot count, start jitter, obstacle count, obstacle speed)
+from the suite of a family (:func:`agents.config.probe_scenario`: the suite's jitter, collision
+handling and limits, so only the named field changes), played on seeds no suite uses
+(:data:`PROBE_SEED_BASE` on). ``vcs-env probe`` scores every policy on the same episodes of every
+probe (:func:`agents.evaluate.compare`) and writes one table: success and collision rate per
+policy, and for each policy that is not a planner its gap to the expert where the expert succeeds
+in at least :data:`EXPERT_BAR` of the episodes (issue 13's generalisation bar: within
+:data:`MAX_GAP`).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from vcs_env.suites import Suite
+
+from .config import ScenarioConfig, probe_scenario
+
+PROBE_SEED_BASE = 5000
+"""First seed of every probe; the suites use seeds 1000..1099."""
+EXPERT_BAR = 0.95
+"""Probes where the expert's success is at least this count for the gap check."""
+MAX_GAP = 0.10
+"""Largest success gap to the expert a generalising policy may show on those probes."""
+
+
+@dataclass(frozen=True)
+class Probe:
+    """One off-distribution change from a family's suite."""
+
+    scenario: str
+    """Preset (family) name, e.g. ``circle``."""
+    axis: str
+    """What changes: ``robots``, ``jitter``, ``obstacles`` or ``obstacle speed``."""
+    changes: dict[str, Any] = field(default_factory=dict)
+    """:class:`~agents.config.ScenarioConfig` fields set, e.g. ``{"n_robots": 12}``."""
+
+    @property
+    def name(self) -> str:
+        parts = [f"{k}={'-'.join(map(str, v)) if isinstance(v, tuple) else v}" for k, v in self.changes.items()]
+        return f"{self.scenario}[{','.join(parts)}]"
+
+    def suite(self, n_episodes: int) -> Suite:
+        """The probe's episodes: ``n_episodes`` seeds from :data:`PROBE_SEED_BASE`."""
+        if isinstance(n_episodes, bool) or not isinstance(n_episodes, int) or n_episodes < 1:
+            raise ValueError(f"episodes per probe must be a positive integer, got {n_episodes!r}")
+        scenario = probe_scenario(ScenarioConfig(scenario=self.scenario, **self.changes))
+        seeds = range(PROBE_SEED_BASE, PROBE_SEED_BASE + n_episodes)
+        return Suite(f"probe:{self.name}", scenario, tuple(seeds), f"{self.axis} probe of the {self.scenario} suite")
+
+
+PROBES: tuple[Probe, ...] = (
+    Probe("circle", "jitter", {"jitter": 0.2}),
+    Probe("circle", "jitter", {"jitter": 0.3}),
+    Probe("circle", "jitter", {"jitter": 0.5}),
+    Probe("circle", "robots", {"n_robots": 4}),
+    Probe("circle", "robots", {"n_robots": 10}),
+    Probe("circle", "robots", {"n_robots": 12}),
+    Probe("swap", "robots", {"n_robots": 10}),
+    Probe("crossing", "robots", {"n_robots": 12}),
+    Probe("crowd", "obstacles", {"n_obstacles": 3}),
+    Probe("crowd", "obstacles", {"n_obstacles": 8}),
+    Probe("crowd", "obstacle speed", {"obstacle_speed": (1.0, 1.5)}),
+    Probe("dynamic", "robots", {"n_robots": 6}),
+    Probe("dynamic", "obstacle speed", {"obstacle_speed": (0.8, 1.2)}),
+)
+"""The probe table (issue 13): robot count, jitter, obstacle count and speed, per family."""
+
+
+def select_probes(families: str | None) -> tuple[Probe, ...]:
+    """The probes of the comma-separated families (all with None), with a clear error for a typo."""
+    if families is None:
+        return PROBES
+    wanted = [f.strip() for f in families.split(",") if f.strip()]
+    known = sorted({p.scenario for p in PROBES})
+    unknown = [f for f in wanted if f not in known]
+    if unknown or not wanted:
+        raise ValueError(f"unknown probe families {unknown or families!r}; probes exist for {known}")
+    return tuple(p for p in PROBES if p.scenario in wanted)
+
+
+def policy_labels(specs: list[str], expert: str = "vcs") -> dict[str, str]:
+    """``{label: spec}`` with the ``expert`` first: planners by name, a checkpoint by its run
+    directory (``policies/circle8/model.zip`` -> ``circle8``) or its file stem."""
+    from .policies import is_checkpoint_spec
+
+    out = {expert: expert}
+    for spec in specs:
+        if spec == expert:
+            continue
+        label = spec
+        if is_checkpoint_spec(spec):
+            path = Path(spec)
+            label = path.parent.name if path.stem in ("model", "best_model") and path.parent.name else path.stem
+        if label in out:
+            raise ValueError(f"two policies would be labelled {label!r} in the probe table: {out[label]}, {spec}")
+        out[label] = spec
+    return out
+
+
+def run_probes(policies: dict[str, str], probes: tuple[Probe, ...], n_episodes: int, **kwargs) -> dict:
+    """Score ``policies`` (``{label: spec}``, the expert first) on the same episodes of every probe.
+
+    Returns:
+        ``{"expert": label, "probes": [{"probe", "axis", "episodes", "policies": {label:
+        {"success", "collision"}}}]}`` (rates in [0, 1]).
+    """
+    from .evaluate import compare
+
+    rows = []
+    for probe in probes:
+        comp = compare(policies, probe.suite(n_episodes), **kwargs)
+        rates = {name: {m: comp.summaries[name][m]["mean"] for m in ("success", "collision")} for name in comp.results}
+        rows.append({"probe": probe.name, "axis": probe.axis, "episodes": n_episodes, "policies": rates})
+    return {"expert": next(iter(policies)), "probes": rows}
+
+
+def gaps(table: dict, planners: set[str]) -> dict[str, list[tuple[str, float]]]:
+    """Per learned policy (not in ``planners``): the probes where the expert reaches
+    :data:`EXPERT_BAR` and the policy's success is more than :data:`MAX_GAP` below it."""
+    out: dict[str, list[tuple[str, float]]] = {}
+    expert = table["expert"]
+    for row in table["probes"]:
+        ref = row["policies"][expert]["success"]
+        for name, r in row["policies"].items():
+            if name in planners:
+                continue
+            out.setdefault(name, [])
+            if ref >= EXPERT_BAR and ref - r["success"] > MAX_GAP:
+                out[name].append((row["probe"], ref - r["success"]))
+    return out
+
+
+def table_lines(table: dict, planners: set[str]) -> list[str]:
+    """The probe table as Markdown: success / collision per policy, one row per probe."""
+    names = list(table["probes"][0]["policies"])
+    lines = [
+        "| probe | axis | " + " | ".join(names) + " |",
+        "|---|---|" + "---|" * len(names),
+    ]
+    for row in table["probes"]:
+        cells = [f"{row['policies'][n]['success']:.2f} / {row['policies'][n]['collision']:.2f}" for n in names]
+        lines.append(f"| {row['probe']} | {row['axis']} | " + " | ".join(cells) + " |")
+    n_ep, points = table["probes"][0]["episodes"], f"{100 * MAX_GAP:.0f} points"
+    lines += [
+        "",
+        f"Success / collision over {n_ep} episodes per probe (seeds from {PROBE_SEED_BASE}). "
+        f"Learned policies against {table['expert']} on the probes where it reaches {EXPERT_BAR:.2f}:",
+    ]
+    for name, bad in gaps(table, planners).items():
+        worst = ", ".join(f"{p} (-{g:.2f})" for p, g in bad)
+        lines.append(
+            f"- {name}: " + (f"within {points} everywhere" if not bad else f"more than {points} below on {worst}")
+        )
+    return lines
+
+
+def write_probes(table: dict, out: str | Path, planners: set[str], command: str) -> list[Path]:
+    """Write ``probes.md`` (with the command, machine and date) and ``probes.json`` under ``out``."""
+    import datetime
+
+    from benchmarks.timing import machine_info
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    info = machine_info()
+    stamp = (
+        f"{datetime.date.today().isoformat()}, {info['cpu']}, {info['usable_cores']} cores, load {info['load_average']}"
+    )
+    md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), ""]
+    (out / "probes.md").write_text("\n".join(md))
+    (out / "probes.json").write_text(json.dumps({**table, "command": command, "date": stamp}, indent=1))
+    return [out / "probes.md", out / "probes.json"]

@@ -1,0 +1,68 @@
+"""The probe table (issue 13): each probe changes one field of its family's suite, runs on seeds
+no suite uses, and ``vcs-env probe`` scores policies on the same episodes as ``compare`` does."""
+
+import json
+
+import pytest
+
+import vcs_cli as cli
+from agents.config import family_suite
+from agents.evaluate import evaluate
+from agents.probes import PROBE_SEED_BASE, PROBES, Probe, gaps, policy_labels, select_probes
+from vcs_env.scenario import SCENARIOS
+from vcs_env.suites import SUITES
+
+
+def test_each_probe_changes_only_its_fields_and_uses_no_suite_seed():
+    used = {s for suite in SUITES.values() for s in suite.seeds}
+    for probe in PROBES:
+        suite = probe.suite(3)
+        assert not used & set(suite.seeds), probe.name
+        base = family_suite(SCENARIOS[probe.scenario].kind).scenario
+        changed = {
+            f
+            for f in ("n_robots", "n_obstacles", "jitter", "obstacle_speed")
+            if getattr(suite.scenario, f) != getattr(base, f)
+        }
+        assert changed == set(probe.changes), probe.name
+        assert suite.scenario.on_collision == "continue"
+
+
+def test_bad_probe_requests_are_named():
+    with pytest.raises(ValueError, match="unknown probe families \\['circel'\\]"):
+        select_probes("circle,circel")
+    with pytest.raises(ValueError, match="positive integer"):
+        PROBES[0].suite(0)
+    with pytest.raises(ValueError, match="labelled 'circle8'"):
+        policy_labels(["policies/circle8/model.zip", "other/circle8.zip"])
+    assert list(policy_labels(["hrvo", "policies/circle8/model.zip"])) == ["vcs", "hrvo", "circle8"]
+
+
+def test_gap_check_counts_only_probes_the_expert_solves():
+    def row(name, vcs, pol):
+        return {
+            "probe": name,
+            "policies": {"vcs": {"success": vcs}, "hrvo": {"success": 0.0}, "pol": {"success": pol}},
+        }  # noqa: E731
+
+    table = {"expert": "vcs", "probes": [row("a", 1.0, 0.95), row("b", 0.96, 0.80), row("c", 0.90, 0.10)]}
+    assert gaps(table, planners={"vcs", "hrvo"}) == {"pol": [("b", pytest.approx(0.16))]}
+
+
+def test_cli_probe_matches_evaluate_on_the_same_episodes(tmp_path, capsys):
+    out = tmp_path / "probe"
+    args = ["probe", "--policies", "vcs,straight", "--families", "swap", "--episodes", "2", "--out", str(out)]
+    assert cli.main([*args, "--no-progress"]) == 0
+    table = json.loads((out / "probes.json").read_text())
+    swap = [p for p in PROBES if p.scenario == "swap"]
+    assert [r["probe"] for r in table["probes"]] == [p.name for p in swap]
+    for probe, row in zip(swap, table["probes"]):
+        for name in ("vcs", "straight"):
+            res = evaluate(name, probe.suite(2), progress=False)
+            assert row["policies"][name]["success"] == res.summary["success"]["mean"]
+            assert row["policies"][name]["collision"] == res.summary["collision"]["mean"]
+    md = (out / "probes.md").read_text()
+    assert "vcs-env probe --policies vcs,straight" in md and f"seeds from {PROBE_SEED_BASE}" in md
+    assert cli.main(["probe", "--policies", "vcs", "--families", "nope", "--out", str(out)]) == 2
+    assert "unknown probe families" in capsys.readouterr().err
+    assert isinstance(Probe("circle", "jitter", {"jitter": 0.2}).name, str)
