@@ -83,6 +83,20 @@ def play(
     return labels.dataset()
 
 
+def play_mixture(scenarios: Sequence, seeds: Sequence[int], **kwargs) -> dict[str, np.ndarray]:
+    """:func:`play` over a mixture: episode ``j`` plays ``scenarios[j % len(scenarios)]`` with
+    ``seeds[j]`` (as :func:`agents.evaluate.score_scenarios` scores them); the datasets of the
+    scenarios follow each other. ``kwargs`` as :func:`play`."""
+    seeds = [int(s) for s in seeds]
+    parts = [
+        play(sc, seeds[g :: len(scenarios)], **kwargs) for g, sc in enumerate(scenarios) if seeds[g :: len(scenarios)]
+    ]
+    out = parts[0]
+    for part in parts[1:]:
+        out = concat_datasets(out, part)
+    return out
+
+
 class ExpertLabels(Hook):
     """A :class:`vcs_env.rollout.Hook` that records every acting robot-step of :func:`play`: the
     observation, the expert's action for it (``current`` before the step), the reward, and per

@@ -44,8 +44,9 @@ from .config import (
     config_command,
     config_from_args,
     config_from_dict,
+    mixture_scenarios,
 )
-from .expert_data import DATASET_FORMAT, concat_datasets, discounted_returns, load_dataset, play, save_dataset
+from .expert_data import DATASET_FORMAT, concat_datasets, discounted_returns, load_dataset, play_mixture, save_dataset
 
 
 # ----------------------------------------------------------------------------- data
@@ -63,6 +64,14 @@ class CollectConfig(ScenarioConfig):
     """Expert planner name."""
     out: str = "data/expert.npz"
     """Dataset path (.npz)."""
+    mixture: tuple[str, ...] = ()
+    """Collect on a mixture instead of one scenario (the entries of train's --mixture): episode j
+    plays grid point j % S; vcs-env bc then clones on it and plays its DAgger rounds on it."""
+
+
+def scenarios_of(cfg: ScenarioConfig, mixture: tuple[str, ...] = ()) -> list:
+    """The scenario of a config, or every scenario of its mixture (:func:`agents.config.mixture_scenarios`)."""
+    return mixture_scenarios(cfg, tuple(mixture)) if mixture else [build_scenario(cfg)]
 
 
 def collect(cfg: CollectConfig) -> Path:
@@ -73,11 +82,13 @@ def collect(cfg: CollectConfig) -> Path:
 
     if cfg.episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
-    scenario = build_scenario(cfg)
-    print_suite_differences(scenario, "collecting on")
+    scenarios = scenarios_of(cfg, cfg.mixture)
+    scenario = scenarios[0]
+    for s in {s.kind: s for s in scenarios}.values():  # one note per family
+        print_suite_differences(s, "collecting on")
     seeds = list(range(cfg.seed, cfg.seed + cfg.episodes))
     t0 = time.time()
-    data = play(scenario, seeds, n_worlds=cfg.n_worlds, expert=cfg.planner)
+    data = play_mixture(scenarios, seeds, n_worlds=cfg.n_worlds, expert=cfg.planner)
     meta = {
         "format": DATASET_FORMAT,
         "config": dataclasses.asdict(cfg),
@@ -230,8 +241,8 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     torch.set_num_threads(1)
     from stable_baselines3 import PPO
 
-    from .checkpoint import save_model
-    from .evaluate import score_seeds
+    from .checkpoint import save_model, scenario_family
+    from .evaluate import score_scenarios
     from .policies import predictor_controller
     from .train import PolicyConfig, policy_kwargs, scalar_results
     from .vec_env import NavVecEnv
@@ -240,7 +251,8 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     data, meta = load_dataset(cfg.data)
     scen_cfg = config_from_dict(ScenarioConfig, meta["config"])
     scen_cfg = dataclasses.replace(scen_cfg, shaping="none", shaping_weight=None)
-    scenario = build_scenario(scen_cfg)
+    scenarios = scenarios_of(scen_cfg, meta["config"].get("mixture", ()))
+    scenario = scenarios[0]
     if meta.get("observation_dim") != data["observations"].shape[1]:
         raise ValueError(f"dataset {cfg.data!r}: observation_dim in meta does not match the arrays")
     from vcs_env.observations import observation_config
@@ -284,7 +296,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     def closed_loop(tag: str) -> dict[str, float] | None:
         if not eval_seeds:
             return None
-        res = scalar_results(score_seeds(predictor_controller(policy), scenario, eval_seeds))
+        res = scalar_results(score_scenarios(predictor_controller(policy), scenarios, eval_seeds))
         print(
             f"[{tag}] closed loop on {len(eval_seeds)} episodes: success {res['episode_success']:.2f} "
             f"(robots {res['robot_success']:.3f}) collision {res['episode_collision']:.2f} "
@@ -308,7 +320,8 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     for k in range(cfg.dagger_iters):
         beta = cfg.dagger_beta * 0.5**k
         seeds = range(cfg.dagger_seed + k * cfg.dagger_episodes, cfg.dagger_seed + (k + 1) * cfg.dagger_episodes)
-        new = play(scenario, seeds, actor=lambda o: policy.predict(o, deterministic=True)[0], beta=beta, rng=rng)
+        actor = lambda o: policy.predict(o, deterministic=True)[0]  # noqa: E731
+        new = play_mixture(scenarios, seeds, actor=actor, beta=beta, rng=rng)
         dagger_steps += len(new["actions"])
         new_ret = discounted_returns(new["rewards"], new["traj_start"], cfg.gamma)
         data = concat_datasets(data, new)
@@ -333,6 +346,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
         "bc",
         cfg,
         scenario,
+        scenario_family(scenarios),
         dataset=str(cfg.data),
         dataset_meta={k: meta[k] for k in ("config", "planner", "executed") if k in meta},
         report=report,

@@ -179,3 +179,31 @@ def test_reproduction_command_of_a_toy_mixture_run_gives_the_same_metrics(tmp_pa
     metrics = {k: v for k, v in meta["evaluation"].items() if k not in timing}
     assert metrics["return"] != 0.0 and metrics["episodes"] == 3  # the return depends on every weight
     assert {k: v for k, v in second.items() if k not in timing} == metrics
+
+
+def test_collect_and_dagger_on_a_mixture_play_every_scenario(tmp_path, capsys):
+    """``vcs-env collect --mixture`` labels episodes of every grid point (episode j plays point
+    j % S), and ``vcs-env bc`` clones on them, plays its DAgger rounds on the same mixture and
+    saves the mixture's family."""
+    pytest.importorskip("stable_baselines3")
+    from agents.checkpoint import read_metadata
+    from agents.expert_data import load_dataset
+
+    data_path = tmp_path / "mix.npz"
+    args = ["collect", "--mixture", "circle:n_robots=2-3", "crowd:n_obstacles=2", "--max-steps", "30"]
+    assert cli.main([*args, "--episodes", "6", "--seed", "3", "--out", str(data_path)]) == 0
+    data, meta = load_dataset(data_path)
+    robots_per_seed = {}
+    for seed, robot in zip(data["traj_seed"], data["traj_robot"]):
+        robots_per_seed.setdefault(int(seed), set()).add(int(robot))
+    # seeds 3..8 -> points circle n=2, circle n=3, crowd (1 robot), circle n=2, circle n=3, crowd
+    assert {s: len(r) for s, r in robots_per_seed.items()} == {3: 2, 4: 3, 5: 1, 6: 2, 7: 3, 8: 1}
+    assert meta["config"]["mixture"] == ["circle:n_robots=2-3", "crowd:n_obstacles=2"]
+    out = tmp_path / "bc"
+    args = ["bc", "--data", str(data_path), "--epochs", "1", "--net-arch", "16", "--dagger-iters", "1"]
+    assert cli.main([*args, "--dagger-episodes", "3", "--eval-episodes", "3", "--out", str(out)]) == 0
+    meta = read_metadata(out / "model.zip")
+    assert meta["scenario_family"] == ["circle", "crowd"]
+    assert meta["report"]["dagger_env_steps"] > 0
+    assert meta["report"]["rows"] + meta["report"]["held_out_rows"] == len(data["actions"])
+    capsys.readouterr()
