@@ -145,7 +145,8 @@ def suite_differences(scenario) -> tuple[str | None, list[str]]:
     for name in _DIFF_FIELDS:
         ours, theirs = getattr(scenario, name), getattr(suite.scenario, name)
         if ours != theirs:
-            out.append(f"{name}: {ours} (suite: {theirs})")
+            show = lambda v: round(v, 6) if isinstance(v, float) else v  # noqa: E731 (7.199999999999999 -> 7.2)
+            out.append(f"{name}: {show(ours)} (suite: {show(theirs)})")
     return suite.name, out
 
 
