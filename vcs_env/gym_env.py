@@ -257,12 +257,9 @@ class VcsNavVectorEnv(VectorEnv):
             terms[name] = np.where(stepped, value[:, 0], 0.0)
             terms[f"_{name}"] = stepped
         collided_with = np.full(self.num_envs, None, dtype=object)
-        for b in np.flatnonzero(stepped):
-            hits = []
-            if ev.collided[b, 0]:
-                hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, 0])]
-                hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, 0])]
-            collided_with[b] = hits
+        collided = ev.collided[:, 0].tolist()
+        for b in np.flatnonzero(stepped).tolist():
+            collided_with[b] = res.collided_with(0, b) if collided[b] else []
         return {
             "reward_terms": terms,
             "_reward_terms": stepped,
