@@ -169,11 +169,12 @@ class VCSPlanner(Planner):
         """Targets ``(B, n, 2)`` of every robot, or only of ``robots`` ``(n,)`` bool (the others'
         rows keep their speed and heading, and their ``last`` entries are those of a robot
         that is done; the robots planned get the same targets either way)."""
-        planned = np.ones(world.n_robots, dtype=bool) if robots is None else np.asarray(robots, dtype=bool)
-        if planned.shape != (world.n_robots,):
-            raise ValueError(f"robots must be a bool mask of shape ({world.n_robots},), got shape {planned.shape}")
+        if robots is not None:
+            robots = np.asarray(robots, dtype=bool)
+            if robots.shape != (world.n_robots,):
+                raise ValueError(f"robots must be a bool mask of shape ({world.n_robots},), got shape {robots.shape}")
         key = (
-            planned.tobytes(),
+            None if robots is None else robots.tobytes(),
             world.key.tobytes(),
             world.steps.tobytes(),
             world.pos.tobytes(),
@@ -198,7 +199,7 @@ class VCSPlanner(Planner):
             np.zeros((B, n), dtype=np.int64),
             np.zeros((B, n, 2)),
         )
-        planned = np.broadcast_to(planned, (B, n)).copy()
+        planned = np.ones((B, n), dtype=bool) if robots is None else np.repeat(robots[None], B, axis=0)
         kernel.plan_batch(*self._kernel_inputs(world, own, comm, detour, planned), out)
         out_target = out.target
         # Residual of the target after this period's saturated command (for J_h next period).
