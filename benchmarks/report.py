@@ -215,6 +215,8 @@ def _render_gym_vector(rows: list[dict]) -> list[str]:
         "",
         "Learner steps (one per env and step) per CPU second, random learner actions; the other robots of each "
         "world follow `others` (the VCS planner, the default, or `straight`, which leaves the env's own cost). "
+        f"Each measurement times the same {env_bench.EPISODE_STEPS} steps (one episode length, same seeds and "
+        "actions) in both modes. "
         "Both modes plan the same robots in the same kernel, so with `vcs` the ratio is bounded by "
         "(sync's Python per env + planning per world) / (planning per world).",
         "",

@@ -46,6 +46,12 @@ class Sizes:
     """Envs (worlds) of the ``gym.make_vec`` comparison."""
     gym_vector_others: tuple[str, ...] = ("vcs", "straight")
     """Planners driving the non-learning robots in the ``gym.make_vec`` comparison."""
+    gym_vector_budget: Budget = field(
+        default_factory=lambda: Budget(warmup=2, min_time=0.0, min_calls=env_bench.EPISODE_STEPS, repeats=3)
+    )
+    """Both modes step the same worlds with the same actions, so a fixed number of calls (one
+    episode length) makes them time the same steps: a time budget would time sync on the first
+    steps of the episodes only (every robot still driving) and the vector env on later ones."""
     planner_robots: tuple[int, ...] = (4, 8, 16, 32, 64)
     """Robot counts of the circle and constant-density planner sets."""
     planner_batches: tuple[int, ...] = (1, 16)
@@ -78,6 +84,7 @@ def quick_sizes() -> Sizes:
         env_batches=(1, 4),
         env_budget=tiny,
         gym_vector_envs=2,
+        gym_vector_budget=tiny,
         planner_robots=(4, 8),
         planner_batches=(1, 4),
         snapshots=2,
@@ -125,7 +132,7 @@ def gym_vector_section(sz: Sizes) -> list[dict]:
     n, B = sz.gym_vector_robots, sz.gym_vector_envs
     for others in sz.gym_vector_others:
         _log(f"gym.make_vec n={n} B={B} others={others}: vector_entry_point vs sync")
-        res = side_by_side(env_bench.gym_vector_builders(n, B, others), sz.env_budget)
+        res = side_by_side(env_bench.gym_vector_builders(n, B, others), sz.gym_vector_budget)
         rows.append({"n": n, "B": B, "others": others, "results": _results(res)})
     return rows
 
@@ -387,6 +394,7 @@ def run(
         "repeats": sorted({sz.env_budget.repeats, sz.planner_budget.repeats, sz.train.repeats}),
         "budgets": {
             "env": asdict(sz.env_budget),
+            "gym_vector": asdict(sz.gym_vector_budget),
             "planner": asdict(sz.planner_budget),
             "scaling": asdict(sz.scaling_budget),
         },
