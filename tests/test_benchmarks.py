@@ -39,7 +39,7 @@ def quick(tmp_path_factory):
 
 
 def _contestants(data):
-    for e in data["env"]["single"] + data["env"]["batched"] + data["env"]["gym_vector"]:
+    for e in data["env"]["single"] + data["env"]["batched"] + data["gym_vector"]:
         yield from e["results"].items()
     for key in ("circle", "neighbours", "density"):
         for e in data["planner"][key]:
@@ -87,7 +87,7 @@ def test_ours_measured_peers_measured_or_missing(quick):
 
 def test_gym_vector_rows_and_issue14_targets(quick):
     out, data = quick
-    assert [e["others"] for e in data["env"]["gym_vector"]] == ["vcs", "straight"]
+    assert [e["others"] for e in data["gym_vector"]] == ["vcs", "straight"]
     assert "### Gymnasium vector API" in out.read_text()
     assert any("issue 14" in t["target"] and "MPE" in t["target"] for t in data["targets"])
     assert sum("make_vec" in t["target"] for t in data["targets"]) == 2
@@ -104,7 +104,7 @@ def test_merge_keeps_the_sections_not_run(quick, tmp_path):
     new = json.loads(merged.with_suffix(".json").read_text())
     assert new["planner"] == data["planner"] and new["env"] == data["env"]  # kept as they were
     run_of = {"date": data["meta"]["date"], "commit": data["meta"]["commit"]}
-    assert new["kept"] == {k: run_of for k in ("env", "planner", "training", "scaling")}
+    assert new["kept"] == {k: run_of for k in ("env", "gym_vector", "planner", "training", "scaling")}
     assert "Kept from earlier runs" in merged.read_text() and "## 2. Planner" in merged.read_text()
     # A second merge keeps each section's own provenance.
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)

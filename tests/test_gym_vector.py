@@ -45,6 +45,7 @@ def assert_same(a, b, path="info"):
         ("vcs_env/Dynamic-v1", {}),
         ("vcs_env/Crowd-v1", {"expert": "vcs", "on_collision": "continue"}),
         ("vcs_env/Circle-v1", {"n_robots": 1, "n_obstacles": 0}),
+        ("vcs_env/Navigation-v1", {"scenario": "corridor", "action_mode": "absolute", "on_collision": "continue"}),
     ],
 )
 def test_vector_entry_point_equals_sync_bit_for_bit(env_id, kw):
@@ -53,7 +54,7 @@ def test_vector_entry_point_equals_sync_bit_for_bit(env_id, kw):
     assert fast.observation_space == slow.observation_space and fast.action_space == slow.action_space
     assert_same(fast.reset(seed=7), slow.reset(seed=7), "reset")
     rng = np.random.default_rng(0)
-    ends = 0
+    ends = walls = 0
     for t in range(120):
         actions = rng.uniform(-1.2, 1.2, (3, 2)).astype(np.float32)
         a, b = fast.step(actions), slow.step(actions)
@@ -61,10 +62,12 @@ def test_vector_entry_point_equals_sync_bit_for_bit(env_id, kw):
             assert_same(x, y, f"step {t} {name}")
         assert fast.observation_space.contains(a[0])
         ends += int((a[2] | a[3]).sum())
+        walls += sum(name.startswith("wall_") for hits in a[4].get("collided_with", []) if hits for name in hits)
         if t == 60:  # reset a subset, mid-episode
             mask = np.array([True, False, True])
             assert_same(fast.reset(options={"reset_mask": mask}), slow.reset(options={"reset_mask": mask.copy()}))
     assert ends >= 3  # autoresets were exercised
+    assert walls > 0 or kw.get("scenario") != "corridor"  # wall contacts were named
 
 
 def test_one_engine_call_steps_every_world(monkeypatch):

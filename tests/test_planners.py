@@ -208,6 +208,26 @@ def test_batched_equals_one_by_one(method):
         np.testing.assert_array_equal(x.heading, y.heading)
 
 
+@pytest.mark.parametrize("method", ["vcs", "straight"])
+def test_plan_for_a_subset_gives_the_subsets_plans(method):
+    """Planning only robots 1.. (what the Gymnasium env's `others` needs) gives them the targets of
+    the full plan at every step, planner memory included, while robot_0 drives at random."""
+    eng = NavEngine(vcs_env.make_scenario("dynamic", n_robots=4, on_collision="continue"), 3)
+    eng.reset([0, 1, 2])
+    full, some = make_planner(method), make_planner(method)
+    others = np.array([False, True, True, True])
+    rng = np.random.default_rng(0)
+    for _ in range(60):
+        a = full.act(eng.world)
+        np.testing.assert_array_equal(some.act(eng.world, robots=others)[:, 1:], a[:, 1:])
+        a[:, 0] = rng.uniform(-1.0, 1.0, (3, 2))
+        eng.step(a)
+    if method == "vcs":  # robot_0 was not planned: it has no window, as a robot that is done
+        assert np.all(some.last["k"][:, 0] == 0) and np.any(full.last["k"][:, 0] > 0)
+        with pytest.raises(ValueError, match="robots must be a bool mask of shape"):
+            some.plan(eng.world, robots=np.ones(3, dtype=bool))
+
+
 # ------------------------------------------------------------------ ORCA through pyrvo
 def test_orca_swap_head_on():
     """Two robots swapping head-on pass each other without contact and both arrive."""

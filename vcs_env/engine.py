@@ -45,6 +45,14 @@ class StepResult:
         ``min_separation`` [m] and, with an expert, ``expert_action``."""
         return self.infos((i,), b)[0]
 
+    def collided_with(self, i: int, b: int = 0) -> list[str]:
+        """Names of what robot ``i`` of world ``b`` touched this step: ``robot_j``, then
+        ``obstacle_k``, then ``wall_k``."""
+        ev = self.events
+        hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, i])]
+        hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, i])]
+        return hits + [f"wall_{k}" for k in np.flatnonzero(ev.wall_hits[b, i])]
+
     def infos(self, robots: Sequence[int], b: int = 0) -> list[dict]:
         """:meth:`info` of each robot in ``robots`` of world ``b`` (one array-to-list conversion
         per field, not per robot)."""
@@ -53,15 +61,10 @@ class StepResult:
         reached, collided, sep = ev.reached[b].tolist(), ev.collided[b].tolist(), ev.min_separation[b].tolist()
         out = []
         for i in robots:
-            hits = []
-            if collided[i]:
-                hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, i])]
-                hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, i])]
-                hits += [f"wall_{k}" for k in np.flatnonzero(ev.wall_hits[b, i])]
             info = {
                 "reward_terms": {name: v[i] for name, v in terms.items()},
                 "reached_goal": reached[i],
-                "collided_with": hits,
+                "collided_with": self.collided_with(i, b) if collided[i] else [],
                 "min_separation": sep[i],
             }
             if self.expert_action is not None:

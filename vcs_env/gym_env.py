@@ -73,6 +73,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma)
         n = self.scenario.n_robots
         self.others = make_planner(others) if n > 1 else None
+        self._others_mask = np.arange(n) > 0  # robots the `others` planner drives (not robot_0)
         self.render_mode = render_mode
         self.observation_space = observation_space(self.scenario)
         self.action_space = action_space()
@@ -106,7 +107,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
             raise ValueError(f"action must be finite, got {arr}")
         world = self.engine.world
         if self.others is not None:
-            actions = self.others.act(world, self.engine.action_mode).astype(np.float64)
+            actions = self.others.act(world, self.engine.action_mode, self._others_mask).astype(np.float64)
         else:
             actions = np.zeros((1, 1, 2))
         actions[0, 0] = arr
@@ -163,6 +164,7 @@ class VcsNavVectorEnv(VectorEnv):
         self.scenario = make_scenario(scenario, **scenario_overrides)
         self.engine = NavEngine(self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma)
         self.others = make_planner(others) if self.scenario.n_robots > 1 else None
+        self._others_mask = np.arange(self.scenario.n_robots) > 0  # robots `others` drives (not robot_0)
         self.single_observation_space = observation_space(self.scenario)
         self.single_action_space = action_space()
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -227,7 +229,7 @@ class VcsNavVectorEnv(VectorEnv):
             raise ValueError(f"actions must be finite, got {arr[~np.isfinite(arr)][:4]}")
         eng = self.engine
         if self.others is not None:
-            batch = self.others.act(eng.world, eng.action_mode).astype(np.float64)
+            batch = self.others.act(eng.world, eng.action_mode, self._others_mask).astype(np.float64)
         else:
             batch = np.zeros((self.num_envs, 1, 2))
         batch[:, 0] = arr
@@ -255,12 +257,9 @@ class VcsNavVectorEnv(VectorEnv):
             terms[name] = np.where(stepped, value[:, 0], 0.0)
             terms[f"_{name}"] = stepped
         collided_with = np.full(self.num_envs, None, dtype=object)
-        for b in np.flatnonzero(stepped):
-            hits = []
-            if ev.collided[b, 0]:
-                hits = [f"robot_{j}" for j in np.flatnonzero(ev.robot_hits[b, 0])]
-                hits += [f"obstacle_{k}" for k in np.flatnonzero(ev.obstacle_hits[b, 0])]
-            collided_with[b] = hits
+        collided = ev.collided[:, 0].tolist()
+        for b in np.flatnonzero(stepped).tolist():
+            collided_with[b] = res.collided_with(0, b) if collided[b] else []
         return {
             "reward_terms": terms,
             "_reward_terms": stepped,

@@ -44,9 +44,18 @@ class Planner:
         """Targets ``(B, n, 2)`` = (speed [m/s], heading [rad]) for every robot."""
         raise NotImplementedError
 
-    def act(self, world: WorldState, action_mode: str = "delta") -> np.ndarray:
-        """Actions ``(B, n, 2)`` for the env, from :meth:`plan`."""
-        return target_to_action(world, self.plan(world), action_mode)
+    def plan_for(self, world: WorldState, robots: np.ndarray) -> np.ndarray:
+        """Targets ``(B, n, 2)`` as :meth:`plan` gives them, of which the caller reads only the
+        rows of ``robots`` ``(n,)`` bool (e.g. not the learner's); a planner may skip the other
+        robots (their rows are then unspecified). The plans of the robots read are those of
+        :meth:`plan`. The default plans every robot."""
+        return self.plan(world)
+
+    def act(self, world: WorldState, action_mode: str = "delta", robots: np.ndarray | None = None) -> np.ndarray:
+        """Actions ``(B, n, 2)`` for the env, from :meth:`plan`, or from :meth:`plan_for` when
+        only the actions of ``robots`` ``(n,)`` bool are needed."""
+        targets = self.plan(world) if robots is None else self.plan_for(world, robots)
+        return target_to_action(world, targets, action_mode)
 
     def potential(self, world: WorldState) -> np.ndarray:
         """Optional state value estimate ``(B, n)`` used by potential-based shaping."""

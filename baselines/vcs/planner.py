@@ -150,8 +150,9 @@ class VCSPlanner(Planner):
         mem.wait_out = np.where(mark, 0.0, wait)
         return own, pref, detour
 
-    def _kernel_inputs(self, world: WorldState, own, comm, detour) -> tuple:
-        """The world, preferred velocities and memory, and the setting, as the kernels' records."""
+    def _kernel_inputs(self, world: WorldState, own, comm, detour, planned) -> tuple:
+        """The world, preferred velocities, memory and the robots to plan ``(B, n)`` bool, and the
+        setting, as the kernels' records."""
         mem = self._mem
         r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
         return (
@@ -159,13 +160,21 @@ class VCSPlanner(Planner):
                 world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
                 world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
             ),
-            kernel.Inputs(own, comm, detour, mem.prev_in, mem.has_prev_in),
+            kernel.Inputs(own, comm, detour, mem.prev_in, mem.has_prev_in, planned),
             kernel.Setting(self._prm, float(r_ca), float(world.dt), bool(world.holonomic)),
         )  # fmt: skip
 
     # -------------------------------------------------------------------- plan
-    def plan(self, world: WorldState) -> np.ndarray:
+    def plan(self, world: WorldState, robots: np.ndarray | None = None) -> np.ndarray:
+        """Targets ``(B, n, 2)`` of every robot, or only of ``robots`` ``(n,)`` bool (the others'
+        rows keep their speed and heading, and their ``last`` entries are those of a robot
+        that is done; the robots planned get the same targets either way)."""
+        if robots is not None:
+            robots = np.asarray(robots, dtype=bool)
+            if robots.shape != (world.n_robots,):
+                raise ValueError(f"robots must be a bool mask of shape ({world.n_robots},), got shape {robots.shape}")
         key = (
+            None if robots is None else robots.tobytes(),
             world.key.tobytes(),
             world.steps.tobytes(),
             world.pos.tobytes(),
@@ -190,7 +199,8 @@ class VCSPlanner(Planner):
             np.zeros((B, n), dtype=np.int64),
             np.zeros((B, n, 2)),
         )
-        kernel.plan_batch(*self._kernel_inputs(world, own, comm, detour), out)
+        planned = np.ones((B, n), dtype=bool) if robots is None else np.repeat(robots[None], B, axis=0)
+        kernel.plan_batch(*self._kernel_inputs(world, own, comm, detour, planned), out)
         out_target = out.target
         # Residual of the target after this period's saturated command (for J_h next period).
         dv, dth = out_target[..., 0], out_target[..., 1]
@@ -201,7 +211,7 @@ class VCSPlanner(Planner):
             dv1, dth1 = world.a_max * world.dt, world.omega_max * world.dt
             cmd_dv, cmd_dth = np.clip(dv, -dv1, dv1), np.clip(dth, -dth1, dth1)
             mem.prev_out = np.stack((dv - cmd_dv, wrap_angle(dth - cmd_dth)), axis=-1)
-        mem.has_prev_out = world.active.copy()
+        mem.has_prev_out = world.active & planned
         target = hold_inactive(world, np.stack((world.speed + dv, wrap_angle(world.heading + dth)), axis=-1))
         cap = sum(self.params.weights) + 1.0
         self.last = {
@@ -217,6 +227,10 @@ class VCSPlanner(Planner):
         }
         self._cache_key, self._cache_target = key, target
         return target.copy()
+
+    def plan_for(self, world: WorldState, robots: np.ndarray) -> np.ndarray:
+        """:meth:`plan` of ``robots`` ``(n,)`` bool only: the others are not planned."""
+        return self.plan(world, robots)
 
     def potential(self, world: WorldState) -> np.ndarray:
         """Minus the expert's optimal cost J of the state ``(B, n)``, in
@@ -246,5 +260,8 @@ class VCSPlanner(Planner):
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
         cost = np.zeros(dv.shape[0])
         horizon = np.zeros(2 * world.n_robots + world.n_obstacles)
-        kernel.evaluate_points(b, i, *self._kernel_inputs(world, own, comm, detour), dv, dth, ok, cost, horizon)
+        planned = np.ones((world.batch_size, world.n_robots), dtype=bool)
+        kernel.evaluate_points(
+            b, i, *self._kernel_inputs(world, own, comm, detour, planned), dv, dth, ok, cost, horizon
+        )
         return ok, cost, horizon

@@ -168,9 +168,11 @@ World = namedtuple(
 )
 """The world arrays the kernel reads (:class:`~vcs_env.state.WorldState` fields)."""
 
-Inputs = namedtuple("Inputs", "vpref pref_comm detour prev has_prev")
+Inputs = namedtuple("Inputs", "vpref pref_comm detour prev has_prev plan")
 """Per-robot planner inputs ``(B, n, ...)``: own preferred velocity [m/s], communicated
-preferred velocity [m/s], detour flag, last period's residual target and whether it is set."""
+preferred velocity [m/s], detour flag, last period's residual target and whether it is set,
+and whether to plan the robot (an unplanned robot is still sensed as it is; its outputs are
+those of an inactive robot)."""
 
 Setting = namedtuple("Setting", "prm r_ca dt holo")
 """Parameter record ``(1,)``, sensing radius [m], period [s], holonomic robots."""

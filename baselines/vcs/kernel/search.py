@@ -228,15 +228,16 @@ def plan_robot(b, i, world, inputs, st, p, wk, g):
 
 @njit(cache=True)
 def plan_batch(world, inputs, st, out):
-    """Plan every active robot of every world into ``out`` (:data:`~.records.Outputs`, arrays
-    ``(B, n, ...)``, see :func:`plan_robot`); inactive robots get zeros and t* = inf."""
+    """Plan every active robot of every world that ``inputs.plan`` selects into ``out``
+    (:data:`~.records.Outputs`, arrays ``(B, n, ...)``, see :func:`plan_robot`); the other robots
+    get zeros and t* = inf."""
     B, n = world.pos.shape[0], world.pos.shape[1]
     p = st.prm[0]
     wk = work(n, world.obs_pos.shape[1], p)
     g = grid_work(p)
     for b in range(B):
         for i in range(n):
-            if not world.active[b, i]:
+            if not (world.active[b, i] and inputs.plan[b, i]):
                 out.target[b, i, 0] = 0.0
                 out.target[b, i, 1] = 0.0
                 out.cost[b, i] = 0.0
