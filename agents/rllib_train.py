@@ -104,6 +104,7 @@ def ppo_config(cfg: RLlibConfig):
     from ray.tune.registry import register_env
 
     from .rllib_env import make_env
+    from .rllib_learner import SB3PPOLearner
 
     scenario = build_scenario(cfg)
     register_env("vcs_nav_rllib", make_env)
@@ -151,6 +152,7 @@ def ppo_config(cfg: RLlibConfig):
             num_epochs=cfg.n_epochs,
             use_kl_loss=False,
             vf_clip_param=float("inf"),
+            learner_class=SB3PPOLearner,
         )
         .debugging(seed=cfg.seed, log_level="ERROR")
     )
