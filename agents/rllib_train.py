@@ -132,7 +132,7 @@ def ppo_config(cfg: RLlibConfig):
             rollout_fragment_length="auto",
             gym_env_vectorize_mode="sync",
         )
-        .learners(num_learners=0)
+        .learners(num_learners=0, learner_class=SB3PPOLearner)
         .multi_agent(
             policies={MODULE_ID},
             policy_mapping_fn=lambda agent_id, episode, **kw: MODULE_ID,
@@ -152,7 +152,6 @@ def ppo_config(cfg: RLlibConfig):
             num_epochs=cfg.n_epochs,
             use_kl_loss=False,
             vf_clip_param=float("inf"),
-            learner_class=SB3PPOLearner,
         )
         .debugging(seed=cfg.seed, log_level="ERROR")
     )
