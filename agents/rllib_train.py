@@ -69,11 +69,13 @@ class RLlibConfig(TrainConfig):
     None: start a local Ray instance for this run."""
     out: str = "runs/rllib"
     """Run directory (config.json, eval.jsonl, checkpoint/)."""
-    env_adapter: str = "batched"
-    """Env adapter for --backend rllib: batched (n_worlds worlds in one numpy call per runner,
-    restarting together) or pettingzoo (RLlib's ParallelPettingZooEnv over vcs_env.parallel_env,
-    n_worlds of them per runner, each restarting on its own as in the SB3 path). batched trains
-    1.2x faster (benchmarks/RESULTS.md); both learn circle-8 from scratch (results/rllib-circle8)."""
+    env_adapter: str = "pettingzoo"
+    """Env adapter for --backend rllib: pettingzoo (RLlib's ParallelPettingZooEnv over
+    vcs_env.parallel_env, n_worlds of them per runner, each restarting on its own as in the SB3
+    path) or batched (n_worlds worlds in one numpy call per runner, restarting together). batched
+    samples 1.2x faster (benchmarks/RESULTS.md) but learns later and less steadily: its finished
+    worlds wait for the slowest one, so a few slow worlds fill the train batch. On circle-8 from
+    scratch pettingzoo learns like SB3, batched gets there by 1 M steps (results/rllib-circle8)."""
 
 
 RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not in TrainConfig.__dataclass_fields__)

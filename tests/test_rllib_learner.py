@@ -55,7 +55,15 @@ def test_first_epoch_minibatches_are_shuffled_and_a_toy_run_repeats(monkeypatch)
     monkeypatch.setattr(rllib_learner.SB3PPOLearner, "_make_batch_if_necessary", new_update)
     monkeypatch.setattr(rllib_learner.SB3PPOLearner, "compute_loss_for_module", recording)
     cfg = RLlibConfig(
-        scenario="circle", n_robots=4, n_worlds=2, n_steps=32, batch_size=64, n_epochs=2, seed=3, num_env_runners=0
+        scenario="circle",
+        n_robots=4,
+        n_worlds=2,
+        n_steps=32,
+        batch_size=64,
+        n_epochs=2,
+        seed=3,
+        num_env_runners=0,
+        env_adapter="batched",
     )
     ray = init_ray(cfg)
     weights = []
