@@ -8,12 +8,15 @@ and value networks, state-independent log std starting at ``log_std_init``, as S
 ``num_env_runners`` env runners each own ``n_worlds`` worlds (:mod:`agents.rllib_env`); one PPO
 update per ``n_steps * n_worlds * n_robots`` robot slot steps (whatever the number of runners),
 in minibatches of ``batch_size`` for ``n_epochs`` epochs, with SB3's loss (no KL penalty, no
-value clipping). ``timesteps`` counts slot steps as SB3 does: a
+value clipping) and SB3's update (:mod:`agents.rllib_learner`: the batch shuffled before every
+epoch, the first included, advantages normalized per minibatch, Adam eps 1e-5; RLlib's own
+learner took the first epoch's minibatches in episode order, and from scratch on circle-8 about
+half its runs learned to stand still). ``timesteps`` counts slot steps as SB3 does: a
 robot that finished early still fills its slot until its world ends (SB3 feeds it padding, RLlib
-skips it), so a budget buys the same number of world steps on both backends. Runs are seeded but
-not repeatable bit for bit yet: two runs of the batched adapter with one runner gave the same
-weights on a quiet machine (3 times) and different ones under heavy load (2 times); pettingzoo
-runs differed (cause not found: something in RLlib's sampling loop is not a function of the seed).
+skips it), so a budget buys the same number of world steps on both backends. Runs are seeded: a
+toy run sampling in the driver (``num_env_runners=0``) repeats bit for bit
+(tests/test_rllib_learner.py), and so did one with one env runner on a quiet machine; under heavy
+load, runs with env runners have diverged (RLlib's sampling loop, cause not found).
 
 A run directory holds::
 
@@ -66,12 +69,13 @@ class RLlibConfig(TrainConfig):
     None: start a local Ray instance for this run."""
     out: str = "runs/rllib"
     """Run directory (config.json, eval.jsonl, checkpoint/)."""
-    env_adapter: str = "batched"
-    """Env adapter for --backend rllib: batched (n_worlds worlds in one numpy call per runner,
-    restarting together) or pettingzoo (RLlib's ParallelPettingZooEnv over vcs_env.parallel_env,
-    n_worlds of them per runner, each restarting on its own as in the SB3 path). batched trains
-    1.2x faster (benchmarks/RESULTS.md); from scratch on circle-8 either learned to stand still in
-    about half the runs (policies/README.md)."""
+    env_adapter: str = "pettingzoo"
+    """Env adapter for --backend rllib: pettingzoo (RLlib's ParallelPettingZooEnv over
+    vcs_env.parallel_env, n_worlds of them per runner, each restarting on its own as in the SB3
+    path) or batched (n_worlds worlds in one numpy call per runner, restarting together). batched
+    samples 1.2x faster (benchmarks/RESULTS.md) but learns later and less steadily: its finished
+    worlds wait for the slowest one, so a few slow worlds fill the train batch. On circle-8 from
+    scratch pettingzoo learns like SB3, batched gets there by 1 M steps (results/rllib-circle8)."""
 
 
 RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not in TrainConfig.__dataclass_fields__)
@@ -104,6 +108,7 @@ def ppo_config(cfg: RLlibConfig):
     from ray.tune.registry import register_env
 
     from .rllib_env import make_env
+    from .rllib_learner import SB3PPOLearner
 
     scenario = build_scenario(cfg)
     register_env("vcs_nav_rllib", make_env)
@@ -131,7 +136,7 @@ def ppo_config(cfg: RLlibConfig):
             rollout_fragment_length="auto",
             gym_env_vectorize_mode="sync",
         )
-        .learners(num_learners=0)
+        .learners(num_learners=0, learner_class=SB3PPOLearner)
         .multi_agent(
             policies={MODULE_ID},
             policy_mapping_fn=lambda agent_id, episode, **kw: MODULE_ID,
@@ -171,7 +176,8 @@ def set_log_std(algo, value: float) -> None:
     """Start the free log std of the shared module at ``value`` (RLlib starts it at 0), then copy
     the module to every env runner. The weights keep RLlib's (torch's) initialization: SB3's
     orthogonal one (gains sqrt(2), 0.01 on the action mean, 1 on the value) made 2 of 2 seeds on
-    circle-8 learn to stand still, against 1 of 3 with RLlib's (batched adapter, policies/README.md)."""
+    circle-8 learn to stand still, against 1 of 3 with RLlib's (batched adapter, RLlib's own learner
+    before :mod:`agents.rllib_learner`; policies/README.md)."""
     import torch
 
     with torch.no_grad():
