@@ -8,7 +8,7 @@ from numba import njit
 
 from .cost import goal_term
 from .neighbours import collision_time
-from .records import INF, K_RECIPROCAL, T_FLOOR, TINY
+from .records import INF, K_STATIC, T_FLOOR, TINY
 from .scalar import reach_steps
 from .window import candidate
 
@@ -33,7 +33,7 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
     ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
     half-plane's violation [m/s], weighted kappa / dt), and a candidate whose first step closes
     faster than now on something it would hit within T_max (or already touches), by speeding up
-    or by turning toward it, is refused (inf): braking and turning away remain, and keeping the
+    or, for a static body, by turning toward it, is refused (inf): braking and turning away remain, and keeping the
     current velocity always does (vcs-method §2.13)."""
     tmin = INF
     viol = 0.0
@@ -49,12 +49,12 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
             if tc < tmin:
                 tmin = tc
         if least_harm and (nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax):
-            # The first step toward the candidate must not close faster on the threat than now,
-            # by speeding up or by turning toward it.
+            # The first step toward the candidate must not close faster on the threat than now:
+            # by speeding up, or (a static body) by turning toward it.
             ux = nb.px / max(nb.d, TINY)
             uy = nb.py / max(nb.d, TINY)
             closing = (v1x - nb.vjx) * ux + (v1y - nb.vjy) * uy > TINY
-            if (dv > TINY or (closing and nb.kind != K_RECIPROCAL)) and (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
+            if (dv > TINY or (closing and nb.kind == K_STATIC)) and (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
                 return INF  # closes faster on a threat
     if least_harm:
         return kappa / max(tmin, T_FLOOR) + kappa / r.dt * viol + goal_term(r, dv, dth, vx, vy)
