@@ -109,8 +109,9 @@ class VCSParams:
     horizon grows where a crowd closes the nearby escapes (False: each object alone)."""
     crowd_margin: bool = True
     """The margin of a moving obstacle is T_m per *contesting* mover (a non-reactive mover
-    closing on the robot that can reach it within T_max), capped at T_max: a lone mover keeps
-    the un-conservative T_m, a crowd is watched further ahead (False: T_m for each)."""
+    closing on the robot that can reach it within T_max), and its horizon T_need + that margin
+    is not capped at T_max: a lone mover keeps the un-conservative T_m, a crowd is watched
+    further ahead, towards the classic VO (False: T_m for each, capped)."""
     ramp_check: bool = True
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
     objects (False: only its end velocity is judged, the ablation)."""

@@ -212,7 +212,10 @@ class VCSPlanner(Planner):
             cmd_dv, cmd_dth = np.clip(dv, -dv1, dv1), np.clip(dth, -dth1, dth1)
             mem.prev_out = np.stack((dv - cmd_dv, wrap_angle(dth - cmd_dth)), axis=-1)
         mem.has_prev_out = world.active & planned
-        target = hold_inactive(world, np.stack((world.speed + dv, wrap_angle(world.heading + dth)), axis=-1))
+        # The heading target is this period's turn (|cmd_dth| < pi), not the planned point: a
+        # planned half turn dth = -pi wraps to +pi, and the shortest-way turn toward it would
+        # go the other way round from the one the plan checked (vcs-method §2.15).
+        target = hold_inactive(world, np.stack((world.speed + dv, wrap_angle(world.heading + cmd_dth)), axis=-1))
         cap = sum(self.params.weights) + 1.0
         self.last = {
             "target": out_target,

@@ -8,7 +8,7 @@ from numba import njit
 
 from .cost import goal_term
 from .neighbours import collision_time
-from .records import INF, T_FLOOR, TINY
+from .records import INF, K_STATIC, T_FLOOR, TINY
 from .scalar import reach_steps
 from .window import candidate
 
@@ -31,10 +31,10 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
     """Cost of a candidate when nothing is admissible (vcs-method §2.13). The RVO-style penalty
     ``kappa / t_c + J_g`` (t_c: the least time to collision over the neighbours), and with
     ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
-    half-plane's violation [m/s], weighted kappa / dt), and a candidate that speeds up while it
-    closes faster than now on something it would hit within T_max (or already touches) is
-    refused (inf): braking and turning away remain, and keeping the current velocity always
-    does (vcs-method §2.13)."""
+    half-plane's violation [m/s], weighted kappa / dt), and a candidate whose first step closes
+    faster than now on something it would hit within T_max (or already touches), by speeding up
+    or, for a static body, by turning toward it, is refused (inf): braking and turning away remain, and keeping the
+    current velocity always does (vcs-method §2.13)."""
     tmin = INF
     viol = 0.0
     v1x, v1y = first_step(r, dv, dth, vx, vy)
@@ -48,12 +48,14 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
             tc = collision_time(nb, vx, vy)
             if tc < tmin:
                 tmin = tc
-        if least_harm and dv > TINY and (nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax):
-            # The first step toward the candidate must not close faster on the threat than now.
+        if least_harm and (nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax):
+            # The first step toward the candidate must not close faster on the threat than now:
+            # by speeding up, or (a static body) by turning toward it.
             ux = nb.px / max(nb.d, TINY)
             uy = nb.py / max(nb.d, TINY)
-            if (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
-                return INF  # speeds up toward a threat
+            closing = (v1x - nb.vjx) * ux + (v1y - nb.vjy) * uy > TINY
+            if (dv > TINY or (closing and nb.kind == K_STATIC)) and (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
+                return INF  # closes faster on a threat
     if least_harm:
         return kappa / max(tmin, T_FLOOR) + kappa / r.dt * viol + goal_term(r, dv, dth, vx, vy)
     return kappa / max(tmin, T_FLOOR) + goal_term(r, dv, dth, vx, vy)

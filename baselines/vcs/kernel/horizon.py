@@ -175,7 +175,7 @@ def need_holonomic(wk, npend, nblk, r, nv, nth, tmax):
 def contesting_movers(nbs, count, r, tmax):
     """Non-reactive movers closing on the robot (at its current velocity) that can reach it
     within T_max. Each can close the escape from another, so the margin of every mover is T_m
-    per contesting mover (capped at T_max): a lone mover keeps the un-conservative T_m, a crowd
+    per contesting mover (not capped at T_max): a lone mover keeps the un-conservative T_m, a crowd
     is watched further ahead (vcs-method §2.7)."""
     n_contest = 0
     for q in range(count):
@@ -191,7 +191,8 @@ def contesting_movers(nbs, count, r, tmax):
 
 @njit(cache=True)
 def horizon_of(nb, need, p, v_r, dt, n_contest):
-    """T_h = min(T_max, T_need + T_m) of one record, T_m by kind (vcs-method §2.7)."""
+    """T_h = min(T_max, T_need + T_m) of one record, T_m by kind (vcs-method §2.7); a
+    non-reactive mover under the crowd margin gets T_need + T_m n_contest, uncapped."""
     if p.horizon >= 0.0:  # classic VO (inf) or a fixed horizon
         return p.horizon
     tmax = p.t_max
@@ -199,7 +200,9 @@ def horizon_of(nb, need, p, v_r, dt, n_contest):
     if nb.mover:
         margin = p.t_margin_robots
     elif nb.kind == K_MOVER:
-        margin = min(tmax, p.t_margin * max(1, n_contest)) if p.crowd_margin else p.t_margin
+        if p.crowd_margin:  # T_m per contesting mover, not capped at T_max (vcs-method §2.7)
+            return t_need + p.t_margin * max(1, n_contest)
+        margin = p.t_margin
     else:
         margin = p.t_margin
     if nb.stopk > 0.0:  # static: the margin covers the robot's own stopping time v_R / a_max
