@@ -10,6 +10,7 @@ from numba import njit
 from .neighbours import forbidden
 from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY
 from .scalar import reach_steps, tau, tau_within, wrap
+from .walls import wall_gap, wall_tau
 
 
 @njit(cache=True)
@@ -119,12 +120,17 @@ def safety_term(nbs, js, nj, tau_s, vx, vy):
     out = 0.0
     for q in range(nj):
         nb = nbs[js[q]]
-        sc = nb.jscale
-        wx = sc * (vx - nb.jax)
-        wy = sc * (vy - nb.jay)
-        if not tau_within(nb.px, nb.py, wx, wy, nb.reff, nb.th + tau_s):
-            continue  # beyond the band: contributes 0
-        tc = tau(nb.px, nb.py, wx, wy, nb.reff)
+        if nb.wall:
+            tc = wall_tau(nb, vx, vy, nb.reff)
+            if not tc <= nb.th + tau_s:
+                continue
+        else:
+            sc = nb.jscale
+            wx = sc * (vx - nb.jax)
+            wy = sc * (vy - nb.jay)
+            if not tau_within(nb.px, nb.py, wx, wy, nb.reff, nb.th + tau_s):
+                continue  # beyond the band: contributes 0
+            tc = tau(nb.px, nb.py, wx, wy, nb.reff)
         val = min(max(1.0 - (tc - nb.th) / tau_s, 0.0), 1.0)
         if val > out:
             out = val
@@ -180,9 +186,13 @@ def ramp_clear(nbs, count, r, dv, dth):
             nb = nbs[q]
             if nb.kind == K_RECIPROCAL or nb.overlap:
                 continue
+            clear = min(nb.r0 + r.ramp_gap, nb.d)
+            if nb.wall:
+                if wall_gap(nb, px, py) < clear:
+                    return False
+                continue
             gx = nb.px + nb.vjx * t - px
             gy = nb.py + nb.vjy * t - py
-            clear = min(nb.r0 + r.ramp_gap, nb.d)
             if gx * gx + gy * gy < clear * clear:
                 return False
     return True

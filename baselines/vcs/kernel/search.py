@@ -232,7 +232,7 @@ def plan_batch(world, inputs, st, out):
     ``(B, n, ...)``, see :func:`plan_robot`); inactive robots get zeros and t* = inf."""
     B, n = world.pos.shape[0], world.pos.shape[1]
     p = st.prm[0]
-    wk = work(n, world.obs_pos.shape[1], p)
+    wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
     g = grid_work(p)
     for b in range(B):
         for i in range(n):
@@ -262,11 +262,11 @@ def evaluate_points(b, i, world, inputs, st, cand_dv, cand_dth, out_ok, out_cost
     """Admissibility and cost of arbitrary VCS points ``(cand_dv, cand_dth)`` for robot i of world
     b (tests, plots). ``out_horizon`` receives the horizon T_h [s] of each sensed object (robots
     first, then obstacles, in index order, then the static twins of arriving robots by robot
-    index; inf when not sensed)."""
+    index, then walls by segment index; inf when not sensed)."""
     n = world.pos.shape[1]
     m = world.obs_pos.shape[1]
     p = st.prm[0]
-    wk = work(n, m, p)
+    wk = work(n, m, world.seg_present.shape[1], p)
     count = prepare_robot(b, i, world, inputs, st, p, wk)
     r = wk.robot[0]
     nbs = wk.nbs
