@@ -26,6 +26,9 @@ ARRIVING_SLACK = 1e-6
 """Relative slack of "preferred speed below v_max" that marks a robot as arriving."""
 STATIC_SPEED = 1e-6
 """Below this speed [m/s] a non-reactive object counts as static."""
+WALL_COST = 1e6
+"""Extra fallback cost of a candidate inside a wall's truncated velocity obstacle: walls do not
+answer, so among inadmissible candidates those that keep off the walls come first."""
 SQRT_HALF = 0.7071067811865476
 """1 / sqrt(2): normalises a distance over the unit square of (dv / v_max, dtheta / pi)."""
 
