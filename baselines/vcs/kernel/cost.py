@@ -8,7 +8,7 @@ import math
 from numba import njit
 
 from .neighbours import forbidden
-from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY
+from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY, WALL_RAMP_GAP
 from .scalar import reach_steps, tau, tau_within, wrap
 from .walls import wall_gap, wall_tau
 
@@ -168,6 +168,8 @@ def ramp_clear(nbs, count, r, dv, dth):
     delta_min / 2, or no smaller than now if the robot is already closer."""
     if not r.ramp:
         return True
+    if r.walls:
+        dth = wrap(dth)  # a turn of -pi is made as +pi, as the dynamics do (vcs-method §2.18)
     steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
     if steps <= 1:
         return True  # reached within the step: the velocity obstacles judge it
@@ -187,8 +189,8 @@ def ramp_clear(nbs, count, r, dv, dth):
             if nb.kind == K_RECIPROCAL or nb.overlap:
                 continue
             clear = min(nb.r0 + r.ramp_gap, nb.d)
-            if nb.wall:
-                if wall_gap(nb, px, py) < clear:
+            if nb.wall:  # a wall does not move: its gap only has to stay open (vcs-method §2.18)
+                if wall_gap(nb, px, py) < min(nb.r0 + WALL_RAMP_GAP, nb.d):
                     return False
                 continue
             gx = nb.px + nb.vjx * t - px

@@ -29,6 +29,9 @@ STATIC_SPEED = 1e-6
 WALL_COST = 1e6
 """Extra fallback cost of a candidate inside a wall's truncated velocity obstacle: walls do not
 answer, so among inadmissible candidates those that keep off the walls come first."""
+WALL_RAMP_GAP = 0.005
+"""Gap [m] a ramp keeps from a wall (vcs-method §2.18): a wall never comes closer, so a robot
+stopped a buffer delta_min from it may turn away while it starts moving."""
 SQRT_HALF = 0.7071067811865476
 """1 / sqrt(2): normalises a distance over the unit square of (dv / v_max, dtheta / pi)."""
 
@@ -216,6 +219,7 @@ ROBOT = np.dtype(
         ("holo", "?"),  # holonomic robot
         ("goal_vcs", "?"),  # goal term measured in the VCS
         ("ramp", "?"),  # check admissibility along the way (vcs-method §2.15)
+        ("walls", "?"),  # senses a wall (vcs-method §2.18)
     ],
     align=True,
 )

@@ -15,6 +15,7 @@ from .horizon import set_horizons
 from .neighbours import setup_neighbours, work
 from .records import INF, K_STATIC, SQRT_HALF, STEP_SLACK, Grid
 from .scalar import reach_steps, steps_for, wrap
+from .walls import senses_wall
 from .window import candidate, goal_step, threats, window
 
 
@@ -36,6 +37,10 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     ``wk.order``. Returns the number of records."""
     robot_context(b, i, world, inputs, p, st.dt, st.holo, wk.robot)
     count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk)
+    r = wk.robot[0]
+    r.walls = senses_wall(wk.nbs, count)
+    if r.walls and inputs.detour[b, i] and r.v_r < r.dv1:
+        r.goal_vcs = True  # a robot stalled by a wall turns in place toward its goal (vcs-method §2.18)
     set_horizons(wk, count, wk.robot[0], p)
     return count
 

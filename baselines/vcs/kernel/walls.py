@@ -87,3 +87,12 @@ def wall_within(nb, wx, wy, horizon):
     (finite times only, as :func:`~.scalar.tau_within`)?"""
     t = wall_tau(nb, wx, wy, nb.reff)
     return t < INF and t <= horizon
+
+
+@njit(cache=True)
+def senses_wall(nbs, count):
+    """Is any of the first ``count`` records a wall?"""
+    for q in range(count):
+        if nbs[q].wall:
+            return True
+    return False
