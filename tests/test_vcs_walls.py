@@ -94,3 +94,32 @@ def test_walls_hidden_from_the_kernel_collide():
     blind = run_episodes(suite.scenario, planner_controller(WallBlindVCS()), seeds)
     assert _wall_contacts(seen) == 0
     assert _wall_contacts(blind) >= 2
+
+
+def test_plot_masks_of_walls_agree_with_the_kernel():
+    """The numpy reference of the picture (``object_forbidden_masks``) forbids what the kernel
+    refuses, for a robot alone among walls (ramp check on)."""
+    from baselines.vcs import geometry as G
+    from baselines.vcs.plot import object_forbidden_masks
+
+    rng = np.random.default_rng(5)
+    planner = VCSPlanner()
+    walls = [((-1.0, 0.6), (1.5, 0.6)), ((0.8, -2.0), (0.8, 0.2)), ((-1.5, -0.8), (-0.2, -1.4))]
+    s = _custom([(-6.0, 6.0)], [(6.0, 6.0)], walls, [0.3])
+    world = Simulator(s).reset(0)
+    agree = refused = 0
+    for _trial in range(6):
+        world.pos[0, 0] = rng.uniform(-0.5, 0.3, 2)
+        world.heading[0, 0] = rng.uniform(-np.pi, np.pi)
+        world.speed[0, 0] = rng.uniform(0.0, 0.8)
+        planner = VCSPlanner()
+        dv = rng.uniform(-world.speed[0, 0], 1.0 - world.speed[0, 0], 400)
+        dth = rng.uniform(-3.1, 3.1, 400)
+        ok, _cost, horizon = planner.evaluate(world, 0, 0, dv, dth)
+        vel = G.vcs_to_velocity(dv, dth, world.speed[0, 0], world.heading[0, 0])
+        masks = object_forbidden_masks(world, planner, 0, 0, vel, horizon)
+        assert set(masks) <= {2 + k for k in range(3)}
+        forbidden = np.any([m for m in masks.values()], axis=0)
+        agree += int((forbidden == ~ok).sum())
+        refused += int((~ok).sum())
+    assert agree >= 0.995 * 6 * 400 and refused > 100
