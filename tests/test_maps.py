@@ -162,3 +162,53 @@ def test_renderers_draw_the_walls():
     mid = renderer._px(np.array([0.0, -2.0])).astype(int)
     assert tuple(frame[mid[1], mid[0]]) == WALL_COLOR  # the wall x = 0 below the door
     assert "walls=6" in ansi(w)
+
+
+def test_nearest_wall_points_block_is_optional_and_matches_a_scalar_twin():
+    import dataclasses
+
+    from vcs_env.observations import (
+        EGO_DIM,
+        NEIGHBOR_DIM,
+        SENSE_REF,
+        observation_bounds,
+        observation_config,
+        observation_dim,
+        observe,
+        reference_observe,
+    )
+
+    base = make_scenario("room", n_robots=4)
+    assert base.n_wall_points == 0 and "n_wall_points" not in observation_config(base)
+    assert observation_dim(base) == EGO_DIM + base.n_neighbors * NEIGHBOR_DIM  # the default is unchanged
+    k = 40  # more than the room has segments: no tie at the cut
+    s = dataclasses.replace(base, n_wall_points=k)
+    world = Simulator(s, batch_size=2).reset(3)
+    world.heading[:] = np.random.default_rng(0).uniform(-np.pi, np.pi, world.heading.shape)
+    obs = observe(world, s)
+    np.testing.assert_array_equal(obs, reference_observe(world, s))
+    low, high = observation_bounds(s)
+    assert obs.shape[-1] == observation_dim(s) == low.shape[0] and (obs >= low).all() and (obs <= high).all()
+    np.testing.assert_array_equal(obs[..., : observation_dim(base)], observe(world, base))
+    block = obs[..., observation_dim(base) :].reshape(2, 4, k, 3)
+    for b in range(2):
+        for i in range(4):
+            p, th = world.pos[b, i], world.heading[b, i]
+            near = []
+            for a, e, ok in zip(world.seg_a[b], world.seg_b[b], world.seg_present[b]):
+                t = min(max(float((p - a) @ (e - a) / ((e - a) @ (e - a))), 0.0), 1.0)
+                q = a + t * (e - a) - p
+                if ok and np.hypot(*q) <= world.r_ca:
+                    near.append(
+                        (np.hypot(*q), q[0] * np.cos(th) + q[1] * np.sin(th), -q[0] * np.sin(th) + q[1] * np.cos(th))
+                    )
+            near.sort()
+            want = np.zeros((k, 3))
+            for j, (_, x, y) in enumerate(near[:k]):
+                want[j] = (1.0, np.clip(x / SENSE_REF, -1, 1), np.clip(y / SENSE_REF, -1, 1))
+            # nearest first; points at equal distance (symmetric corners) may come in either order
+            np.testing.assert_allclose(np.sort(block[b, i], axis=0), np.sort(want, axis=0), atol=1e-6)
+            gaps = [d for d, _, _ in near[:k]]
+            got = np.hypot(block[b, i, :, 1], block[b, i, :, 2])[: len(gaps)] * SENSE_REF
+            np.testing.assert_allclose(got, gaps, atol=1e-5)
+            assert block[b, i, :, 0].sum() == min(k, len(near)) >= 4  # the room's walls are in range

@@ -45,7 +45,10 @@ positions and gaps by ``r_ca`` (scales that moved with n, layout and arena) and 
 features 8-10 (``EGO_DIM`` was 8).
 
 With ``scenario.lidar`` (off by default) the lidar ranges follow, ``range / max_range`` in
-``[0, 1]``, one per beam (:mod:`vcs_env.lidar`).
+``[0, 1]``, one per beam (:mod:`vcs_env.lidar`). With ``scenario.n_wall_points = k`` (0, off, by
+default) k slots of the nearest points on walls follow, nearest first
+(:func:`vcs_env.walls.nearest_wall_points`), each ``(valid, x / SENSE_REF, y / SENSE_REF)``: the
+point in the robot frame in metres over 10 m, clipped to ``[-1, 1]``, 0 in empty slots.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ import numpy as np
 from . import kernels, lidar
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
+from .walls import nearest_wall_points
 
 OBSERVATION_VERSION = 1
 """Version of the observation layout and scales (module docstring); bumped with the env versions."""
@@ -68,6 +72,8 @@ GOAL_REF = 20.0
 """Goal distance that reads 1 [m]; farther goals read 1 too (the bearing still points at them)."""
 SENSE_REF = 10.0
 """Scale of relative positions, gaps and the sensing radius [m]."""
+WALL_POINT_DIM = 3
+"""Features per nearest-wall-point slot (valid, x, y)."""
 DT_REF = 1.0
 """Largest allowed step [s] (``Scenario.dt`` is in (0, 1])."""
 
@@ -75,28 +81,36 @@ DT_REF = 1.0
 def observation_dim(scenario: Scenario) -> int:
     """Length D of one robot's observation."""
     lidar = scenario.lidar.n_beams if scenario.lidar is not None else 0
-    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM + lidar
+    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM + lidar + scenario.n_wall_points * WALL_POINT_DIM
 
 
 def observation_config(scenario: Scenario) -> dict:
     """Everything that fixes the meaning of an observation vector of ``scenario``: version,
     block sizes and scales. Two scenarios with equal configs give comparable observations, so a
     policy trained on one may be run on the other (checked by :mod:`agents.checkpoint`)."""
-    return {
-        "version": OBSERVATION_VERSION,
-        "ego_dim": EGO_DIM,
-        "n_neighbors": scenario.n_neighbors,
-        "neighbor_dim": NEIGHBOR_DIM,
-        "scales": {
-            "goal_ref": GOAL_REF,
-            "sense_ref": SENSE_REF,
-            "dt_ref": DT_REF,
-            "v_ref": V_REF,
-            "a_ref": A_REF,
-            "omega_ref": OMEGA_REF,
-            "r_ref": R_REF,
-        },
-    } | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
+    return (
+        {
+            "version": OBSERVATION_VERSION,
+            "ego_dim": EGO_DIM,
+            "n_neighbors": scenario.n_neighbors,
+            "neighbor_dim": NEIGHBOR_DIM,
+            "scales": {
+                "goal_ref": GOAL_REF,
+                "sense_ref": SENSE_REF,
+                "dt_ref": DT_REF,
+                "v_ref": V_REF,
+                "a_ref": A_REF,
+                "omega_ref": OMEGA_REF,
+                "r_ref": R_REF,
+            },
+        }
+        | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
+        | (
+            {"n_wall_points": scenario.n_wall_points, "wall_point_dim": WALL_POINT_DIM}
+            if scenario.n_wall_points
+            else {}
+        )
+    )
 
 
 def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
@@ -108,7 +122,9 @@ def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     for off in (0, 5, 7):
         low[slots + off] = 0.0
     if scenario.lidar is not None:
-        low[-scenario.lidar.n_beams :] = 0.0
+        low[EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM :][: scenario.lidar.n_beams] = 0.0
+    if scenario.n_wall_points:
+        low[dim - scenario.n_wall_points * WALL_POINT_DIM :: WALL_POINT_DIM] = 0.0  # the valid flags
     return low, np.ones(dim, dtype=np.float32)
 
 
@@ -174,8 +190,22 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
         world.r_goal, world.dt, scenario.n_neighbors, EGO_DIM, GOAL_REF, SENSE_REF, DT_REF, V_REF, A_REF,
         OMEGA_REF, R_REF,
     )  # fmt: skip
+    return _optional_blocks(obs, world, scenario)
+
+
+def wall_points_block(world: WorldState, k: int) -> np.ndarray:
+    """The nearest-wall-points block ``(B, n, k * WALL_POINT_DIM)`` float32 (module docstring)."""
+    points, valid = nearest_wall_points(world, k)
+    block = np.concatenate((valid[..., None], np.clip(points / SENSE_REF, -1.0, 1.0)), axis=-1)
+    return block.reshape(world.batch_size, world.n_robots, -1).astype(np.float32)
+
+
+def _optional_blocks(obs: np.ndarray, world: WorldState, scenario: Scenario) -> np.ndarray:
+    """``obs`` followed by the optional blocks the scenario turns on: lidar, then wall points."""
     if scenario.lidar is not None:
         obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
+    if scenario.n_wall_points:
+        obs = np.concatenate((obs, wall_points_block(world, scenario.n_wall_points)), axis=-1)
     return obs
 
 
@@ -210,9 +240,7 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     nb[..., 7] = feats[..., 6]
     # Far objects, long gaps, large r_ca or r_goal and rounding (an object exactly at r_ca) are clipped into the space.
     obs = np.clip(out, -1.0, 1.0).astype(np.float32)
-    if scenario.lidar is not None:
-        obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
-    return obs
+    return _optional_blocks(obs, world, scenario)
 
 
 def state_vector(world: WorldState) -> np.ndarray:

@@ -281,6 +281,9 @@ class Scenario:
     """Explicit layout, required by and only allowed with ``kind="custom"``."""
     lidar: LidarSpec | None = None
     """Optional lidar beams appended to every robot's observation (:mod:`vcs_env.lidar`); None: off."""
+    n_wall_points: int = 0
+    """Optional block of the ``n_wall_points`` nearest points on walls appended to every robot's
+    observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
 
     def __post_init__(self) -> None:
         _check_choice("kind", self.kind, list(_kinds()))
@@ -317,6 +320,7 @@ class Scenario:
         _check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)
         _check_int("n_walls", self.n_walls, 0, 256)
         _check_interval("wall_length", self.wall_length, 0.01, 1e3)
+        _check_int("n_wall_points", self.n_wall_points, 0, 64)
         if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
             raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         _kinds()[self.kind].check_layout(self)

@@ -73,7 +73,7 @@ from .scenario import RobotSpec, Scenario
 LATER_FIELDS = {
     f.name: f.default
     for f in dataclasses.fields(Scenario)
-    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar")
+    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar", "n_wall_points")
 }
 """Scenario fields (with their defaults) added after the first suites were pinned: the maps and lidar."""
 SMOKE_SEEDS = 3

@@ -102,3 +102,31 @@ def clearance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
         return np.full(points.shape[:-1], np.inf)
     d = point_segment_distance(points[..., None, :], segments[:, 0], segments[:, 1])
     return d.min(axis=-1)
+
+
+def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` nearest points on wall segments of every robot, in its frame: ``points`` ``(B, n,
+    k, 2)`` [m] (x ahead, y to the left) and ``valid`` ``(B, n, k)`` bool, nearest first; one
+    point per present segment (its point nearest the robot) whose distance is within ``r_ca``;
+    empty slots are 0 and not valid."""
+    B, n = world.batch_size, world.n_robots
+    points, valid = np.zeros((B, n, k, 2)), np.zeros((B, n, k), dtype=bool)
+    if world.n_segments == 0 or k == 0:
+        return points, valid
+    a, b = world.seg_a[:, None], world.seg_b[:, None]  # (B, 1, s, 2)
+    p = world.pos[:, :, None]  # (B, n, 1, 2)
+    u = b - a
+    len2 = np.maximum(np.einsum("...i,...i->...", u, u), 1e-300)
+    t = np.clip(np.einsum("...i,...i->...", p - a, u) / len2, 0.0, 1.0)
+    rel = a + t[..., None] * u - p  # (B, n, s, 2) nearest point minus the robot [m]
+    dist = np.sqrt(np.einsum("...i,...i->...", rel, rel))
+    dist = np.where(world.seg_present[:, None] & (dist <= world.r_ca), dist, np.inf)
+    order = np.argsort(dist, axis=-1, kind="stable")[..., :k]
+    kk = order.shape[-1]
+    sel = np.take_along_axis(rel, order[..., None], axis=2)
+    c, s = np.cos(world.heading)[..., None], np.sin(world.heading)[..., None]
+    points[:, :, :kk, 0] = c * sel[..., 0] + s * sel[..., 1]
+    points[:, :, :kk, 1] = -s * sel[..., 0] + c * sel[..., 1]
+    valid[:, :, :kk] = np.isfinite(np.take_along_axis(dist, order, axis=-1))
+    points[~valid] = 0.0
+    return points, valid

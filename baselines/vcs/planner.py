@@ -9,6 +9,7 @@ import numpy as np
 from vcs_env import noise
 from vcs_env.geometry import rotate, wrap_angle
 from vcs_env.planning import Planner
+from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
 from ..common import hold_inactive, preferred_velocity
@@ -125,6 +126,8 @@ class VCSPlanner(Planner):
         own = pref.copy()
         B, n = world.batch_size, world.n_robots
         d_goal = np.linalg.norm(world.goal - world.pos, axis=-1)
+        if world.n_segments:
+            d_goal = route_direction(world)[1]  # the remaining route length around walls [m]
         if n > 1 and p.perturbation > 0:
             # Symmetry breaking (vcs-method §2.5): a small random push, from the world's counter-based noise.
             psi = 2.0 * np.pi * noise.uniform(world.key, world.steps, n, stream=1)
@@ -159,6 +162,7 @@ class VCSPlanner(Planner):
             kernel.World(
                 world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
                 world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
+                world.seg_a, world.seg_b, world.seg_present,
             ),
             kernel.Inputs(own, comm, detour, mem.prev_in, mem.has_prev_in, planned),
             kernel.Setting(self._prm, float(r_ca), float(world.dt), bool(world.holonomic)),
@@ -253,8 +257,8 @@ class VCSPlanner(Planner):
         state (same inputs as :meth:`plan`); for tests and plots.
 
         Returns:
-            ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (2 n + m,) [s] per sensed object:
-            robots, obstacles, then the static twin of each arriving robot (inf: not sensed).
+            ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (2 n + m + s,) [s] per sensed object:
+            robots, obstacles, the static twin of each arriving robot, then wall segments (inf: not sensed).
         """
         self.plan(world)  # memory and inputs of this state
         own, comm, detour = self._inputs(world)
@@ -262,7 +266,7 @@ class VCSPlanner(Planner):
         dth = np.ascontiguousarray(dth, dtype=np.float64).ravel()
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
         cost = np.zeros(dv.shape[0])
-        horizon = np.zeros(2 * world.n_robots + world.n_obstacles)
+        horizon = np.zeros(2 * world.n_robots + world.n_obstacles + world.n_segments)
         planned = np.ones((world.batch_size, world.n_robots), dtype=bool)
         kernel.evaluate_points(
             b, i, *self._kernel_inputs(world, own, comm, detour, planned), dv, dth, ok, cost, horizon

@@ -13,10 +13,13 @@ import math
 
 import numpy as np
 
+from vcs_env.geometry import point_segment_distance
 from vcs_env.state import WorldState
 
+from ..capsule import reference_capsule_tau
 from ..common import preferred_velocity
 from . import geometry as G
+from .kernel.records import WALL_RAMP_GAP
 from .planner import VCSPlanner
 
 
@@ -37,10 +40,11 @@ def object_forbidden_masks(
         planner: supplies the parameters (size regulation, reciprocity).
         b, i: world and robot.
         vel: candidate velocities ``(k, 2)`` [m/s].
-        horizon: the horizon T_h of each object ``(2 n + m,)`` [s] (``VCSPlanner.evaluate``).
+        horizon: the horizon T_h of each object ``(2 n + m + s,)`` [s] (``VCSPlanner.evaluate``).
 
     Returns:
-        ``{object index: (k,) bool}``: robots (index j), obstacles (n + k), twins (n + m + j).
+        ``{object index: (k,) bool}``: robots (index j), obstacles (n + k), twins (n + m + j),
+        walls (2 n + m + k: the capsule's velocity obstacle, vcs-method §2.18).
     """
     p = planner.params
     n, m = world.n_robots, world.n_obstacles
@@ -99,6 +103,27 @@ def object_forbidden_masks(
             gap = np.linalg.norm(rel + ramp_t[:, None] * v_j - ramp, axis=-1)
             mask |= (on_ramp & (gap < min(r0 + 0.5 * p.delta_min, d))).any(axis=1)
         out[idx] = mask
+    r = world.radius[b, i]
+    for k in np.flatnonzero(world.seg_present[b]):  # walls (vcs-method §2.18)
+        a, e = world.seg_a[b, k] - world.pos[b, i], world.seg_b[b, k] - world.pos[b, i]
+        near = a + np.clip(-(a @ (e - a)) / ((e - a) @ (e - a)), 0.0, 1.0) * (e - a)
+        d = float(np.linalg.norm(near))
+        if d > r_ca:
+            continue
+        if d <= r:  # touching: the half-plane rule, as for a static disc
+            h = near / max(d, 1e-12)
+            out[2 * n + m + k] = (vel + (r - d) / world.dt * h) @ h > 0.0
+            continue
+        reff = r + p.delta_min if d > r + p.delta_min else max(r, d - p.eps_overlap)
+        kk = len(vel)
+        tau = reference_capsule_tau(
+            np.broadcast_to(a, vel.shape), np.broadcast_to(e, vel.shape), vel, np.full(kk, reff)
+        )
+        mask = np.isfinite(tau) & (tau <= horizon[2 * n + m + k])
+        if p.ramp_check:
+            gap = point_segment_distance(ramp, a, e)  # (k, K) [m]
+            mask |= (on_ramp & (gap < min(r + WALL_RAMP_GAP, d))).any(axis=1)
+        out[2 * n + m + k] = mask
     return out
 
 
@@ -140,7 +165,9 @@ def plot_decision(
     for c, (idx, mask) in enumerate(sorted(masks.items())):
         if not mask.any():
             continue
-        name = f"robot_{idx}" if idx < world.n_robots else f"obstacle_{idx - world.n_robots}"
+        n, m = world.n_robots, world.n_obstacles
+        name = f"robot_{idx}" if idx < n else f"obstacle_{idx - n}" if idx < n + m else f"twin of robot_{idx - n - m}"
+        name = f"wall_{idx - 2 * n - m}" if idx >= 2 * n + m else name
         color = cmap(c % 10)
         grid = mask.reshape(DV.shape)
         ax.contourf(DTH, DV, grid.astype(float), levels=[0.5, 1.5], colors=[color], alpha=0.35)

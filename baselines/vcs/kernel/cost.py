@@ -8,8 +8,9 @@ import math
 from numba import njit
 
 from .neighbours import forbidden
-from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY
+from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY, WALL_RAMP_GAP
 from .scalar import reach_steps, tau, tau_within, wrap
+from .walls import wall_gap, wall_tau
 
 
 @njit(cache=True)
@@ -119,12 +120,17 @@ def safety_term(nbs, js, nj, tau_s, vx, vy):
     out = 0.0
     for q in range(nj):
         nb = nbs[js[q]]
-        sc = nb.jscale
-        wx = sc * (vx - nb.jax)
-        wy = sc * (vy - nb.jay)
-        if not tau_within(nb.px, nb.py, wx, wy, nb.reff, nb.th + tau_s):
-            continue  # beyond the band: contributes 0
-        tc = tau(nb.px, nb.py, wx, wy, nb.reff)
+        if nb.wall:
+            tc = wall_tau(nb, vx, vy, nb.reff)
+            if not tc <= nb.th + tau_s:
+                continue
+        else:
+            sc = nb.jscale
+            wx = sc * (vx - nb.jax)
+            wy = sc * (vy - nb.jay)
+            if not tau_within(nb.px, nb.py, wx, wy, nb.reff, nb.th + tau_s):
+                continue  # beyond the band: contributes 0
+            tc = tau(nb.px, nb.py, wx, wy, nb.reff)
         val = min(max(1.0 - (tc - nb.th) / tau_s, 0.0), 1.0)
         if val > out:
             out = val
@@ -162,6 +168,8 @@ def ramp_clear(nbs, count, r, dv, dth):
     delta_min / 2, or no smaller than now if the robot is already closer."""
     if not r.ramp:
         return True
+    if r.walls:
+        dth = wrap(dth)  # a turn of -pi is made as +pi, as the dynamics do (vcs-method §2.18)
     steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
     if steps <= 1:
         return True  # reached within the step: the velocity obstacles judge it
@@ -180,9 +188,13 @@ def ramp_clear(nbs, count, r, dv, dth):
             nb = nbs[q]
             if nb.kind == K_RECIPROCAL or nb.overlap:
                 continue
+            clear = min(nb.r0 + r.ramp_gap, nb.d)
+            if nb.wall:  # a wall does not move: its gap only has to stay open (vcs-method §2.18)
+                if wall_gap(nb, px, py) < min(nb.r0 + WALL_RAMP_GAP, nb.d):
+                    return False
+                continue
             gx = nb.px + nb.vjx * t - px
             gy = nb.py + nb.vjy * t - py
-            clear = min(nb.r0 + r.ramp_gap, nb.d)
             if gx * gx + gy * gy < clear * clear:
                 return False
     return True

@@ -7,8 +7,8 @@ import math
 from numba import njit
 
 from .cost import goal_term
-from .neighbours import collision_time
-from .records import INF, K_STATIC, T_FLOOR, TINY
+from .neighbours import collision_time, forbidden
+from .records import INF, K_STATIC, T_FLOOR, TINY, WALL_COST
 from .scalar import reach_steps
 from .window import candidate
 
@@ -33,13 +33,18 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
     ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
     half-plane's violation [m/s], weighted kappa / dt), and a candidate whose first step closes
     faster than now on something it would hit within T_max (or already touches), by speeding up
-    or, for a static body, by turning toward it, is refused (inf): braking and turning away remain, and keeping the
-    current velocity always does (vcs-method §2.13)."""
+    or, for a static body, by turning toward it, is refused (inf): braking and turning away
+    remain, and keeping the current velocity always does (vcs-method §2.13). Walls stay hard
+    (vcs-method §2.18): a candidate inside a wall's truncated velocity obstacle costs
+    :data:`~.records.WALL_COST` more than any that is not."""
     tmin = INF
     viol = 0.0
+    walled = 0.0
     v1x, v1y = first_step(r, dv, dth, vx, vy)
     for q in range(count):
         nb = nbs[q]
+        if nb.wall and walled == 0.0 and forbidden(nb, vx, vy):
+            walled = WALL_COST
         if least_harm and nb.overlap:
             e = nb.hx * (vx - nb.apx) + nb.hy * (vy - nb.apy)
             if e > viol:
@@ -57,8 +62,8 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
             if (dv > TINY or (closing and nb.kind == K_STATIC)) and (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
                 return INF  # closes faster on a threat
     if least_harm:
-        return kappa / max(tmin, T_FLOOR) + kappa / r.dt * viol + goal_term(r, dv, dth, vx, vy)
-    return kappa / max(tmin, T_FLOOR) + goal_term(r, dv, dth, vx, vy)
+        return kappa / max(tmin, T_FLOOR) + kappa / r.dt * viol + goal_term(r, dv, dth, vx, vy) + walled
+    return kappa / max(tmin, T_FLOOR) + goal_term(r, dv, dth, vx, vy) + walled
 
 
 @njit(cache=True)

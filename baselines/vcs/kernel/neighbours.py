@@ -24,6 +24,7 @@ from .records import (
     Work,
 )
 from .scalar import tau, tau_within
+from .walls import sensed_walls, wall_tau, wall_within
 
 
 @njit(cache=True)
@@ -105,6 +106,7 @@ def fill_record(nb, qx, qy, d, r0, vjx, vjy, j, is_robot, mover, vrx, vry, a_max
     nb.vjy = vjy
     nb.idx = j
     nb.mover = mover
+    nb.wall = False
     if is_robot:
         nb.kind = K_RECIPROCAL
     elif vjx * vjx + vjy * vjy > STATIC_SPEED * STATIC_SPEED:
@@ -202,7 +204,7 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
     """Fill the records of robot i in world b (all but the horizons, stage 2) into ``wk.nbs``.
     Returns their number; ``wk.order`` lists them nearest surface first. During a stall detour
     the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up. Records:
-    robots, obstacles, then the static twins of arriving robots, at most ``2 n + m``."""
+    robots, obstacles, the static twins of arriving robots, then walls, at most ``2 n + m + s``."""
     n = world.pos.shape[1]
     speed, heading, v_max, active, obs_vel = world.speed, world.heading, world.v_max, world.active, world.obs_vel
     sensed, nbs, key = wk.sensed, wk.nbs, wk.key
@@ -243,6 +245,10 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
             set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy)
             key[count] = nb.d - nb.reff  # nearest surface first: inadmissible candidates fail early
             count += 1
+    first = count  # then the walls (vcs-method §2.18): static, full responsibility
+    count = sensed_walls(b, i, world, p, r_ca, vrx, vry, nbs, key, count, 2 * n + world.obs_pos.shape[1])
+    for q in range(first, count):
+        set_cone(nbs[q], False, vrx, vry, dt, p.reciprocity, 0.0, 0.0)
     sort_nearest(wk.order, key, count)
     return count
 
@@ -253,6 +259,8 @@ def forbidden_within(nb, vx, vy, horizon):
     if nb.overlap:
         # Overlap: half-plane of velocities that do not separate fast enough (vcs-method §2.4).
         return nb.hx * (vx - nb.apx) + nb.hy * (vy - nb.apy) > 0.0
+    if nb.wall:
+        return wall_within(nb, vx, vy, horizon)
     s = nb.scale
     return tau_within(nb.px, nb.py, s * (vx - nb.apx), s * (vy - nb.apy), nb.reff, horizon)
 
@@ -268,6 +276,8 @@ def in_untruncated_cone(nb, vx, vy):
     """Is velocity (vx, vy) inside the record's cone (or overlap half-plane), at any horizon?"""
     if nb.overlap:
         return nb.hx * (vx - nb.apx) + nb.hy * (vy - nb.apy) > 0.0
+    if nb.wall:
+        return wall_tau(nb, vx, vy, nb.reff) < INF
     s = nb.scale
     return tau(nb.px, nb.py, s * (vx - nb.apx), s * (vy - nb.apy), nb.reff) < INF
 
@@ -275,15 +285,18 @@ def in_untruncated_cone(nb, vx, vy):
 @njit(cache=True)
 def collision_time(nb, vx, vy):
     """t_c,j(v) = tau(p, w_j(v), r_eff) with the class's relative velocity (vcs-method §2.12 J_s)."""
+    if nb.wall:
+        return wall_tau(nb, vx, vy, nb.reff)
     s = nb.jscale
     return tau(nb.px, nb.py, s * (vx - nb.jax), s * (vy - nb.jay), nb.reff)
 
 
 @njit(cache=True)
-def work(n, m, p):
-    """Scratch arrays of stages 1 and 2 for ``n`` robots and ``m`` obstacles (:data:`~.records.Work`)."""
+def work(n, m, s, p):
+    """Scratch arrays of stages 1 and 2 for ``n`` robots, ``m`` obstacles and ``s`` wall segments
+    (:data:`~.records.Work`)."""
     ctotal = p.coarse_n_v * p.coarse_n_theta + 1
-    k = 2 * n + m  # arriving robots have a static twin
+    k = 2 * n + m + s  # arriving robots have a static twin
     return Work(
         np.zeros(1, dtype=ROBOT),  # robot: the planning robot's context
         np.zeros(n + m, dtype=SENSED),  # sensed: objects within r_ca

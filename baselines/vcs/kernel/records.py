@@ -26,6 +26,12 @@ ARRIVING_SLACK = 1e-6
 """Relative slack of "preferred speed below v_max" that marks a robot as arriving."""
 STATIC_SPEED = 1e-6
 """Below this speed [m/s] a non-reactive object counts as static."""
+WALL_COST = 1e6
+"""Extra fallback cost of a candidate inside a wall's truncated velocity obstacle: walls do not
+answer, so among inadmissible candidates those that keep off the walls come first."""
+WALL_RAMP_GAP = 0.005
+"""Gap [m] a ramp keeps from a wall (vcs-method §2.18): a wall never comes closer, so a robot
+stopped a buffer delta_min from it may turn away while it starts moving."""
 SQRT_HALF = 0.7071067811865476
 """1 / sqrt(2): normalises a distance over the unit square of (dv / v_max, dtheta / pi)."""
 
@@ -140,14 +146,20 @@ NEIGHBOUR = np.dtype(
         ("vjx", "f8"),  # neighbour velocity [m/s]
         ("vjy", "f8"),
         ("stopk", "f8"),  # 1 / a_max of the robot when the stop margin applies [s^2/m]
-        ("idx", "i8"),  # robot index (< n) or n + obstacle index
+        ("idx", "i8"),  # robot index (< n), n + obstacle index, or 2 n + m + wall index
         ("kind", "i8"),  # K_RECIPROCAL, K_MOVER or K_STATIC
         ("overlap", "?"),  # true penetration: a half-plane instead of a cone
         ("mover", "?"),  # an active robot (whatever the reciprocity rule)
+        ("wall", "?"),  # a wall segment (vcs-method §2.18): p is its nearest point
+        ("ax", "f8"),  # wall end points relative to the robot [m]
+        ("ay", "f8"),
+        ("bx", "f8"),
+        ("by", "f8"),
     ],
     align=True,
 )
-"""One sensed object as robot i sees it (vcs-method §2.4, vcs-method §2.6, vcs-method §2.7)."""
+"""One sensed object as robot i sees it (vcs-method §2.4, vcs-method §2.6, vcs-method §2.7, walls
+vcs-method §2.18)."""
 
 SENSED = np.dtype(
     [
@@ -164,9 +176,9 @@ and the sampling VO planners."""
 
 World = namedtuple(
     "World",
-    "pos heading speed radius v_max a_max omega_max active present obs_pos obs_vel obs_radius",
+    "pos heading speed radius v_max a_max omega_max active present obs_pos obs_vel obs_radius seg_a seg_b seg_present",
 )
-"""The world arrays the kernel reads (:class:`~vcs_env.state.WorldState` fields)."""
+"""The world arrays the kernel reads (:class:`~vcs_env.state.WorldState` fields; walls ``seg_*``)."""
 
 Inputs = namedtuple("Inputs", "vpref pref_comm detour prev has_prev plan")
 """Per-robot planner inputs ``(B, n, ...)``: own preferred velocity [m/s], communicated
@@ -209,6 +221,7 @@ ROBOT = np.dtype(
         ("holo", "?"),  # holonomic robot
         ("goal_vcs", "?"),  # goal term measured in the VCS
         ("ramp", "?"),  # check admissibility along the way (vcs-method §2.15)
+        ("walls", "?"),  # senses a wall (vcs-method §2.18)
     ],
     align=True,
 )

@@ -15,6 +15,7 @@ from .horizon import set_horizons
 from .neighbours import setup_neighbours, work
 from .records import INF, K_STATIC, SQRT_HALF, STEP_SLACK, Grid
 from .scalar import reach_steps, steps_for, wrap
+from .walls import senses_wall
 from .window import candidate, goal_step, threats, window
 
 
@@ -36,6 +37,10 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     ``wk.order``. Returns the number of records."""
     robot_context(b, i, world, inputs, p, st.dt, st.holo, wk.robot)
     count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk)
+    r = wk.robot[0]
+    r.walls = senses_wall(wk.nbs, count)
+    if r.walls and inputs.detour[b, i] and r.v_r < r.dv1:
+        r.goal_vcs = True  # a robot stalled by a wall turns in place toward its goal (vcs-method §2.18)
     set_horizons(wk, count, wk.robot[0], p)
     return count
 
@@ -233,7 +238,7 @@ def plan_batch(world, inputs, st, out):
     get zeros and t* = inf."""
     B, n = world.pos.shape[0], world.pos.shape[1]
     p = st.prm[0]
-    wk = work(n, world.obs_pos.shape[1], p)
+    wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
     g = grid_work(p)
     for b in range(B):
         for i in range(n):
@@ -263,11 +268,11 @@ def evaluate_points(b, i, world, inputs, st, cand_dv, cand_dth, out_ok, out_cost
     """Admissibility and cost of arbitrary VCS points ``(cand_dv, cand_dth)`` for robot i of world
     b (tests, plots). ``out_horizon`` receives the horizon T_h [s] of each sensed object (robots
     first, then obstacles, in index order, then the static twins of arriving robots by robot
-    index; inf when not sensed)."""
+    index, then walls by segment index; inf when not sensed)."""
     n = world.pos.shape[1]
     m = world.obs_pos.shape[1]
     p = st.prm[0]
-    wk = work(n, m, p)
+    wk = work(n, m, world.seg_present.shape[1], p)
     count = prepare_robot(b, i, world, inputs, st, p, wk)
     r = wk.robot[0]
     nbs = wk.nbs

@@ -1,0 +1,125 @@
+"""The VCS expert and walls (vcs-method §2.18): a wall record's forbidden set is the capsule's
+velocity obstacle (against the numpy oracle), a door head-on, a wall between a robot and its
+goal, and the ablation with the walls hidden from the kernel."""
+
+import numpy as np
+import pytest
+
+from baselines.capsule import reference_capsule_tau, segment_range
+from baselines.vcs import VCSPlanner
+from vcs_env.contacts import contact_events
+from vcs_env.rollout import planner_controller, run_episodes
+from vcs_env.scenario import CustomLayout, RobotSpec, Scenario
+from vcs_env.sim import Simulator
+from vcs_env.suites import SUITES
+
+
+class WallBlindVCS(VCSPlanner):
+    """The ablation: the kernel sees no wall (the route layer still aims around them)."""
+
+    def _kernel_inputs(self, world, *args):
+        w, inputs, setting = super()._kernel_inputs(world, *args)
+        B = world.batch_size
+        no_walls = {"seg_a": np.zeros((B, 0, 2)), "seg_b": np.zeros((B, 0, 2)), "seg_present": np.zeros((B, 0), bool)}
+        return w._replace(**no_walls), inputs, setting
+
+
+def _wall_contacts(episodes) -> int:
+    return sum(c.kind == "wall" for e in episodes for c in contact_events(e))
+
+
+def _custom(start, goal, walls, heading=None, speed=None, **kw) -> Scenario:
+    layout = CustomLayout(start=start, goal=goal, walls=walls, heading=heading, speed=speed)
+    return Scenario(kind="custom", n_robots=len(start), custom=layout, on_collision="continue", **kw)
+
+
+@pytest.mark.parametrize("holonomic", [False, True])
+def test_wall_forbidden_set_is_the_capsule_velocity_obstacle(holonomic):
+    """Alone beside a wall, a candidate is admissible iff the centre does not enter the capsule
+    of radius r + delta_min within the wall's horizon (ramp check off: end velocities only)."""
+    rng = np.random.default_rng(3)
+    planner = VCSPlanner(ramp_check=False)
+    checked = forbidden = 0
+    for _trial in range(8):
+        a = rng.uniform(-2.5, 2.5, 2)
+        b = a + rng.uniform(-2.0, 2.0, 2)
+        heading = [rng.uniform(-np.pi, np.pi)]
+        s = _custom([(-6.0, 6.0)], [(6.0, 6.0)], [(tuple(a), tuple(b))], heading, robot=RobotSpec(holonomic=holonomic))
+        world = Simulator(s).reset(0)
+        world.pos[0, 0] = rng.uniform(-2.0, 2.0, 2)
+        world.speed[0, 0] = rng.uniform(0.0, 1.0)
+        r = world.radius[0, 0] + planner.params.delta_min
+        if segment_range(*(a - world.pos[0, 0]), *(b - world.pos[0, 0])) <= r + 0.05:
+            continue  # only robots clear of the buffer (inside it r_eff shrinks)
+        dv = rng.uniform(-world.speed[0, 0], 1.0 - world.speed[0, 0], 300)
+        dth = rng.uniform(-np.pi, np.pi, 300)
+        ok, _cost, horizon = planner.evaluate(world, 0, 0, dv, dth)
+        t_h = horizon[2 + world.n_obstacles]  # robots, twins, then the wall
+        assert np.isfinite(t_h) and 0 < t_h <= planner.params.t_max
+        v = (world.speed[0, 0] + dv)[:, None] * np.stack(
+            (np.cos(world.heading[0, 0] + dth), np.sin(world.heading[0, 0] + dth)), -1
+        )
+        tau = reference_capsule_tau(a - world.pos[0, 0], b - world.pos[0, 0], v, np.full(300, r))
+        clear = np.abs(tau - t_h) > 1e-6
+        np.testing.assert_array_equal(ok[clear], (tau > t_h)[clear])
+        checked += 1
+        forbidden += int((~ok).sum())
+    assert checked >= 4 and forbidden > 50  # both sides of the boundary exercised
+
+
+def test_door_head_on_both_arrive_without_contact():
+    """Two robots head-on through a door one robot diameter + 0.2 m wide: no deadlock, no contact."""
+    suite = SUITES["door-headon-v0"]
+    assert suite.scenario.door_width == pytest.approx(2 * suite.scenario.robot.radius + 0.2)
+    episodes = run_episodes(suite.scenario, planner_controller(VCSPlanner()), list(suite.seeds)[:3])
+    for e in episodes:
+        assert (e.reached_step >= 0).all(), f"seed {e.seed}: not every robot arrived"
+        assert not contact_events(e), f"seed {e.seed}: {contact_events(e)}"
+
+
+def test_wall_between_robot_and_goal_is_passed_by_the_route():
+    """A wall across the way, open at both ends: the robot goes around it and arrives."""
+    s = _custom([(-2.0, 0.0)], [(2.0, 0.0)], [((0.0, -1.5), (0.0, 1.5))], max_steps=400)
+    (e,) = run_episodes(s, planner_controller(VCSPlanner()), [0])
+    assert e.reached_step[0] >= 0 and not contact_events(e)
+    assert np.abs(e.pos[:, 0, 1]).max() > 1.5  # around an end, not through the wall
+
+
+def test_walls_hidden_from_the_kernel_collide():
+    """The ablation: the same doorway episodes with the walls hidden from the kernel touch walls;
+    with them seen, none does."""
+    suite = SUITES["doorway-v0"]
+    seeds = list(suite.seeds)[:4]
+    seen = run_episodes(suite.scenario, planner_controller(VCSPlanner()), seeds)
+    blind = run_episodes(suite.scenario, planner_controller(WallBlindVCS()), seeds)
+    assert _wall_contacts(seen) == 0
+    assert _wall_contacts(blind) >= 2
+
+
+def test_plot_masks_of_walls_agree_with_the_kernel():
+    """The numpy reference of the picture (``object_forbidden_masks``) forbids what the kernel
+    refuses, for a robot alone among walls (ramp check on)."""
+    from baselines.vcs import geometry as G
+    from baselines.vcs.plot import object_forbidden_masks
+
+    rng = np.random.default_rng(5)
+    planner = VCSPlanner()
+    walls = [((-1.0, 0.6), (1.5, 0.6)), ((0.8, -2.0), (0.8, 0.2)), ((-1.5, -0.8), (-0.2, -1.4))]
+    s = _custom([(-6.0, 6.0)], [(6.0, 6.0)], walls, [0.3])
+    world = Simulator(s).reset(0)
+    agree = refused = 0
+    for _trial in range(6):
+        world.pos[0, 0] = rng.uniform(-0.5, 0.3, 2)
+        world.heading[0, 0] = rng.uniform(-np.pi, np.pi)
+        world.speed[0, 0] = rng.uniform(0.0, 0.8)
+        planner = VCSPlanner()
+        dv = rng.uniform(-world.speed[0, 0], 1.0 - world.speed[0, 0], 400)
+        dth = rng.uniform(-3.1, 3.1, 400)
+        ok, _cost, horizon = planner.evaluate(world, 0, 0, dv, dth)
+        vel = G.vcs_to_velocity(dv, dth, world.speed[0, 0], world.heading[0, 0])
+        masks = object_forbidden_masks(world, planner, 0, 0, vel, horizon)
+        assert set(masks) <= {2 + k for k in range(3)}
+        forbidden = np.any([m for m in masks.values()], axis=0)
+        agree += int((forbidden == ~ok).sum())
+        refused += int((~ok).sum())
+    assert agree >= 0.995 * 6 * 400 and refused > 100
