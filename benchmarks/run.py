@@ -24,7 +24,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from . import env_bench, peers, planner_bench, profile_bench, train_bench
+from . import env_bench, peers, planner_bench, profile_bench, rllib_bench, train_bench
 from .report import _rate, render
 from .timing import Budget, fit_exponent, machine_info, ratio, side_by_side
 
@@ -405,6 +405,9 @@ def run(
     out.parent.mkdir(parents=True, exist_ok=True)
     json_path.write_text(json.dumps(data, indent=1, default=_jsonable) + "\n")
     out.write_text(render(data))
+    rllib = Path(__file__).resolve().parent / rllib_bench.DEFAULT_JSON
+    if rllib.exists():  # measured separately (needs Ray): keep its section in the report
+        rllib_bench.write_section(str(out), rllib_bench.render_section(json.loads(rllib.read_text())))
     _log(f"wrote {out} and {json_path} in {data['meta']['wall_seconds']:.0f} s")
     return data
 

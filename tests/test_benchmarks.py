@@ -138,3 +138,21 @@ def test_cli_has_bench_command():
 
     args = build_parser().parse_args(["bench", "--quick", "--out", "x.md"])
     assert args.quick and args.out == "x.md"
+
+
+def test_rllib_section_is_rendered_from_its_json_and_replaced_in_place(tmp_path):
+    """``python -m benchmarks`` rewrites RESULTS.md; section 6 (RLlib, measured separately) comes
+    back from benchmarks/rllib_bench.json, once, before any later section."""
+    import json
+    from pathlib import Path
+
+    from benchmarks import rllib_bench
+
+    data = json.loads((Path(rllib_bench.__file__).parent / rllib_bench.DEFAULT_JSON).read_text())
+    text = rllib_bench.render_section(data)
+    assert text.startswith(rllib_bench.SECTION) and "| rllib-pettingzoo-1 |" in text
+    report = tmp_path / "RESULTS.md"
+    report.write_text("# R\n\n## 1. Env\nrows\n")
+    rllib_bench.write_section(str(report), text)
+    rllib_bench.write_section(str(report), text)
+    assert report.read_text().count(rllib_bench.SECTION) == 1 and report.read_text().startswith("# R\n\n## 1. Env")
