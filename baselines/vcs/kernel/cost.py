@@ -168,8 +168,6 @@ def ramp_clear(nbs, count, r, dv, dth):
     delta_min / 2, or no smaller than now if the robot is already closer."""
     if not r.ramp:
         return True
-    if r.walls:
-        dth = wrap(dth)  # a turn of -pi is made as +pi, as the dynamics do (vcs-method §2.18)
     steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
     if steps <= 1:
         return True  # reached within the step: the velocity obstacles judge it
