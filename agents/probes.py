@@ -169,9 +169,8 @@ def write_probes(table: dict, out: str | Path, planners: set[str], command: str)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     info = machine_info()
-    stamp = (
-        f"{datetime.date.today().isoformat()}, {info['cpu']}, {info['usable_cores']} cores, load {info['load_average']}"
-    )
+    load = ", ".join(f"{x:.1f}" for x in info["load_average"] or ())
+    stamp = f"{datetime.date.today().isoformat()}, {info['cpu']}, {info['usable_cores']} cores, load average {load}"
     md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), ""]
     (out / "probes.md").write_text("\n".join(md))
     (out / "probes.json").write_text(json.dumps({**table, "command": command, "date": stamp}, indent=1))
