@@ -150,12 +150,20 @@ def suite_differences(scenario) -> tuple[str | None, list[str]]:
     return suite.name, out
 
 
-def print_suite_differences(scenario, doing: str = "training on") -> list[str]:
-    """Print (and return) :func:`suite_differences`, so a run that differs from the suites says so."""
-    suite, diffs = suite_differences(scenario)
-    if diffs:
-        print(f"note: {doing} {scenario.kind} with settings unlike its suite {suite}: " + "; ".join(diffs), flush=True)
-    return diffs
+def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
+    """Print (and return) :func:`suite_differences` of a scenario, or of the last scenario of each
+    family in a list (a mixture: one note per family), so a run that differs from the suites says so."""
+    if not isinstance(scenarios, (list, tuple)):
+        scenarios = [scenarios]
+    out = []
+    for scenario in {s.kind: s for s in scenarios}.values():
+        suite, diffs = suite_differences(scenario)
+        if diffs:
+            print(
+                f"note: {doing} {scenario.kind} with settings unlike its suite {suite}: " + "; ".join(diffs), flush=True
+            )
+        out += diffs
+    return out
 
 
 def parse_seeds(text: str) -> tuple[int, ...]:

@@ -84,8 +84,7 @@ def collect(cfg: CollectConfig) -> Path:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
     scenarios = scenarios_of(cfg, cfg.mixture)
     scenario = scenarios[0]
-    for s in {s.kind: s for s in scenarios}.values():  # one note per family
-        print_suite_differences(s, "collecting on")
+    print_suite_differences(scenarios, "collecting on")
     seeds = list(range(cfg.seed, cfg.seed + cfg.episodes))
     t0 = time.time()
     data = play_mixture(scenarios, seeds, n_worlds=cfg.n_worlds, expert=cfg.planner)

@@ -253,8 +253,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
 
     scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
     scenario = scenarios[0]
-    for s in {s.kind: s for s in scenarios}.values():  # one note per family
-        print_suite_differences(s)
+    print_suite_differences(scenarios)
     if cfg.init and resume:
         raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1:
