@@ -42,7 +42,9 @@ class ScenarioConfig:
     """Which scenario a run uses: a preset and a few overrides, plus optional VCS shaping."""
 
     scenario: str = "circle"
-    """Scenario preset name: circle, swap, crossing, random, crowd, dynamic, custom."""
+    """Scenario preset name (circle, swap, crossing, random, crowd, dynamic, custom, or a map:
+    corridor, doorway, room, intersection, walls), or a suite name (e.g. crowd-20-v0: that
+    suite's scenario with its conventions; the other flags then change it)."""
     n_robots: int | None = None
     """Number of robots n (None: the preset's)."""
     n_obstacles: int | None = None
@@ -68,7 +70,7 @@ class ScenarioConfig:
 
 
 def build_scenario(cfg: ScenarioConfig):
-    """The :class:`~vcs_env.scenario.Scenario` of a config (preset + overrides + shaping weight)."""
+    """The :class:`~vcs_env.scenario.Scenario` of a config (preset or suite + overrides + shaping weight)."""
     from vcs_env.scenario import make_scenario
 
     if cfg.shaping not in SHAPING:
@@ -81,7 +83,25 @@ def build_scenario(cfg: ScenarioConfig):
         weights[cfg.shaping] = float(weight)
     if weights:
         over["rewards"] = weights
-    return make_scenario(cfg.scenario, **over)
+    return make_scenario(scenario_base(cfg.scenario), **over)
+
+
+def scenario_base(name: str):
+    """The scenario a ``--scenario NAME`` (or a mixture entry) starts from: a preset
+    (:data:`vcs_env.SCENARIOS`, :data:`vcs_env.MAPS`) or, for a suite name such as
+    ``crowd-20-v0``, that suite's scenario with all its conventions (jitter,
+    ``on_collision="continue"``, spacing, time limit); flags and entry fields then change it."""
+    from vcs_env.scenario import MAPS, SCENARIOS
+    from vcs_env.suites import SUITES
+
+    if name in SCENARIOS or name in MAPS:
+        return SCENARIOS.get(name) or MAPS[name]
+    if name in SUITES:
+        return SUITES[name].scenario
+    raise ValueError(
+        f"unknown scenario {name!r}: give a preset ({sorted({**SCENARIOS, **MAPS})}) or a suite name "
+        f"(e.g. crowd-20-v0; `vcs-env evaluate --help` lists them)"
+    )
 
 
 _SCENARIO_FLAGS = ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed")
@@ -110,12 +130,12 @@ def probe_scenario(cfg: ScenarioConfig):
     (:func:`family_suite`: its jitter, ``on_collision="continue"``, spacing, limits ...) with the
     flags given in ``cfg`` applied; presets without a suite (random, custom) start from the preset.
     Reward flags are ignored (they do not change the metrics)."""
-    from vcs_env.scenario import SCENARIOS, make_scenario
+    from vcs_env.scenario import make_scenario
+    from vcs_env.suites import SUITES
 
-    if cfg.scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {cfg.scenario!r}; presets are {sorted(SCENARIOS)}")
-    suite = family_suite(SCENARIOS[cfg.scenario].kind)
-    base = SCENARIOS[cfg.scenario] if suite is None else suite.scenario
+    base = scenario_base(cfg.scenario)
+    suite = SUITES[cfg.scenario] if cfg.scenario in SUITES else family_suite(base.kind)
+    base = base if suite is None else suite.scenario
     over = _overrides(cfg)
     if suite is not None and "n_robots" in over and base.kind == "circle" and "layout_radius" not in over:
         # The suites' circle radius is for their n; keep the preset's rule (max(5, 0.3 n) [m]).
@@ -130,34 +150,44 @@ _DIFF_FIELDS = (
 
 
 def suite_differences(scenario) -> tuple[str | None, list[str]]:
-    """How ``scenario`` differs from the suite of its family (:func:`family_suite`) on the fields
-    that set the difficulty (jitter, collision handling, spacing, radius, limits, sensing,
-    obstacles); robot and obstacle counts and rewards are not compared.
+    """How ``scenario`` differs from the nearest suite of its family (the suite of its kind with
+    the fewest differing fields; ties go to the first defined) on the fields that set the
+    difficulty (jitter, collision handling, spacing, radius, limits, sensing, obstacles); robot
+    and obstacle counts and rewards are not compared.
 
     Returns:
         The suite name (None if the kind has no suite) and one ``"field: ours (suite: theirs)"``
         line per differing field.
     """
-    suite = family_suite(scenario.kind)
-    if suite is None:
-        return None, []
-    out = []
-    for name in _DIFF_FIELDS:
-        ours, theirs = getattr(scenario, name), getattr(suite.scenario, name)
-        if ours != theirs:
-            show = lambda v: round(v, 6) if isinstance(v, float) else v  # noqa: E731 (7.199999999999999 -> 7.2)
-            out.append(f"{name}: {show(ours)} (suite: {show(theirs)})")
-    return suite.name, out
+    from vcs_env.suites import SUITES
+
+    show = lambda v: round(v, 6) if isinstance(v, float) else v  # noqa: E731 (7.199999999999999 -> 7.2)
+    best: tuple[str | None, list[str]] = (None, [])
+    for suite in SUITES.values():
+        if suite.is_smoke or suite.scenario.kind != scenario.kind:
+            continue
+        out = [
+            f"{name}: {show(getattr(scenario, name))} (suite: {show(getattr(suite.scenario, name))})"
+            for name in _DIFF_FIELDS
+            if getattr(scenario, name) != getattr(suite.scenario, name)
+        ]
+        if best[0] is None or len(out) < len(best[1]):
+            best = (suite.name, out)
+    return best
 
 
 def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
     """Print (and return) :func:`suite_differences` of a scenario, or of the last scenario of each
-    family in a list (a mixture: one note per family), so a run that differs from the suites says so."""
+    family in a list (a mixture: one note per family and nearest suite), so a run that differs from
+    the suites says so."""
     if not isinstance(scenarios, (list, tuple)):
         scenarios = [scenarios]
     out = []
-    for scenario in {s.kind: s for s in scenarios}.values():
-        suite, diffs = suite_differences(scenario)
+    last = {}  # nearest suite -> (last scenario of the list nearest to it, its differences)
+    for s in scenarios:
+        suite, diffs = suite_differences(s)
+        last[suite] = (s, diffs)
+    for suite, (scenario, diffs) in last.items():
         if diffs:
             print(
                 f"note: {doing} {scenario.kind} with settings unlike its suite {suite}: " + "; ".join(diffs), flush=True
@@ -322,14 +352,16 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
 
     ``FIELD=V`` is one value; ``FIELD=LO-HI/STEP`` the grid LO, LO+STEP, ... up to HI; without
     ``/STEP`` integers step by 1 and floats give 3 levels (LO, middle, HI).
-    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)``.
+    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)``. The name before the colon is a
+    preset or a suite (``crowd-20-v0:obstacle_speed=0.5-1.5`` starts from that suite's
+    conventions, :func:`scenario_base`).
     """
-    from vcs_env.scenario import SCENARIOS
-
     preset, _, rest = text.partition(":")
     preset = preset.strip()
-    if preset not in SCENARIOS:
-        raise ValueError(f"mixture entry {text!r}: unknown scenario {preset!r}; presets are {sorted(SCENARIOS)}")
+    try:
+        scenario_base(preset)
+    except ValueError as err:
+        raise ValueError(f"mixture entry {text!r}: {err}") from None
     fields: dict[str, tuple] = {}
     for item in filter(None, (p.strip() for p in rest.split(","))):
         name, sep, value = item.partition("=")

@@ -108,6 +108,26 @@ def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
         mixture_scenarios(ScenarioConfig(n_robots=8), ("circle",))
 
 
+def test_suite_names_are_scenario_bases_with_their_conventions():
+    """``--scenario crowd-20-v0`` and mixture entries named by a suite start from that suite's
+    scenario; flags and entry fields change only what they name; the note names the nearest suite."""
+    from agents.config import mixture_scenarios, parse_mixture_entry
+
+    crowd20 = get_suite("crowd-20-v0").scenario
+    assert build_scenario(ScenarioConfig(scenario="crowd-20-v0")) == crowd20
+    assert parse_mixture_entry("crowd-20-v0:n_obstacles=14-18/4")[0] == "crowd-20-v0"
+    got = mixture_scenarios(ScenarioConfig(on_collision="terminate"), ("crowd-20-v0:n_obstacles=14-18/4",))
+    assert [s.n_obstacles for s in got] == [14, 18]
+    for s in got:
+        assert (s.circle_radius, s.max_steps, s.min_separation, s.on_collision) == (6.0, 400, 0.2, "terminate")
+    assert probe_scenario(ScenarioConfig(scenario="circle-24-v0", jitter=0.3)).circle_radius == 7.0
+    assert suite_differences(crowd20) == ("crowd-20-v0", [])  # nearest suite, not the family's first
+    suite, diffs = suite_differences(got[0])
+    assert suite == "crowd-20-v0" and diffs == ["on_collision: terminate (suite: continue)"]
+    with pytest.raises(ValueError, match="unknown scenario 'crowd-99-v0'.*or a suite name"):
+        build_scenario(ScenarioConfig(scenario="crowd-99-v0"))
+
+
 def test_mixture_vec_env_is_its_groups_side_by_side():
     """Slots of a MixtureVecEnv are exactly those of one NavVecEnv per scenario (world b of the
     mixture seeded with seed + b), stepped with the same actions; robot counts differ per group."""
