@@ -23,6 +23,7 @@ import shlex
 import textwrap
 import types
 import typing
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -393,6 +394,15 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
             count = int(math.floor((hi - lo) / step + 1e-9)) + 1
             fields[name] = tuple(round(lo + k * step, 12) for k in range(count))
     return preset, fields
+
+
+def mixture_split(scenarios: Sequence, seeds: Sequence[int]) -> list[tuple[Any, list[int]]]:
+    """Episode ``j`` of a mixture plays ``scenarios[j % S]`` with ``seeds[j]``: the pairs
+    ``(scenario, its seeds)`` in scenario order, scenarios without an episode left out. The one
+    rule behind mixture data (:func:`agents.expert_data.play_mixture`) and scoring
+    (:func:`agents.evaluate.score_scenarios`)."""
+    seeds = [int(s) for s in seeds]
+    return [(sc, seeds[g :: len(scenarios)]) for g, sc in enumerate(scenarios) if seeds[g :: len(scenarios)]]
 
 
 def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:

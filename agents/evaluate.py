@@ -37,6 +37,7 @@ from vcs_env.scenario import Scenario
 from vcs_env.suites import Suite, get_suite
 
 from .checkpoint import jsonable
+from .config import mixture_split
 from .policies import resolve_policy
 
 DEFAULT_BATCH = 25
@@ -322,11 +323,7 @@ def score_scenarios(
     all robots; the per-robot arrays are flattened. One scenario gives :func:`score_seeds`."""
     if len(scenarios) == 1:
         return score_seeds(controller, scenarios[0], seeds, action_mode)
-    parts = [
-        score_seeds(controller, s, seeds[g :: len(scenarios)], action_mode)
-        for g, s in enumerate(scenarios)
-        if seeds[g :: len(scenarios)]
-    ]
+    parts = [score_seeds(controller, s, part, action_mode) for s, part in mixture_split(scenarios, seeds)]
     episodes = sum(p["episodes"] for p in parts)
     flat = {k: np.concatenate([p[k].ravel() for p in parts]) for k in ("success", "collision", "time")}
     reached = ~np.isnan(flat["time"])

@@ -38,6 +38,8 @@ import numpy as np
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
 
+from .config import mixture_split
+
 DATASET_FORMAT = "vcs-env-expert-v1"
 
 Actor = Callable[[np.ndarray], np.ndarray]
@@ -87,10 +89,7 @@ def play_mixture(scenarios: Sequence, seeds: Sequence[int], **kwargs) -> dict[st
     """:func:`play` over a mixture: episode ``j`` plays ``scenarios[j % len(scenarios)]`` with
     ``seeds[j]`` (as :func:`agents.evaluate.score_scenarios` scores them); the datasets of the
     scenarios follow each other. ``kwargs`` as :func:`play`."""
-    seeds = [int(s) for s in seeds]
-    parts = [
-        play(sc, seeds[g :: len(scenarios)], **kwargs) for g, sc in enumerate(scenarios) if seeds[g :: len(scenarios)]
-    ]
+    parts = [play(sc, part, **kwargs) for sc, part in mixture_split(scenarios, seeds)]
     out = parts[0]
     for part in parts[1:]:
         out = concat_datasets(out, part)
