@@ -21,8 +21,11 @@ ADAM_EPS = 1e-5
 
 def normalized_advantages(advantages: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
     """``(A - mean) / (std + 1e-8)`` with mean and std over the rows where ``mask`` is True
-    (all rows if ``mask`` is None), as SB3 normalizes each minibatch; shape unchanged."""
+    (all rows if ``mask`` is None), as SB3 normalizes each minibatch; shape unchanged. With fewer
+    than 2 such rows the advantages are returned as they are (SB3's rule; the std is undefined)."""
     valid = advantages if mask is None else advantages[mask]
+    if valid.numel() < 2:
+        return advantages
     return (advantages - valid.mean()) / (valid.std() + 1e-8)
 
 
@@ -36,7 +39,7 @@ class SB3PPOLearner(PPOTorchLearner):
 
     def _make_batch_if_necessary(self, training_data):
         batch = super()._make_batch_if_necessary(training_data=training_data)
-        if batch is not None:
+        if batch is not None and self.config.shuffle_batch_per_epoch:  # also before the first epoch
             for module_batch in batch.policy_batches.values():
                 module_batch.shuffle()
         return batch

@@ -23,6 +23,8 @@ def test_advantages_are_normalized_over_the_real_steps_of_the_minibatch():
     np.testing.assert_allclose(out[mask].numpy(), (real - real.mean()) / real.std(ddof=1), rtol=1e-5)
     assert out[mask].mean().abs() < 1e-6  # the masked bootstrap step (100) does not shift them
     np.testing.assert_allclose(normalized_advantages(adv[mask], None).numpy(), out[mask].numpy(), rtol=1e-6)
+    one = torch.tensor([True, False, False, False, False])  # one real row: no std, left as is (SB3)
+    np.testing.assert_array_equal(normalized_advantages(adv, one).numpy(), adv.numpy())
 
 
 def test_first_epoch_minibatches_are_shuffled_and_a_toy_run_repeats(monkeypatch):
