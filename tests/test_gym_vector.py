@@ -162,3 +162,25 @@ def test_sb3_ppo_learns_through_the_adapter():
     assert model.num_timesteps >= 256 and len(model.ep_info_buffer) > 0
     with pytest.raises(ValueError, match="NEXT_STEP"):
         GymVectorToSB3(make("sync", vector_kwargs={"autoreset_mode": AutoresetMode.SAME_STEP}))
+
+
+@pytest.mark.parametrize("vector", [False, True])
+def test_one_planner_instance_as_others_and_expert_gives_the_same_episode(vector):
+    """``others=p, expert=p``: the env must not plan the state a second time with the planner's
+    memory already advanced (the expert labels then drifted from step 7 on); the episode equals
+    the one with two separate instances."""
+    from baselines.vcs.planner import VCSPlanner
+    from vcs_env.gym_env import VcsNavEnv, VcsNavVectorEnv
+
+    def run(shared):
+        p = VCSPlanner()
+        kw = dict(others=p, expert=p if shared else VCSPlanner(), n_robots=4)
+        env = VcsNavVectorEnv(2, "circle", **kw) if vector else VcsNavEnv("circle", **kw)
+        obs, info = env.reset(seed=3)
+        out = [np.asarray(info["expert_action"], dtype=np.float64).copy()]
+        for _ in range(40):
+            obs, *_, info = env.step(out[-1])  # follow the expert
+            out.append(np.asarray(info["expert_action"], dtype=np.float64).copy())
+        return np.array(out)
+
+    np.testing.assert_array_equal(run(True), run(False))

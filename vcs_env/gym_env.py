@@ -17,6 +17,16 @@ from .scenario import Scenario, make_scenario
 from .spaces import action_space, observation_space
 
 
+
+def _others_actions(others: Planner, engine: NavEngine, mask: np.ndarray) -> np.ndarray:
+    """Actions ``(B, n, 2)`` of the planner driving the robots in ``mask`` ``(n,)``. When it is the
+    engine's expert instance, that planner has already planned this state (``expert_action``):
+    planning it again would overwrite the memory its own next plan starts from (hysteresis), so
+    the labels would change with the sharing; its plan is reused instead."""
+    if others is engine.expert:
+        return np.array(engine.expert_action, dtype=np.float64)
+    return others.act(engine.world, engine.action_mode, mask).astype(np.float64)
+
 class VcsNavEnv(RenderMixin, gym.Env):
     """One learning robot among planner-driven robots and passive obstacles
     (``vcs_env/Navigation-v1``).
@@ -107,7 +117,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
             raise ValueError(f"action must be finite, got {arr}")
         world = self.engine.world
         if self.others is not None:
-            actions = self.others.act(world, self.engine.action_mode, self._others_mask).astype(np.float64)
+            actions = _others_actions(self.others, self.engine, self._others_mask)
         else:
             actions = np.zeros((1, 1, 2))
         actions[0, 0] = arr
@@ -229,7 +239,7 @@ class VcsNavVectorEnv(VectorEnv):
             raise ValueError(f"actions must be finite, got {arr[~np.isfinite(arr)][:4]}")
         eng = self.engine
         if self.others is not None:
-            batch = self.others.act(eng.world, eng.action_mode, self._others_mask).astype(np.float64)
+            batch = _others_actions(self.others, eng, self._others_mask)
         else:
             batch = np.zeros((self.num_envs, 1, 2))
         batch[:, 0] = arr
