@@ -17,7 +17,6 @@ from .scenario import Scenario, make_scenario
 from .spaces import action_space, observation_space
 
 
-
 def _others_actions(others: Planner, engine: NavEngine, mask: np.ndarray) -> np.ndarray:
     """Actions ``(B, n, 2)`` of the planner driving the robots in ``mask`` ``(n,)``. When it is the
     engine's expert instance, that planner has already planned this state (``expert_action``):
@@ -26,6 +25,7 @@ def _others_actions(others: Planner, engine: NavEngine, mask: np.ndarray) -> np.
     if others is engine.expert:
         return np.array(engine.expert_action, dtype=np.float64)
     return others.act(engine.world, engine.action_mode, mask).astype(np.float64)
+
 
 class VcsNavEnv(RenderMixin, gym.Env):
     """One learning robot among planner-driven robots and passive obstacles
@@ -115,7 +115,6 @@ class VcsNavEnv(RenderMixin, gym.Env):
             raise ValueError(f"action must have shape (2,), got {arr.shape}")
         if not np.all(np.isfinite(arr)):
             raise ValueError(f"action must be finite, got {arr}")
-        world = self.engine.world
         if self.others is not None:
             actions = _others_actions(self.others, self.engine, self._others_mask)
         else:
