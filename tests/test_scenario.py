@@ -82,6 +82,8 @@ def test_impossible_layouts_say_so():
         make_scenario("swap", n_robots=3)
     with pytest.raises(ValueError, match="lane_spacing"):
         make_scenario("swap", n_robots=4, lane_spacing=0.3)
+    # exactly the spacing needed (0.5 + 0.3 + 2 * 0.2 = 1.2000000000000002 in floats) is allowed
+    make_scenario("crossing", n_robots=8, lane_spacing=1.2, jitter=0.2)
     with pytest.raises(ValueError, match="without overlap"):
         make_scenario("random", n_robots=60, arena_half_size=2.0)
     with pytest.raises(ValueError, match="overlaps"):

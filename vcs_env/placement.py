@@ -48,7 +48,7 @@ def check_ring(s: Scenario) -> None:
     need = 2.0 * s.robot.radius + s.min_separation + 2.0 * s.jitter
     if s.n_robots >= 2:
         chord = 2.0 * s.circle_radius * math.sin(math.pi / s.n_robots)
-        if chord < need:
+        if chord < need - 1e-9:
             raise ValueError(
                 f"cannot place {s.n_robots} robots on a circle of radius {s.circle_radius:g} m without overlap: "
                 f"neighbours are {chord:.3f} m apart, need {need:.3f} m (2 radius + min_separation + 2 jitter); "
@@ -60,9 +60,10 @@ def check_lanes(s: Scenario) -> float:
     """Neighbouring lanes must not overlap; returns the body spacing needed [m]."""
     r = s.robot.radius
     need = 2.0 * r + s.min_separation + 2.0 * s.jitter
-    if s.lane_spacing < need:
+    if s.lane_spacing < need - 1e-9:  # 0.5 + 0.3 + 2 * 0.2 is 1.2000000000000002: not a real overlap
         raise ValueError(
-            f"lane_spacing={s.lane_spacing:g} m is too small for robots of radius {r:g} m: need >= {need:.3f} m"
+            f"lane_spacing={s.lane_spacing:g} m is too small for robots of radius {r:g} m: need >= {need:.3f} m "
+            "(2 radius + min_separation + 2 jitter)"
         )
     return need
 
