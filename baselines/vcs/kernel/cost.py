@@ -184,15 +184,21 @@ def ramp_clear(nbs, count, r, dv, dth):
         t = k * r.dt
         for q in range(count):
             nb = nbs[q]
-            if nb.kind == K_RECIPROCAL or nb.overlap:
+            if nb.overlap:
                 continue
-            clear = min(nb.r0 + r.ramp_gap, nb.d)
+            clear = min(nb.r0 + (0.0 if nb.kind == K_RECIPROCAL else r.ramp_gap), nb.d)
             if nb.wall:  # a wall does not move: its gap only has to stay open (vcs-method §2.18)
                 if wall_gap(nb, px, py) < min(nb.r0 + WALL_RAMP_GAP, nb.d):
                     return False
                 continue
-            gx = nb.px + nb.vjx * t - px
-            gy = nb.py + nb.vjy * t - py
+            if nb.kind == K_RECIPROCAL:
+                # The other robot takes the mirror of this change (the reciprocal assumption):
+                # relative displacement 2 P(t) - (v_R + v_j) t.
+                gx = nb.px + (r.vrx + nb.vjx) * t - 2.0 * px
+                gy = nb.py + (r.vry + nb.vjy) * t - 2.0 * py
+            else:
+                gx = nb.px + nb.vjx * t - px
+                gy = nb.py + nb.vjy * t - py
             if gx * gx + gy * gy < clear * clear:
                 return False
     return True
