@@ -10,6 +10,7 @@ import pytest
 import vcs_env
 from baselines.vcs import VCSPlanner
 from baselines.vcs import experiments as X
+from vcs_env.contacts import contact_events
 from vcs_env.engine import NavEngine
 from vcs_env.metrics import episode_metrics
 from vcs_env.rollout import planner_controller, run_episodes
@@ -47,6 +48,26 @@ def test_dense_random_layouts_parked_robots_are_not_hit():
     assert sum(_parked_contacts(e) for e in safe) == 0
     assert not any(episode_metrics(e)["collision"] for e in safe)
     assert sum(_parked_contacts(e) > 0 for e in ablated) >= 2
+
+
+def _robot_contacts_at_fault(ep) -> int:
+    """At-fault contacts between two robots that both still drive (``vcs_env.contacts``)."""
+    return sum(c.kind == "robot" and c.at_fault for c in contact_events(ep))
+
+
+def test_ramp_check_keeps_turning_robots_off_driving_ones():
+    """A large turn whose end velocity leaves the other robot's HRVO cone can sweep through that
+    robot on the way. The ramp check covers driving robots under the reciprocal assumption (the
+    other takes the mirror of the change). These are the dense random layouts of seeds
+    5100-5399 where the ramp check of non-reactive bodies alone let a robot turn into a driving
+    one (4 of 300 episodes; 1 of 300, seed 5290, with driving robots covered): no contact
+    between driving robots with it, contacts in every one of them with the ramp check off."""
+    scenario = vcs_env.make_scenario("random", n_robots=12, arena_half_size=4.0, on_collision="continue")
+    seeds = (5142, 5219, 5365, 5368)
+    checked = _run(scenario, seeds)
+    ablated = _run(scenario, seeds, ramp_check=False)
+    assert sum(_robot_contacts_at_fault(e) for e in checked) == 0
+    assert sum(_robot_contacts_at_fault(e) > 0 for e in ablated) >= 3
 
 
 def test_crowd_margin_watches_a_crowd_further_ahead():

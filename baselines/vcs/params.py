@@ -114,7 +114,8 @@ class VCSParams:
     further ahead, towards the classic VO (False: T_m for each, capped)."""
     ramp_check: bool = True
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
-    objects (False: only its end velocity is judged, the ablation)."""
+    objects, and out of contact with driving robots that take the mirror of the change (the
+    reciprocal assumption) (False: only its end velocity is judged, the ablation)."""
     # --- interaction (vcs-method §2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
     """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""

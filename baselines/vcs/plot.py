@@ -31,9 +31,9 @@ def object_forbidden_masks(
 
     Responsibility by kind (vcs-method §2.4): a driving robot is reciprocal; a robot within braking distance
     of its goal (preferred speed below v_max) is a non-reactive mover plus a static twin; parked
-    robots and obstacles are non-reactive. A non-reactive object also forbids the candidates
-    whose ramp (the steps until the candidate is reached) comes closer than
-    ``min(r0 + delta_min / 2, d)`` (vcs-method §2.15).
+    robots and obstacles are non-reactive. An object also forbids the candidates whose ramp
+    (the steps until the candidate is reached) comes closer than ``min(r0 + delta_min / 2, d)``
+    to it, extrapolated at its velocity; ``min(r0, d)`` for a reciprocal robot (vcs-method §2.15).
 
     Args:
         world: the state.
@@ -99,9 +99,13 @@ def object_forbidden_masks(
         k = len(vel)
         scale = np.full(k, 2.0 if reciprocal else 1.0)
         mask = G.forbidden(vel, np.broadcast_to(rel, vel.shape), apex, scale, np.full(k, reff), horizon[idx])
-        if not reciprocal and p.ramp_check:  # admissible along the way (vcs-method §2.15)
-            gap = np.linalg.norm(rel + ramp_t[:, None] * v_j - ramp, axis=-1)
-            mask |= (on_ramp & (gap < min(r0 + 0.5 * p.delta_min, d))).any(axis=1)
+        if p.ramp_check:  # admissible along the way (vcs-method §2.15)
+            if reciprocal:  # the other takes the mirror of the change: 2 P(t) - (v_R + v_j) t
+                gap = np.linalg.norm(rel + ramp_t[:, None] * (v_r + v_j) - 2.0 * ramp, axis=-1)
+            else:
+                gap = np.linalg.norm(rel + ramp_t[:, None] * v_j - ramp, axis=-1)
+            clear = min(r0 + (0.0 if reciprocal else 0.5 * p.delta_min), d)
+            mask |= (on_ramp & (gap < clear)).any(axis=1)
         out[idx] = mask
     r = world.radius[b, i]
     for k in np.flatnonzero(world.seg_present[b]):  # walls (vcs-method §2.18)

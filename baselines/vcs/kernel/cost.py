@@ -162,10 +162,12 @@ def ramp_velocity(r, dv, dth, ex, ey, e, k):
 def ramp_clear(nbs, count, r, dv, dth):
     """Admissible along the way (vcs-method §2.15): the motion that reaches the candidate, speed
     and heading ramping at the maximal per-step rates (a holonomic velocity along the straight
-    line), keeps clear of every non-reactive neighbour, extrapolated at its velocity. The
-    velocity obstacles judge the end velocity only, as if it were reached at once; a turn that
-    sweeps through a parked robot on the way is caught here. Clear means a gap of at least
-    delta_min / 2, or no smaller than now if the robot is already closer."""
+    line), keeps clear of every non-reactive neighbour, extrapolated at its velocity, and out
+    of contact with every driving robot, which takes the mirror of the change (the reciprocal
+    assumption: relative displacement 2 P(t) - (v_R + v_j) t). The velocity obstacles judge the
+    end velocity only, as if it were reached at once; a turn that sweeps through a parked or a
+    driving robot on the way is caught here. Clear means a gap of at least delta_min / 2 (0 for
+    a driving robot), or no smaller than now if the robot is already closer."""
     if not r.ramp:
         return True
     steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
@@ -184,15 +186,21 @@ def ramp_clear(nbs, count, r, dv, dth):
         t = k * r.dt
         for q in range(count):
             nb = nbs[q]
-            if nb.kind == K_RECIPROCAL or nb.overlap:
+            if nb.overlap:
                 continue
-            clear = min(nb.r0 + r.ramp_gap, nb.d)
+            clear = min(nb.r0 + (0.0 if nb.kind == K_RECIPROCAL else r.ramp_gap), nb.d)
             if nb.wall:  # a wall does not move: its gap only has to stay open (vcs-method §2.18)
                 if wall_gap(nb, px, py) < min(nb.r0 + WALL_RAMP_GAP, nb.d):
                     return False
                 continue
-            gx = nb.px + nb.vjx * t - px
-            gy = nb.py + nb.vjy * t - py
+            if nb.kind == K_RECIPROCAL:
+                # The other robot takes the mirror of this change (the reciprocal assumption):
+                # relative displacement 2 P(t) - (v_R + v_j) t.
+                gx = nb.px + (r.vrx + nb.vjx) * t - 2.0 * px
+                gy = nb.py + (r.vry + nb.vjy) * t - 2.0 * py
+            else:
+                gx = nb.px + nb.vjx * t - px
+                gy = nb.py + nb.vjy * t - py
             if gx * gx + gy * gy < clear * clear:
                 return False
     return True
