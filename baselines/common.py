@@ -9,7 +9,9 @@ from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
 
-def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) -> np.ndarray:
+def preferred_velocity(
+    world: WorldState, v_pref_max: np.ndarray | None = None, route: tuple[np.ndarray, np.ndarray] | None = None
+) -> np.ndarray:
     """Velocity toward the goal, capped so the robot can stop there (vcs-method §2.5).
 
     ``s = min(v_pref_max, d / dt, sqrt(2 a_max d))`` toward the goal, and 0 within ``r_goal``.
@@ -19,14 +21,15 @@ def preferred_velocity(world: WorldState, v_pref_max: np.ndarray | None = None) 
     (a limit cycle of radius v / omega_max) [reconstructed].
 
     With walls, the robot aims at its next visible waypoint and ``d`` is the remaining route
-    length (:func:`vcs_env.routes.route_direction`); without walls this is the goal itself.
+    length (:func:`vcs_env.routes.route_direction`, or ``route`` when the caller has it already);
+    without walls this is the goal itself.
 
     Returns:
         ``(B, n, 2)`` [m/s].
     """
     e = world.goal - world.pos
     if world.n_segments:
-        e = route_direction(world)[0]
+        e = (route_direction(world) if route is None else route)[0]
     d = np.sqrt(np.einsum("...i,...i->...", e, e))
     cap = world.v_max if v_pref_max is None else v_pref_max
     s = np.minimum(np.minimum(cap, d / world.dt), np.sqrt(2.0 * world.a_max * d))

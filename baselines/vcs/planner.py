@@ -122,12 +122,11 @@ class VCSPlanner(Planner):
         """Preferred velocities (perturbed, and detour-rotated) and communicated ones."""
         p = self.params
         mem = self._mem
-        pref = preferred_velocity(world)
+        route = route_direction(world) if world.n_segments else None  # (next leg, remaining length [m])
+        pref = preferred_velocity(world, route=route)
         own = pref.copy()
         B, n = world.batch_size, world.n_robots
-        d_goal = np.linalg.norm(world.goal - world.pos, axis=-1)
-        if world.n_segments:
-            d_goal = route_direction(world)[1]  # the remaining route length around walls [m]
+        d_goal = np.linalg.norm(world.goal - world.pos, axis=-1) if route is None else route[1]
         if n > 1 and p.perturbation > 0:
             # Symmetry breaking (vcs-method §2.5): a small random push, from the world's counter-based noise.
             psi = 2.0 * np.pi * noise.uniform(world.key, world.steps, n, stream=1)
