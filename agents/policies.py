@@ -44,6 +44,15 @@ class ResolvedPolicy:
     """``planner``, ``predictor`` or ``checkpoint``."""
 
 
+def policy_label(spec: str) -> str:
+    """The name a policy goes by in tables: a planner by its name, a checkpoint by its run
+    directory (``policies/circle8/model.zip`` -> ``circle8``) or else its file stem."""
+    if not is_checkpoint_spec(spec):
+        return spec
+    path = Path(spec)
+    return path.parent.name if path.stem in ("model", "best_model") and path.parent.name else path.stem
+
+
 def is_checkpoint_spec(spec: Any) -> bool:
     """True if ``spec`` names a file rather than a registered planner: a path object, a string
     ending in ``.zip`` or holding a path separator, or any other string that is not a

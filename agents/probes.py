@@ -87,16 +87,13 @@ def select_probes(families: str | None) -> tuple[Probe, ...]:
 def policy_labels(specs: list[str], expert: str = "vcs") -> dict[str, str]:
     """``{label: spec}`` with the ``expert`` first: planners by name, a checkpoint by its run
     directory (``policies/circle8/model.zip`` -> ``circle8``) or its file stem."""
-    from .policies import is_checkpoint_spec
+    from .policies import policy_label
 
     out = {expert: expert}
     for spec in specs:
         if spec == expert:
             continue
-        label = spec
-        if is_checkpoint_spec(spec):
-            path = Path(spec)
-            label = path.parent.name if path.stem in ("model", "best_model") and path.parent.name else path.stem
+        label = policy_label(spec)
         if label in out:
             raise ValueError(f"two policies would be labelled {label!r} in the probe table: {out[label]}, {spec}")
         out[label] = spec
