@@ -320,8 +320,14 @@ def test_saved_command_rebuilds_the_config():
     assert config_command("train", TrainConfig()) == "vcs-env train"
 
 
-RELEASED = [("circle8", "circle-8-v0-smoke"), ("crowd5", "crowd-5-v0-smoke")]
-"""Released v1 policies and the smoke suite each must solve."""
+RELEASED = [
+    ("circle8", "circle-8-v0-smoke"),
+    ("crowd5", "crowd-5-v0-smoke"),
+    ("generalist", "circle-16-v0-smoke"),
+    ("generalist", "swap-v0-smoke"),
+]
+"""Released v1 policies and smoke suites each must solve (the generalist: families it solves on the
+full suites, results/generalist)."""
 
 
 @pytest.mark.parametrize("name,suite", RELEASED)
