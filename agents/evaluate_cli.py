@@ -74,13 +74,9 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from .policies import policy_label
+    from .probes import policy_labels
 
-    specs = [p.strip() for p in args.policies.split(",") if p.strip()]
-    labels = [policy_label(p) for p in specs]
-    if len(set(labels)) != len(labels):
-        raise ValueError(f"--policies would give two columns one name: {dict(zip(specs, labels))}")
-    policies = dict(zip(labels, specs))
+    policies = policy_labels([p.strip() for p in args.policies.split(",") if p.strip()], expert=None)
     suite = episodes_of(args)
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")

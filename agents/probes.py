@@ -84,18 +84,19 @@ def select_probes(families: str | None) -> tuple[Probe, ...]:
     return tuple(p for p in PROBES if p.scenario in wanted)
 
 
-def policy_labels(specs: list[str], expert: str = "vcs") -> dict[str, str]:
-    """``{label: spec}`` with the ``expert`` first: planners by name, a checkpoint by its run
-    directory (``policies/circle8/model.zip`` -> ``circle8``) or its file stem."""
+def policy_labels(specs: list[str], expert: str | None = "vcs") -> dict[str, str]:
+    """``{label: spec}`` with the ``expert`` first (None: in the given order): planners by name, a
+    checkpoint by its run directory (``policies/circle8/model.zip`` -> ``circle8``) or its file
+    stem (:func:`agents.policies.policy_label`); two policies with one label are an error."""
     from .policies import policy_label
 
-    out = {expert: expert}
+    out = {} if expert is None else {expert: expert}
     for spec in specs:
         if spec == expert:
             continue
         label = policy_label(spec)
         if label in out:
-            raise ValueError(f"two policies would be labelled {label!r} in the probe table: {out[label]}, {spec}")
+            raise ValueError(f"two policies would be labelled {label!r} in the table: {out[label]}, {spec}")
         out[label] = spec
     return out
 
