@@ -317,7 +317,7 @@ class Custom(ScenarioKind):
             heading=c.heading,
             speed=c.speed,
         )
-        lay.segments = np.array(c.walls, dtype=np.float64).reshape(-1, 2, 2)
+        lay.segments = c._wall_array.copy()  # = np.array(c.walls), converted once
         return lay
 
     def world_extent(self, s: Scenario) -> float:

@@ -204,6 +204,8 @@ class CustomLayout:
 
         walls = check_segments(self.walls, "CustomLayout.walls")
         object.__setattr__(self, "walls", tuple(tuple(map(tuple, w)) for w in walls.tolist()))
+        walls.setflags(write=False)
+        object.__setattr__(self, "_wall_array", walls)  # the walls as an (s, 2, 2) array, for every reset
         object.__setattr__(self, "obstacles", tuple(self.obstacles))
         for o in self.obstacles:
             if not isinstance(o, ObstacleTrajectory):
