@@ -71,6 +71,77 @@ def test_wall_kernel_equals_numpy_oracle_bit_for_bit():
     assert hits > 50
 
 
+def test_cached_wall_kernel_equals_numpy_oracle_over_many_steps():
+    """The per-robot wall candidates kept from step to step (``wall_events_cached``) against the
+    oracle: random walks that mostly stay in their balls (candidates reused), some jumps out of
+    them, radii that grow and shrink, robots that stop acting, a world emptied as a reset would."""
+    rng = np.random.default_rng(2)
+    B, n, s = 4, 6, 9
+    for trial in range(12):
+        seg_a = rng.uniform(-4, 4, (B, s, 2))
+        seg_b = seg_a + rng.uniform(-2, 2, (B, s, 2))
+        seg_present = rng.random((B, s)) < 0.85
+        pos = rng.uniform(-4, 4, (B, n, 2))
+        radius = rng.uniform(0.1, 0.4, (B, n))
+        cache = kernels.wall_cache(B, n, s)
+        reach = (0.05, 0.3, 1.0, 3.0)[trial % 4]
+        reused = hits = 0
+        for step in range(60):
+            new_pos = pos + rng.normal(0.0, 0.04, (B, n, 2)) * rng.choice((0.1, 1.0, 5.0), (B, n, 1))
+            jump = rng.random((B, n)) < 0.03  # teleports (a robot set by hand)
+            new_pos[jump] = rng.uniform(-4, 4, (int(jump.sum()), 2))
+            radius = np.where(rng.random((B, n)) < 0.05, rng.uniform(0.1, 0.5, (B, n)), radius)
+            present, acted = rng.random((B, n)) < 0.95, rng.random((B, n)) < 0.9
+            sep = np.where(rng.random((B, n)) < 0.5, np.inf, rng.uniform(-0.2, 1.5, (B, n)))
+            collided = rng.random((B, n)) < 0.1
+            args = (pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided)
+            before = cache[0].copy()
+            got = kernels.wall_events_cached(*args, *cache, reach)
+            want = reference_wall_events(*args)
+            for g, w in zip(got, want):
+                np.testing.assert_array_equal(g, w)
+            reused += int((acted & present & (cache[0] == before).all(axis=2) & (before[..., 2] >= 0)).sum())
+            hits += int(got[0].sum())
+            if step == 30:  # world 1 gets new walls: its cache is emptied, as Simulator.reset does
+                seg_a[1] = rng.uniform(-4, 4, (s, 2))
+                seg_b[1] = seg_a[1] + rng.uniform(-2, 2, (s, 2))
+                cache[0][1, :, 2] = -1.0
+            pos = new_pos
+        assert reused > 200 and hits > 0
+
+
+def test_simulator_wall_events_equal_the_oracle_across_resets(monkeypatch):
+    """The simulator's persistent wall candidates give the oracle's events at every step, also
+    after worlds are reset onto new random maps (autoreset with different walls), and when a
+    reset world's robots are put back by hand where they were on the old map (their old
+    candidates would still cover their motion)."""
+    from vcs_env.engine import NavEngine
+    from vcs_env.scenario import make_scenario
+
+    cached, checked = kernels.wall_events_cached, [0]
+
+    def check(*args):
+        got = cached(*args)
+        for g, w in zip(got, reference_wall_events(*(a.copy() for a in args[:10]))):
+            np.testing.assert_array_equal(g, w)
+        checked[0] += 1
+        return got
+
+    monkeypatch.setattr(kernels, "wall_events_cached", check)
+    s = make_scenario("walls", n_robots=4, n_walls=12, on_collision="continue", max_steps=25)
+    eng = NavEngine(s, batch_size=3)
+    eng.reset([0, 1, 2])
+    actions = np.random.default_rng(0).uniform(-1, 1, (80, 3, 4, 2))
+    segments = eng.world.seg_a.copy()
+    for t, a in enumerate(actions):
+        eng.step(a, autoreset=True)
+        if t % 10 == 5:
+            pos = eng.world.pos.copy()
+            eng.reset([100 + t], worlds=[t % 3])
+            eng.world.pos[t % 3] = pos[t % 3]
+    assert checked[0] == 80 and not np.array_equal(segments, eng.world.seg_a)
+
+
 def wall_scenario(start, goal, walls, **kw):
     return Scenario(
         kind="custom",

@@ -76,6 +76,8 @@ class Simulator:
         self.world: WorldState = self._empty_world()
         self.motion_params: dict[str, np.ndarray] = {}
         self._needs_reset = np.ones(self.batch_size, dtype=bool)
+        self._wall_cache: tuple = ()  # kernels.wall_events_cached's, for the segment arrays in _wall_cache_of
+        self._wall_cache_of: tuple = ()
 
     # ------------------------------------------------------------------ reset
     def _empty_world(self) -> WorldState:
@@ -158,6 +160,8 @@ class Simulator:
                 if key not in self.motion_params:
                     self.motion_params[key] = np.zeros((self.batch_size, *value.shape), dtype=value.dtype)
                 self.motion_params[key][b] = value
+        if self._wall_cache:
+            self._wall_cache[0][idx, :, 2] = -1.0  # new walls: no wall candidates
         # Obstacle velocities are what they will do over the coming step (for sensing).
         self._needs_reset[idx] = False
         self._preview_obstacle_velocity(idx)
@@ -206,9 +210,10 @@ class Simulator:
         )
 
         if w.n_segments:  # walls: contacts like obstacles, swept over the step (no tunnelling)
-            wall_hits, min_sep, collided = kernels.wall_events(
-                old_pos, new_pos, w.radius, w.present, acted, w.seg_a, w.seg_b, w.seg_present, min_sep, collided
-            )
+            wall_hits, min_sep, collided = kernels.wall_events_cached(
+                old_pos, new_pos, w.radius, w.present, acted, w.seg_a, w.seg_b, w.seg_present, min_sep, collided,
+                *self._wall_candidates(), kernels.WALL_REACH,
+            )  # fmt: skip
         else:
             wall_hits = np.zeros((B, n, 0), dtype=bool)
 
@@ -232,6 +237,18 @@ class Simulator:
             goal_dist_after=goal_after,
             wall_hits=wall_hits,
         )
+
+    def _wall_candidates(self) -> tuple:
+        """The cache of :func:`kernels.wall_events_cached` for the world's walls: kept from step to
+        step, emptied for the worlds :meth:`reset` resets and whenever the segment arrays are
+        replaced. Walls are static between resets: segments changed in place must go through
+        :meth:`reset`."""
+        w = self.world
+        arrays = (w.seg_a, w.seg_b, w.seg_present)
+        if len(self._wall_cache_of) != 3 or any(a is not b for a, b in zip(arrays, self._wall_cache_of)):
+            self._wall_cache = kernels.wall_cache(self.batch_size, w.n_robots, w.n_segments)
+            self._wall_cache_of = arrays
+        return self._wall_cache
 
     def _obstacle_velocity(self) -> np.ndarray:
         """Velocities of all obstacles over the coming step, after wall bounces ``(B, m, 2)``."""
