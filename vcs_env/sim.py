@@ -243,11 +243,10 @@ class Simulator:
         step, emptied for the worlds :meth:`reset` resets and whenever the segment arrays are
         replaced. Walls are static between resets: segments changed in place must go through
         :meth:`reset`."""
-        w = self.world
-        arrays = (w.seg_a, w.seg_b, w.seg_present)
-        if len(self._wall_cache_of) != 3 or any(a is not b for a, b in zip(arrays, self._wall_cache_of)):
+        w, of = self.world, self._wall_cache_of
+        if not (of and of[0] is w.seg_a and of[1] is w.seg_b and of[2] is w.seg_present):
             self._wall_cache = kernels.wall_cache(self.batch_size, w.n_robots, w.n_segments)
-            self._wall_cache_of = arrays
+            self._wall_cache_of = (w.seg_a, w.seg_b, w.seg_present)
         return self._wall_cache
 
     def _obstacle_velocity(self) -> np.ndarray:
