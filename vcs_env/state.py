@@ -16,7 +16,11 @@ from .geometry import unit
 
 @dataclass
 class WorldState:
-    """State of ``B`` worlds at one instant. Shapes in the comments; units in brackets."""
+    """State of ``B`` worlds at one instant. Shapes in the comments; units in brackets.
+
+    Robots may be moved by hand between steps; walls are static between resets (the simulator
+    keeps each robot's nearby wall segments from step to step): change them through
+    :meth:`vcs_env.sim.Simulator.reset`, or by replacing the segment arrays, not in place."""
 
     time: np.ndarray  # (B,) elapsed time [s]
     steps: np.ndarray  # (B,) int, steps taken
