@@ -95,6 +95,11 @@ class VCSParams:
     """``"least_harm"``: with no admissible candidate, prefer separating from what the robot
     already touches and never speed up toward a threat (vcs-method §2.13); ``"penalty"``: the plain
     RVO-style penalty kappa / t_c + J_g (the ablation) [reconstructed]."""
+    fallback_clearance: float | None = 0.025
+    """While the robot is already inside a body's regulated buffer (where every buffered time to
+    collision is ~0 and cannot rank), the least-harm fallback measures time to contact with the
+    combined physical radius plus this clearance [m] (at most r_eff); ``None``: always the
+    regulated radius r_eff (the ablation; vcs-method §2.13) [ours]."""
     # --- safety against what does not get out of the way [reconstructed]
     # (vcs-method §2.4, vcs-method §2.7, vcs-method §2.15)
     arriving_non_reactive: bool = True
@@ -196,6 +201,8 @@ class VCSParams:
             raise ValueError(f"VCSParams.detour_angle must be in [-pi, pi], got {self.detour_angle!r}")
         if self.r_ca is not None:
             _positive("r_ca", self.r_ca)
+        if self.fallback_clearance is not None:
+            _positive("fallback_clearance", self.fallback_clearance, allow_zero=True)
 
     @property
     def weights(self) -> tuple[float, float, float, float, float, float]:

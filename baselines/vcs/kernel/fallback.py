@@ -9,7 +9,7 @@ from numba import njit
 from .cost import goal_term
 from .neighbours import collision_time, forbidden
 from .records import INF, K_STATIC, T_FLOOR, TINY, WALL_COST
-from .scalar import reach_steps
+from .scalar import reach_steps, tau
 from .window import candidate
 
 
@@ -27,7 +27,18 @@ def first_step(r, dv, dth, vx, vy):
 
 
 @njit(cache=True)
-def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
+def contact_time(nb, vx, vy, clearance):
+    """Time to contact [s] with the contact radius ``min(r_eff, r0 + clearance)``; ``clearance < 0``
+    and walls: the regulated radius r_eff (:func:`~.neighbours.collision_time`)."""
+    if clearance < 0.0 or nb.wall:
+        return collision_time(nb, vx, vy)  # walls keep their regulated radius (they are hard)
+    rc = min(nb.reff, nb.r0 + clearance)
+    s = nb.jscale
+    return tau(nb.px, nb.py, s * (vx - nb.jax), s * (vy - nb.jay), rc)
+
+
+@njit(cache=True)
+def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax, clearance=-1.0, eps=0.0):
     """Cost of a candidate when nothing is admissible (vcs-method §2.13). The RVO-style penalty
     ``kappa / t_c + J_g`` (t_c: the least time to collision over the neighbours), and with
     ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
@@ -41,6 +52,15 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
     viol = 0.0
     walled = 0.0
     v1x, v1y = first_step(r, dv, dth, vx, vy)
+    if least_harm and clearance >= 0.0:
+        # Only while the robot is already inside a body's regulated buffer (r_eff was shrunk to
+        # d - eps) do the buffered times saturate; then time to contact at r0 + clearance ranks.
+        inside = False
+        for q in range(count):
+            if not nbs[q].wall and nbs[q].d - nbs[q].reff <= eps + 1e-9:
+                inside = True
+        if not inside:
+            clearance = -1.0
     for q in range(count):
         nb = nbs[q]
         if nb.wall and walled == 0.0 and forbidden(nb, vx, vy):
@@ -50,7 +70,7 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax):
             if e > viol:
                 viol = e
         else:
-            tc = collision_time(nb, vx, vy)
+            tc = contact_time(nb, vx, vy, clearance) if least_harm else collision_time(nb, vx, vy)
             if tc < tmin:
                 tmin = tc
         if least_harm and (nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax):
@@ -80,7 +100,18 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
             continue
         s = r.v_r + dv
         j = fallback_cost(
-            nbs, count, r, dv, dth, s * math.cos(r.th + dth), s * math.sin(r.th + dth), p.kappa, p.least_harm, p.t_max
+            nbs,
+            count,
+            r,
+            dv,
+            dth,
+            s * math.cos(r.th + dth),
+            s * math.sin(r.th + dth),
+            p.kappa,
+            p.least_harm,
+            p.t_max,
+            p.fallback_clearance,
+            p.eps,
         )
         if j < best:
             best = j

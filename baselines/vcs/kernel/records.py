@@ -76,6 +76,7 @@ PARAMS = np.dtype(
         ("arriving_non_reactive", "?"),
         ("least_harm", "?"),  # least-harm fallback (else the RVO penalty)
         ("crowd_margin", "?"),
+        ("fallback_clearance", "f8"),  # least-harm fallback's contact radius r0 + this [m]; < 0: r_eff
     ],
     align=True,
 )
@@ -117,6 +118,7 @@ def params_record(p) -> np.ndarray:
         "arriving_non_reactive": p.arriving_non_reactive,
         "least_harm": p.fallback == "least_harm",
         "crowd_margin": p.crowd_margin,
+        "fallback_clearance": -1.0 if p.fallback_clearance is None else p.fallback_clearance,
     }
     for name, value in values.items():
         rec[name] = value
