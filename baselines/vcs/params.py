@@ -116,6 +116,11 @@ class VCSParams:
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
     objects, and out of contact with driving robots that take the mirror of the change (the
     reciprocal assumption) (False: only its end velocity is judged, the ablation)."""
+    wall_brake: bool = True
+    """Near a wall, a ramp must leave the robot able to stop: from every state along it, braking
+    straight at a_max keeps clear of the wall; and with no admissible candidate, the fallback
+    also weighs the full stop and counts a ramp that sweeps into a wall as hard as a wall
+    (vcs-method §2.18) (False: the ramp's positions only, the ablation)."""
     # --- interaction (vcs-method §2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
     """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""
@@ -140,6 +145,10 @@ class VCSParams:
     (vcs-method §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
+    detour_off_walls: bool = True
+    """A detour keeps left instead when keeping right would run into a wall within t_margin at
+    v_max and keeping left would not (vcs-method §2.18) (False: always detour_angle, the
+    ablation)."""
     r_ca: float | None = None
     """Sensing radius [m]; None uses the world's."""
 
@@ -174,7 +183,15 @@ class VCSParams:
                 )
         else:
             _positive("horizon", self.horizon)
-        for name in ("arriving_non_reactive", "stop_margin", "joint_escape", "crowd_margin", "ramp_check"):
+        for name in (
+            "arriving_non_reactive",
+            "stop_margin",
+            "joint_escape",
+            "crowd_margin",
+            "ramp_check",
+            "wall_brake",
+            "detour_off_walls",
+        ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"VCSParams.{name} must be a bool, got {getattr(self, name)!r}")
         for name, choices in (
