@@ -145,6 +145,11 @@ class VCSParams:
     (vcs-method §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
+    detour_jitter: float = 0.5
+    """On a map with walls, each detour lasts detour_time times a factor uniform in
+    [1 - detour_jitter, 1 + detour_jitter] (the world's counter-based noise): a head-on pair
+    in a door one robot wide otherwise stalls, detours and comes back in step (0: every detour
+    lasts detour_time, the ablation; without walls it always does)."""
     detour_off_walls: bool = True
     """A detour keeps left instead when keeping right would run into a wall within t_margin at
     v_max and keeping left would not (vcs-method §2.18) (False: always detour_angle, the
@@ -166,6 +171,7 @@ class VCSParams:
             "stall_time",
             "progress_window",
             "detour_time",
+            "detour_jitter",
             "w_goal",
             "w_safety",
             "w_change",
@@ -174,6 +180,8 @@ class VCSParams:
             "w_bias",
         ):
             _positive(name, getattr(self, name), allow_zero=True)
+        if not 0.0 <= self.detour_jitter < 1.0:
+            raise ValueError(f"VCSParams.detour_jitter must be in [0, 1), got {self.detour_jitter!r}")
         for name in ("t_max", "kappa"):
             _positive(name, getattr(self, name))
         if isinstance(self.horizon, str):

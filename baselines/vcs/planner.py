@@ -149,7 +149,14 @@ class VCSPlanner(Planner):
         if p.detour_off_walls and world.n_segments and detour.any():
             angle = self._detour_side(world, own, angle, detour)
         own = np.where(detour[..., None], rotate(own, angle), own)
-        mem.detour_out = np.where(detour, np.where(start, p.detour_time, mem.detour_in) - world.dt, 0.0)
+        length = p.detour_time
+        if p.detour_jitter > 0 and world.n_segments and start.any():
+            # Among walls a head-on pair in a door one robot wide stalls and detours in step;
+            # detours of different lengths bring them back one after the other (vcs-method §2.13).
+            length = p.detour_time * (
+                1.0 + p.detour_jitter * (2.0 * noise.uniform(world.key, world.steps, n, stream=2) - 1.0)
+            )
+        mem.detour_out = np.where(detour, np.where(start, length, mem.detour_in) - world.dt, 0.0)
         mem.stall_out = np.where(stalled & ~detour, mem.stall_in + world.dt, 0.0)
         mark = progressed | start  # a new progress mark: progress made, or a detour begins
         mem.ref_out = np.where(mark, d_goal, ref)
