@@ -34,6 +34,8 @@ def object_forbidden_masks(
     robots and obstacles are non-reactive. An object also forbids the candidates whose ramp
     (the steps until the candidate is reached) comes closer than ``min(r0 + delta_min / 2, d)``
     to it, extrapolated at its velocity; ``min(r0, d)`` for a reciprocal robot (vcs-method §2.15).
+    A wall also forbids those with a ramp state that cannot brake straight to a stop clear of it
+    (``wall_brake``, vcs-method §2.18).
 
     Args:
         world: the state.
