@@ -164,7 +164,7 @@ class VCSPlanner(Planner):
         return own, pref, detour
 
     def _detour_side(self, world: WorldState, own: np.ndarray, angle: np.ndarray, detour: np.ndarray) -> np.ndarray:
-        """The detour's rotation ``(B, n)`` [rad] (vcs-method §2.13, §2.18): keep right, unless the
+        """The detour's rotation ``(B, n)`` [rad] (vcs-method §2.13, vcs-method §2.18): keep right, unless the
         rotated preferred direction runs into a wall within ``t_margin`` at v_max (the capsule of
         r + delta_min) and the other side does not; then keep left. A robot stopped facing a wall
         with its route along it otherwise turned toward the wall on every detour, for good."""
