@@ -123,3 +123,42 @@ def test_plot_masks_of_walls_agree_with_the_kernel():
         agree += int((forbidden == ~ok).sum())
         refused += int((~ok).sum())
     assert agree >= 0.995 * 6 * 400 and refused > 100
+
+
+def _episodes(suite: str, seeds, **kw):
+    return run_episodes(SUITES[suite].scenario, planner_controller(VCSPlanner(**kw)), list(seeds))
+
+
+def test_wall_brake_keeps_a_turning_robot_off_the_wall():
+    """corridor-v0 seed 1092: a robot at 0.84 m/s starts a U-turn toward a goal behind it, the
+    shorter way round, through the wall 0.56 m away. Without ``wall_brake`` (the ramp's
+    positions only, and a fallback blind to ramps) it touches the wall; with it, every state of
+    the ramp can brake straight to a stop clear of the wall, and nothing touches it."""
+    assert _wall_contacts(_episodes("corridor-v0", [1092], wall_brake=False)) == 1
+    (e,) = _episodes("corridor-v0", [1092])
+    assert not contact_events(e) and (e.reached_step >= 0).all()
+
+
+def test_detour_keeps_off_the_wall():
+    """A robot stopped facing a wall, its route along it: a detour that keeps right turned it
+    into the wall on every try (door-headon-v0 seed 1007, robot 1, alone after the other passed;
+    intersection-v0, robots pushed into the wrong branch). Keeping left there frees it."""
+    kw = dict(wall_brake=False, detour_jitter=0.0)  # the rule alone
+    (stuck,) = _episodes("door-headon-v0", [1007], detour_off_walls=False, **kw)
+    (free,) = _episodes("door-headon-v0", [1007], **kw)
+    assert (stuck.reached_step < 0).any() and (free.reached_step >= 0).all()
+    seeds = list(SUITES["intersection-v0"].seeds)[:8]
+    arrived_off = sum(
+        int((e.reached_step >= 0).all()) for e in _episodes("intersection-v0", seeds, detour_off_walls=False)
+    )
+    arrived_on = sum(int((e.reached_step >= 0).all()) for e in _episodes("intersection-v0", seeds))
+    assert arrived_on >= arrived_off + 3
+
+
+def test_detour_jitter_breaks_the_door_head_on():
+    """door-headon-v0: with detours of one length the pair of seed 1011 stalls, detours and comes
+    back in step until the time runs out; detours of different lengths let one through first."""
+    (same,) = _episodes("door-headon-v0", [1011], detour_jitter=0.0)
+    (jittered,) = _episodes("door-headon-v0", [1011])
+    assert (same.reached_step < 0).any()
+    assert (jittered.reached_step >= 0).all() and not contact_events(jittered)

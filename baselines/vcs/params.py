@@ -121,6 +121,11 @@ class VCSParams:
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
     objects, and out of contact with driving robots that take the mirror of the change (the
     reciprocal assumption) (False: only its end velocity is judged, the ablation)."""
+    wall_brake: bool = True
+    """Near a wall, a ramp must leave the robot able to stop: from every state along it, braking
+    straight at a_max keeps clear of the wall; and with no admissible candidate, the fallback
+    also weighs the full stop and counts a ramp that sweeps into a wall as hard as a wall
+    (vcs-method §2.18) (False: the ramp's positions only, the ablation)."""
     # --- interaction (vcs-method §2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
     """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""
@@ -145,6 +150,15 @@ class VCSParams:
     (vcs-method §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
+    detour_jitter: float = 0.5
+    """On a map with walls, each detour lasts detour_time times a factor uniform in
+    [1 - detour_jitter, 1 + detour_jitter] (the world's counter-based noise): a head-on pair
+    in a door one robot wide otherwise stalls, detours and comes back in step (0: every detour
+    lasts detour_time, the ablation; without walls it always does)."""
+    detour_off_walls: bool = True
+    """A detour keeps left instead when keeping right would run into a wall within t_margin at
+    v_max and keeping left would not (vcs-method §2.18) (False: always detour_angle, the
+    ablation)."""
     r_ca: float | None = None
     """Sensing radius [m]; None uses the world's."""
 
@@ -162,6 +176,7 @@ class VCSParams:
             "stall_time",
             "progress_window",
             "detour_time",
+            "detour_jitter",
             "w_goal",
             "w_safety",
             "w_change",
@@ -170,6 +185,8 @@ class VCSParams:
             "w_bias",
         ):
             _positive(name, getattr(self, name), allow_zero=True)
+        if not 0.0 <= self.detour_jitter < 1.0:
+            raise ValueError(f"VCSParams.detour_jitter must be in [0, 1), got {self.detour_jitter!r}")
         for name in ("t_max", "kappa"):
             _positive(name, getattr(self, name))
         if isinstance(self.horizon, str):
@@ -179,7 +196,15 @@ class VCSParams:
                 )
         else:
             _positive("horizon", self.horizon)
-        for name in ("arriving_non_reactive", "stop_margin", "joint_escape", "crowd_margin", "ramp_check"):
+        for name in (
+            "arriving_non_reactive",
+            "stop_margin",
+            "joint_escape",
+            "crowd_margin",
+            "ramp_check",
+            "wall_brake",
+            "detour_off_walls",
+        ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"VCSParams.{name} must be a bool, got {getattr(self, name)!r}")
         for name, choices in (

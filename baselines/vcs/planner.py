@@ -12,6 +12,7 @@ from vcs_env.planning import Planner
 from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
+from ..capsule import reference_capsule_tau
 from ..common import hold_inactive, preferred_velocity
 from . import kernel
 from .geometry import velocity_to_vcs
@@ -144,13 +145,47 @@ class VCSPlanner(Planner):
         slow = stalled & (mem.stall_in + world.dt >= p.stall_time - 1e-9)
         start = (mem.detour_in <= 0) & (slow | no_progress)
         detour = (mem.detour_in > 0) | start
-        own = np.where(detour[..., None], rotate(own, np.full((B, n), p.detour_angle)), own)
-        mem.detour_out = np.where(detour, np.where(start, p.detour_time, mem.detour_in) - world.dt, 0.0)
+        angle = np.full((B, n), p.detour_angle)
+        if p.detour_off_walls and world.n_segments and detour.any():
+            angle = self._detour_side(world, own, angle, detour)
+        own = np.where(detour[..., None], rotate(own, angle), own)
+        length = p.detour_time
+        if p.detour_jitter > 0 and world.n_segments and start.any():
+            # Among walls a head-on pair in a door one robot wide stalls and detours in step;
+            # detours of different lengths bring them back one after the other (vcs-method §2.13).
+            length = p.detour_time * (
+                1.0 + p.detour_jitter * (2.0 * noise.uniform(world.key, world.steps, n, stream=2) - 1.0)
+            )
+        mem.detour_out = np.where(detour, np.where(start, length, mem.detour_in) - world.dt, 0.0)
         mem.stall_out = np.where(stalled & ~detour, mem.stall_in + world.dt, 0.0)
         mark = progressed | start  # a new progress mark: progress made, or a detour begins
         mem.ref_out = np.where(mark, d_goal, ref)
         mem.wait_out = np.where(mark, 0.0, wait)
         return own, pref, detour
+
+    def _detour_side(self, world: WorldState, own: np.ndarray, angle: np.ndarray, detour: np.ndarray) -> np.ndarray:
+        """The detour's rotation ``(B, n)`` [rad] (vcs-method §2.13, vcs-method §2.18): keep right, unless the
+        rotated preferred direction runs into a wall within ``t_margin`` at v_max (the capsule of
+        r + delta_min) and the other side does not; then keep left. A robot stopped facing a wall
+        with its route along it otherwise turned toward the wall on every detour, for good."""
+        p = self.params
+        a = world.seg_a[:, None, :, :] - world.pos[:, :, None, :]  # (B, n, S, 2) [m]
+        b = world.seg_b[:, None, :, :] - world.pos[:, :, None, :]
+        present = world.seg_present[:, None, :] & detour[..., None]
+        r = np.broadcast_to((world.radius + p.delta_min)[..., None], present.shape)
+        heading = np.arctan2(own[..., 1], own[..., 0])
+
+        def blocked(turn):
+            w = world.v_max[..., None] * np.stack((np.cos(heading + turn), np.sin(heading + turn)), -1)
+            w = np.broadcast_to(w[:, :, None, :], a.shape)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tau = reference_capsule_tau(
+                    np.where(present[..., None], a, 0.0), np.where(present[..., None], b, 1.0), w, r
+                )
+            return (present & (tau <= p.t_margin)).any(axis=-1)
+
+        flip = blocked(angle) & ~blocked(-angle)
+        return np.where(flip, -angle, angle)
 
     def _kernel_inputs(self, world: WorldState, own, comm, detour, planned) -> tuple:
         """The world, preferred velocities, memory and the robots to plan ``(B, n)`` bool, and the

@@ -34,6 +34,8 @@ def object_forbidden_masks(
     robots and obstacles are non-reactive. An object also forbids the candidates whose ramp
     (the steps until the candidate is reached) comes closer than ``min(r0 + delta_min / 2, d)``
     to it, extrapolated at its velocity; ``min(r0, d)`` for a reciprocal robot (vcs-method §2.15).
+    A wall also forbids those with a ramp state that cannot brake straight to a stop clear of it
+    (``wall_brake``, vcs-method §2.18).
 
     Args:
         world: the state.
@@ -56,6 +58,14 @@ def object_forbidden_masks(
         dv, dth, world.speed[b, i], world.heading[b, i], world.a_max[b, i], world.omega_max[b, i], world.dt
     )
     ramp_t = world.dt * np.arange(1, ramp.shape[1] + 1)
+    steps_k = np.arange(1, ramp.shape[1] + 1)
+    ramp_vel = (
+        world.speed[b, i]
+        + np.clip(dv[:, None], -steps_k * world.a_max[b, i] * world.dt, steps_k * world.a_max[b, i] * world.dt)
+    )[..., None] * G.unit(
+        world.heading[b, i]
+        + np.clip(dth[:, None], -steps_k * world.omega_max[b, i] * world.dt, steps_k * world.omega_max[b, i] * world.dt)
+    )
     steps = G.reach_steps(dv, dth, world.a_max[b, i], world.omega_max[b, i], world.dt)
     on_ramp = (np.arange(1, ramp.shape[1] + 1) <= steps[:, None]) & (steps[:, None] > 1)  # (k, K)
     out = {}
@@ -126,9 +136,32 @@ def object_forbidden_masks(
         mask = np.isfinite(tau) & (tau <= horizon[2 * n + m + k])
         if p.ramp_check:
             gap = point_segment_distance(ramp, a, e)  # (k, K) [m]
-            mask |= (on_ramp & (gap < min(r + WALL_RAMP_GAP, d))).any(axis=1)
+            need = min(r + WALL_RAMP_GAP, d)
+            mask |= (on_ramp & (gap < need)).any(axis=1)
+            if p.wall_brake:  # every state of the ramp can brake straight to a stop clear of it
+                a_max = world.a_max[b, i]
+                now = path_segment_distance(np.zeros(2), v_r * np.linalg.norm(v_r) / (2 * a_max), a, e)
+                tail = ramp_vel * np.linalg.norm(ramp_vel, axis=-1, keepdims=True) / (2 * a_max)
+                brake = path_segment_distance(ramp, ramp + tail, a, e)
+                mask |= (on_ramp & (brake < min(need, float(now)))).any(axis=1)
         out[2 * n + m + k] = mask
     return out
+
+
+def path_segment_distance(p: np.ndarray, q: np.ndarray, a: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Distance [m] from the straight paths ``p``-``q`` ``(..., 2)`` to the segment ``a``-``e``
+    ``(2,)``: 0 where they cross, else the least end-to-segment distance (the numpy twin of
+    ``kernel.walls.wall_path_gap``)."""
+    p, q = np.broadcast_arrays(np.asarray(p, float), np.asarray(q, float))
+
+    def cross(u, v):
+        return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+
+    d1, d2 = cross(q - p, a - p), cross(q - p, e - p)
+    d3, d4 = cross(e - a, p - a), cross(e - a, q - a)
+    ends = np.minimum(point_segment_distance(p, a, e), point_segment_distance(q, a, e))
+    ends = np.minimum(ends, np.minimum(point_segment_distance(a, p, q), point_segment_distance(e, p, q)))
+    return np.where((d1 * d2 < 0) & (d3 * d4 < 0), 0.0, ends)
 
 
 def plot_decision(

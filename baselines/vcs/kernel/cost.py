@@ -10,7 +10,7 @@ from numba import njit
 from .neighbours import forbidden
 from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY, WALL_RAMP_GAP
 from .scalar import reach_steps, tau, tau_within, wrap
-from .walls import wall_gap, wall_tau
+from .walls import brake_gap, wall_gap, wall_tau
 
 
 @njit(cache=True)
@@ -57,6 +57,7 @@ def robot_context(b, i, world, inputs, p, dt, holo, rec):
     r.ramp = p.ramp_check
     r.dt = dt
     r.ramp_gap = 0.5 * p.delta_min
+    r.wall_brake = p.wall_brake
 
 
 @njit(cache=True)
@@ -167,16 +168,34 @@ def ramp_clear(nbs, count, r, dv, dth):
     assumption: relative displacement 2 P(t) - (v_R + v_j) t). The velocity obstacles judge the
     end velocity only, as if it were reached at once; a turn that sweeps through a parked or a
     driving robot on the way is caught here. Clear means a gap of at least delta_min / 2 (0 for
-    a driving robot), or no smaller than now if the robot is already closer."""
+    a driving robot), or no smaller than now if the robot is already closer. Near a wall, with
+    ``wall_brake``, every state along the ramp must also be able to brake straight to a stop
+    clear of it (vcs-method §2.18)."""
     if not r.ramp:
         return True
+    return ramp_walk(nbs, count, r, dv, dth, False)
+
+
+@njit(cache=True)
+def wall_ramp_clear(nbs, count, r, dv, dth):
+    """:func:`ramp_clear` against the walls only (the fallback's, vcs-method §2.18)."""
+    return ramp_walk(nbs, count, r, dv, dth, True)
+
+
+@njit(cache=True)
+def ramp_walk(nbs, count, r, dv, dth, walls_only):
+    """The ramp of :func:`ramp_clear`; ``walls_only``: against the walls only, from the first step on,
+    with contact (gap r, or no smaller than now) as the limit (the fallback's test)."""
     steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
-    if steps <= 1:
+    if walls_only:
+        steps = max(steps, 1)  # the fallback's candidates: its first step too
+    elif steps <= 1:
         return True  # reached within the step: the velocity obstacles judge it
     s_end = r.v_r + dv
     ex = s_end * math.cos(r.th + dth) - r.vrx
     ey = s_end * math.sin(r.th + dth) - r.vry
     e = math.sqrt(ex * ex + ey * ey)
+    a_max = r.dv1 / r.dt
     px = 0.0
     py = 0.0
     for k in range(1, steps + 1):
@@ -188,11 +207,20 @@ def ramp_clear(nbs, count, r, dv, dth):
             nb = nbs[q]
             if nb.overlap:
                 continue
-            clear = min(nb.r0 + (0.0 if nb.kind == K_RECIPROCAL else r.ramp_gap), nb.d)
             if nb.wall:  # a wall does not move: its gap only has to stay open (vcs-method §2.18)
-                if wall_gap(nb, px, py) < min(nb.r0 + WALL_RAMP_GAP, nb.d):
+                need = min(nb.r0 + (0.0 if walls_only else WALL_RAMP_GAP), nb.d)
+                if wall_gap(nb, px, py) < need:
                     return False
+                if r.wall_brake:
+                    # ... and the robot must be able to stop there, braking straight, clear of it
+                    # (or no closer than a stop from now would come).
+                    need = min(need, brake_gap(nb, 0.0, 0.0, r.vrx, r.vry, a_max))
+                    if brake_gap(nb, px, py, vx, vy, a_max) < need:
+                        return False
                 continue
+            if walls_only:
+                continue
+            clear = min(nb.r0 + (0.0 if nb.kind == K_RECIPROCAL else r.ramp_gap), nb.d)
             if nb.kind == K_RECIPROCAL:
                 # The other robot takes the mirror of this change (the reciprocal assumption):
                 # relative displacement 2 P(t) - (v_R + v_j) t.

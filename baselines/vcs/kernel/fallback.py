@@ -6,7 +6,7 @@ import math
 
 from numba import njit
 
-from .cost import goal_term
+from .cost import goal_term, wall_ramp_clear
 from .neighbours import collision_time, forbidden
 from .records import INF, K_STATIC, T_FLOOR, TINY, WALL_COST
 from .scalar import reach_steps, tau
@@ -89,11 +89,16 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax, clear
 @njit(cache=True)
 def fallback_search(nbs, count, r, win, g1v, g1th, p):
     """The candidate of least :func:`fallback_cost` over the window grid and the extra points
-    (a holonomic window is the disc of radius k a_max dt). Returns ``(cost, dv, dth)``."""
+    (a holonomic window is the disc of radius k a_max dt). Near a wall, with ``wall_brake``
+    (vcs-method §2.18), a candidate whose ramp (:func:`~.cost.wall_ramp_clear`: its first step
+    too) touches a wall, or leaves the robot unable to brake straight to a stop short of it,
+    costs :data:`~.records.WALL_COST` more: a fallback that turned toward its goal point, or
+    sped up while turning away, swept into the wall. Returns ``(cost, dv, dth)``."""
     best = INF
     bdv = 0.0
     bdth = 0.0
     ngrid = win.nv * win.nth
+    brake = r.walls and r.wall_brake and r.ramp
     for c in range(ngrid + 3):
         dv, dth = candidate(c, win, r, g1v, g1th)
         if r.holo and c < ngrid and reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r) > win.k:
@@ -113,6 +118,8 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
             p.fallback_clearance,
             p.eps,
         )
+        if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
+            j += WALL_COST
         if j < best:
             best = j
             bdv = dv

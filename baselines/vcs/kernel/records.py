@@ -73,6 +73,7 @@ PARAMS = np.dtype(
         ("stop_margin", "?"),
         ("joint_escape", "?"),
         ("ramp_check", "?"),
+        ("wall_brake", "?"),
         ("arriving_non_reactive", "?"),
         ("least_harm", "?"),  # least-harm fallback (else the RVO penalty)
         ("crowd_margin", "?"),
@@ -115,6 +116,7 @@ def params_record(p) -> np.ndarray:
         "stop_margin": p.stop_margin,
         "joint_escape": p.joint_escape,
         "ramp_check": p.ramp_check,
+        "wall_brake": p.wall_brake,
         "arriving_non_reactive": p.arriving_non_reactive,
         "least_harm": p.fallback == "least_harm",
         "crowd_margin": p.crowd_margin,
@@ -224,6 +226,7 @@ ROBOT = np.dtype(
         ("goal_vcs", "?"),  # goal term measured in the VCS
         ("ramp", "?"),  # check admissibility along the way (vcs-method §2.15)
         ("walls", "?"),  # senses a wall (vcs-method §2.18)
+        ("wall_brake", "?"),  # a ramp near a wall must leave the robot able to stop (vcs-method §2.18)
     ],
     align=True,
 )

@@ -34,6 +34,31 @@ def wall_gap(nb, px, py):
 
 
 @njit(cache=True)
+def wall_path_gap(nb, px, py, qx, qy):
+    """Distance [m] from the straight path ``(px, py)``-``(qx, qy)`` [m] (relative to the robot
+    now) to the wall of record ``nb``: 0 if they cross, else the least of the four end-to-segment
+    distances."""
+    ax, ay, bx, by = nb.ax, nb.ay, nb.bx, nb.by
+    d1 = (qx - px) * (ay - py) - (qy - py) * (ax - px)
+    d2 = (qx - px) * (by - py) - (qy - py) * (bx - px)
+    d3 = (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+    d4 = (bx - ax) * (qy - ay) - (by - ay) * (qx - ax)
+    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+        return 0.0
+    g = min(segment_range(ax - px, ay - py, bx - px, by - py), segment_range(ax - qx, ay - qy, bx - qx, by - qy))
+    return min(g, segment_range(px - ax, py - ay, qx - ax, qy - ay), segment_range(px - bx, py - by, qx - bx, qy - by))
+
+
+@njit(cache=True)
+def brake_gap(nb, px, py, vx, vy, a_max):
+    """Distance [m] from the wall of record ``nb`` to the path of a robot at ``(px, py)`` [m]
+    (relative to the robot now) moving at ``(vx, vy)`` [m/s] that brakes straight to a stop at
+    ``a_max`` [m/s^2] (``s^2 / (2 a_max)`` along its velocity)."""
+    f = math.sqrt(vx * vx + vy * vy) / (2.0 * a_max)
+    return wall_path_gap(nb, px, py, px + f * vx, py + f * vy)
+
+
+@njit(cache=True)
 def fill_wall(nb, ax, ay, bx, by, k, r0, vrx, vry, a_max_i, p):
     """Fill record ``nb`` with wall ``k`` from ``(ax, ay)`` to ``(bx, by)`` relative to the robot
     [m], for a robot of radius ``r0`` [m] at velocity ``(vrx, vry)`` [m/s] (all but the
