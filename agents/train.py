@@ -114,6 +114,10 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     crowd:n_obstacles=3-20/8,obstacle_speed=0.5-1.5 (agents.config.parse_mixture_entry). Every grid point
     is one scenario with a fixed share of the worlds (agents.vec_env.MixtureVecEnv); the other scenario
     flags (max_steps, on_collision, rewards, shaping) apply to all."""
+    mixture_balance: str = "worlds"
+    """How a mixture's worlds are shared: ``worlds`` (the same number per scenario) or ``robots``
+    (worlds in proportion to 1 / robot count, so every scenario steps about the same number of
+    robots; agents.vec_env.mixture_world_counts)."""
     checkpoint_freq: int = 500_000
     """Save a resumable checkpoint every this many timesteps (0: never)."""
     progress_bar: bool = True
@@ -258,6 +262,8 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1:
         raise ValueError("timesteps must be >= 0, n_worlds and eval_episodes >= 1")
+    if cfg.mixture_balance not in ("worlds", "robots"):
+        raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     for path in (cfg.init, resume):  # fail fast, before the slow torch import
         if path:
             resolve(path)
@@ -280,7 +286,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     if len(scenarios) == 1:
         venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
     else:
-        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma)
+        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance)
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:
         model = load_model(resume, scenario, env=venv)

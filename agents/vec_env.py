@@ -234,14 +234,40 @@ class NavVecEnv(SharedSlots):
         pass
 
 
+def mixture_world_counts(n_robots: Sequence[int], n_worlds: int, balance: str = "worlds") -> list[int]:
+    """Worlds of each mixture scenario, at least one each, ``n_worlds`` in all.
+
+    ``balance="worlds"``: ``n_worlds`` dealt round robin (scenario ``g`` gets
+    ``len(range(g, n_worlds, S))``). ``balance="robots"``: one world each, then every further world
+    to the scenario with the fewest robots so far (the first on ties), so each scenario steps about
+    the same number of robots (a difference of at most one world's robots, beyond the floor of one).
+
+    Example: ``mixture_world_counts([1, 1, 4, 24], 100, "robots")`` -> ``[44, 43, 11, 2]`` (robots
+    44, 43, 44, 48).
+    """
+    n_scen = len(n_robots)
+    if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < n_scen:
+        raise ValueError(f"n_worlds must be an integer >= the number of mixture scenarios ({n_scen}), got {n_worlds!r}")
+    n_worlds = int(n_worlds)
+    if balance == "worlds":
+        return [len(range(g, n_worlds, n_scen)) for g in range(n_scen)]
+    if balance != "robots":
+        raise ValueError(f"mixture balance must be 'worlds' or 'robots', got {balance!r}")
+    counts = [1] * n_scen
+    for _ in range(n_worlds - n_scen):
+        g = min(range(n_scen), key=lambda k: counts[k] * n_robots[k])
+        counts[g] += 1
+    return counts
+
+
 class MixtureVecEnv(SharedSlots):
     """Worlds of several scenarios (other kinds, robot and obstacle counts) as one SB3 ``VecEnv``.
 
     Worlds are split into **groups**, one :class:`NavVecEnv` (one batched engine) per scenario;
     the slots are the groups' slots one after the other, with the same per-slot semantics
-    (live / end / padding / world reset). World ``b`` of the whole mixture plays
-    ``scenarios[b % len(scenarios)]`` (round robin), so every scenario has a fixed share of the
-    worlds and every rollout holds all of them. Groups rather than padding to the largest robot
+    (live / end / padding / world reset). Every scenario has a fixed number of worlds
+    (:func:`mixture_world_counts`: an equal share of the worlds, or of the robots with
+    ``balance="robots"``), so every rollout holds all of them. Groups rather than padding to the largest robot
     count: no slot is spent on robots that do not exist, and each group keeps the one-call step
     of its engine; the cost is one engine call per group and step (measured in the README:
     "Training on mixtures").
@@ -252,6 +278,9 @@ class MixtureVecEnv(SharedSlots):
     Args:
         scenarios: the scenarios (all with one observation config).
         n_worlds: total worlds B, at least ``len(scenarios)``.
+        balance: ``"worlds"`` (each scenario the same number of worlds, up to one) or ``"robots"``
+            (each about the same number of robots, so a one-robot crowd world is not outweighed
+            24 to 1 by a 24-robot circle in every rollout).
         action_mode, expert, gamma, max_steps: as :class:`NavVecEnv`.
     """
 
@@ -263,15 +292,12 @@ class MixtureVecEnv(SharedSlots):
         expert=None,
         gamma: float = 0.99,
         max_steps: int | None = None,
+        balance: str = "worlds",
     ):
         scenarios = list(scenarios)
         if not scenarios:
             raise ValueError("MixtureVecEnv needs at least one scenario")
-        if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < len(scenarios):
-            raise ValueError(
-                f"n_worlds must be an integer >= the number of mixture scenarios ({len(scenarios)}), got {n_worlds!r}"
-            )
-        counts = [len(range(g, int(n_worlds), len(scenarios))) for g in range(len(scenarios))]
+        counts = mixture_world_counts([s.n_robots for s in scenarios], n_worlds, balance)
         self.scenarios = scenarios
         self.groups = [
             NavVecEnv(s, c, action_mode, expert=expert, gamma=gamma, max_steps=max_steps)

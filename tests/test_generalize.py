@@ -158,6 +158,28 @@ def test_mixture_vec_env_is_its_groups_side_by_side():
         MixtureVecEnv([scenarios[0], make_scenario("crowd", n_neighbors=2)], n_worlds=2)
 
 
+def test_mixture_balance_by_robots_steps_about_as_many_robots_per_scenario():
+    pytest.importorskip("stable_baselines3")
+    from agents.vec_env import MixtureVecEnv, mixture_world_counts
+    from vcs_env import make_scenario
+
+    assert mixture_world_counts([1, 24], 26) == [13, 13]
+    for n_robots, n_worlds in [([1, 1, 4, 24], 100), ([3, 8, 16], 7), ([5], 9), ([2, 12, 1], 200), ([6, 4], 50)]:
+        counts = mixture_world_counts(n_robots, n_worlds, "robots")
+        assert sum(counts) == n_worlds and min(counts) >= 1
+        robots = [c * n for c, n in zip(counts, n_robots)]
+        # Scenarios above their one-world floor step as many robots as the fewest, up to one world.
+        low = min(robots)
+        assert all(r - low <= n for r, n, c in zip(robots, n_robots, counts) if c > 1)
+    assert mixture_world_counts([1, 1, 4, 24], 100, "robots") == [44, 43, 11, 2]
+    assert mixture_world_counts([1, 24], 3, "robots") == [2, 1]  # at least one world each
+    scenarios = [make_scenario("circle", n_robots=4, max_steps=30), make_scenario("crowd", n_obstacles=2)]
+    mix = MixtureVecEnv(scenarios, n_worlds=10, balance="robots")
+    assert [g.n_worlds for g in mix.groups] == [2, 8] and mix.num_envs == 2 * 4 + 8
+    with pytest.raises(ValueError, match="balance must be 'worlds' or 'robots', got 'agents'"):
+        mixture_world_counts([1, 2], 4, "agents")
+
+
 def test_reproduction_command_of_a_toy_mixture_run_gives_the_same_metrics(tmp_path, capsys):
     """Honest reproducibility (README "Reproducibility"): re-running the command saved beside a
     checkpoint gives the same evaluation metrics on the same machine and library versions. The
