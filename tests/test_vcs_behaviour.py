@@ -17,10 +17,12 @@ from baselines.vcs import VCSPlanner
 from baselines.vcs import experiments as X
 
 SEEDS = range(8)
+FS1_SEEDS = range(20)
+"""FS1's time ratio is a small effect (a few %) with a wide spread per seed: 20 seeds, not 8."""
 
 
-def batch(builder, **params):
-    return [X.run(builder(s), VCSPlanner(**params)) for s in SEEDS]
+def batch(builder, seeds=SEEDS, **params):
+    return [X.run(builder(s), VCSPlanner(**params)) for s in seeds]
 
 
 def mean(runs, f):
@@ -31,8 +33,8 @@ def mean(runs, f):
 def cf1():
     """CF1 batch (straight movers) with the planner and its foils."""
     return {
-        "vcs": batch(X.cf_scenario),
-        "one_step": batch(X.cf_scenario, window="one_step"),
+        "vcs": batch(X.cf_scenario, FS1_SEEDS),
+        "one_step": batch(X.cf_scenario, FS1_SEEDS, window="one_step"),
         "goal_only": batch(X.cf_scenario, cost="goal_only"),
     }
 
@@ -151,7 +153,7 @@ def test_fs2_fs3_big_obstacle_with_weak_dynamics():
 
 # ---------------------------------------------------------------- multi-objective
 def test_mo1_full_cost_is_smoother_than_goal_only(cf1):
-    full, goal = cf1["vcs"], cf1["goal_only"]
+    full, goal = cf1["vcs"][: len(SEEDS)], cf1["goal_only"]
     # Prototype: heading change <= 0.7x, sign flips <= 0.6x. Measured here on these seeds: 0.74x and
     # 0.45x (20 seeds: 0.70x, 0.62x); the heading-change bound is relaxed to 0.8x.
     assert mean(full, lambda r: r.heading_change[0]) <= 0.8 * mean(goal, lambda r: r.heading_change[0])

@@ -83,17 +83,32 @@ def test_crowd_margin_watches_a_crowd_further_ahead():
     assert np.mean(full) >= np.mean(alone) + 0.2
 
 
+def test_crowd_reach_counts_movers_a_slow_robot_could_meet():
+    """A robot that slows among crossing movers closes on none of them, so counting only the
+    movers that close on its current velocity shrinks its horizons exactly when the crowd
+    surrounds it. Counting every mover it could meet within T_max (crowd_reach) keeps the crowd in
+    view. Measured on eight crowd-20 episodes where the two counts differ (the suite's seed 1009,
+    the rest fresh): 7 of 8 solved against 1 of 8 with the closing count (crowd_reach=False)."""
+    seeds = (1009, 5206, 5224, 5258, 5484, 5949, 6039, 6126)
+    scenario = get_suite("crowd-20-v0").scenario
+    reach = [episode_metrics(e)["success"] for e in _run(scenario, seeds)]
+    closing = [episode_metrics(e)["success"] for e in _run(scenario, seeds, crowd_reach=False)]
+    assert sum(reach) >= 6
+    assert sum(closing) <= 3
+
+
 def test_fallback_inside_a_buffer_ranks_by_contact_with_a_clearance():
     """Among 20 crossing movers the robot can end up inside the regulated buffers of movers that
     flank it, where every buffered time to collision is ~0; the fallback then measures time to
     contact at r0 + fallback_clearance, so braking or turning away from the crossing mover ranks
     above keeping course into it. Measured on these fresh seeds (the default's crowd-20 failures
     among 5200-6199 that the rule removes): 3 of 3 solved against 0 of 3 (all collide) with the
-    regulated buffer throughout (fallback_clearance=None)."""
+    regulated buffer throughout (fallback_clearance=None). Both arms count contesting movers by
+    closing speed (crowd_reach=False), the rule these seeds were picked under."""
     suite = get_suite("crowd-20-v0")
     seeds = (5246, 5521, 5989)
-    new = [episode_metrics(e) for e in _run(suite.scenario, seeds)]
-    old = [episode_metrics(e) for e in _run(suite.scenario, seeds, fallback_clearance=None)]
+    new = [episode_metrics(e) for e in _run(suite.scenario, seeds, crowd_reach=False)]
+    old = [episode_metrics(e) for e in _run(suite.scenario, seeds, crowd_reach=False, fallback_clearance=None)]
     assert all(m["success"] == 1.0 for m in new)
     assert sum(m["collision"] for m in old) >= 2
 

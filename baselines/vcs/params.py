@@ -117,6 +117,13 @@ class VCSParams:
     closing on the robot that can reach it within T_max), and its horizon T_need + that margin
     is not capped at T_max: a lone mover keeps the un-conservative T_m, a crowd is watched
     further ahead, towards the classic VO (False: T_m for each, capped)."""
+    crowd_reach: bool = True
+    """Under the crowd margin, a mover contests the robot's escapes if the robot could meet it
+    within T_max at any velocity it may pick (gap <= (v_max + the mover's approach speed) T_max),
+    not only if it closes on the robot's current velocity: a slow or stopped robot in a crowd
+    looks as far ahead as a fast one. When no candidate is admissible under this count, the
+    search is run again with the closing count before falling back (False: the closing count
+    only, the ablation; vcs-method §2.7)."""
     ramp_check: bool = True
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
     objects, and out of contact with driving robots that take the mirror of the change (the
@@ -201,6 +208,7 @@ class VCSParams:
             "stop_margin",
             "joint_escape",
             "crowd_margin",
+            "crowd_reach",
             "ramp_check",
             "wall_brake",
             "detour_off_walls",

@@ -172,20 +172,31 @@ def need_holonomic(wk, npend, nblk, r, nv, nth, tmax):
 
 
 @njit(cache=True)
-def contesting_movers(nbs, count, r, tmax):
-    """Non-reactive movers closing on the robot (at its current velocity) that can reach it
-    within T_max. Each can close the escape from another, so the margin of every mover is T_m
-    per contesting mover (not capped at T_max): a lone mover keeps the un-conservative T_m, a crowd
-    is watched further ahead (vcs-method §2.7)."""
+def contesting_movers(nbs, count, r, tmax, reach):
+    """Non-reactive movers that can contest the robot's escapes within T_max. Each can close
+    the escape from another, so the margin of every mover is T_m per contesting mover (not
+    capped at T_max): a lone mover keeps the un-conservative T_m, a crowd is watched further
+    ahead (vcs-method §2.7).
+
+    ``reach=False`` counts the movers closing on the robot at its current velocity that reach
+    it within T_max (gap <= closing speed T_max). ``reach=True`` counts every mover the robot
+    could meet within T_max whatever velocity it picks: gap <= (v_max + the mover's approach
+    speed, if positive) T_max. A slow or stopped robot closes on nothing, yet the crowd around
+    it still closes its escapes; the reach count is a superset of the closing count."""
     n_contest = 0
     for q in range(count):
         nb = nbs[q]
         if nb.kind == K_MOVER and not nb.mover:
-            wx = r.vrx - nb.vjx
-            wy = r.vry - nb.vjy
-            closing = (wx * nb.px + wy * nb.py) / max(nb.d, TINY)
-            if closing > 0.0 and nb.d - nb.r0 <= closing * tmax:
-                n_contest += 1
+            inv_d = 1.0 / max(nb.d, TINY)
+            approach = -(nb.vjx * nb.px + nb.vjy * nb.py) * inv_d  # mover's speed towards the robot [m/s]
+            gap = nb.d - nb.r0
+            if reach:
+                if gap <= (r.v_max + max(approach, 0.0)) * tmax:
+                    n_contest += 1
+            else:
+                closing = (r.vrx * nb.px + r.vry * nb.py) * inv_d + approach
+                if closing > 0.0 and gap <= closing * tmax:
+                    n_contest += 1
     return n_contest
 
 
@@ -218,7 +229,7 @@ def set_horizons(wk, count, r, p):
     nbs, need, pending = wk.nbs, wk.need, wk.pending
     tmax = p.t_max
     adaptive = p.horizon < 0.0
-    vrx, vry, v_max, v_r, dt = r.vrx, r.vry, r.v_max, r.v_r, r.dt  # locals: stores cannot change them
+    vrx, vry = r.vrx, r.vry  # locals: stores cannot change them
     npend = 0
     for q in range(count):
         need[q] = 0.0
@@ -226,7 +237,7 @@ def set_horizons(wk, count, r, p):
             need[q] = -1.0
             pending[npend] = q
             npend += 1
-    n_contest = contesting_movers(nbs, count, r, tmax)
+    n_contest = contesting_movers(nbs, count, r, tmax, p.crowd_reach)
     nblk = 0
     if p.joint_escape:
         for q in range(count):
@@ -240,6 +251,15 @@ def set_horizons(wk, count, r, p):
             # Levels beyond (T_max - T_m) / dt all give T_h = T_max.
             lmax = int(math.ceil((tmax - p.t_margin) / r.dt - STEP_SLACK))
             need_unicycle(wk, npend, nblk, r, p.coarse_n_v, p.coarse_n_theta, lmax, tmax)
+    apply_horizons(wk, count, r, p, n_contest)
+
+
+@njit(cache=True)
+def apply_horizons(wk, count, r, p, n_contest):
+    """The horizon T_h of every record from its T_need (``wk.need``) and the number of
+    contesting movers (:func:`contesting_movers`), and the pruning bounds."""
+    nbs, need = wk.nbs, wk.need
+    v_max, v_r, dt = r.v_max, r.v_r, r.dt
     for q in range(count):
         nb = nbs[q]
         nb.th = horizon_of(nb, need[q], p, v_r, dt, n_contest)

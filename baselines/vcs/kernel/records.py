@@ -77,6 +77,7 @@ PARAMS = np.dtype(
         ("arriving_non_reactive", "?"),
         ("least_harm", "?"),  # least-harm fallback (else the RVO penalty)
         ("crowd_margin", "?"),
+        ("crowd_reach", "?"),  # contesting movers: any the robot could meet (else: closing ones)
         ("fallback_clearance", "f8"),  # least-harm fallback's contact radius r0 + this [m]; < 0: r_eff
     ],
     align=True,
@@ -120,6 +121,7 @@ def params_record(p) -> np.ndarray:
         "arriving_non_reactive": p.arriving_non_reactive,
         "least_harm": p.fallback == "least_harm",
         "crowd_margin": p.crowd_margin,
+        "crowd_reach": p.crowd_margin and p.crowd_reach and p.horizon == "adaptive",
         "fallback_clearance": -1.0 if p.fallback_clearance is None else p.fallback_clearance,
     }
     for name, value in values.items():

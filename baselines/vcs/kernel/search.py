@@ -11,7 +11,7 @@ from numba import njit
 
 from .cost import admissible, consider, cost, ramp_clear, relevant, robot_context, safety_term
 from .fallback import fallback_search
-from .horizon import set_horizons
+from .horizon import apply_horizons, contesting_movers, set_horizons
 from .neighbours import setup_neighbours, work
 from .records import INF, K_STATIC, SQRT_HALF, STEP_SLACK, Grid
 from .scalar import reach_steps, steps_for, wrap
@@ -210,13 +210,10 @@ def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
 
 
 @njit(cache=True)
-def plan_robot(b, i, world, inputs, st, p, wk, g):
-    """Plan active robot i of world b (vcs-method §2.14). Returns the target VCS point
-    ``(dv*, dtheta*)``, its cost J, whether the fallback was used, the window size k*, the first
-    threat time t* [s], the number of threats and the one-step-clipped goal point."""
-    count = prepare_robot(b, i, world, inputs, st, p, wk)
-    r = wk.robot[0]
-    nbs = wk.nbs
+def search_point(nbs, count, r, p, wk, g):
+    """The point search under the current horizons (vcs-method §2.9-2.11): threats, window,
+    the extra points, then the grid swept by its neighbour-free lower bound. Returns ``(best,
+    dv, dth, window, t*, n_threats, g1v, g1th)``; best is inf when no point is admissible."""
     tstar, n_threats = threats(nbs, count)
     win = window(r, p, tstar)
     g1v, g1th = goal_step(r)
@@ -225,6 +222,33 @@ def plan_robot(b, i, world, inputs, st, p, wk, g):
     best, bdv, bdth = extra_points(nbs, wk.adm, na, wk.js, nj, count, r, win, g1v, g1th)
     lo_c, hi_c = cheap_grid(g, r, win)
     best, bdv, bdth = sweep(nbs, wk.adm, na, wk.js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth)
+    return best, bdv, bdth, win, tstar, n_threats, g1v, g1th
+
+
+@njit(cache=True)
+def search_retry(nbs, count, r, p, wk, g):
+    """:func:`search_point`; under ``crowd_reach``, a search that finds nothing admissible is run
+    once more with the horizons of the closing count (fewer contesting movers, shorter horizons;
+    vcs-method §2.7). The horizons in ``wk.nbs`` are left as the returned point was found under."""
+    res = search_point(nbs, count, r, p, wk, g)
+    if res[0] == INF and p.crowd_reach:
+        n_close = contesting_movers(nbs, count, r, p.t_max, False)
+        if n_close < contesting_movers(nbs, count, r, p.t_max, True):
+            apply_horizons(wk, count, r, p, n_close)
+            res = search_point(nbs, count, r, p, wk, g)
+    return res
+
+
+@njit(cache=True)
+def plan_robot(b, i, world, inputs, st, p, wk, g):
+    """Plan active robot i of world b (vcs-method §2.14). Returns the target VCS point
+    ``(dv*, dtheta*)``, its cost J, whether the fallback was used, the window size k*, the first
+    threat time t* [s], the number of threats and the one-step-clipped goal point. The fallback
+    comes only after :func:`search_retry` found nothing admissible."""
+    count = prepare_robot(b, i, world, inputs, st, p, wk)
+    r = wk.robot[0]
+    nbs = wk.nbs
+    best, bdv, bdth, win, tstar, n_threats, g1v, g1th = search_retry(nbs, count, r, p, wk, g)
     fell_back = best == INF
     if fell_back:
         best, bdv, bdth = fallback_search(nbs, count, r, win, g1v, g1th, p)
@@ -276,6 +300,8 @@ def evaluate_points(b, i, world, inputs, st, cand_dv, cand_dth, out_ok, out_cost
     count = prepare_robot(b, i, world, inputs, st, p, wk)
     r = wk.robot[0]
     nbs = wk.nbs
+    if p.crowd_reach:  # the horizons the planner's own search ends with
+        search_retry(nbs, count, r, p, wk, grid_work(p))
     na, nj = relevant(nbs, wk.order, count, r.tau_s, wk.adm, wk.js)
     for c in range(cand_dv.shape[0]):
         dv = cand_dv[c]
