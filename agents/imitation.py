@@ -16,7 +16,10 @@ separate MLPs, so the value fit does not disturb the actor.
 where each robot executes the expert's action with probability ``beta_k = dagger_beta *
 0.5**k`` and the learner's deterministic action otherwise, label every visited state with the
 expert action (``NavEngine.expert_action``), add the states to the dataset and continue
-training on the union.
+training on the union. With ``--init CHECKPOINT`` the policy starts from a trained one (a
+``bc`` or ``train`` checkpoint of the same ``--net-arch``) instead of a fresh one; with
+``--epochs 0`` the DAgger rounds then start from it as it is, so the expert labels the states
+that *that* policy visits (e.g. a PPO policy's own mistakes).
 
 Example::
 
@@ -220,6 +223,17 @@ class BCConfig:
     """Episodes of the closed-loop evaluation after BC and each DAgger round (0: none)."""
     eval_seed: int = 100_000
     """First seed of that evaluation (the same list as train's periodic evaluation)."""
+    init: str | None = None
+    """Start from this checkpoint's policy (bc or ppo, same --net-arch) instead of a fresh one."""
+
+    def __post_init__(self):
+        for name in ("epochs", "dagger_iters", "dagger_epochs", "eval_episodes"):
+            if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
+                raise ValueError(f"BCConfig.{name} must be an integer >= 0, got {getattr(self, name)!r}")
+        if not 0.0 <= self.dagger_beta <= 1.0:
+            raise ValueError(f"BCConfig.dagger_beta must be in [0, 1], got {self.dagger_beta!r}")
+        if self.epochs == 0 and self.dagger_iters == 0:
+            raise ValueError("BCConfig: epochs 0 and dagger_iters 0 would train nothing")
 
 
 def _split(data: dict[str, np.ndarray], frac: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -265,6 +279,11 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     pcfg = PolicyConfig(net_arch=cfg.net_arch, log_std_init=cfg.log_std_init)
     model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=policy_kwargs(pcfg))
     policy = model.policy
+    if cfg.init:
+        from .checkpoint import load_policy_weights
+
+        init_meta = load_policy_weights(model, cfg.init, scenario)
+        print(f"initialised the policy from {cfg.init} ({init_meta.get('kind', 'unknown')} checkpoint)")
     train_rows, val_rows = _split(data, cfg.val_fraction, cfg.seed)
     returns = discounted_returns(data["rewards"], data["traj_start"], cfg.gamma)
     X, Y, R = data["observations"], data["actions"], returns
@@ -306,13 +325,14 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
 
     losses = fit(train_rows, cfg.epochs, cfg.seed)
     report["bc_losses"] = losses
-    if len(Xv):
+    if len(Xv) and losses:
         report["held_out_error"] = action_error(policy, Xv, Yv)
         print(
             f"[bc] {cfg.epochs} epochs on {report['rows']} rows: loss {losses[0]:.3f} -> {losses[-1]:.3f}, "
             f"held-out action error {report['held_out_error_init']:.3f} -> {report['held_out_error']:.3f}"
         )
-    report["evaluations"] = [{"stage": "bc", **(closed_loop("bc") or {})}]
+    stage = "bc" if cfg.epochs else "init"
+    report["evaluations"] = [{"stage": stage, **(closed_loop(stage) or {})}]
 
     rng = np.random.default_rng(cfg.seed)
     dagger_steps = 0

@@ -23,6 +23,8 @@ from agents.checkpoint import (  # noqa: E402
     save_model,
 )
 from agents.evaluate import evaluate, score_seeds  # noqa: E402
+from agents.policies import predictor_controller  # noqa: E402
+from agents.train import scalar_results  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_env import CustomLayout, NavEngine, make_scenario  # noqa: E402
 from vcs_env.rollout import planner_controller  # noqa: E402
@@ -277,6 +279,18 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     assert json.loads((tmp_path / "ppo2/model.json").read_text())["num_timesteps"] == 384
     bad = vcs_env_cli("train --scenario crowd --init missing.zip --out x", tmp_path, expect=2)
     assert "checkpoint not found" in bad.stderr
+    # DAgger on the PPO policy's own states: bc --init starts from its weights as they are.
+    dag = "bc --data d.npz --init ppo/model.zip --epochs 0 --dagger-iters 1 --dagger-beta 0 --dagger-episodes 2"
+    out = vcs_env_cli(f"{dag} --eval-episodes 2 --out dag", tmp_path).stdout
+    assert "initialised the policy from ppo/model.zip (ppo checkpoint)" in out
+    first = json.loads((tmp_path / "dag/model.json").read_text())["report"]["evaluations"][0]
+    ppo_policy = load_model(tmp_path / "ppo/model.zip", make_scenario("crowd")).policy
+    expected = score_seeds(predictor_controller(ppo_policy), make_scenario("crowd"), [100_000, 100_001])
+    assert first["stage"] == "init" and first["return"] == pytest.approx(scalar_results(expected)["return"])
+    bad = vcs_env_cli(f"{dag} --net-arch 8 --out x", tmp_path, expect=2)
+    assert "ppo/model.zip" in bad.stderr
+    bad = vcs_env_cli("bc --data d.npz --epochs 0 --out x", tmp_path, expect=2)
+    assert "would train nothing" in bad.stderr
     bad = vcs_env_cli("train --scenario crowd --eval-suite crowd-9-v0 --out x", tmp_path, expect=2)
     assert "unknown suite" in bad.stderr
 
