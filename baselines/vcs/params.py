@@ -113,10 +113,10 @@ class VCSParams:
     """T_need counts only escapes that no non-reactive object closes within T_max, so the
     horizon grows where a crowd closes the nearby escapes (False: each object alone)."""
     crowd_margin: bool = True
-    """The margin of a moving obstacle is T_m per *contesting* mover (a non-reactive mover
-    closing on the robot that can reach it within T_max), and its horizon T_need + that margin
-    is not capped at T_max: a lone mover keeps the un-conservative T_m, a crowd is watched
-    further ahead, towards the classic VO (False: T_m for each, capped)."""
+    """The margin of a moving obstacle is T_m per *contesting* mover (a non-reactive mover that
+    can reach the robot within T_max, counted as ``crowd_reach`` says), and its horizon T_need
+    + that margin is not capped at T_max: a lone mover keeps the un-conservative T_m, a crowd
+    is watched further ahead, towards the classic VO (False: T_m for each, capped)."""
     crowd_reach: bool = True
     """Under the crowd margin, a mover contests the robot's escapes if the robot could meet it
     within T_max at any velocity it may pick (gap <= (v_max + the mover's approach speed) T_max),
