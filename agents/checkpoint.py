@@ -285,7 +285,7 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
         detail = ", ".join(f"{k}: {shape(theirs, k)} vs {shape(ours, k)}" for k in diff[:4])
         raise CheckpointError(
             f"checkpoint {str(checkpoint)!r} has another policy architecture than this run "
-            f"(checkpoint vs run: {detail}); use the same --net-arch"
+            f"(checkpoint vs run: {detail}); use the same --net-arch and --features"
         )
     model.policy.load_state_dict(theirs)
     return read_metadata(checkpoint)

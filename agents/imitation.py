@@ -193,6 +193,8 @@ class BCConfig:
     """Hidden layer sizes of the policy and value MLPs (must match train's --net-arch for --init)."""
     log_std_init: float = -0.5
     """Initial log std of the Gaussian policy (kept as is by loss=mse)."""
+    features: str = "flat"
+    """What the MLPs read: flat or contact (agents.features; must match train's --features for --init)."""
     loss: str = "nll"
     """nll (Gaussian log-likelihood, also fits log_std) or mse (mean only)."""
     min_log_std: float = -1.6
@@ -276,8 +278,9 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
             f"observation v0), this vcs-env observes with {observation_config(scenario)}; collect it again"
         )
     venv = NavVecEnv(scenario, 1)  # spaces only
-    pcfg = PolicyConfig(net_arch=cfg.net_arch, log_std_init=cfg.log_std_init)
-    model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=policy_kwargs(pcfg))
+    pcfg = PolicyConfig(net_arch=cfg.net_arch, log_std_init=cfg.log_std_init, features=cfg.features)
+    kwargs = policy_kwargs(pcfg, scenario.n_neighbors)
+    model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=kwargs)
     policy = model.policy
     if cfg.init:
         from .checkpoint import load_policy_weights

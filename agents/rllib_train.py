@@ -316,6 +316,8 @@ def train(cfg: RLlibConfig) -> dict[str, Any]:
         raise ValueError(f"env_adapter must be one of {list(ADAPTERS)}, got {cfg.env_adapter!r}")
     if cfg.init:
         raise ValueError("--init is not supported with --backend rllib (it loads SB3 weights)")
+    if cfg.features != "flat":
+        raise ValueError(f"--features {cfg.features} is SB3 only; --backend rllib reads the flat observation")
     if cfg.eval_suite:
         from vcs_env.suites import get_suite
 

@@ -59,6 +59,9 @@ class PolicyConfig:
     log_std_init: float = -0.5
     """Initial log standard deviation of the Gaussian policy (state independent); actions are
     in [-1, 1], so std 0.6 explores without saturating most actions."""
+    features: str = "flat"
+    """What the MLPs read: flat (the observation) or contact (the observation plus per-neighbour
+    contact-time and nearness features computed from it; agents.features). SB3 only."""
 
 
 @dataclass
@@ -126,8 +129,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """Write TensorBoard logs under <out>/tb."""
 
 
-def ppo_kwargs(cfg: TrainConfig) -> dict[str, Any]:
-    """Keyword arguments of ``stable_baselines3.PPO`` from a config."""
+def ppo_kwargs(cfg: TrainConfig, n_neighbors: int) -> dict[str, Any]:
+    """Keyword arguments of ``stable_baselines3.PPO`` from a config (``n_neighbors``: the
+    observation's neighbour slots, read by ``cfg.features``)."""
     return dict(
         n_steps=cfg.n_steps,
         batch_size=cfg.batch_size,
@@ -140,7 +144,7 @@ def ppo_kwargs(cfg: TrainConfig) -> dict[str, Any]:
         vf_coef=cfg.vf_coef,
         max_grad_norm=cfg.max_grad_norm,
         target_kl=cfg.target_kl,
-        policy_kwargs=policy_kwargs(cfg),
+        policy_kwargs=policy_kwargs(cfg, n_neighbors),
     )
 
 
@@ -154,8 +158,15 @@ def learning_rate(cfg: TrainConfig):
     raise ValueError(f"lr_schedule must be constant or linear, got {cfg.lr_schedule!r}")
 
 
-def policy_kwargs(cfg: PolicyConfig) -> dict[str, Any]:
-    return dict(net_arch=dict(pi=list(cfg.net_arch), vf=list(cfg.net_arch)), log_std_init=cfg.log_std_init)
+def policy_kwargs(cfg: PolicyConfig, n_neighbors: int) -> dict[str, Any]:
+    """Keyword arguments of SB3's ``MlpPolicy`` for ``cfg``, on observations with ``n_neighbors`` slots."""
+    from .features import extractor_kwargs
+
+    return dict(
+        net_arch=dict(pi=list(cfg.net_arch), vf=list(cfg.net_arch)),
+        log_std_init=cfg.log_std_init,
+        **extractor_kwargs(cfg.features, n_neighbors),
+    )
 
 
 def scalar_results(res: dict[str, Any]) -> dict[str, float]:
@@ -294,7 +305,8 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
         print(f"resumed {resume} at {model.num_timesteps} timesteps")
     else:
-        model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **ppo_kwargs(cfg))
+        kwargs = ppo_kwargs(cfg, scenario.n_neighbors)
+        model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
         if cfg.init:
             meta = load_policy_weights(model, cfg.init, scenario)
             print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")

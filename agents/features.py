@@ -1,0 +1,99 @@
+"""Policy input features computed from the observation (``--features``), for SB3 policies.
+
+``flat`` (default): the policy's MLPs read the observation as it is.
+
+``contact``: the MLPs read the observation followed by three numbers per neighbour slot, all
+computed from that slot's own features (:mod:`vcs_env.observations`) and the robot's, so they
+add no information, only resolution where it matters: the observation's fixed scales put a
+0.3 m gap at 0.03 and a contact in 1 s and in 5 s a few hundredths apart, while a collision is
+decided at exactly that scale. Per slot, with relative position ``p`` and velocity ``u`` [m,
+m/s], the summed radii ``R`` [m], the gap ``g`` [m], and the object's own velocity ``w = u +
+(own speed, 0)`` [m/s]:
+
+====== ==================================================================================
++0     ``exp(-t_c / T_REF)``: ``t_c`` [s] is when ``|p + u t| = R`` first holds at the current
+       velocities (0 when touching, never: the feature is 0)
++1     ``exp(-g / G_REF)``: nearness of the surfaces
++2     ``exp(-t_r / T_REF)``, ``t_r = max(g, 0) / (v_max + |w|)`` [s]: the soonest the two
+       could meet if the robot drove straight at the object at its top speed (the reach the
+       VCS expert's ``crowd_reach`` guards, vcs-method §2.7)
+====== ==================================================================================
+
+Padding slots read 0. The extractor has no weights, so ``--features`` is part of the
+architecture a checkpoint stores (SB3 pickles the class into ``model.zip``, and
+``--init`` refuses a checkpoint whose first layer has another width). The oracle of the
+formulas is ``tests/test_features.py``. RLlib policies read the flat observation only.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import torch
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
+from vcs_env.scenario import R_REF, V_REF
+
+FEATURES = ("flat", "contact")
+"""Names accepted by ``--features``."""
+CONTACT_DIM = 3
+"""Features per neighbour slot added by ``contact``."""
+T_REF = 2.0
+"""Time scale of the contact and reach features [s]."""
+G_REF = 0.5
+"""Length scale of the nearness feature [m]."""
+
+
+def check_features(name: str) -> str:
+    """Return ``name`` if it is one of :data:`FEATURES`; raise ``ValueError`` naming them otherwise."""
+    if name not in FEATURES:
+        raise ValueError(f"features must be one of {list(FEATURES)}, got {name!r}")
+    return name
+
+
+def contact_features(obs: torch.Tensor, n_neighbors: int) -> torch.Tensor:
+    """The ``contact`` block ``(N, n_neighbors * CONTACT_DIM)`` of observations ``(N, D)``."""
+    slots = obs[:, EGO_DIM : EGO_DIM + n_neighbors * NEIGHBOR_DIM].reshape(-1, n_neighbors, NEIGHBOR_DIM)
+    v_max = obs[:, 4:5] * V_REF  # [m/s]
+    own_speed = obs[:, 0:1] * v_max  # [m/s], forward in the robot frame
+    own_radius = obs[:, 7:8] * R_REF  # [m]
+    mask = slots[..., 0]
+    p = slots[..., 1:3] * SENSE_REF
+    u = slots[..., 3:5] * (2.0 * V_REF)
+    radii = slots[..., 5] * R_REF + own_radius
+    gap = slots[..., 6] * SENSE_REF
+    # First root of |p + u t|^2 = R^2 for t >= 0: a t^2 + b t + c = 0.
+    a = (u * u).sum(-1)
+    b = 2.0 * (p * u).sum(-1)
+    c = (p * p).sum(-1) - radii**2
+    disc = b * b - 4.0 * a * c
+    closing = (b < 0) & (disc >= 0) & (a > 1e-12)
+    root = (-b - torch.sqrt(torch.clamp(disc, min=0.0))) / (2.0 * torch.clamp(a, min=1e-12))
+    t_c = torch.where(c <= 0, torch.zeros_like(c), torch.where(closing, root.clamp(min=0.0), torch.full_like(c, 1e9)))
+    w = u.clone()
+    w[..., 0] = w[..., 0] + own_speed
+    reach_speed = v_max + torch.sqrt((w * w).sum(-1))
+    t_r = gap.clamp(min=0.0) / reach_speed.clamp(min=1e-6)
+    block = torch.stack(
+        (torch.exp(-t_c / T_REF), torch.exp(-gap.clamp(min=0.0) / G_REF), torch.exp(-t_r / T_REF)), dim=-1
+    )
+    return (block * mask[..., None]).reshape(obs.shape[0], n_neighbors * CONTACT_DIM)
+
+
+class ContactFeatures(BaseFeaturesExtractor):
+    """The observation followed by :func:`contact_features` (module docstring)."""
+
+    def __init__(self, observation_space, n_neighbors: int):
+        super().__init__(observation_space, observation_space.shape[0] + n_neighbors * CONTACT_DIM)
+        self.n_neighbors = n_neighbors
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        return torch.cat((observations, contact_features(observations, self.n_neighbors)), dim=-1)
+
+
+def extractor_kwargs(features: str, n_neighbors: int) -> dict[str, Any]:
+    """``policy_kwargs`` entries of SB3's ``MlpPolicy`` for ``features`` (none for ``flat``)."""
+    if check_features(features) == "flat":
+        return {}
+    return {"features_extractor_class": ContactFeatures, "features_extractor_kwargs": {"n_neighbors": n_neighbors}}

@@ -1,0 +1,96 @@
+"""``--features contact`` (agents.features): the per-neighbour block against an oracle computed
+from the world state in metres and seconds (not from the observation), by brute-force time
+sampling; and the choice travelling through bc, train --init and evaluation."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from agents.features import CONTACT_DIM, G_REF, T_REF, check_features, contact_features
+from vcs_env.observations import observe
+from vcs_env.sim import Simulator
+from vcs_env.suites import get_suite
+
+
+def oracle(world, b: int, i: int, k: int) -> np.ndarray:
+    """Contact block ``(k, 3)`` of robot ``i`` in world ``b``: the k sensed objects nearest by
+    gap, contact time by sampling t every 1 ms over 40 s."""
+    pos = np.concatenate((world.pos[b], world.obs_pos[b]))
+    vel = np.concatenate((world.vel[b], world.obs_vel[b]))
+    rad = np.concatenate((world.radius[b], world.obs_radius[b]))
+    present = np.concatenate((world.present[b], np.ones(world.n_obstacles, dtype=bool)))
+    t = np.arange(0.0, 40.0, 1e-3)
+    rows = []
+    for j in range(len(rad)):
+        rel = pos[j] - pos[i]
+        if j == i or not present[j] or np.hypot(*rel) > world.r_ca:
+            continue
+        u = vel[j] - vel[i]
+        gap = np.hypot(*rel) - rad[i] - rad[j]
+        dist = np.hypot(rel[0] + u[0] * t, rel[1] + u[1] * t)
+        touching = np.flatnonzero(dist <= rad[i] + rad[j])
+        contact = np.exp(-t[touching[0]] / T_REF) if len(touching) else 0.0
+        reach = np.exp(-max(gap, 0.0) / (world.v_max[b, i] + np.hypot(*vel[j])) / T_REF)
+        rows.append((gap, j, (contact, np.exp(-max(gap, 0.0) / G_REF), reach)))
+    rows.sort(key=lambda r: (r[0], r[1]))
+    block = np.zeros((k, CONTACT_DIM))
+    for s, (_, _, feats) in enumerate(rows[:k]):
+        block[s] = feats
+    return block
+
+
+@pytest.mark.parametrize("k", [3, 8])
+def test_contact_block_matches_a_brute_force_oracle(k):
+    scenario = dataclasses.replace(get_suite("dynamic-v0").scenario, n_neighbors=k, n_robots=6)
+    sim = Simulator(scenario, 2)
+    sim.reset([7, 8])
+    rng = np.random.default_rng(0)
+    checked = 0
+    for step in range(40):
+        sim.step(rng.uniform(-1, 1, (2, scenario.n_robots, 2)))
+        if step % 10:
+            continue
+        world = sim.world
+        obs = observe(world, scenario)
+        got = contact_features(torch.as_tensor(obs.reshape(-1, obs.shape[-1])), k).numpy()
+        got = got.reshape(2, scenario.n_robots, k, CONTACT_DIM)
+        for b in range(2):
+            for i in np.flatnonzero(world.present[b]):
+                np.testing.assert_allclose(got[b, i], oracle(world, b, i, k), atol=2e-3)
+                checked += int((got[b, i, :, 0] > 0).sum())
+    assert checked >= 5  # some objects were on a collision course
+
+
+def test_check_features_names_the_choices():
+    assert check_features("contact") == "contact"
+    with pytest.raises(ValueError, match="flat.*contact.*'lidar'"):
+        check_features("lidar")
+
+
+def test_features_travel_through_bc_init_and_evaluation(tmp_path):
+    """A contact checkpoint loads with its extractor, scores in the harness, and seeds only a
+    run that reads the same features."""
+    from agents.checkpoint import CheckpointError, load_model
+    from agents.evaluate import evaluate
+    from agents.features import ContactFeatures
+    from agents.imitation import BCConfig, CollectConfig, behaviour_clone, collect
+    from vcs_env import make_scenario
+
+    data = str(collect(CollectConfig(scenario="crowd", episodes=3, out=str(tmp_path / "d.npz"))))
+    small = dict(data=data, net_arch=(16, 16), epochs=1, eval_episodes=0)
+    path = behaviour_clone(BCConfig(**small, out=str(tmp_path / "bc"), features="contact"))["model"]
+    policy = load_model(path, make_scenario("crowd")).policy
+    assert isinstance(policy.features_extractor, ContactFeatures)
+    assert policy.mlp_extractor.policy_net[0].in_features == policy.observation_space.shape[0] + 8 * CONTACT_DIM
+    assert evaluate(path, "crowd-5-v0-smoke").summary["success"]["n"] > 0
+    with pytest.raises(CheckpointError, match="--features"):
+        behaviour_clone(BCConfig(**small, out=str(tmp_path / "flat"), init=path))
+
+
+def test_rllib_backend_refuses_contact_features():
+    from agents.rllib_train import RLlibConfig, train
+
+    with pytest.raises(ValueError, match="SB3 only"):
+        train(RLlibConfig(features="contact", out="unused"))
