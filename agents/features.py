@@ -19,7 +19,8 @@ m/s], the summed radii ``R`` [m], the gap ``g`` [m], and the object's own veloci
        VCS expert's ``crowd_reach`` guards, vcs-method §2.7)
 ====== ==================================================================================
 
-Padding slots read 0. The extractor has no weights, so ``--features`` is part of the
+Padding slots read 0. Being computed from the observation, they see what it sees: positions
+and gaps beyond its 10 m scale are clipped there. The extractor has no weights, so ``--features`` is part of the
 architecture a checkpoint stores (SB3 pickles the class into ``model.zip``, and
 ``--init`` refuses a checkpoint whose first layer has another width). The oracle of the
 formulas is ``tests/test_features.py``. RLlib policies read the flat observation only.
