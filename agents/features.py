@@ -5,23 +5,23 @@
 ``contact``: the MLPs read the observation followed by three numbers per neighbour slot, all
 computed from that slot's own features (:mod:`vcs_env.observations`) and the robot's, so they
 add no information, only resolution where it matters: the observation's fixed scales put a
-0.3 m gap at 0.03 and a contact in 1 s and in 5 s a few hundredths apart, while a collision is
-decided at exactly that scale. Per slot, with relative position ``p`` and velocity ``u`` [m,
-m/s], the summed radii ``R`` [m], the gap ``g`` [m], and the object's own velocity ``w = u +
-(own speed, 0)`` [m/s]:
+0.3 m gap at 0.03 and a closing speed of 1 m/s at 0.17, and leave the time to contact to be
+worked out from five of its numbers, while a collision is decided at exactly that scale. Per
+slot, with relative position ``p`` and velocity ``u`` [m, m/s], the summed radii ``R`` [m], the
+gap ``g`` [m], and the object's own velocity ``w = u + (own speed, 0)`` [m/s]:
 
 ====== ==================================================================================
 +0     ``exp(-t_c / T_REF)``: ``t_c`` [s] is when ``|p + u t| = R`` first holds at the current
        velocities (0 when touching, never: the feature is 0)
-+1     ``exp(-g / G_REF)``: nearness of the surfaces
++1     ``exp(-max(g, 0) / G_REF)``: nearness of the surfaces
 +2     ``exp(-t_r / T_REF)``, ``t_r = max(g, 0) / (v_max + |w|)`` [s]: the soonest the two
        could meet if the robot drove straight at the object at its top speed (the reach the
        VCS expert's ``crowd_reach`` guards, vcs-method §2.7)
 ====== ==================================================================================
 
 Padding slots read 0. Being computed from the observation, they see what it sees: positions
-and gaps beyond its 10 m scale are clipped there. The extractor has no weights, so ``--features`` is part of the
-architecture a checkpoint stores (SB3 pickles the class into ``model.zip``, and
+and gaps beyond its 10 m scale are clipped there. The extractor has no weights, so
+``--features`` is part of the architecture a checkpoint stores (SB3 pickles the class into ``model.zip``, and
 ``--init`` refuses a checkpoint whose first layer has another width). The oracle of the
 formulas is ``tests/test_features.py``. RLlib policies read the flat observation only.
 """
