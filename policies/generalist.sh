@@ -31,21 +31,8 @@ MIX=(
 # Stage E: a wider mixture (crossing jitter, dynamic obstacle counts), every scenario stepping
 # about as many robots, and a collision weight that makes one robot's contact cost more than
 # the time it saves.
-MIX_E=(
-  "circle-8-v0:n_robots=4-12/4,jitter=0.1-0.5/0.2"
-  "circle-16-v0:jitter=0.1-0.3/0.2"
-  "circle-24-v0"
-  "swap-v0:n_robots=6-10/4"
-  "crossing-v0:n_robots=8-12/2,jitter=0.1-0.2/0.1"
-  "crowd-5-v0:n_obstacles=3-8"
-  "crowd-5-v0:obstacle_speed=1.0-1.5"
-  "crowd-10-v0:n_obstacles=9-12"
-  "crowd-20-v0:n_obstacles=14-22/2"
-  "dynamic-v0:n_robots=2-6/2"
-  "dynamic-v0:n_obstacles=4-8/2"
-  "dynamic-v0:obstacle_speed=0.6-1.2"
-)
-[ -f "$ROOT/ppo2/model.zip" ] || vcs-env train --mixture "${MIX_E[@]}" --mixture-balance robots --on-collision terminate \
+source "$(dirname "${BASH_SOURCE[0]}")/generalist-mixture.sh"
+[ -f "$ROOT/ppo2/model.zip" ] || vcs-env train --mixture "${MIX_WIDE[@]}" --mixture-balance robots --on-collision terminate \
   --rewards collision=150 --net-arch 256 256 --init "$ROOT/ppo/model.zip" --timesteps 8000000 --n-worlds 300 \
   --lr-schedule linear --eval-freq 2000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo2"
 echo "released policy: $ROOT/ppo2/model.zip"
