@@ -341,7 +341,10 @@ RELEASED = [
     ("circle8", "circle-8-v0-smoke"),
     ("crowd5", "crowd-5-v0-smoke"),
     ("generalist", "circle-16-v0-smoke"),
+    ("generalist", "circle-24-v0-smoke"),
     ("generalist", "swap-v0-smoke"),
+    ("generalist", "crossing-v0-smoke"),
+    ("generalist", "crowd-5-v0-smoke"),
 ]
 """Released v1 policies and smoke suites each must solve (the generalist: families it solves on the
 full suites, results/generalist)."""
