@@ -317,7 +317,10 @@ def train(cfg: RLlibConfig) -> dict[str, Any]:
     if cfg.init:
         raise ValueError("--init is not supported with --backend rllib (it loads SB3 weights)")
     if cfg.features != "flat":
-        raise ValueError(f"--features {cfg.features} is SB3 only; --backend rllib reads the flat observation")
+        raise ValueError(
+            f"--backend rllib reads the flat observation only (--features flat), got --features {cfg.features!r} "
+            "(contact is SB3 only)"
+        )
     if cfg.eval_suite:
         from vcs_env.suites import get_suite
 
