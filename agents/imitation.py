@@ -40,6 +40,8 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.checks import check_choice, check_int, check_range
+
 from .config import (
     ScenarioConfig,
     add_config_args,
@@ -229,11 +231,17 @@ class BCConfig:
     """Start from this checkpoint's policy (bc or ppo, same --net-arch) instead of a fresh one."""
 
     def __post_init__(self):
-        for name in ("epochs", "dagger_iters", "dagger_epochs", "eval_episodes"):
-            if not isinstance(getattr(self, name), int) or getattr(self, name) < 0:
-                raise ValueError(f"BCConfig.{name} must be an integer >= 0, got {getattr(self, name)!r}")
-        if not 0.0 <= self.dagger_beta <= 1.0:
-            raise ValueError(f"BCConfig.dagger_beta must be in [0, 1], got {self.dagger_beta!r}")
+        for name in ("epochs", "batch_size", "dagger_iters", "dagger_episodes", "dagger_epochs", "eval_episodes"):
+            lo = 1 if name in ("batch_size", "dagger_episodes") else 0
+            check_int(f"BCConfig.{name}", getattr(self, name), lo, 10**7)
+        check_range("BCConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
+        check_range("BCConfig.value_coef", self.value_coef, 0.0, 1e3)
+        check_range("BCConfig.gamma", self.gamma, 0.0, 1.0)
+        check_range("BCConfig.val_fraction", self.val_fraction, 0.0, 1.0, hi_open=True)
+        check_range("BCConfig.dagger_beta", self.dagger_beta, 0.0, 1.0)
+        check_range("BCConfig.log_std_init", self.log_std_init, -20.0, 5.0)
+        check_range("BCConfig.min_log_std", self.min_log_std, -20.0, 5.0)
+        check_choice("BCConfig.loss", self.loss, ("nll", "mse"))
         if self.epochs == 0 and self.dagger_iters == 0:
             raise ValueError("BCConfig: epochs 0 and dagger_iters 0 would train nothing")
 

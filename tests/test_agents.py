@@ -1,6 +1,7 @@
 """agents/: the SB3 VecEnv adapter, checkpoints, behaviour cloning, and CLI smoke runs (cleanrl style)."""
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -335,6 +336,18 @@ def test_saved_command_rebuilds_the_config():
         add_config_args(parser, type(cfg))
         assert config_from_args(type(cfg), parser.parse_args(shlex.split(cmd)[2:])) == cfg
     assert config_command("train", TrainConfig()) == "vcs-env train"
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [("epochs", -1), ("epochs", 2.5), ("batch_size", 0), ("dagger_beta", 1.5), ("learning_rate", 0.0),
+     ("val_fraction", 1.0), ("gamma", float("nan")), ("loss", "l1"), ("dagger_episodes", True)],
+)  # fmt: skip
+def test_bc_config_rejects_bad_fields_naming_them(field, value):
+    from agents.imitation import BCConfig
+
+    with pytest.raises(ValueError, match=rf"BCConfig\.{field} must be .*got {re.escape(repr(value))}"):
+        BCConfig(**{field: value})
 
 
 RELEASED = [

@@ -25,6 +25,7 @@ import numpy as np
 from numba import njit
 
 from . import noise
+from .checks import check_int, check_range
 from .state import WorldState
 
 _ROBOT_STRIDE = np.uint64(0x9FB21C651E98DF25)  # odd: robot i draws with key + (i + 1) * stride
@@ -45,21 +46,10 @@ class LidarSpec:
     """Standard deviation of Gaussian range noise [m], >= 0."""
 
     def __post_init__(self) -> None:
-        if isinstance(self.n_beams, bool) or not isinstance(self.n_beams, (int, np.integer)):
-            raise ValueError(f"lidar.n_beams must be an integer in [1, 1024], got {self.n_beams!r}")
-        if not 1 <= self.n_beams <= 1024:
-            raise ValueError(f"lidar.n_beams must be an integer in [1, 1024], got {self.n_beams!r}")
-        for name, lo, hi, lo_open in (
-            ("fov", 0.0, 2.0 * math.pi, True),
-            ("max_range", 0.0, 1e4, True),
-            ("noise", 0.0, 1e3, False),
-        ):
-            v = getattr(self, name)
-            ok = isinstance(v, (int, float, np.number)) and not isinstance(v, bool) and math.isfinite(v)
-            ok = ok and (v > lo if lo_open else v >= lo) and v <= hi
-            if not ok:
-                left = "(" if lo_open else "["
-                raise ValueError(f"lidar.{name} must be a finite number in {left}{lo:g}, {hi:g}], got {v!r}")
+        check_int("lidar.n_beams", self.n_beams, 1, 1024)
+        check_range("lidar.fov", self.fov, 0.0, 2.0 * math.pi, lo_open=True)
+        check_range("lidar.max_range", self.max_range, 0.0, 1e4, lo_open=True)
+        check_range("lidar.noise", self.noise, 0.0, 1e3)
 
     @property
     def offsets(self) -> np.ndarray:

@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .checks import check_choice, check_int, check_interval, check_range
 from .lidar import LidarSpec
 
 MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go")
@@ -40,40 +40,10 @@ R_REF = 2.0
 """Largest allowed robot or obstacle radius [m]."""
 
 
-def _check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
-    """Raise ``ValueError`` unless ``lo <(=) value <(=) hi`` and ``value`` is finite."""
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and math.isfinite(value)
-    if ok:
-        ok = (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
-    if not ok:
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
-        raise ValueError(f"{name} must be a finite number in {left}{lo}, {hi}{right}, got {value!r}")
-
-
-def _check_int(name: str, value: int, lo: int, hi: int) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
-        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
-
-
-def _check_interval(name: str, value: Sequence[float], lo: float, hi: float) -> None:
-    if len(value) != 2:
-        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
-    _check_range(f"{name}[0]", value[0], lo, hi)
-    _check_range(f"{name}[1]", value[1], lo, hi)
-    if value[0] > value[1]:
-        raise ValueError(f"{name} must satisfy low <= high, got {value!r}")
-
-
 def _kinds():
     from .layouts import KINDS  # late import: the kinds read this module's dataclasses
 
     return KINDS
-
-
-def _check_choice(name: str, value: str, choices: Sequence[str]) -> None:
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -93,10 +63,10 @@ class RobotSpec:
     the heading is the direction of motion (no turn-rate limit). Default: unicycle."""
 
     def __post_init__(self) -> None:
-        _check_range("robot.radius", self.radius, 0.0, R_REF, lo_open=True)
-        _check_range("robot.v_max", self.v_max, 0.0, V_REF, lo_open=True)
-        _check_range("robot.a_max", self.a_max, 0.0, A_REF, lo_open=True)
-        _check_range("robot.omega_max", self.omega_max, 0.0, OMEGA_REF, lo_open=True)
+        check_range("robot.radius", self.radius, 0.0, R_REF, lo_open=True)
+        check_range("robot.v_max", self.v_max, 0.0, V_REF, lo_open=True)
+        check_range("robot.a_max", self.a_max, 0.0, A_REF, lo_open=True)
+        check_range("robot.omega_max", self.omega_max, 0.0, OMEGA_REF, lo_open=True)
         if not isinstance(self.holonomic, bool):
             raise ValueError(f"robot.holonomic must be a bool, got {self.holonomic!r}")
 
@@ -124,7 +94,7 @@ class RewardWeights:
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
-            _check_range(f"rewards.{f.name}", getattr(self, f.name), -1e6, 1e6)
+            check_range(f"rewards.{f.name}", getattr(self, f.name), -1e6, 1e6)
 
     def as_dict(self) -> dict[str, float]:
         return dataclasses.asdict(self)
@@ -155,7 +125,7 @@ class ObstacleTrajectory:
             raise ValueError(f"ObstacleTrajectory.times must start at 0 and increase strictly, got {times}")
         if not all(math.isfinite(c) for p in positions for c in p):
             raise ValueError("ObstacleTrajectory.positions must be finite")
-        _check_range("ObstacleTrajectory.radius", self.radius, 0.0, R_REF, lo_open=True)
+        check_range("ObstacleTrajectory.radius", self.radius, 0.0, R_REF, lo_open=True)
         speeds = [math.dist(positions[i + 1], positions[i]) / (times[i + 1] - times[i]) for i in range(len(times) - 1)]
         if speeds and max(speeds) > V_REF:
             raise ValueError(f"ObstacleTrajectory speed must be <= {V_REF} m/s, got {max(speeds):.3f}")
@@ -288,41 +258,41 @@ class Scenario:
     observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
 
     def __post_init__(self) -> None:
-        _check_choice("kind", self.kind, list(_kinds()))
+        check_choice("kind", self.kind, list(_kinds()))
         if not isinstance(self.robot, RobotSpec):
             raise ValueError(f"robot must be a RobotSpec, got {type(self.robot).__name__}")
         if not isinstance(self.rewards, RewardWeights):
             raise ValueError(f"rewards must be a RewardWeights, got {type(self.rewards).__name__}")
-        _check_int("n_robots", self.n_robots, 1, 256)
-        _check_int("n_obstacles", self.n_obstacles, 0, 256)
+        check_int("n_robots", self.n_robots, 1, 256)
+        check_int("n_obstacles", self.n_obstacles, 0, 256)
         _kinds()[self.kind].validate(self)
         if self.layout_radius is not None:
-            _check_range("layout_radius", self.layout_radius, 0.0, 1e4, lo_open=True)
-        _check_range("arena_half_size", self.arena_half_size, 0.0, 1e4, lo_open=True)
-        _check_range("lane_spacing", self.lane_spacing, 0.0, 1e3, lo_open=True)
-        _check_range("jitter", self.jitter, 0.0, 1e3)
-        _check_range("min_separation", self.min_separation, 0.0, 1e3)
-        _check_range("initial_speed", self.initial_speed, 0.0, self.robot.v_max)
-        _check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
-        _check_choice("obstacle_motion", self.obstacle_motion, MOTIONS)
-        _check_interval("obstacle_radius", self.obstacle_radius, 1e-3, R_REF)
-        _check_interval("obstacle_speed", self.obstacle_speed, 0.0, V_REF)
-        _check_range("turn_rate", self.turn_rate, 0.0, OMEGA_REF)
-        _check_range("turn_period", self.turn_period, 0.0, 1e4, lo_open=True)
-        _check_interval("go_time", self.go_time, 1e-3, 1e4)
-        _check_interval("stop_time", self.stop_time, 0.0, 1e4)
+            check_range("layout_radius", self.layout_radius, 0.0, 1e4, lo_open=True)
+        check_range("arena_half_size", self.arena_half_size, 0.0, 1e4, lo_open=True)
+        check_range("lane_spacing", self.lane_spacing, 0.0, 1e3, lo_open=True)
+        check_range("jitter", self.jitter, 0.0, 1e3)
+        check_range("min_separation", self.min_separation, 0.0, 1e3)
+        check_range("initial_speed", self.initial_speed, 0.0, self.robot.v_max)
+        check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
+        check_choice("obstacle_motion", self.obstacle_motion, MOTIONS)
+        check_interval("obstacle_radius", self.obstacle_radius, 1e-3, R_REF)
+        check_interval("obstacle_speed", self.obstacle_speed, 0.0, V_REF)
+        check_range("turn_rate", self.turn_rate, 0.0, OMEGA_REF)
+        check_range("turn_period", self.turn_period, 0.0, 1e4, lo_open=True)
+        check_interval("go_time", self.go_time, 1e-3, 1e4)
+        check_interval("stop_time", self.stop_time, 0.0, 1e4)
         if not isinstance(self.bounce, bool) or not isinstance(self.park_finished, bool):
             raise ValueError("bounce and park_finished must be bools")
-        _check_range("r_goal", self.r_goal, 0.0, 1e3, lo_open=True)
-        _check_range("r_ca", self.r_ca, 0.0, 1e4, lo_open=True)
-        _check_int("n_neighbors", self.n_neighbors, 1, 64)
-        _check_int("max_steps", self.max_steps, 1, 10**7)
-        _check_choice("on_collision", self.on_collision, COLLISION_MODES)
-        _check_range("corridor_width", self.corridor_width, 0.0, 1e3, lo_open=True)
-        _check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)
-        _check_int("n_walls", self.n_walls, 0, 256)
-        _check_interval("wall_length", self.wall_length, 0.01, 1e3)
-        _check_int("n_wall_points", self.n_wall_points, 0, 64)
+        check_range("r_goal", self.r_goal, 0.0, 1e3, lo_open=True)
+        check_range("r_ca", self.r_ca, 0.0, 1e4, lo_open=True)
+        check_int("n_neighbors", self.n_neighbors, 1, 64)
+        check_int("max_steps", self.max_steps, 1, 10**7)
+        check_choice("on_collision", self.on_collision, COLLISION_MODES)
+        check_range("corridor_width", self.corridor_width, 0.0, 1e3, lo_open=True)
+        check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)
+        check_int("n_walls", self.n_walls, 0, 256)
+        check_interval("wall_length", self.wall_length, 0.01, 1e3)
+        check_int("n_wall_points", self.n_wall_points, 0, 64)
         if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
             raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         _kinds()[self.kind].check_layout(self)

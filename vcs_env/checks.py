@@ -1,0 +1,43 @@
+"""Argument checks shared by the config dataclasses: each raises ``ValueError`` naming the field,
+the allowed values and the value it got, so bad input never reaches numpy."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
+    """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) with ``lo <(=) value <(=) hi``."""
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    ok = ok and math.isfinite(value)
+    if ok:
+        ok = (value > lo if lo_open else value >= lo) and (value < hi if hi_open else value <= hi)
+    if not ok:
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        raise ValueError(f"{name} must be a finite number in {left}{lo}, {hi}{right}, got {value!r}")
+
+
+def check_int(name: str, value: int, lo: int, hi: int) -> None:
+    """Raise ``ValueError`` unless ``value`` is an integer (not a bool) in ``[lo, hi]``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be an integer in [{lo}, {hi}], got {value!r}")
+
+
+def check_interval(name: str, value: Sequence[float], lo: float, hi: float) -> None:
+    """Raise ``ValueError`` unless ``value`` is a ``(low, high)`` pair in ``[lo, hi]`` with low <= high."""
+    if len(value) != 2:
+        raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
+    check_range(f"{name}[0]", value[0], lo, hi)
+    check_range(f"{name}[1]", value[1], lo, hi)
+    if value[0] > value[1]:
+        raise ValueError(f"{name} must satisfy low <= high, got {value!r}")
+
+
+def check_choice(name: str, value: str, choices: Sequence[str]) -> None:
+    """Raise ``ValueError`` unless ``value`` is one of ``choices``, naming them."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
