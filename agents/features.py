@@ -20,10 +20,17 @@ gap ``g`` [m], and the object's own velocity ``w = u + (own speed, 0)`` [m/s]:
 ====== ==================================================================================
 
 Padding slots read 0. Being computed from the observation, they see what it sees: positions
-and gaps beyond its 10 m scale are clipped there. The extractor has no weights, so
-``--features`` is part of the architecture a checkpoint stores (SB3 pickles the class into ``model.zip``, and
-``--init`` refuses a checkpoint whose first layer has another width). The oracle of the
-formulas is ``tests/test_features.py``. RLlib policies read the flat observation only.
+and gaps beyond its 10 m scale are clipped there.
+
+``slots``: a learned encoder (:class:`SlotEncoder`) shared by every neighbour slot reads that
+slot's features, its ``contact`` block and the robot's own block; the MLPs read the robot's own
+block, the rest of the observation after the slots (wall points, lidar) and the maximum and the
+mean of the codes of the real slots. It does not depend on the order of the slots, and one set of
+weights judges every neighbour. Actor and critic each train their own encoder.
+
+``--features`` is part of the architecture a checkpoint stores (SB3 pickles the class into
+``model.zip``, and ``--init`` refuses a checkpoint with other tensors). The oracles are in
+``tests/test_features.py``. RLlib policies read the flat observation only.
 """
 
 from __future__ import annotations
@@ -36,7 +43,7 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
 from vcs_env.scenario import R_REF, V_REF
 
-FEATURES = ("flat", "contact")
+FEATURES = ("flat", "contact", "slots")
 """Names accepted by ``--features``."""
 CONTACT_DIM = 3
 """Features per neighbour slot added by ``contact``."""
@@ -93,8 +100,48 @@ class ContactFeatures(BaseFeaturesExtractor):
         return torch.cat((observations, contact_features(observations, self.n_neighbors)), dim=-1)
 
 
+class SlotEncoder(BaseFeaturesExtractor):
+    """``slots``: one small MLP shared by every neighbour slot, pooled over the real ones.
+
+    Each slot reads its own features, its :func:`contact_features` and the robot's own block
+    (``EGO_DIM``), ``(N, k, NEIGHBOR_DIM + CONTACT_DIM + EGO_DIM)``; the encoder (two layers of
+    ``width``, ReLU) maps it to ``width // 2`` numbers; the masked maximum and mean over the real
+    slots (0 with none) follow the robot's own block and whatever the observation has after the
+    slots (wall points, lidar). The same object reads the same wherever it sorts, and the weights
+    that judge one neighbour judge them all.
+    """
+
+    def __init__(self, observation_space, n_neighbors: int, width: int = 128):
+        self.n_neighbors, self.width = n_neighbors, width
+        rest = observation_space.shape[0] - n_neighbors * NEIGHBOR_DIM
+        super().__init__(observation_space, rest + width)
+        self.encoder = torch.nn.Sequential(
+            torch.nn.Linear(NEIGHBOR_DIM + CONTACT_DIM + EGO_DIM, width),
+            torch.nn.ReLU(),
+            torch.nn.Linear(width, width // 2),
+            torch.nn.ReLU(),
+        )
+
+    def forward(self, observations: torch.Tensor) -> torch.Tensor:
+        k, n = self.n_neighbors, observations.shape[0]
+        end = EGO_DIM + k * NEIGHBOR_DIM
+        ego = observations[:, :EGO_DIM]
+        slots = observations[:, EGO_DIM:end].reshape(n, k, NEIGHBOR_DIM)
+        contact = contact_features(observations, k).reshape(n, k, CONTACT_DIM)
+        x = torch.cat((slots, contact, ego[:, None, :].expand(n, k, EGO_DIM)), dim=-1)
+        mask = slots[..., :1]  # (N, k, 1)
+        h = self.encoder(x) * mask  # ReLU outputs >= 0, so zeroed padding never wins the maximum
+        pooled_max = h.max(dim=1).values
+        pooled_mean = h.sum(dim=1) / mask.sum(dim=1).clamp(min=1.0)
+        return torch.cat((ego, observations[:, end:], pooled_max, pooled_mean), dim=-1)
+
+
 def extractor_kwargs(features: str, n_neighbors: int) -> dict[str, Any]:
     """``policy_kwargs`` entries of SB3's ``MlpPolicy`` for ``features`` (none for ``flat``)."""
     if check_features(features) == "flat":
         return {}
-    return {"features_extractor_class": ContactFeatures, "features_extractor_kwargs": {"n_neighbors": n_neighbors}}
+    cls = {"contact": ContactFeatures, "slots": SlotEncoder}[features]
+    kwargs = {"features_extractor_class": cls, "features_extractor_kwargs": {"n_neighbors": n_neighbors}}
+    if features == "slots":  # the encoder has weights: actor and critic each train their own
+        kwargs["share_features_extractor"] = False
+    return kwargs

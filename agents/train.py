@@ -60,8 +60,9 @@ class PolicyConfig:
     """Initial log standard deviation of the Gaussian policy (state independent); actions are
     in [-1, 1], so std 0.6 explores without saturating most actions."""
     features: str = "flat"
-    """What the MLPs read: flat (the observation) or contact (the observation plus per-neighbour
-    contact-time and nearness features computed from it; agents.features). SB3 only."""
+    """What the MLPs read: flat (the observation), contact (the observation plus per-neighbour
+    contact-time and nearness features computed from it) or slots (a learned encoder shared by the
+    neighbour slots, pooled); agents.features. SB3 only."""
 
 
 @dataclass

@@ -1,6 +1,7 @@
 """``--features contact`` (agents.features): the per-neighbour block against an oracle computed
 from the world state in metres and seconds (not from the observation), by brute-force time
-sampling; and the choice travelling through bc, train --init and evaluation."""
+sampling; ``--features slots`` against a slot-by-slot loop; and the choice travelling through
+bc, train --init and evaluation."""
 
 import dataclasses
 
@@ -8,9 +9,10 @@ import numpy as np
 import pytest
 import torch
 
-from agents.features import CONTACT_DIM, G_REF, T_REF, check_features, contact_features
-from vcs_env.observations import observe
+from agents.features import CONTACT_DIM, G_REF, T_REF, SlotEncoder, check_features, contact_features
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observe
 from vcs_env.sim import Simulator
+from vcs_env.spaces import observation_space
 from vcs_env.suites import get_suite
 
 
@@ -63,15 +65,55 @@ def test_contact_block_matches_a_brute_force_oracle(k):
     assert checked >= 5  # some objects were on a collision course
 
 
+def slots_oracle(enc: SlotEncoder, obs: np.ndarray) -> np.ndarray:
+    """The slots encoding of one observation ``(D,)``, one real slot at a time."""
+    k = enc.n_neighbors
+    ego, end = obs[:EGO_DIM], EGO_DIM + k * NEIGHBOR_DIM
+    contact = contact_features(torch.as_tensor(obs[None]), k).numpy().reshape(k, CONTACT_DIM)
+    codes = []
+    for s in range(k):
+        slot = obs[EGO_DIM + s * NEIGHBOR_DIM : EGO_DIM + (s + 1) * NEIGHBOR_DIM]
+        if slot[0] == 1.0:
+            x = torch.as_tensor(np.concatenate((slot, contact[s], ego)))
+            codes.append(enc.encoder(x).detach().numpy())
+    width = enc.width // 2
+    pooled = (np.max(codes, axis=0), np.mean(codes, axis=0)) if codes else (np.zeros(width), np.zeros(width))
+    return np.concatenate((ego, obs[end:], *pooled))
+
+
+def test_slot_encoder_matches_a_slot_by_slot_loop_and_ignores_the_order():
+    """On real observations (some robots with padded slots, some with walls after the slots):
+    the batched encoder equals the loop, and shuffling the real slots changes nothing."""
+    torch.manual_seed(0)
+    for suite, extra in (("dynamic-v0", {}), ("walls-v0", {"n_wall_points": 4})):
+        scenario = dataclasses.replace(get_suite(suite).scenario, n_robots=6, r_ca=3.0, **extra)
+        sim = Simulator(scenario, 2)
+        sim.reset([3, 4])
+        obs = observe(sim.world, scenario).reshape(-1, observation_space(scenario).shape[0])
+        enc = SlotEncoder(observation_space(scenario), scenario.n_neighbors)
+        got = enc(torch.as_tensor(obs)).detach().numpy()
+        n_real = obs[:, EGO_DIM : EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM : NEIGHBOR_DIM].sum(1)
+        assert (n_real < scenario.n_neighbors).any()  # padding is exercised
+        assert obs.shape[1] - EGO_DIM - scenario.n_neighbors * NEIGHBOR_DIM == 3 * extra.get("n_wall_points", 0)
+        assert enc.features_dim == got.shape[1]
+        for r in range(len(obs)):
+            np.testing.assert_allclose(got[r], slots_oracle(enc, obs[r]), rtol=1e-5, atol=1e-6)
+        shuffled = obs.copy()
+        slots = shuffled[:, EGO_DIM : EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM].reshape(len(obs), -1, NEIGHBOR_DIM)
+        shuffled[:, EGO_DIM : EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM] = slots[:, ::-1].reshape(len(obs), -1)
+        np.testing.assert_allclose(enc(torch.as_tensor(shuffled)).detach().numpy(), got, rtol=1e-5, atol=1e-6)
+
+
 def test_check_features_names_the_choices():
     assert check_features("contact") == "contact"
     with pytest.raises(ValueError, match="flat.*contact.*'lidar'"):
         check_features("lidar")
 
 
-def test_features_travel_through_bc_init_and_evaluation(tmp_path):
-    """A contact checkpoint loads with its extractor, scores in the harness, and seeds only a
-    run that reads the same features."""
+@pytest.mark.parametrize("features", ["contact", "slots"])
+def test_features_travel_through_bc_init_and_evaluation(tmp_path, features):
+    """A contact or slots checkpoint loads with its extractor, scores in the harness, and seeds
+    only a run that reads the same features."""
     from agents.checkpoint import CheckpointError, load_model
     from agents.evaluate import evaluate
     from agents.features import ContactFeatures
@@ -80,10 +122,17 @@ def test_features_travel_through_bc_init_and_evaluation(tmp_path):
 
     data = str(collect(CollectConfig(scenario="crowd", episodes=3, out=str(tmp_path / "d.npz"))))
     small = dict(data=data, net_arch=(16, 16), epochs=1, eval_episodes=0)
-    path = behaviour_clone(BCConfig(**small, out=str(tmp_path / "bc"), features="contact"))["model"]
+    path = behaviour_clone(BCConfig(**small, out=str(tmp_path / "bc"), features=features))["model"]
     policy = load_model(path, make_scenario("crowd")).policy
-    assert isinstance(policy.features_extractor, ContactFeatures)
-    assert policy.mlp_extractor.policy_net[0].in_features == policy.observation_space.shape[0] + 8 * CONTACT_DIM
+    if features == "contact":
+        assert isinstance(policy.features_extractor, ContactFeatures)
+        assert policy.mlp_extractor.policy_net[0].in_features == policy.observation_space.shape[0] + 8 * CONTACT_DIM
+    else:  # actor and critic each have their own encoder
+        assert isinstance(policy.pi_features_extractor, SlotEncoder)
+        assert policy.pi_features_extractor is not policy.vf_features_extractor
+        assert (
+            policy.mlp_extractor.policy_net[0].in_features == policy.observation_space.shape[0] - 8 * NEIGHBOR_DIM + 128
+        )
     assert evaluate(path, "crowd-5-v0-smoke").summary["success"]["n"] > 0
     with pytest.raises(CheckpointError, match="--features"):
         behaviour_clone(BCConfig(**small, out=str(tmp_path / "flat"), init=path))
