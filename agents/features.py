@@ -114,7 +114,7 @@ class SlotEncoder(BaseFeaturesExtractor):
     def __init__(self, observation_space, n_neighbors: int, width: int = 128):
         self.n_neighbors, self.width = n_neighbors, width
         rest = observation_space.shape[0] - n_neighbors * NEIGHBOR_DIM
-        super().__init__(observation_space, rest + width)
+        super().__init__(observation_space, rest + 2 * (width // 2))  # + the maximum and the mean
         self.encoder = torch.nn.Sequential(
             torch.nn.Linear(NEIGHBOR_DIM + CONTACT_DIM + EGO_DIM, width),
             torch.nn.ReLU(),

@@ -53,6 +53,9 @@ from .config import (
 )
 from .expert_data import DATASET_FORMAT, concat_datasets, discounted_returns, load_dataset, play_mixture, save_dataset
 
+LOSSES = ("nll", "mse")
+"""Behaviour-cloning losses: Gaussian log-likelihood, or squared error of the mean."""
+
 
 # ----------------------------------------------------------------------------- data
 @dataclass
@@ -142,8 +145,7 @@ def bc_fit(
     """
     import torch as th
 
-    if loss not in ("nll", "mse"):
-        raise ValueError(f"loss must be nll or mse, got {loss!r}")
+    check_choice("loss", loss, LOSSES)
     g = th.Generator().manual_seed(seed)
     obs_t = th.as_tensor(obs, dtype=th.float32)
     act_t = th.as_tensor(actions, dtype=th.float32)
@@ -241,7 +243,7 @@ class BCConfig:
         check_range("BCConfig.dagger_beta", self.dagger_beta, 0.0, 1.0)
         check_range("BCConfig.log_std_init", self.log_std_init, -20.0, 5.0)
         check_range("BCConfig.min_log_std", self.min_log_std, -20.0, 5.0)
-        check_choice("BCConfig.loss", self.loss, ("nll", "mse"))
+        check_choice("BCConfig.loss", self.loss, LOSSES)
         if self.epochs == 0 and self.dagger_iters == 0:
             raise ValueError("BCConfig: epochs 0 and dagger_iters 0 would train nothing")
 
