@@ -51,6 +51,9 @@ T_REF = 2.0
 """Time scale of the contact and reach features [s]."""
 G_REF = 0.5
 """Length scale of the nearness feature [m]."""
+SLOT_WIDTH = 64
+"""Width of the ``slots`` encoder's hidden layer (its code has ``SLOT_WIDTH // 2`` numbers). Stored in
+every checkpoint's ``features_extractor_kwargs``; checkpoints without it were trained at 128."""
 
 
 def check_features(name: str) -> str:
@@ -143,5 +146,6 @@ def extractor_kwargs(features: str, n_neighbors: int) -> dict[str, Any]:
     cls = {"contact": ContactFeatures, "slots": SlotEncoder}[features]
     kwargs = {"features_extractor_class": cls, "features_extractor_kwargs": {"n_neighbors": n_neighbors}}
     if features == "slots":  # the encoder has weights: actor and critic each train their own
+        kwargs["features_extractor_kwargs"]["width"] = SLOT_WIDTH
         kwargs["share_features_extractor"] = False
     return kwargs

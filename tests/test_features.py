@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from agents.features import CONTACT_DIM, G_REF, T_REF, SlotEncoder, check_features, contact_features
+from agents.features import CONTACT_DIM, G_REF, SLOT_WIDTH, T_REF, SlotEncoder, check_features, contact_features
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observe
 from vcs_env.sim import Simulator
 from vcs_env.spaces import observation_space
@@ -130,9 +130,9 @@ def test_features_travel_through_bc_init_and_evaluation(tmp_path, features):
     else:  # actor and critic each have their own encoder
         assert isinstance(policy.pi_features_extractor, SlotEncoder)
         assert policy.pi_features_extractor is not policy.vf_features_extractor
-        assert (
-            policy.mlp_extractor.policy_net[0].in_features == policy.observation_space.shape[0] - 8 * NEIGHBOR_DIM + 128
-        )
+        assert policy.pi_features_extractor.width == SLOT_WIDTH  # stored in the checkpoint
+        rest = policy.observation_space.shape[0] - 8 * NEIGHBOR_DIM
+        assert policy.mlp_extractor.policy_net[0].in_features == rest + 2 * (SLOT_WIDTH // 2)
     assert evaluate(path, "crowd-5-v0-smoke").summary["success"]["n"] > 0
     with pytest.raises(CheckpointError, match="--features"):
         behaviour_clone(BCConfig(**small, out=str(tmp_path / "flat"), init=path))
