@@ -1,9 +1,9 @@
 #!/bin/bash
-# Reproduces policies/generalist (about 76 min on this 2-core machine, shared with one or two other
-# jobs): expert data on a mixture of the suites' families (1 min), BC + 3 DAgger rounds reading the
-# contact features (21 min), PPO from those weights, 12 M steps with collisions weighted 150 (42 min;
-# results/generalist/stage-f), then 4 M more PPO steps with collisions weighted 300 and one more
-# circle-24 entry (14 min; results/generalist/stage-g).
+# Reproduces policies/generalist (about TOTAL min on this 2-core machine, shared with one other training
+# job): expert data on a mixture of the suites' families (0.5 min), BC + 4 DAgger rounds with the slot
+# encoder (`--features slots`, 32 min), PPO from those weights, 8 M steps with collisions weighted 150
+# (PPO1 min), then 4 M more PPO steps with collisions weighted 300 and one more circle-24 entry (PPO2 min);
+# results/generalist/stage-h.
 # Usage: [ROOT=runs/generalist] bash policies/generalist.sh   (steps with a model.zip are skipped)
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist}
@@ -26,16 +26,16 @@ MIX=(
   "dynamic-v0:obstacle_speed=0.6-1.2"
 )
 [ -f "$ROOT/expert.npz" ] || vcs-env collect --mixture "${MIX[@]}" --episodes 1200 --seed 0 --out "$ROOT/expert.npz"
-[ -f "$ROOT/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$ROOT/bc" --net-arch 256 256 --features contact \
-  --epochs 20 --dagger-iters 3 --dagger-episodes 300 --eval-episodes 50
+[ -f "$ROOT/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$ROOT/bc" --net-arch 256 256 --features slots \
+  --epochs 20 --dagger-iters 4 --dagger-episodes 300 --eval-episodes 50
 # Worlds shared by robots: every scenario steps about as many robots.
 [ -f "$ROOT/ppo/model.zip" ] || vcs-env train --mixture "${MIX[@]}" --mixture-balance robots --on-collision terminate \
-  --rewards collision=150 --net-arch 256 256 --features contact --init "$ROOT/bc/model.zip" --timesteps 12000000 \
+  --rewards collision=150 --net-arch 256 256 --features slots --init "$ROOT/bc/model.zip" --timesteps 8000000 \
   --n-worlds 300 --lr-schedule linear --eval-freq 2000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo"
 # A contact costs twice as much, and the many-robot circle (where the policy above still touched a
-# neighbour in 12 % of the episodes) gets a second, jittered entry.
+# neighbour in 12 % of the episodes in stage F) gets a second, jittered entry.
 [ -f "$ROOT/ppo2/model.zip" ] || vcs-env train --mixture "${MIX[@]}" "circle-24-v0:jitter=0.1-0.2/0.1" \
-  --mixture-balance robots --on-collision terminate --rewards collision=300 --net-arch 256 256 --features contact \
+  --mixture-balance robots --on-collision terminate --rewards collision=300 --net-arch 256 256 --features slots \
   --init "$ROOT/ppo/model.zip" --timesteps 4000000 --seed 1 --n-worlds 300 --learning-rate 1.5e-4 --lr-schedule linear \
   --eval-freq 1000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo2"
 echo "released policy: $ROOT/ppo2/model.zip"
