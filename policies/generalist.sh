@@ -1,8 +1,8 @@
 #!/bin/bash
-# Reproduces policies/generalist (about TOTAL min on this 2-core machine, shared with one other training
+# Reproduces policies/generalist (about 98 min on this 2-core machine, shared with one other training
 # job): expert data on a mixture of the suites' families (0.5 min), BC + 4 DAgger rounds with the slot
 # encoder (`--features slots`, 32 min), PPO from those weights, 8 M steps with collisions weighted 150
-# (PPO1 min), then 4 M more PPO steps with collisions weighted 300 and one more circle-24 entry (PPO2 min);
+# (44 min), then 4 M more PPO steps with collisions weighted 300 and one more circle-24 entry (21 min);
 # results/generalist/stage-h.
 # Usage: [ROOT=runs/generalist] bash policies/generalist.sh   (steps with a model.zip are skipped)
 set -euo pipefail

@@ -104,6 +104,19 @@ def test_slot_encoder_matches_a_slot_by_slot_loop_and_ignores_the_order():
         np.testing.assert_allclose(enc(torch.as_tensor(shuffled)).detach().numpy(), got, rtol=1e-5, atol=1e-6)
 
 
+def test_slot_encoder_default_width_is_the_one_older_checkpoints_were_trained_at():
+    """Checkpoints saved before SLOT_WIDTH carry no ``width`` in their extractor kwargs, so SB3 rebuilds
+    them with the constructor's default: it must stay 128 (their tensors' size), while new runs pass
+    SLOT_WIDTH explicitly."""
+    from agents.features import extractor_kwargs
+
+    space = observation_space(get_suite("dynamic-v0").scenario)
+    assert SlotEncoder(space, 8).encoder[0].out_features == 128
+    kwargs = extractor_kwargs("slots", 8)["features_extractor_kwargs"]
+    assert kwargs["width"] == SLOT_WIDTH
+    assert SlotEncoder(space, **kwargs).encoder[0].out_features == SLOT_WIDTH
+
+
 def test_check_features_names_the_choices():
     assert check_features("contact") == "contact"
     with pytest.raises(ValueError, match="flat.*contact.*'lidar'"):
