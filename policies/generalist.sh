@@ -1,10 +1,11 @@
 #!/bin/bash
-# Reproduces policies/generalist (about 98 min on this 2-core machine, shared with one other training
+# Reproduces policies/generalist (about 100 min on this 2-core machine, shared with one other training
 # job): expert data on a mixture of the suites' families (0.5 min), BC + 4 DAgger rounds with the slot
 # encoder (`--features slots`, 32 min), PPO from those weights, 8 M steps with collisions weighted 150
 # (44 min), then 4 M more PPO steps with collisions weighted 300 and one more circle-24 entry (21 min),
-# and the checkpoint of that last step that does best on validation seeds (3 min); results/generalist/stage-i.
-# Usage: [ROOT=runs/generalist] bash policies/generalist.sh   (steps with a model.zip are skipped)
+# and the checkpoint of that last step that does best on validation seeds (2 min); results/generalist/stage-i.
+# Usage: [ROOT=runs/generalist] bash policies/generalist.sh   (training steps with a model.zip are skipped;
+# the selection always runs)
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist}
 export OMP_NUM_THREADS=1
@@ -48,7 +49,7 @@ for c in "$ROOT"/ppo2/checkpoints/model_*.zip "$ROOT/ppo2/model.zip"; do
   CANDS+=("$c")
   for spec in circle-24-v0:7200 dynamic-v0:7300 crowd-20-v0:7200; do
     f="$ROOT/release/validation/$(basename "$c" .zip)-${spec%%:*}.json"
-    [ -f "$f" ] || vcs-env evaluate --scenario "${spec%%:*}" --seeds "7000:${spec##*:}" --policy "$c" --no-progress --json "$f" > /dev/null
+    vcs-env evaluate --scenario "${spec%%:*}" --seeds "7000:${spec##*:}" --policy "$c" --no-progress --json "$f" > /dev/null
   done
 done
 python - "$ROOT/release" "${CANDS[@]}" <<'PY'
