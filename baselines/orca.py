@@ -40,8 +40,11 @@ Known limits, inherent to ORCA:
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from vcs_env.checks import check_range
 from vcs_env.state import WorldState
 
 from .common import VelocityPlanner, preferred_velocity
@@ -54,9 +57,7 @@ TIME_HORIZON_OBST = 2.0
 
 def _check(field: str, value, positive: bool, unit: str) -> None:
     """Raise ``ValueError`` unless ``value`` is a finite number > 0 (``positive``) or >= 0."""
-    ok = isinstance(value, (int, float, np.number)) and not isinstance(value, bool) and np.isfinite(value)
-    if not (ok and (value > 0.0 if positive else value >= 0.0)):
-        raise ValueError(f"{field} must be a finite number {'>' if positive else '>='} 0 [{unit}], got {value!r}")
+    check_range(f"{field} [{unit}]", value, 0.0, math.inf, lo_open=positive, hi_open=True)
 
 
 def import_pyrvo():

@@ -190,3 +190,40 @@ def test_kernel_admissibility_matches_numpy_reference(reciprocity):
         np.testing.assert_array_equal(ok, ~forbidden)
         checked += len(masks)
     assert checked > 10
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("t_max", True),  # a bool is not a number of seconds
+        ("t_max", 0.0),
+        ("kappa", float("nan")),
+        ("w_safety", -1.0),
+        ("horizon", "forever"),
+        ("horizon", -2.0),
+        ("detour_jitter", 1.0),
+        ("detour_angle", 4.0),
+        ("detour_angle", True),
+        ("n_v", True),
+        ("n_v", 1),
+        ("window_margin_steps", -1),
+        ("window_margin_steps", 2.5),
+        ("reciprocity", "orca"),
+        ("r_ca", 0.0),
+        ("fallback_clearance", -0.1),
+    ],
+)
+def test_vcs_params_reject_bad_values_naming_the_field(field, value):
+    from baselines.vcs.params import VCSParams
+
+    with pytest.raises(ValueError, match=f"VCSParams.{field}") as e:
+        VCSParams(**{field: value})
+    assert repr(value) in str(e.value)
+
+
+def test_vcs_params_accept_the_edges_of_their_ranges():
+    from baselines.vcs.params import HORIZONS, VCSParams
+
+    VCSParams(w_safety=0.0, detour_jitter=0.0, detour_angle=-math.pi, window_margin_steps=0, horizon=3, n_v=2)
+    for horizon in HORIZONS:
+        assert VCSParams(horizon=horizon).horizon == horizon

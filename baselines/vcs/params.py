@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from vcs_env.checks import check_choice, check_int, check_range
+
 HORIZONS = ("adaptive", "infinite")
 WINDOWS = ("multi_step", "one_step")
 COSTS = ("full", "goal_only")
@@ -18,9 +20,8 @@ FALLBACKS = ("least_harm", "penalty")
 
 
 def _positive(name: str, value: float, allow_zero: bool = False) -> None:
-    ok = isinstance(value, (int, float)) and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-    if not ok:
-        raise ValueError(f"VCSParams.{name} must be a finite number {'>= 0' if allow_zero else '> 0'}, got {value!r}")
+    """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) > 0 (``>= 0`` with ``allow_zero``)."""
+    check_range(f"VCSParams.{name}", value, 0.0, math.inf, lo_open=not allow_zero, hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,7 @@ class VCSParams:
     """``"multi_step"``: window sized by the time to the first threat (foresighted);
     ``"one_step"``: only the one-step window (the shortsighted foil)."""
     window_margin_steps: int = 2
-    """Steps kept in hand before the first threat when sizing the window."""
+    """Steps kept in hand before the first threat when sizing the window (0 to 1000)."""
     # --- point search (vcs-method §2.11) [reconstructed]
     n_v: int = 21
     """Grid values of the speed change over the window (endpoints included)."""
@@ -192,15 +193,11 @@ class VCSParams:
             "w_bias",
         ):
             _positive(name, getattr(self, name), allow_zero=True)
-        if not 0.0 <= self.detour_jitter < 1.0:
-            raise ValueError(f"VCSParams.detour_jitter must be in [0, 1), got {self.detour_jitter!r}")
+        check_range("VCSParams.detour_jitter", self.detour_jitter, 0.0, 1.0, hi_open=True)
         for name in ("t_max", "kappa"):
             _positive(name, getattr(self, name))
         if isinstance(self.horizon, str):
-            if self.horizon not in HORIZONS:
-                raise ValueError(
-                    f"VCSParams.horizon must be one of {HORIZONS} or a number of seconds, got {self.horizon!r}"
-                )
+            check_choice("VCSParams.horizon (or a number of seconds)", self.horizon, HORIZONS)
         else:
             _positive("horizon", self.horizon)
         for name in (
@@ -222,16 +219,11 @@ class VCSParams:
             ("reciprocity", RECIPROCITIES),
             ("goal_metric", GOAL_METRICS),
         ):
-            if getattr(self, name) not in choices:
-                raise ValueError(f"VCSParams.{name} must be one of {choices}, got {getattr(self, name)!r}")
+            check_choice(f"VCSParams.{name}", getattr(self, name), choices)
         for name in ("n_v", "n_theta", "n_theta_full", "coarse_n_v", "coarse_n_theta"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or not 2 <= v <= 1000:
-                raise ValueError(f"VCSParams.{name} must be an integer in [2, 1000], got {v!r}")
-        if not isinstance(self.window_margin_steps, int) or self.window_margin_steps < 0:
-            raise ValueError(f"VCSParams.window_margin_steps must be an integer >= 0, got {self.window_margin_steps!r}")
-        if not isinstance(self.detour_angle, (int, float)) or not abs(self.detour_angle) <= math.pi:
-            raise ValueError(f"VCSParams.detour_angle must be in [-pi, pi], got {self.detour_angle!r}")
+            check_int(f"VCSParams.{name}", getattr(self, name), 2, 1000)
+        check_int("VCSParams.window_margin_steps", self.window_margin_steps, 0, 1000)
+        check_range("VCSParams.detour_angle [rad]", self.detour_angle, -math.pi, math.pi)
         if self.r_ca is not None:
             _positive("r_ca", self.r_ca)
         if self.fallback_clearance is not None:
