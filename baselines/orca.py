@@ -40,11 +40,9 @@ Known limits, inherent to ORCA:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from vcs_env.checks import check_range
+from vcs_env.checks import check_positive
 from vcs_env.state import WorldState
 
 from .common import VelocityPlanner, preferred_velocity
@@ -53,11 +51,6 @@ TIME_HORIZON = 5.0
 """Default ORCA time horizon for other agents [s]."""
 TIME_HORIZON_OBST = 2.0
 """Default ORCA time horizon for walls (RVO2 obstacles) [s]."""
-
-
-def _check(field: str, value, positive: bool, unit: str) -> None:
-    """Raise ``ValueError`` unless ``value`` is a finite number > 0 (``positive``) or >= 0."""
-    check_range(f"{field} [{unit}]", value, 0.0, math.inf, lo_open=positive, hi_open=True)
 
 
 def import_pyrvo():
@@ -92,11 +85,11 @@ class OrcaPlanner(VelocityPlanner):
         radius_margin: float = 0.01,
         time_horizon_obst: float = TIME_HORIZON_OBST,
     ):
-        _check("time_horizon", time_horizon, True, "s")
-        _check("time_horizon_obst", time_horizon_obst, True, "s")
+        check_positive("time_horizon [s]", time_horizon)
+        check_positive("time_horizon_obst [s]", time_horizon_obst)
         if r_ca is not None:
-            _check("r_ca", r_ca, True, "m")
-        _check("radius_margin", radius_margin, False, "m")
+            check_positive("r_ca [m]", r_ca)
+        check_positive("radius_margin [m]", radius_margin, allow_zero=True)
         import_pyrvo()  # fail early, with the install hint
         self.time_horizon = float(time_horizon)
         self.r_ca = r_ca

@@ -21,6 +21,11 @@ def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = F
         raise ValueError(f"{name} must be a finite number in {left}{lo}, {hi}{right}, got {value!r}")
 
 
+def check_positive(name: str, value: float, allow_zero: bool = False) -> None:
+    """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) > 0, or >= 0 with ``allow_zero``."""
+    check_range(name, value, 0.0, math.inf, lo_open=not allow_zero, hi_open=True)
+
+
 def check_int(name: str, value: int, lo: int, hi: int) -> None:
     """Raise ``ValueError`` unless ``value`` is an integer (not a bool) in ``[lo, hi]``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from vcs_env.checks import check_choice, check_int, check_range
+from vcs_env.checks import check_choice, check_int, check_positive, check_range
 
 HORIZONS = ("adaptive", "infinite")
 WINDOWS = ("multi_step", "one_step")
@@ -17,11 +17,6 @@ COSTS = ("full", "goal_only")
 RECIPROCITIES = ("hrvo", "rvo", "vo")
 GOAL_METRICS = ("vcs", "velocity")
 FALLBACKS = ("least_harm", "penalty")
-
-
-def _positive(name: str, value: float, allow_zero: bool = False) -> None:
-    """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) > 0 (``>= 0`` with ``allow_zero``)."""
-    check_range(f"VCSParams.{name}", value, 0.0, math.inf, lo_open=not allow_zero, hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -192,14 +187,14 @@ class VCSParams:
             "w_hysteresis",
             "w_bias",
         ):
-            _positive(name, getattr(self, name), allow_zero=True)
+            check_positive(f"VCSParams.{name}", getattr(self, name), allow_zero=True)
         check_range("VCSParams.detour_jitter", self.detour_jitter, 0.0, 1.0, hi_open=True)
         for name in ("t_max", "kappa"):
-            _positive(name, getattr(self, name))
+            check_positive(f"VCSParams.{name}", getattr(self, name))
         if isinstance(self.horizon, str):
             check_choice("VCSParams.horizon (or a number of seconds)", self.horizon, HORIZONS)
         else:
-            _positive("horizon", self.horizon)
+            check_positive("VCSParams.horizon", self.horizon)
         for name in (
             "arriving_non_reactive",
             "stop_margin",
@@ -225,9 +220,9 @@ class VCSParams:
         check_int("VCSParams.window_margin_steps", self.window_margin_steps, 0, 1000)
         check_range("VCSParams.detour_angle [rad]", self.detour_angle, -math.pi, math.pi)
         if self.r_ca is not None:
-            _positive("r_ca", self.r_ca)
+            check_positive("VCSParams.r_ca", self.r_ca)
         if self.fallback_clearance is not None:
-            _positive("fallback_clearance", self.fallback_clearance, allow_zero=True)
+            check_positive("VCSParams.fallback_clearance", self.fallback_clearance, allow_zero=True)
 
     @property
     def weights(self) -> tuple[float, float, float, float, float, float]:
