@@ -9,6 +9,7 @@ import sys
 import numpy as np
 
 from agents.policies import resolve_policy
+from vcs_env.geometry import rotate
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
 from vcs_env.rollout import run_episodes
 from vcs_env.suites import get_suite
@@ -29,13 +30,11 @@ def parked_as_obstacles(world, obs):
     B, n, _ = obs.shape
     k = scenario.n_neighbors
     slots = obs[..., EGO_DIM : EGO_DIM + k * NEIGHBOR_DIM].reshape(B, n, k, NEIGHBOR_DIM)
-    rel = slots[..., 1:3] * SENSE_REF  # (B, n, k, 2) robot frame [m]
-    c, s = np.cos(world.heading)[..., None], np.sin(world.heading)[..., None]
-    wx = world.pos[..., 0, None] + c * rel[..., 0] - s * rel[..., 1]  # (B, n, k) world frame [m]
-    wy = world.pos[..., 1, None] + s * rel[..., 0] + c * rel[..., 1]
+    # (B, n, k, 2) slot centres in the world frame [m]
+    centre = world.pos[:, :, None] + rotate(slots[..., 1:3] * SENSE_REF, world.heading[:, :, None])
     for b in np.nonzero(parked.any(axis=1))[0]:
         p = world.pos[b][parked[b]]  # (p, 2) [m]
-        d = np.hypot(wx[b][..., None] - p[:, 0], wy[b][..., None] - p[:, 1]).min(axis=-1)  # (n, k) [m]
+        d = np.linalg.norm(centre[b][:, :, None] - p, axis=-1).min(axis=-1)  # (n, k) [m]
         hit = (d < 1e-3) & (slots[b, ..., 0] > 0.5) & (slots[b, ..., 7] > 0.5)
         slots[b, ..., 7][hit] = 0.0
         relabelled[0] += int(hit.sum())
