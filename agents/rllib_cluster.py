@@ -76,13 +76,19 @@ def check_cluster(ray) -> list[dict[str, Any]]:
         probe.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)).remote()
         for n in nodes
     ]
-    found = []
-    for node, ref in zip(nodes, refs):
-        where = f"the Ray cluster's node {node.get('NodeManagerAddress')}"
+    # Fetch every probe before judging any: a result left unfetched when the run stops makes Ray
+    # log an "Unhandled error" from the killed worker after our one-line message.
+    results = []
+    for ref in refs:
         try:
-            got = ray.get(ref, timeout=120)
+            results.append(ray.get(ref, timeout=120))
         except Exception as e:
-            raise RuntimeError(f"{where} cannot run a probe task: {str(e).splitlines()[0]}") from None
+            results.append(e)
+    found = []
+    for node, got in zip(nodes, results):
+        where = f"the Ray cluster's node {node.get('NodeManagerAddress')}"
+        if isinstance(got, Exception):
+            raise RuntimeError(f"{where} cannot run a probe task: {str(got).splitlines()[0]}")
         if got["missing"]:
             raise RuntimeError(
                 f"{where} ({got['node']}) lacks {'; '.join(got['missing'])}: install the same environment "
