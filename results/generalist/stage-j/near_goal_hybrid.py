@@ -10,6 +10,7 @@ import sys
 import numpy as np
 
 from agents.policies import resolve_policy
+from vcs_env.metrics import EpisodeFacts
 from vcs_env.rollout import run_episodes
 from vcs_env.suites import get_suite
 
@@ -33,7 +34,8 @@ def hybrid(radius: float, expert_near: bool):
 for radius in (float(r) for r in sys.argv[4].split(",")):
     for expert_near in (True, False):
         eps = run_episodes(sc, hybrid(radius, expert_near), seeds)
-        success = np.mean([ep.reached_step.min() >= 0 and not ep.collided.any() for ep in eps])
-        collision = np.mean([ep.collided.any() for ep in eps])
+        facts = [EpisodeFacts(ep) for ep in eps]  # the suites' success and collision
+        success = np.mean([f.success for f in facts])
+        collision = np.mean([f.collided for f in facts])
         who = "expert within, policy beyond" if expert_near else "policy within, expert beyond"
         print(f"R={radius} m, {who}: success {success:.3f} collision {collision:.3f}", flush=True)
