@@ -61,6 +61,9 @@ class ScenarioConfig:
     """Circle radius for circle/crowd, half lane length for swap/crossing [m] (None: the preset's)."""
     obstacle_speed: tuple[float, ...] | None = None
     """Obstacle speed range LOW HIGH [m/s], drawn per obstacle and episode (None: the preset's)."""
+    obstacle_motion: str | None = None
+    """How obstacles move: static, constant, patrol, arbitrary or stop_and_go (None: the preset's;
+    vcs_env.obstacles)."""
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential)."""
@@ -105,7 +108,10 @@ def scenario_base(name: str):
     )
 
 
-_SCENARIO_FLAGS = ("n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed")
+_SCENARIO_FLAGS = (
+    "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed",
+    "obstacle_motion",
+)  # fmt: skip
 
 
 def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:
@@ -408,7 +414,7 @@ def mixture_split(scenarios: Sequence, seeds: Sequence[int]) -> list[tuple[Any, 
 def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
     """Every scenario of a mixture: for each entry (:func:`parse_mixture_entry`) the product of its
     grids, applied to the preset together with the config's common flags (``max_steps``,
-    ``on_collision``, ``rewards``, shaping). The per-scenario flags of ``cfg`` (``scenario``,
+    ``on_collision``, ``obstacle_motion``, ``rewards``, shaping). The per-scenario flags of ``cfg`` (``scenario``,
     ``n_robots``, ``n_obstacles``, ``jitter``, ``layout_radius``, ``obstacle_speed``) must be
     unset: entries set those. All scenarios must share one observation config."""
     import itertools

@@ -1,6 +1,7 @@
 """Issue 13 infrastructure: ad-hoc evaluation from scenario flags, training settings against the
 suites, training on mixtures (groups of worlds), reproducible toy runs."""
 
+import dataclasses
 import json
 
 import pytest
@@ -33,6 +34,8 @@ def test_probe_scenario_starts_from_the_family_suite():
     crowd = probe_scenario(ScenarioConfig(scenario="crowd", n_obstacles=3, obstacle_speed=(1.0, 1.5)))
     assert (crowd.n_obstacles, crowd.obstacle_speed, crowd.min_separation) == (3, (1.0, 1.5), 0.2)
     assert probe_scenario(ScenarioConfig(scenario="custom")) == build_scenario(ScenarioConfig(scenario="custom"))
+    straight = probe_scenario(ScenarioConfig(scenario="dynamic", obstacle_motion="constant"))
+    assert straight == dataclasses.replace(get_suite("dynamic-v0").scenario, obstacle_motion="constant")
 
 
 def test_training_differences_from_the_suite_are_listed():
@@ -55,6 +58,9 @@ def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
     args = ["compare", "--policies", "vcs,straight", "--scenario", "crowd", "--n-obstacles", "3"]
     assert cli.main([*args, "--seeds", "10:12", "--out", str(report), "--no-plots", "--no-progress"]) == 0
     assert json.loads((report / "results.json").read_text())["seeds"] == [10, 11]
+    args = ["evaluate", "--policy", "vcs", "--scenario", "dynamic", "--obstacle-motion", "constant", "--seeds", "3:4"]
+    assert cli.main([*args, "--json", str(out), "--no-progress"]) == 0
+    assert json.loads(out.read_text())["suite"] == "dynamic[obstacle_motion=constant]@3:4"
     capsys.readouterr()
 
 
@@ -66,6 +72,7 @@ def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
         (["--suite", "swap-v0-smoke", "--n-robots", "4"], "either --suite or scenario flags"),
         (["--scenario", "nope", "--seeds", "1:2"], "unknown scenario 'nope'"),
         (["--scenario", "crowd", "--obstacle-speed", "1", "--seeds", "1:2"], "obstacle_speed must be two numbers"),
+        (["--scenario", "dynamic", "--obstacle-motion", "wobbly", "--seeds", "1:2"], "obstacle_motion must be one of"),
     ],
 )
 def test_cli_ad_hoc_errors_are_messages(args, message, capsys):
@@ -74,6 +81,15 @@ def test_cli_ad_hoc_errors_are_messages(args, message, capsys):
 
 
 # --------------------------------------------------------------------------- mixtures
+def test_obstacle_motion_flag_applies_to_every_mixture_entry():
+    from agents.config import mixture_scenarios
+
+    entries = ("dynamic-v0", "crowd-5-v0:n_obstacles=3-4")
+    assert [s.obstacle_motion for s in mixture_scenarios(ScenarioConfig(), entries)] == ["arbitrary", *["constant"] * 2]
+    moved = mixture_scenarios(ScenarioConfig(obstacle_motion="stop_and_go"), entries)
+    assert [s.obstacle_motion for s in moved] == ["stop_and_go"] * 3
+
+
 def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
     from agents.config import mixture_scenarios, parse_mixture_entry
 
