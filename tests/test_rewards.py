@@ -77,3 +77,59 @@ def test_bad_reward_terms_raise(terms, match):
 def test_potential_shaping_needs_a_planner_with_a_potential():
     with pytest.raises(ValueError, match="'straight' has none"):
         NavEngine(vcs_env.make_scenario("swap", rewards={"vcs_potential": 1.0}), expert="straight")
+
+
+def _contact_time_oracle(world, b: int, i: int, j: int, horizon: float = 8.0, step: float = 1e-4) -> float:
+    """First t in [0, horizon] [s] at which robot i and object j (robots, then obstacles) touch if both
+    keep their velocities, found by scanning t; inf if they do not within the horizon."""
+    n = world.pos.shape[1]
+    vel_i = world.speed[b, i] * np.array([np.cos(world.heading[b, i]), np.sin(world.heading[b, i])])
+    if j < n:
+        pos_j, r_j = world.pos[b, j], world.radius[b, j]
+        vel_j = world.speed[b, j] * np.array([np.cos(world.heading[b, j]), np.sin(world.heading[b, j])])
+    else:
+        pos_j, vel_j, r_j = world.obs_pos[b, j - n], world.obs_vel[b, j - n], world.obs_radius[b, j - n]
+    t = np.arange(0.0, horizon, step)
+    d = np.linalg.norm(pos_j + t[:, None] * vel_j - world.pos[b, i] - t[:, None] * vel_i, axis=-1)
+    hit = np.flatnonzero(d <= r_j + world.radius[b, i])
+    return float(t[hit[0]]) if hit.size else np.inf
+
+
+def test_contact_times_match_a_scan_and_the_danger_term_uses_the_soonest():
+    from vcs_env.rewards import DANGER_TIME, contact_times
+
+    s = vcs_env.make_scenario("dynamic", n_robots=4, n_obstacles=6, rewards={"danger": 1.0})
+    eng = NavEngine(s, batch_size=2)
+    eng.reset(seeds=[3, 4])
+    rng = np.random.default_rng(0)
+    for _ in range(25):  # let robots and obstacles get moving
+        res = eng.step(rng.uniform(-0.2, 1.0, (2, 4, 2)))
+    world = eng.world
+    t = contact_times(world)
+    assert t.shape == (2, 4, 10)
+    for b in range(2):
+        for i in range(4):
+            assert t[b, i, i] == np.inf
+            for j in range(10):
+                if j == i:
+                    continue
+                expected = _contact_time_oracle(world, b, i, j)
+                got = t[b, i, j] if t[b, i, j] < 8.0 - 1e-3 else np.inf
+                assert got == pytest.approx(expected, abs=2e-4), (b, i, j)
+    assert np.isfinite(t).any()  # the check above saw some contacts ahead, not only inf
+    acted = res.events.acted
+    worst = np.exp(-t.min(axis=-1) / DANGER_TIME)
+    np.testing.assert_allclose(res.terms["danger"], np.where(acted, -s.dt * worst, 0.0))
+
+
+def test_danger_is_computed_only_when_weighted_and_counts_touching_as_now():
+    eng = NavEngine(vcs_env.make_scenario("swap"))
+    eng.reset(seeds=[0])
+    assert "danger" not in eng.step(np.zeros((1, 2, 2))).terms
+    from vcs_env.rewards import contact_times
+
+    world = eng.world
+    world.pos[0, 1] = world.pos[0, 0] + [0.3, 0.0]  # closer than the two radii: touching now
+    assert contact_times(world)[0, 0, 1] == 0.0
+    world.present[0, 1] = False  # a robot taken out of the world is no danger
+    assert contact_times(world)[0, 0, 1] == np.inf

@@ -43,6 +43,9 @@ class RewardTerm:
     needs_expert: bool = False
     """Terms that need an expert are computed only when weighted, and their weight attaches the
     VCS expert unless the env is given another."""
+    only_when_weighted: bool = False
+    """Computed (and reported in ``info["reward_terms"]``) only when weighted: terms that cost a
+    pass over every pair of objects, and the expert's."""
 
     def check(self, expert: Planner | None) -> None:
         """Raise ``ValueError`` if the term cannot work with this expert (called once)."""
@@ -137,6 +140,49 @@ class VcsPotential(RewardTerm):
         return out
 
 
+DANGER_TIME = 1.0
+"""Time scale of the ``danger`` term [s]: a contact ``DANGER_TIME`` ahead weighs ``1/e`` of one now."""
+
+
+def contact_times(world: WorldState) -> np.ndarray:
+    """``(B, n, n + m)`` time [s] until robot ``i`` touches robot ``j`` (columns ``:n``) or obstacle
+    ``k`` (columns ``n:``) if both keep their current velocities: 0 when they touch now, ``inf``
+    when they never will, for itself and for robots no longer present."""
+    vel = world.speed[..., None] * np.stack((np.cos(world.heading), np.sin(world.heading)), axis=-1)
+    pos = np.concatenate((world.pos, world.obs_pos), axis=1)  # (B, n + m, 2)
+    other_vel = np.concatenate((vel, world.obs_vel), axis=1)
+    radius = np.concatenate((world.radius, world.obs_radius), axis=1)
+    p = pos[:, None, :, :] - world.pos[:, :, None, :]  # (B, n, n + m, 2)
+    u = other_vel[:, None, :, :] - vel[:, :, None, :]
+    reach = radius[:, None, :] + world.radius[:, :, None]
+    a = np.einsum("...i,...i->...", u, u)
+    b = np.einsum("...i,...i->...", p, u)  # half the linear coefficient
+    c = np.einsum("...i,...i->...", p, p) - reach**2
+    disc = b * b - a * c
+    with np.errstate(divide="ignore", invalid="ignore"):
+        root = (-b - np.sqrt(np.maximum(disc, 0.0))) / a  # first time |p + u t| = reach
+    t = np.where(c <= 0.0, 0.0, np.where((b < 0.0) & (disc >= 0.0) & (a > 0.0), root, np.inf))
+    n = world.pos.shape[1]
+    gone = np.concatenate((~world.present, np.zeros(world.obs_pos.shape[:2], dtype=bool)), axis=1)
+    t = np.where(gone[:, None, :], np.inf, t)
+    t[:, np.arange(n), np.arange(n)] = np.inf
+    return t
+
+
+class Danger(RewardTerm):
+    """``-dt * max_j exp(-t_j / DANGER_TIME)`` [s]: how soon the robot would touch another robot or an
+    obstacle if everything kept its velocity (:func:`contact_times`; walls are not counted). A dense
+    signal of the contacts the ``collision`` term sees only when they happen."""
+
+    name = "danger"
+    only_when_weighted = True
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        t = contact_times(x.world)
+        worst = np.exp(-t.min(axis=-1, initial=np.inf) / DANGER_TIME)
+        return np.where(x.events.acted, -x.dt * worst, 0.0)
+
+
 class FunctionTerm(RewardTerm):
     """A term from a :data:`RewardFn`, zero for robots that did not act."""
 
@@ -147,7 +193,7 @@ class FunctionTerm(RewardTerm):
         return np.where(x.events.acted, np.asarray(self.fn(x.world, x.events, x.actions), dtype=np.float64), 0.0)
 
 
-TERMS: tuple[type[RewardTerm], ...] = (Progress, Arrival, Collision, Time, VcsImitation, VcsPotential)
+TERMS: tuple[type[RewardTerm], ...] = (Progress, Arrival, Collision, Time, VcsImitation, VcsPotential, Danger)
 """The built-in terms, in the order they are summed; each has a weight in ``RewardWeights``."""
 
 
@@ -179,14 +225,17 @@ def build_terms(
 ) -> tuple[dict[str, RewardTerm], dict[str, float]]:
     """The terms an env computes (name -> term, in summing order) and every term's weight.
 
-    Built-in terms are computed unless they need an expert and weigh 0; ``extra`` adds
+    Built-in terms are computed unless they are :attr:`RewardTerm.only_when_weighted` (or need an
+    expert) and weigh 0; ``extra`` adds
     ``{name: (weight, term or function)}`` after them.
 
     Raises:
         ValueError: for an extra name that exists, or a spec that is not a (weight, term) pair.
     """
     weights = dict(weights)
-    terms = {cls.name: cls() for cls in TERMS if not cls.needs_expert or weights[cls.name] != 0.0}
+    terms = {
+        cls.name: cls() for cls in TERMS if not (cls.needs_expert or cls.only_when_weighted) or weights[cls.name] != 0.0
+    }
     for name, spec in (extra or {}).items():
         if name in weights:
             raise ValueError(f"reward term {name!r} already exists; pick another name")

@@ -81,8 +81,11 @@ class RewardWeights:
     ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
     window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = gamma * phi(s') - phi(s) with
     phi = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a
-    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`). Each
-    term is an object in :data:`vcs_env.rewards.TERMS`.
+    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`);
+    ``danger`` = ``-dt * max_j exp(-t_j / DANGER_TIME)`` [s], ``t_j`` the time until the robot
+    would touch robot or obstacle ``j`` if both kept their velocities (0 when touching; walls not
+    counted; :class:`vcs_env.rewards.Danger`). Each term is an object in
+    :data:`vcs_env.rewards.TERMS`.
     """
 
     progress: float = 1.0
@@ -91,6 +94,7 @@ class RewardWeights:
     time: float = 0.5
     vcs_imitation: float = 0.0
     vcs_potential: float = 0.0
+    danger: float = 0.0
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

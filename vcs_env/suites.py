@@ -76,6 +76,8 @@ LATER_FIELDS = {
     if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar", "n_wall_points")
 }
 """Scenario fields (with their defaults) added after the first suites were pinned: the maps and lidar."""
+LATER_REWARDS = {"danger": 0.0}
+"""Reward weights (with their defaults) added after the first suites were pinned."""
 SMOKE_SEEDS = 3
 """Episodes in a ``-smoke`` suite."""
 SMOKE_SUFFIX = "-smoke"
@@ -114,13 +116,16 @@ class Suite:
     def fingerprint(self) -> str:
         """First 16 hex digits of the SHA-256 of the suite's content (scenario fields and seeds).
 
-        Scenario fields added after suites were first pinned (:data:`LATER_FIELDS`) count only
-        when they differ from their default, so adding a field with a neutral default leaves
-        every existing fingerprint as it was."""
+        Scenario fields and reward weights added after suites were first pinned
+        (:data:`LATER_FIELDS`, :data:`LATER_REWARDS`) count only when they differ from their
+        default, so adding a field with a neutral default leaves every existing fingerprint as it was."""
         scenario = {
             k: v
             for k, v in dataclasses.asdict(self.scenario).items()
             if not (k in LATER_FIELDS and v == LATER_FIELDS[k])
+        }
+        scenario["rewards"] = {
+            k: v for k, v in scenario["rewards"].items() if not (k in LATER_REWARDS and v == LATER_REWARDS[k])
         }
         content = {"scenario": scenario, "seeds": list(self.seeds)}
         blob = json.dumps(content, sort_keys=True, default=repr).encode()
