@@ -133,3 +133,16 @@ def test_danger_is_computed_only_when_weighted_and_counts_touching_as_now():
     assert contact_times(world)[0, 0, 1] == 0.0
     world.present[0, 1] = False  # a robot taken out of the world is no danger
     assert contact_times(world)[0, 0, 1] == np.inf
+
+
+def test_the_danger_weight_enters_a_suite_fingerprint_only_when_set():
+    from vcs_env.suites import get_suite
+
+    suite = get_suite("dynamic-v0")
+
+    def with_danger(w):
+        rewards = dataclasses.replace(suite.scenario.rewards, danger=w)
+        return dataclasses.replace(suite, scenario=dataclasses.replace(suite.scenario, rewards=rewards))
+
+    assert with_danger(0.0).fingerprint == suite.fingerprint
+    assert with_danger(1.0).fingerprint != suite.fingerprint
