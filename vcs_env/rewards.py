@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .geometry import time_to_collision
 from .planning import Planner
 from .sim import StepEvents
 from .state import WorldState
@@ -41,11 +42,11 @@ class RewardTerm:
 
     name: str = ""
     needs_expert: bool = False
-    """Terms that need an expert are computed only when weighted, and their weight attaches the
+    """Terms that need an expert are also :attr:`only_when_weighted`, and their weight attaches the
     VCS expert unless the env is given another."""
     only_when_weighted: bool = False
-    """Computed (and reported in ``info["reward_terms"]``) only when weighted: terms that cost a
-    pass over every pair of objects, and the expert's."""
+    """Computed (and reported in ``info["reward_terms"]``) only when weighted: the expert's terms
+    and those that cost a pass over every pair of objects."""
 
     def check(self, expert: Planner | None) -> None:
         """Raise ``ValueError`` if the term cannot work with this expert (called once)."""
@@ -101,6 +102,7 @@ class VcsImitation(RewardTerm):
 
     name = "vcs_imitation"
     needs_expert = True
+    only_when_weighted = True
 
     def __call__(self, x: StepInput) -> np.ndarray:
         diff = np.clip(np.asarray(x.actions, dtype=np.float64), -1.0, 1.0) - x.expert_action
@@ -112,6 +114,7 @@ class VcsPotential(RewardTerm):
 
     name = "vcs_potential"
     needs_expert = True
+    only_when_weighted = True
 
     def __init__(self) -> None:
         self.phi: np.ndarray | None = None  # (B, n) potential of the current state
@@ -152,16 +155,9 @@ def contact_times(world: WorldState) -> np.ndarray:
     pos = np.concatenate((world.pos, world.obs_pos), axis=1)  # (B, n + m, 2)
     other_vel = np.concatenate((vel, world.obs_vel), axis=1)
     radius = np.concatenate((world.radius, world.obs_radius), axis=1)
-    p = pos[:, None, :, :] - world.pos[:, :, None, :]  # (B, n, n + m, 2)
-    u = other_vel[:, None, :, :] - vel[:, :, None, :]
-    reach = radius[:, None, :] + world.radius[:, :, None]
-    a = np.einsum("...i,...i->...", u, u)
-    b = np.einsum("...i,...i->...", p, u)  # half the linear coefficient
-    c = np.einsum("...i,...i->...", p, p) - reach**2
-    disc = b * b - a * c
-    with np.errstate(divide="ignore", invalid="ignore"):
-        root = (-b - np.sqrt(np.maximum(disc, 0.0))) / a  # first time |p + u t| = reach
-    t = np.where(c <= 0.0, 0.0, np.where((b < 0.0) & (disc >= 0.0) & (a > 0.0), root, np.inf))
+    p = pos[:, None, :, :] - world.pos[:, :, None, :]  # (B, n, n + m, 2), from robot i to object j
+    own_rel_vel = vel[:, :, None, :] - other_vel[:, None, :, :]  # robot i relative to object j
+    t = time_to_collision(p, own_rel_vel, radius[:, None, :] + world.radius[:, :, None])
     n = world.pos.shape[1]
     gone = np.concatenate((~world.present, np.zeros(world.obs_pos.shape[:2], dtype=bool)), axis=1)
     t = np.where(gone[:, None, :], np.inf, t)
@@ -225,17 +221,14 @@ def build_terms(
 ) -> tuple[dict[str, RewardTerm], dict[str, float]]:
     """The terms an env computes (name -> term, in summing order) and every term's weight.
 
-    Built-in terms are computed unless they are :attr:`RewardTerm.only_when_weighted` (or need an
-    expert) and weigh 0; ``extra`` adds
-    ``{name: (weight, term or function)}`` after them.
+    Built-in terms are computed unless they are :attr:`RewardTerm.only_when_weighted` and weigh 0;
+    ``extra`` adds ``{name: (weight, term or function)}`` after them.
 
     Raises:
         ValueError: for an extra name that exists, or a spec that is not a (weight, term) pair.
     """
     weights = dict(weights)
-    terms = {
-        cls.name: cls() for cls in TERMS if not (cls.needs_expert or cls.only_when_weighted) or weights[cls.name] != 0.0
-    }
+    terms = {cls.name: cls() for cls in TERMS if not cls.only_when_weighted or weights[cls.name] != 0.0}
     for name, spec in (extra or {}).items():
         if name in weights:
             raise ValueError(f"reward term {name!r} already exists; pick another name")
