@@ -151,7 +151,7 @@ def contact_times(world: WorldState) -> np.ndarray:
     """``(B, n, n + m)`` time [s] until robot ``i`` touches robot ``j`` (columns ``:n``) or obstacle
     ``k`` (columns ``n:``) if both keep their current velocities: 0 when they touch now, ``inf``
     when they never will, for itself and for robots no longer present."""
-    vel = world.speed[..., None] * np.stack((np.cos(world.heading), np.sin(world.heading)), axis=-1)
+    vel = world.vel
     pos = np.concatenate((world.pos, world.obs_pos), axis=1)  # (B, n + m, 2)
     other_vel = np.concatenate((vel, world.obs_vel), axis=1)
     radius = np.concatenate((world.radius, world.obs_radius), axis=1)
