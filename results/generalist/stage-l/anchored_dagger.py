@@ -23,7 +23,7 @@ th.set_num_threads(1)
 from agents.checkpoint import load_model  # noqa: E402
 from agents.config import ScenarioConfig, mixture_scenarios, mixture_split  # noqa: E402
 from agents.expert_data import ExpertLabels  # noqa: E402
-from vcs_env.rewards import contact_times  # noqa: E402
+from agents.policies import predictor_controller  # noqa: E402
 from vcs_env.rollout import play as play_episodes  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -37,20 +37,15 @@ class Labels(ExpertLabels):
         super().__init__()
         self.parts["thr"] = []
 
-    def _threat(self):
-        w = self.engine.world
-        n = w.n_robots
-        return contact_times(w)[:, :, n:].min(axis=-1, initial=np.inf)
-
     def begin(self, engine, seeds, first):
         super().begin(engine, seeds, first)
-        self.threat = self._threat()
+        self.threat = start_states.obstacle_contact_time(self.engine.world)
 
     def step(self, s):
         b, i = np.nonzero(s.acting)
         self.parts["thr"].append(self.threat[b, i])
         super().step(s)
-        self.threat = self._threat()
+        self.threat = start_states.obstacle_contact_time(self.engine.world)
 
 
 def main():
@@ -70,17 +65,13 @@ def main():
         with th.no_grad():
             return p.get_distribution(th.as_tensor(obs)).distribution.mean.clamp(-1, 1).numpy()
 
+    control = predictor_controller(policy)  # the policy as it is trained, deterministic
     X, Y, D = [], [], []
     opt = th.optim.Adam(policy.parameters(), lr=lr)
     g = th.Generator().manual_seed(0)
     for k in range(rounds):
         seeds = list(range(60_000 + k * episodes, 60_000 + (k + 1) * episodes))
         lab = Labels()
-
-        def control(world, obs):
-            B, n = world.batch_size, world.n_robots
-            a = mean_action(policy, obs.reshape(B * n, -1).astype(np.float32)).reshape(B, n, 2)
-            return np.where(world.active[..., None], a, 0.0)
 
         collided = reached = trajs = 0
         for sc, part in mixture_split(scenarios, seeds):
@@ -94,8 +85,9 @@ def main():
         exp = np.concatenate(lab.parts["act"]).astype(np.float32)
         thr = np.concatenate(lab.parts["thr"])
         danger = thr < H
-        y = np.where(danger[:, None], exp, mean_action(anchor, obs))
-        np.savez_compressed(out / f"round{k + 1}.npz", obs=obs, exp=exp, thr=thr, anchor=mean_action(anchor, obs))
+        own = mean_action(anchor, obs)
+        y = np.where(danger[:, None], exp, own)
+        np.savez_compressed(out / f"round{k + 1}.npz", obs=obs, exp=exp, thr=thr, anchor=own)
         X.append(obs)
         Y.append(y)
         D.append(danger)

@@ -28,6 +28,7 @@ import time
 import numpy as np
 
 import vcs_env.sim as simmod
+from vcs_env.rewards import contact_times
 
 MIX = (  # policies/generalist.sh, with the jittered circle-24 entry of its last step
     "circle-8-v0:n_robots=4-12/4,jitter=0.1-0.5/0.2",
@@ -55,15 +56,14 @@ def key(scenario) -> str:
     return repr(dataclasses.replace(scenario, rewards=type(scenario.rewards)()))
 
 
-def per_world(engine) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Copies of the ``(B, ...)`` world arrays and the obstacle motion state."""
-    w = engine.world
-    arrays = {}
-    for f in dataclasses.fields(w):
-        v = getattr(w, f.name)
-        if isinstance(v, np.ndarray) and v.ndim >= 1 and v.shape[0] == w.batch_size:
-            arrays[f.name] = v.copy()
-    return arrays, {k: v.copy() for k, v in engine.sim.motion_params.items()}
+def obstacle_contact_time(world) -> np.ndarray:
+    """``(B, n)`` time [s] until each robot touches an obstacle at current velocities (inf: never)."""
+    return contact_times(world)[:, :, world.n_robots :].min(axis=-1, initial=np.inf)
+
+
+def snapshot(engine) -> tuple:
+    """The engine's world state and obstacle motion state, copied."""
+    return engine.world.copy(), {k: v.copy() for k, v in engine.sim.motion_params.items()}
 
 
 def collect(policy_path: str, out: str, episodes: int) -> None:
@@ -72,13 +72,13 @@ def collect(policy_path: str, out: str, episodes: int) -> None:
     th.set_num_threads(1)
     from agents.checkpoint import load_model
     from agents.config import ScenarioConfig, mixture_scenarios
-    from vcs_env.rewards import contact_times
+    from agents.policies import predictor_controller
     from vcs_env.rollout import Hook
     from vcs_env.rollout import play as play_episodes
 
     class Recorder(Hook):
         def begin(self, engine, seeds, first):
-            self.engine, self.hist = engine, [per_world(engine)]
+            self.engine, self.hist = engine, [snapshot(engine)]
             self.first_contact = np.full(engine.batch_size, -1)
             self.danger: list[tuple[int, int]] = []  # (world, state index)
 
@@ -86,24 +86,18 @@ def collect(policy_path: str, out: str, episodes: int) -> None:
             w = self.engine.world
             new = (s.result.events.collided & s.acting).any(axis=1) & (self.first_contact < 0)
             self.first_contact[new] = s.steps[new]
-            t = contact_times(w)[:, :, w.n_robots :].min(axis=-1, initial=np.inf)
-            danger = ((t < DANGER_TIME) & w.active).any(axis=1) & s.running & ~s.finished
-            self.hist.append(per_world(self.engine))
+            danger = ((obstacle_contact_time(w) < DANGER_TIME) & w.active).any(axis=1) & s.running & ~s.finished
+            self.hist.append(snapshot(self.engine))
             self.danger += [(b, len(self.hist) - 1) for b in np.flatnonzero(danger & (self.first_contact < 0))]
 
     scenarios = mixture_scenarios(ScenarioConfig(on_collision="terminate"), MIX)
-    policy = load_model(policy_path, scenarios[0]).policy
-
-    def control(world, obs):
-        B, n = world.batch_size, world.n_robots
-        with th.no_grad():
-            dist = policy.get_distribution(th.as_tensor(obs.reshape(B * n, -1).astype(np.float32)))
-            a = dist.distribution.mean.clamp(-1, 1).numpy().reshape(B, n, 2)
-        return np.where(world.active[..., None], a, 0.0)
+    control = predictor_controller(load_model(policy_path, scenarios[0]).policy)
 
     def state(rec, b, i):
-        arrays, params = rec.hist[i]
-        return {f: v[b] for f, v in arrays.items()}, {f: v[b] for f, v in params.items()}
+        """World ``b`` of state ``i``: its arrays and its obstacle motion state."""
+        world, params = rec.hist[i]
+        arrays = {f: v[b] for f, v in vars(world).items() if isinstance(v, np.ndarray)}
+        return arrays, {f: v[b] for f, v in params.items()}
 
     pools: dict[str, list] = {}
     rng = np.random.default_rng(0)
