@@ -316,6 +316,8 @@ def train(cfg: RLlibConfig) -> dict[str, Any]:
         raise ValueError(f"env_adapter must be one of {list(ADAPTERS)}, got {cfg.env_adapter!r}")
     if cfg.init:
         raise ValueError("--init is not supported with --backend rllib (it loads SB3 weights)")
+    if cfg.start_states is not None:
+        raise ValueError("--start-states applies to the SB3 backend only (the RLlib env runners start fresh)")
     if cfg.features != "flat":
         raise ValueError(
             f"--backend rllib reads the flat observation only (--features flat), got --features {cfg.features!r} "

@@ -36,7 +36,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .config import (
     ScenarioConfig,
@@ -48,6 +48,9 @@ from .config import (
     mixture_scenarios,
     print_suite_differences,
 )
+
+if TYPE_CHECKING:
+    from vcs_env.start_states import StartStates
 
 
 @dataclass
@@ -122,6 +125,12 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """How a mixture's worlds are shared: ``worlds`` (the same number per scenario) or ``robots``
     (worlds in proportion to 1 / robot count, so every scenario steps about the same number of
     robots; agents.vec_env.mixture_world_counts)."""
+    start_states: str | None = None
+    """Start-state file (vcs-env collect-states): a training world of a scenario with a pool there
+    starts, with probability start_prob, from one of its states (vcs_env.start_states); periodic
+    evaluation always starts fresh."""
+    start_prob: float = 0.5
+    """Probability that a training world with a start-state pool starts from it."""
     checkpoint_freq: int = 500_000
     """Save a resumable checkpoint every this many timesteps (0: never)."""
     progress_bar: bool = True
@@ -263,6 +272,28 @@ def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
     return RunCallback()
 
 
+def start_states(cfg: TrainConfig, scenarios) -> StartStates | None:
+    """The start-state pools of a run (None without ``--start-states``); a ``ValueError`` when
+    none fits a training scenario (pools are keyed by the whole scenario but its rewards)."""
+    if cfg.start_states is None:
+        return None
+    from vcs_env.start_states import StartStates
+
+    starts = StartStates.load(cfg.start_states, cfg.start_prob)
+    hit = starts.matching(scenarios)
+    if not hit:
+        raise ValueError(
+            f"no start-state pool of {cfg.start_states!r} fits a training scenario ({len(starts.pools)} pools; collect "
+            "them with the training's scenario flags and mixture, e.g. the same --on-collision and --max-steps)"
+        )
+    states = sum(len(starts.pool(s)) for s in hit)
+    print(
+        f"start states: {len(hit)} of {len(scenarios)} scenarios start from {cfg.start_states} with "
+        f"p={cfg.start_prob} ({states} states)"
+    )
+    return starts
+
+
 def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     """Train (or resume) a shared PPO policy; returns the final evaluation and paths."""
     from .checkpoint import resolve
@@ -276,6 +307,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         raise ValueError("timesteps must be >= 0, n_worlds and eval_episodes >= 1")
     if cfg.mixture_balance not in ("worlds", "robots"):
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
+    starts = start_states(cfg, scenarios)
     for path in (cfg.init, resume):  # fail fast, before the slow torch import
         if path:
             resolve(path)
@@ -296,9 +328,9 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.time()
     if len(scenarios) == 1:
-        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma)
+        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma, start_states=starts)
     else:
-        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance)
+        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance, start_states=starts)
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:
         model = load_model(resume, scenario, env=venv)
@@ -335,6 +367,9 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
             model.set_logger(configure(None, []))
         callback.init_callback(model)
     callback.num_timesteps = model.num_timesteps
+    if starts is not None:
+        fresh, pooled = sum(g.engine.sim.start_counts for g in getattr(venv, "groups", [venv]))
+        print(f"start states: {pooled} of {fresh + pooled} training world resets started from a pool")
     final = callback.evaluate()
     model.logger.dump(model.num_timesteps)
     wall = round(time.time() - t_start, 1)

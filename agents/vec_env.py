@@ -52,6 +52,7 @@ from vcs_env.engine import NavEngine
 from vcs_env.metrics import robots_succeeded
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import action_space, observation_space
+from vcs_env.start_states import StartStates
 
 
 class SharedSlots(VecEnv):
@@ -87,6 +88,8 @@ class NavVecEnv(SharedSlots):
         gamma: discount of the ``vcs_potential`` shaping term (use the learner's gamma, see
             :func:`vcs_env.rewards.potential_term`).
         max_steps: overrides ``scenario.max_steps``.
+        start_states: pools of saved states; a world of a scenario with a pool starts, with the
+            pools' probability, from one of them (:mod:`vcs_env.start_states`).
     """
 
     def __init__(
@@ -97,11 +100,14 @@ class NavVecEnv(SharedSlots):
         expert=None,
         gamma: float = 0.99,
         max_steps: int | None = None,
+        start_states: StartStates | None = None,
     ):
         if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < 1:
             raise ValueError(f"n_worlds must be an integer >= 1, got {n_worlds!r}")
         self.scenario = scenario
-        self.engine = NavEngine(scenario, int(n_worlds), action_mode, expert=expert, gamma=gamma, max_steps=max_steps)
+        self.engine = NavEngine(
+            scenario, int(n_worlds), action_mode, expert, gamma=gamma, max_steps=max_steps, start_states=start_states
+        )
         self.n_worlds = int(n_worlds)
         self.n_robots = scenario.n_robots
         self.render_mode = None
@@ -281,7 +287,7 @@ class MixtureVecEnv(SharedSlots):
         balance: ``"worlds"`` (each scenario the same number of worlds, up to one) or ``"robots"``
             (each about the same number of robots, so a one-robot crowd world is not outweighed
             24 to 1 by a 24-robot circle in every rollout).
-        action_mode, expert, gamma, max_steps: as :class:`NavVecEnv`.
+        action_mode, expert, gamma, max_steps, start_states: as :class:`NavVecEnv`.
     """
 
     def __init__(
@@ -293,6 +299,7 @@ class MixtureVecEnv(SharedSlots):
         gamma: float = 0.99,
         max_steps: int | None = None,
         balance: str = "worlds",
+        start_states: StartStates | None = None,
     ):
         scenarios = list(scenarios)
         if not scenarios:
@@ -300,7 +307,7 @@ class MixtureVecEnv(SharedSlots):
         counts = mixture_world_counts([s.n_robots for s in scenarios], n_worlds, balance)
         self.scenarios = scenarios
         self.groups = [
-            NavVecEnv(s, c, action_mode, expert=expert, gamma=gamma, max_steps=max_steps)
+            NavVecEnv(s, c, action_mode, expert=expert, gamma=gamma, max_steps=max_steps, start_states=start_states)
             for s, c in zip(scenarios, counts)
         ]
         shapes = {g.observation_space.shape for g in self.groups}

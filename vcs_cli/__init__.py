@@ -13,7 +13,14 @@ import argparse
 import importlib
 import sys
 
-COMMAND_MODULES = ("vcs_cli.rollout", "agents.evaluate_cli", "agents.train", "agents.imitation", "benchmarks.run")
+COMMAND_MODULES = (
+    "vcs_cli.rollout",
+    "agents.evaluate_cli",
+    "agents.train",
+    "agents.imitation",
+    "agents.start_states",
+    "benchmarks.run",
+)
 """Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers
 and sets ``func``. They must not import torch or stable-baselines3 at module level (the CLI
 imports them all to build ``--help``); heavy imports go inside the command functions."""

@@ -22,6 +22,7 @@ from .planning import Planner, make_planner
 from .rewards import RewardFn, RewardTerm, StepInput, build_terms, weighted_sum
 from .scenario import Scenario
 from .sim import Simulator, StepEvents
+from .start_states import StartStates
 from .state import WorldState
 
 
@@ -89,6 +90,8 @@ class NavEngine:
         gamma: discount of the ``vcs_potential`` shaping term ``gamma * phi(s') - phi(s)``; use
             the learner's (see :func:`vcs_env.rewards.potential_term`).
         max_steps: overrides ``scenario.max_steps``.
+        start_states: pools of saved states that reset worlds may start from
+            (:mod:`vcs_env.start_states`; training only).
     """
 
     def __init__(
@@ -101,8 +104,9 @@ class NavEngine:
         obstacle_motion=None,
         gamma: float = 0.99,
         max_steps: int | None = None,
+        start_states: StartStates | None = None,
     ):
-        self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion)
+        self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion, start_states)
         self.scenario = scenario
         self.action_mode = action_mode
         self.terms, self.weights = build_terms(scenario.rewards.as_dict(), reward_terms)

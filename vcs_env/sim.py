@@ -21,6 +21,7 @@ from .dynamics import ACTION_MODES, check_actions
 from .layouts import generate, segment_capacity
 from .obstacles import ObstacleMotion, make_motion
 from .scenario import Scenario
+from .start_states import StartStates, StatePool
 from .state import WorldState
 
 
@@ -53,6 +54,8 @@ class Simulator:
         action_mode: ``"delta"`` (velocity-change window fractions) or ``"absolute"``
             (see :mod:`vcs_env.dynamics`).
         obstacle_motion: overrides the scenario's obstacle motion model.
+        start_states: pools of saved states; a reset world of a scenario with a pool starts from
+            one of its states with probability ``start_states.prob`` (:mod:`vcs_env.start_states`).
     """
 
     def __init__(
@@ -61,6 +64,7 @@ class Simulator:
         batch_size: int = 1,
         action_mode: str = "delta",
         obstacle_motion: ObstacleMotion | None = None,
+        start_states: StartStates | None = None,
     ):
         if not isinstance(scenario, Scenario):
             raise ValueError(f"scenario must be a vcs_env.Scenario, got {type(scenario).__name__}")
@@ -78,6 +82,12 @@ class Simulator:
         self._needs_reset = np.ones(self.batch_size, dtype=bool)
         self._wall_cache: tuple = ()  # kernels.wall_events_cached's, for the segment arrays in _wall_cache_of
         self._wall_cache_of: tuple = ()
+        self.start_pool: StatePool | None = None
+        self.start_prob = 0.0
+        if start_states is not None and (pool := start_states.pool(scenario)) is not None and len(pool):
+            pool.check(self.world, self._name())
+            self.start_pool, self.start_prob = pool, start_states.prob
+        self.start_counts = np.zeros(2, dtype=np.int64)  # resets that started fresh, from the pool
 
     # ------------------------------------------------------------------ reset
     def _empty_world(self) -> WorldState:
@@ -132,6 +142,7 @@ class Simulator:
             if len(seed_list) != len(idx):
                 raise ValueError(f"got {len(seed_list)} seeds for {len(idx)} worlds")
         w = self.world
+        fresh, restored = [], []
         for b, seed in zip(idx, seed_list):
             if seed is not None:
                 self.rngs[b] = np.random.default_rng(seed)
@@ -160,17 +171,55 @@ class Simulator:
                 if key not in self.motion_params:
                     self.motion_params[key] = np.zeros((self.batch_size, *value.shape), dtype=value.dtype)
                 self.motion_params[key][b] = value
+            if self.start_prob > 0 and rng.random() < self.start_prob:
+                restored.append((b, int(rng.integers(len(self.start_pool)))))
+            else:
+                fresh.append(b)
+        self.start_counts += (len(fresh), len(restored))
+        if restored:
+            self.restore(self.start_pool, [i for _, i in restored], [b for b, _ in restored])
         if self._wall_cache:
             self._wall_cache[0][idx, :, 2] = -1.0  # new walls: no wall candidates
         # Obstacle velocities are what they will do over the coming step (for sensing).
         self._needs_reset[idx] = False
-        self._preview_obstacle_velocity(idx)
+        self._preview_obstacle_velocity(fresh)  # restored worlds keep their saved obstacle velocities
         return w
+
+    def _name(self) -> str:
+        s = self.scenario
+        return f"scenario {s.kind} (n={s.n_robots}, m={s.n_obstacles})"
+
+    def restore(self, pool: StatePool, states: Sequence[int], worlds: Sequence[int] | None = None) -> WorldState:
+        """Put states ``states`` of ``pool`` (a pool of this scenario) into ``worlds`` (default: all,
+        one state each): those worlds then continue exactly as the worlds the states were taken from
+        (:mod:`vcs_env.start_states`). Their generators are not touched. Returns the world state."""
+        idx = list(range(self.batch_size)) if worlds is None else [int(w) for w in worlds]
+        states = [int(i) for i in states]
+        if len(states) != len(idx):
+            raise ValueError(f"got {len(states)} states for {len(idx)} worlds")
+        if states and not 0 <= min(states) <= max(states) < len(pool):
+            raise ValueError(f"state indices must be in [0, {len(pool)}), got {min(states)}..{max(states)}")
+        pool.check(self.world, self._name())
+        if not self.motion_params and pool.motion:  # never reset: make the motion arrays
+            self.motion_params = {k: np.zeros((self.batch_size, *v.shape[1:]), v.dtype) for k, v in pool.motion.items()}
+        if set(pool.motion) != set(self.motion_params):
+            raise ValueError(
+                f"the start-state pool has obstacle motion state {sorted(pool.motion)}, this scenario's motion "
+                f"model {sorted(self.motion_params)}"
+            )
+        for field, values in pool.world.items():
+            getattr(self.world, field)[idx] = values[states]
+        for key, values in pool.motion.items():
+            self.motion_params[key][idx] = values[states]
+        if self._wall_cache:
+            self._wall_cache[0][idx, :, 2] = -1.0  # new walls: no wall candidates
+        self._needs_reset[idx] = False
+        return self.world
 
     def _preview_obstacle_velocity(self, idx: list[int]) -> None:
         """Fill ``obs_vel`` of the reset worlds with the velocity of their first step, without
         advancing the motion model's state."""
-        if self.scenario.n_obstacles == 0:
+        if self.scenario.n_obstacles == 0 or not idx:
             return
         params = {k: v[idx].copy() for k, v in self.motion_params.items()}
         vel = self.motion.velocity(params, self.world.time[idx], self.world.obs_pos[idx], self.scenario.dt)

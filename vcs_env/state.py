@@ -76,24 +76,18 @@ class WorldState:
         """Robot velocities ``(B, n, 2)`` [m/s]."""
         return self.speed[..., None] * unit(self.heading)
 
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The per-world arrays, ``{field: (B, ...)}`` (the other fields are constants of the scenario)."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if isinstance(getattr(self, f.name), np.ndarray)
+        }
+
     def copy(self) -> WorldState:
         """A deep copy (arrays copied)."""
-        return dataclasses.replace(
-            self,
-            **{
-                f.name: getattr(self, f.name).copy()
-                for f in dataclasses.fields(self)
-                if isinstance(getattr(self, f.name), np.ndarray)
-            },
-        )
+        return dataclasses.replace(self, **{f: v.copy() for f, v in self.arrays().items()})
 
     def world(self, b: int) -> WorldState:
         """World ``b`` alone, as a batch of one (arrays copied)."""
-        return dataclasses.replace(
-            self,
-            **{
-                f.name: getattr(self, f.name)[b : b + 1].copy()
-                for f in dataclasses.fields(self)
-                if isinstance(getattr(self, f.name), np.ndarray)
-            },
-        )
+        return dataclasses.replace(self, **{f: v[b : b + 1].copy() for f, v in self.arrays().items()})

@@ -1,0 +1,159 @@
+"""Start-state pools: episodes that begin from saved world states instead of fresh layouts.
+
+A :class:`StatePool` holds K snapshots of single worlds of one scenario: every per-world array of
+:class:`~vcs_env.state.WorldState` (clock, step count and random key included) and the obstacle
+motion model's per-world state. A :class:`~vcs_env.sim.Simulator` given :class:`StartStates` starts
+each world it resets, with probability ``prob``, from a state of its scenario's pool drawn with that
+world's own generator (after the fresh layout was drawn, so the world's random stream does not
+depend on the pool's contents); the episode then runs as usual from there: a restored world
+continues exactly as the world it was taken from, and its clock and step count go on from the
+snapshot, so it ends at the original time limit.
+
+Training uses this to make rare situations frequent, e.g. the moments before a policy's contacts
+(:mod:`agents.start_states`, ``vcs-env collect-states`` and ``vcs-env train --start-states``).
+Evaluation never does.
+
+Pools are keyed by :func:`scenario_key` (the scenario without its reward weights), so one file can
+serve a whole training mixture; scenarios without a pool start fresh every time.
+
+File format (``.npz``, loadable without pickle): ``scenarios`` ``(S,)`` str, the keys; for pool
+``s``, ``{s}/world/{field}`` ``(K, ...)`` the world arrays and ``{s}/motion/{name}`` ``(K, ...)``
+the motion state.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .scenario import Scenario
+from .state import WorldState
+
+
+def scenario_key(scenario: Scenario) -> str:
+    """The key of a scenario's pool: its repr with default reward weights (a pool serves any
+    reward, not another layout, robot, obstacle or episode setting)."""
+    return repr(dataclasses.replace(scenario, rewards=type(scenario.rewards)()))
+
+
+@dataclass
+class StatePool:
+    """K saved single-world states of one scenario.
+
+    Attributes:
+        world: ``{field: (K, ...)}`` the per-world arrays of :class:`~vcs_env.state.WorldState`.
+        motion: ``{name: (K, ...)}`` the obstacle motion model's per-world state
+            (``Simulator.motion_params``).
+    """
+
+    world: dict[str, np.ndarray]
+    motion: dict[str, np.ndarray]
+
+    def __post_init__(self) -> None:
+        sizes = {len(v) for v in (*self.world.values(), *self.motion.values())}
+        if len(sizes) > 1:
+            raise ValueError(f"a state pool's arrays must all hold the same number of states, got {sorted(sizes)}")
+
+    def __len__(self) -> int:
+        return len(next(iter(self.world.values()))) if self.world else 0
+
+    @classmethod
+    def take(cls, world: WorldState, motion: Mapping[str, np.ndarray], worlds: Iterable[int]) -> StatePool:
+        """The current states of ``worlds`` (indices into the batch) of a batched world state and
+        its motion state, copied."""
+        idx = np.asarray(list(worlds), dtype=np.int64)
+        return cls(
+            {f: v[idx].copy() for f, v in world.arrays().items()},
+            {k: np.asarray(v)[idx].copy() for k, v in motion.items()},
+        )
+
+    @classmethod
+    def concat(cls, pools: Iterable[StatePool]) -> StatePool:
+        """One pool with the states of ``pools`` in order (all of one scenario)."""
+        pools = [p for p in pools if len(p)]
+        if not pools:
+            raise ValueError("nothing to concatenate: every pool is empty")
+        return cls(
+            {f: np.concatenate([p.world[f] for p in pools]) for f in pools[0].world},
+            {k: np.concatenate([p.motion[k] for p in pools]) for k in pools[0].motion},
+        )
+
+    def check(self, world: WorldState, name: str) -> None:
+        """A ``ValueError`` naming ``name`` unless the pool's world arrays fit a world state of
+        that scenario (``world``, batch first)."""
+        arrays = world.arrays()
+        if set(self.world) != set(arrays):
+            raise ValueError(
+                f"the start-state pool of {name} has world fields {sorted(self.world)}, expected {sorted(arrays)}"
+            )
+        for f, v in self.world.items():
+            if v.shape[1:] != arrays[f].shape[1:] or v.dtype != arrays[f].dtype:
+                raise ValueError(
+                    f"the start-state pool of {name} has {f} of shape {v.shape[1:]} ({v.dtype}) per state, the "
+                    f"scenario needs {arrays[f].shape[1:]} ({arrays[f].dtype}) (a pool of another robot, obstacle "
+                    "or wall count?)"
+                )
+
+
+@dataclass
+class StartStates:
+    """Pools per scenario and the probability that a reset world starts from one.
+
+    Attributes:
+        pools: ``{scenario_key(scenario): pool}``.
+        prob: probability in [0, 1] that a reset world of a scenario with a pool starts from a
+            state of it.
+    """
+
+    pools: dict[str, StatePool]
+    prob: float = 0.5
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= float(self.prob) <= 1.0:
+            raise ValueError(f"the start-state probability must be in [0, 1], got {self.prob}")
+        self.prob = float(self.prob)
+
+    def pool(self, scenario: Scenario) -> StatePool | None:
+        """The pool of ``scenario`` (None: it starts fresh)."""
+        return self.pools.get(scenario_key(scenario))
+
+    def matching(self, scenarios: Iterable[Scenario]) -> list[Scenario]:
+        """The scenarios of ``scenarios`` that have a non-empty pool."""
+        return [s for s in scenarios if self.pool(s) is not None and len(self.pool(s)) > 0]
+
+    def save(self, path: str | Path) -> Path:
+        """Write the pools as ``.npz`` (module docstring); returns the path."""
+        keys = list(self.pools)
+        arrays = {"scenarios": np.array(keys, dtype=str)}
+        for s, k in enumerate(keys):
+            arrays |= {f"{s}/world/{f}": v for f, v in self.pools[k].world.items()}
+            arrays |= {f"{s}/motion/{f}": v for f, v in self.pools[k].motion.items()}
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as f:
+            np.savez_compressed(f, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, prob: float = 0.5) -> StartStates:
+        """Read pools written by :meth:`save`."""
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"no start-state file {str(path)!r} (make one with vcs-env collect-states)")
+        with np.load(path, allow_pickle=False) as data:
+            if "scenarios" not in data.files:
+                raise ValueError(f"{str(path)!r} is not a start-state file (no 'scenarios' entry)")
+            pools = {}
+            for s, key in enumerate(data["scenarios"].tolist()):
+                parts = {"world": {}, "motion": {}}
+                for name in data.files:
+                    head, _, rest = name.partition("/")
+                    if head == str(s):
+                        kind, _, field = rest.partition("/")
+                        parts[kind][field] = data[name]
+                pools[key] = StatePool(parts["world"], parts["motion"])
+        return cls(pools, prob)
