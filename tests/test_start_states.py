@@ -171,3 +171,11 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     # A pool collected under other scenario settings does not fit: a clear error, no silent fresh run.
     assert main([*run[:-2], "--max-steps", "50", "--out", str(tmp_path / "r2")]) == 2
     assert "no start-state pool" in capsys.readouterr().err
+
+
+def test_the_rllib_backend_refuses_start_states(tmp_path, capsys):
+    from vcs_cli import main
+
+    args = ["train", "--backend", "rllib", "--start-states", str(tmp_path / "s.npz"), "--out", str(tmp_path / "r")]
+    assert main(args) == 2
+    assert "--start-states applies to the SB3 backend only" in capsys.readouterr().err
