@@ -41,31 +41,5 @@ MIX=(
   --eval-freq 1000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo2"
 # Keep the checkpoint of the last step (from 3 M steps on, and its final model) that solves most episodes on
 # validation seeds no suite or probe uses (7000 on): circle-24 swings by tens of points between checkpoints.
-mkdir -p "$ROOT/release/validation"
-CANDS=()
-for c in "$ROOT"/ppo2/checkpoints/model_*.zip "$ROOT/ppo2/model.zip"; do
-  s=$(basename "$c" .zip); s=${s#model_}
-  [ "$s" = model ] || [ "$s" -ge 3000000 ] || continue
-  CANDS+=("$c")
-  for spec in circle-24-v0:7200 dynamic-v0:7300 crowd-20-v0:7200; do
-    f="$ROOT/release/validation/$(basename "$c" .zip)-${spec%%:*}.json"
-    vcs-env evaluate --scenario "${spec%%:*}" --seeds "7000:${spec##*:}" --policy "$c" --no-progress --json "$f" > /dev/null
-  done
-done
-python - "$ROOT/release" "${CANDS[@]}" <<'PY'
-import json, shutil, sys
-from pathlib import Path
-
-out, cands = Path(sys.argv[1]), [Path(c) for c in sys.argv[2:]]
-families = ("circle-24-v0", "dynamic-v0", "crowd-20-v0")
-best = None
-for order, c in enumerate(cands):
-    s = [json.loads((out / "validation" / f"{c.stem}-{f}.json").read_text())["summary"] for f in families]
-    success = sum(x["success"]["mean"] for x in s) / len(s)
-    collision = sum(x["collision"]["mean"] for x in s) / len(s)
-    print(f"{c}: success {' '.join('%.3f' % x['success']['mean'] for x in s)} (mean {success:.3f}), collision {collision:.3f}")
-    best = max(best or (success, -collision, order, c), (success, -collision, order, c))
-shutil.copy(best[3], out / "model.zip")
-shutil.copy(best[3].with_suffix(".json"), out / "model.json")
-print(f"released policy: {out / 'model.zip'} (= {best[3]})")
-PY
+vcs-env select "$ROOT/ppo2" --from-step 3000000 --no-progress --out "$ROOT/release" \
+  --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200

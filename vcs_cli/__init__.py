@@ -19,6 +19,7 @@ COMMAND_MODULES = (
     "agents.train",
     "agents.imitation",
     "agents.start_states",
+    "agents.selection",
     "benchmarks.run",
 )
 """Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers

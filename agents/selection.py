@@ -1,0 +1,138 @@
+"""``vcs-env select``: keep the checkpoint of a run that solves most validation episodes.
+
+The checkpoints of one PPO run can differ by tens of points on a hard family (circle-24 in
+``results/generalist/stage-i``), so a release keeps the best of its last checkpoints on validation
+episodes no suite or probe uses, instead of whatever the last step left::
+
+    vcs-env select runs/generalist/round2 --from-step 1000000 \\
+        --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200 \\
+        --out runs/generalist/release
+
+Each validation set is ``SCENARIO:START:STOP``: the scenario (a preset or suite name, on the
+conventions of its family's suite, as ``vcs-env evaluate --scenario``) played on seeds START..STOP-1.
+The chosen checkpoint has the highest success averaged over the sets (each set counts the same),
+then the lowest collision rate, then comes last in the candidates' order (later training wins a
+tie). It is copied with its JSON to ``out/model.zip`` and ``out/model.json``; ``out/selection.json``
+holds every candidate's scores.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from vcs_env.suites import Suite
+
+from .checkpoint import config_path, resolve
+from .config import ScenarioConfig, parse_seeds, probe_scenario
+from .evaluate import DEFAULT_BATCH, evaluate
+
+_STEP = re.compile(r"model_(\d+)\.zip$")
+
+
+def validation_suite(spec: str) -> Suite:
+    """``"dynamic-v0:7000:7300"`` -> the ad-hoc suite of that scenario on seeds 7000..7299."""
+    name, sep, seeds = str(spec).partition(":")
+    if not name or not sep:
+        raise ValueError(f"a validation set is SCENARIO:START:STOP (e.g. dynamic-v0:7000:7300), got {spec!r}")
+    scenario = probe_scenario(ScenarioConfig(scenario=name))
+    seeds = parse_seeds(seeds)
+    return Suite(f"validation:{name}@{seeds[0]}:{seeds[-1] + 1}", scenario, seeds, f"validation episodes of {name}")
+
+
+def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]:
+    """The checkpoints to choose from, in order: a ``.zip`` as given; a run directory expands to its
+    ``checkpoints/model_<steps>.zip`` by step, then its final ``model.zip``. Periodic checkpoints
+    (``model_<steps>.zip``) before ``from_step`` are left out."""
+    out: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            found = sorted((p / "checkpoints").glob("model_*.zip"), key=lambda c: int(_STEP.search(c.name)[1]))
+            found += [p / "model.zip"] if (p / "model.zip").exists() else []
+            if not found:
+                raise ValueError(f"run directory {str(p)!r} holds no model.zip and no checkpoints/model_<steps>.zip")
+        else:
+            found = [resolve(p)]
+        out += [c for c in found if not (m := _STEP.search(c.name)) or int(m[1]) >= from_step]
+    if not out:
+        raise ValueError(f"no candidate checkpoint from step {from_step} on in {', '.join(map(str, paths))}")
+    return out
+
+
+def select_checkpoint(
+    candidates: Sequence[Path],
+    validation: Sequence[Suite],
+    out: str | Path,
+    batch_size: int = DEFAULT_BATCH,
+    progress: bool | None = False,
+) -> dict[str, Any]:
+    """Score every candidate on every validation suite, copy the best (module docstring) to ``out``.
+
+    Returns:
+        ``{"chosen": path, "candidates": [{"checkpoint", "success", "collision", "sets": {suite name:
+        {"success", "collision"}}}, ...]}``, also written to ``out/selection.json``.
+    """
+    if not validation:
+        raise ValueError("give at least one validation set")
+    scores = []
+    for c in candidates:
+        sets = {}
+        for suite in validation:
+            s = evaluate(str(c), suite, batch_size=batch_size, progress=progress).summary
+            sets[suite.name] = {"success": s["success"]["mean"], "collision": s["collision"]["mean"]}
+        row = {
+            "checkpoint": str(c),
+            "success": sum(x["success"] for x in sets.values()) / len(sets),
+            "collision": sum(x["collision"] for x in sets.values()) / len(sets),
+            "sets": sets,
+        }
+        scores.append(row)
+        each = " ".join(f"{x['success']:.3f}" for x in sets.values())
+        print(f"{c}: success {each} (mean {row['success']:.3f}), collision {row['collision']:.3f}", flush=True)
+    best = max(range(len(scores)), key=lambda i: (scores[i]["success"], -scores[i]["collision"], i))
+    chosen = Path(candidates[best])
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    shutil.copy(chosen, out / "model.zip")
+    if config_path(chosen).exists():
+        shutil.copy(config_path(chosen), out / "model.json")
+    result = {"chosen": str(chosen), "candidates": scores}
+    (out / "selection.json").write_text(json.dumps(result, indent=1))
+    print(f"kept {chosen} as {out / 'model.zip'}")
+    return result
+
+
+def cmd_select(args) -> int:
+    validation = [validation_suite(v) for v in args.validation]
+    select_checkpoint(
+        candidates_of(args.candidates, args.from_step),
+        validation,
+        args.out,
+        batch_size=args.batch_size,
+        progress=False if args.no_progress else None,
+    )
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser(
+        "select",
+        help="keep the checkpoint of a run that solves most validation episodes",
+        description=__doc__.split("\n\n")[0],
+    )
+    p.add_argument("candidates", nargs="+", help="checkpoint .zip files and/or run directories (their checkpoints)")
+    p.add_argument(
+        "--validation",
+        nargs="+",
+        required=True,
+        help="validation sets SCENARIO:START:STOP, e.g. dynamic-v0:7000:7300 (seeds no suite or probe uses)",
+    )
+    p.add_argument("--from-step", type=int, default=0, help="leave out periodic checkpoints before this step")
+    p.add_argument("--out", required=True, help="directory for model.zip, model.json and selection.json")
+    p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_select)

@@ -1,0 +1,74 @@
+"""``vcs-env select``: the kept checkpoint is the best on the validation sets, scored as
+``vcs-env evaluate`` scores them; run directories expand to their checkpoints; bad input is named."""
+
+import json
+import shutil
+
+import pytest
+
+from agents.evaluate import evaluate
+from agents.selection import candidates_of, select_checkpoint, validation_suite
+from vcs_cli import main
+
+# Each policy also plays the other family (that is the point); its family warning is expected.
+pytestmark = pytest.mark.filterwarnings("ignore::agents.checkpoint.FamilyWarning")
+
+CIRCLE8, CROWD5 = "policies/circle8/model.zip", "policies/crowd5/model.zip"
+
+
+def _run_dir(tmp_path, files):
+    """A run directory with ``checkpoints/model_<step>.zip`` for each ``{step: source}`` (None: final)."""
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    for step, src in files.items():
+        dst = run / "model.zip" if step is None else run / "checkpoints" / f"model_{step}.zip"
+        shutil.copy(src, dst)
+        shutil.copy(src.replace(".zip", ".json"), dst.with_suffix(".json"))
+    return run
+
+
+def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoints(tmp_path):
+    run = _run_dir(tmp_path, {1000: CIRCLE8, 200: CIRCLE8, 30: CROWD5, None: CROWD5})
+    names = [c.name for c in candidates_of([run])]
+    assert names == ["model_30.zip", "model_200.zip", "model_1000.zip", "model.zip"]
+    assert [c.name for c in candidates_of([run], from_step=200)] == ["model_200.zip", "model_1000.zip", "model.zip"]
+    with pytest.raises(ValueError, match="no candidate checkpoint from step 5000"):
+        candidates_of([run / "checkpoints" / "model_30.zip"], from_step=5000)
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="holds no model.zip"):
+        candidates_of([tmp_path / "empty"])
+
+
+def test_bad_validation_sets_are_named():
+    with pytest.raises(ValueError, match="SCENARIO:START:STOP"):
+        validation_suite("dynamic-v0")
+    with pytest.raises(ValueError, match="START:STOP"):
+        validation_suite("dynamic-v0:7000:x")
+    with pytest.raises(ValueError, match="unknown"):
+        validation_suite("nosuch-v0:1:3")
+
+
+def test_keeps_the_best_on_validation_and_the_later_of_equals(tmp_path):
+    # The circle policy loses crowd episodes; the crowd policy solves both sets: it is kept, and
+    # of two equal copies of it the later one.
+    run = _run_dir(tmp_path, {100: CROWD5, 200: CIRCLE8, None: CROWD5})
+    sets = ["crowd-5-v0:7000:7020", "circle-8-v0:7000:7004"]
+    out = tmp_path / "release"
+    res = select_checkpoint(candidates_of([run]), [validation_suite(s) for s in sets], out)
+    # The scores are those of evaluate on the same seeds.
+    crowd = evaluate(CIRCLE8, validation_suite(sets[0])).summary["success"]["mean"]
+    assert res["candidates"][1]["sets"][validation_suite(sets[0]).name]["success"] == crowd < 1.0
+    assert [c["success"] for c in res["candidates"]] == [1.0, (crowd + 1.0) / 2, 1.0]
+    assert res["chosen"] == str(run / "model.zip")
+    assert (out / "model.zip").read_bytes() == (run / "model.zip").read_bytes()
+    assert json.loads((out / "model.json").read_text()) == json.loads((run / "model.json").read_text())
+    assert json.loads((out / "selection.json").read_text()) == res
+
+
+def test_cli_select(tmp_path, capsys):
+    run = _run_dir(tmp_path, {100: CROWD5, 200: CIRCLE8})
+    out = tmp_path / "release"
+    argv = ["select", str(run), "--from-step", "150", "--validation", "crowd-5-v0:7000:7010", "--out", str(out)]
+    assert main(argv) == 0
+    assert f"kept {run / 'checkpoints' / 'model_200.zip'}" in capsys.readouterr().out
+    assert json.loads((out / "selection.json").read_text())["chosen"].endswith("model_200.zip")
