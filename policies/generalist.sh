@@ -1,13 +1,17 @@
 #!/bin/bash
 # Reproduces policies/generalist (about 100 min on this 2-core machine, shared with one other training
 # job): expert data on a mixture of the suites' families (0.5 min), BC + 4 DAgger rounds with the slot
-# encoder (`--features slots`, 32 min), PPO from those weights, 8 M steps with collisions weighted 150
-# (44 min), then 4 M more PPO steps with collisions weighted 300 and one more circle-24 entry (21 min),
-# and the checkpoint of that last step that does best on validation seeds (2 min); results/generalist/stage-i.
-# Usage: [ROOT=runs/generalist] bash policies/generalist.sh   (training steps with a model.zip are skipped;
-# the selection always runs)
+# encoder (`--features slots`, 25 min), PPO from those weights, 8 M steps with collisions weighted 150
+# (33 min), then 4 start-state rounds of 2 M PPO steps with collisions weighted 300 and one more circle-24
+# entry (10 min each: every round first collects the previous model's states shortly before its contacts
+# and where an obstacle is about to hit a robot, on the crowd and dynamic entries, and half of those
+# worlds start from them), and the checkpoint of the last round that does best on validation seeds
+# (1 min); results/generalist/stage-n.
+# Usage: [ROOT=runs/generalist] [BC_SEED=1] [S0=10] bash policies/generalist.sh   (BC seed BC_SEED, the
+# 8 M PPO steps seed S0, round r seed S0 + r; steps with a model.zip are skipped, the selection always runs)
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist}
+BC_SEED=${BC_SEED:-1}; S0=${S0:-10}
 export OMP_NUM_THREADS=1
 mkdir -p "$ROOT"
 # The mixture: every entry is one or more scenarios (agents.config.mixture_scenarios), named by its
@@ -27,19 +31,29 @@ MIX=(
   "dynamic-v0:obstacle_speed=0.6-1.2"
 )
 [ -f "$ROOT/expert.npz" ] || vcs-env collect --mixture "${MIX[@]}" --episodes 1200 --seed 0 --out "$ROOT/expert.npz"
-[ -f "$ROOT/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$ROOT/bc" --net-arch 256 256 --features slots \
+[ -f "$ROOT/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$ROOT/bc" --net-arch 256 256 --features slots --seed "$BC_SEED" \
   --epochs 20 --dagger-iters 4 --dagger-episodes 300 --eval-episodes 50
 # Worlds shared by robots: every scenario steps about as many robots.
 [ -f "$ROOT/ppo/model.zip" ] || vcs-env train --mixture "${MIX[@]}" --mixture-balance robots --on-collision terminate \
-  --rewards collision=150 --net-arch 256 256 --features slots --init "$ROOT/bc/model.zip" --timesteps 8000000 \
+  --rewards collision=150 --net-arch 256 256 --features slots --init "$ROOT/bc/model.zip" --seed "$S0" --timesteps 8000000 \
   --n-worlds 300 --lr-schedule linear --eval-freq 2000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo"
-# A contact costs twice as much, and the many-robot circle (where the policy above still touched a
-# neighbour in 12 % of the episodes in stage F) gets a second, jittered entry.
-[ -f "$ROOT/ppo2/model.zip" ] || vcs-env train --mixture "${MIX[@]}" "circle-24-v0:jitter=0.1-0.2/0.1" \
-  --mixture-balance robots --on-collision terminate --rewards collision=300 --net-arch 256 256 --features slots \
-  --init "$ROOT/ppo/model.zip" --timesteps 4000000 --seed 1 --n-worlds 300 --learning-rate 1.5e-4 --lr-schedule linear \
-  --eval-freq 1000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo2"
-# Keep the checkpoint of the last step (from 3 M steps on, and its final model) that solves most episodes on
+# Start-state rounds: collect the previous model's pre-contact and danger states on the crowd and dynamic
+# entries (vcs-env collect-states), then 2 M PPO steps with half of those worlds starting from them.
+OBST=("${MIX[@]:5:7}")
+prev="$ROOT/ppo/model.zip"; lr=1.5e-4
+for r in 1 2 3 4; do
+  if [ ! -f "$ROOT/round$r/model.zip" ]; then
+    vcs-env collect-states --policy "$prev" --on-collision terminate --mixture "${OBST[@]}" --episodes 400 \
+      --seed $((80000 + 100000 * r)) --out "$ROOT/states$r.npz"
+    vcs-env train --mixture "${MIX[@]}" "circle-24-v0:jitter=0.1-0.2/0.1" --mixture-balance robots \
+      --on-collision terminate --rewards collision=300 --net-arch 256 256 --features slots --init "$prev" \
+      --timesteps 2000000 --seed $((S0 + r)) --n-worlds 300 --learning-rate $lr --lr-schedule linear --eval-freq 0 \
+      --checkpoint-freq 500000 --no-progress-bar --start-states "$ROOT/states$r.npz" --start-prob 0.5 \
+      --out "$ROOT/round$r"
+  fi
+  prev="$ROOT/round$r/model.zip"; lr=1e-4
+done
+# Keep the checkpoint of the last round (from 1 M steps on, and its final model) that solves most episodes on
 # validation seeds no suite or probe uses (7000 on): circle-24 swings by tens of points between checkpoints.
-vcs-env select "$ROOT/ppo2" --from-step 3000000 --no-progress --out "$ROOT/release" \
+vcs-env select "$ROOT/round4" --from-step 1000000 --no-progress --out "$ROOT/release" \
   --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200

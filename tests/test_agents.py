@@ -355,7 +355,7 @@ RELEASED = [
     ("crowd5", "crowd-5-v0-smoke"),
     ("generalist", "circle-16-v0-smoke"),
     ("generalist", "circle-24-v0-smoke"),
-    ("generalist", "swap-v0-smoke"),
+    ("generalist", "crowd-20-v0-smoke"),
     ("generalist", "crossing-v0-smoke"),
     ("generalist", "crowd-5-v0-smoke"),
 ]

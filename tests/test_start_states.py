@@ -134,7 +134,8 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     from vcs_env.observations import observe
 
     out, only = tmp_path / "states.npz", tmp_path / "contacts.npz"
-    entry = "dynamic-v0:n_obstacles=10"  # crowded: the released policy touches something in some episodes
+    entry = "dynamic-v0:n_obstacles=12,obstacle_speed=0.6-1.2"  # crowded and fast: the released policy touches
+    # something in some episodes
     args = ["--policy", str(GENERALIST), "--on-collision", "terminate", "--mixture", entry, "--episodes", "60"]
     assert main(["collect-states", *args, "--before", "0.5", "1.0", "--danger-time", "0", "--out", str(only)]) == 0
     assert main(["collect-states", *args, "--before", "0.5", "1.0", "--out", str(out)]) == 0
