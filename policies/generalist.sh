@@ -1,6 +1,6 @@
 #!/bin/bash
 # Reproduces policies/generalist (about 100 min on this 2-core machine, shared with one other training
-# job): expert data on a mixture of the suites' families (0.5 min), BC + 4 DAgger rounds with the slot
+# job): expert data on a mixture of the suites' families (0.8 min), BC + 4 DAgger rounds with the slot
 # encoder (`--features slots`, 25 min), PPO from those weights, 8 M steps with collisions weighted 150
 # (33 min), then 4 start-state rounds of 2 M PPO steps with collisions weighted 300 and one more circle-24
 # entry (10 min each: every round first collects the previous model's states shortly before its contacts
