@@ -46,12 +46,13 @@ def validation_suite(spec: str) -> Suite:
 
 def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]:
     """The checkpoints to choose from, in order: a ``.zip`` as given; a run directory expands to its
-    ``checkpoints/model_<steps>.zip`` by step, then its final ``model.zip``. Periodic checkpoints
-    (``model_<steps>.zip``) before ``from_step`` are left out."""
+    ``checkpoints/model_<steps>.zip`` by step (other files there are not candidates), then its final
+    ``model.zip``. Periodic checkpoints (``model_<steps>.zip``) before ``from_step`` are left out."""
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            found = sorted((p / "checkpoints").glob("model_*.zip"), key=lambda c: int(_STEP.search(c.name)[1]))
+            steps = [c for c in (p / "checkpoints").glob("model_*.zip") if _STEP.search(c.name)]
+            found = sorted(steps, key=lambda c: int(_STEP.search(c.name)[1]))
             found += [p / "model.zip"] if (p / "model.zip").exists() else []
             if not found:
                 raise ValueError(f"run directory {str(p)!r} holds no model.zip and no checkpoints/model_<steps>.zip")

@@ -29,6 +29,7 @@ def _run_dir(tmp_path, files):
 
 def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoints(tmp_path):
     run = _run_dir(tmp_path, {1000: CIRCLE8, 200: CIRCLE8, 30: CROWD5, None: CROWD5})
+    shutil.copy(CIRCLE8, run / "checkpoints" / "model_old.zip")  # not a periodic checkpoint: not a candidate
     names = [c.name for c in candidates_of([run])]
     assert names == ["model_30.zip", "model_200.zip", "model_1000.zip", "model.zip"]
     assert [c.name for c in candidates_of([run], from_step=200)] == ["model_200.zip", "model_1000.zip", "model.zip"]
