@@ -1,17 +1,19 @@
 #!/bin/bash
-# Reproduces policies/generalist (about 100 min on this 2-core machine, shared with one other training
-# job): expert data on a mixture of the suites' families (0.8 min), BC + 4 DAgger rounds with the slot
-# encoder (`--features slots`, 25 min), PPO from those weights, 8 M steps with collisions weighted 150
-# (33 min), then 4 start-state rounds of 2 M PPO steps with collisions weighted 300 and one more circle-24
-# entry (10 min each: every round first collects the previous model's states shortly before its contacts
-# and where an obstacle is about to hit a robot, on the crowd and dynamic entries, and half of those
-# worlds start from them), and the checkpoint of the last round that does best on validation seeds
-# (1 min); results/generalist/stage-n.
-# Usage: [ROOT=runs/generalist] [BC_SEED=1] [S0=10] bash policies/generalist.sh   (BC seed BC_SEED, the
-# 8 M PPO steps seed S0, round r seed S0 + r; steps with a model.zip are skipped, the selection always runs)
+# Reproduces policies/generalist (about 100 min on this 2-core machine): expert data on a mixture of the
+# suites' families (0.8 min), then two training runs side by side, one per core, each with its own seeds:
+# BC + 4 DAgger rounds with the slot encoder (`--features slots`, 25 min), PPO from those weights, 8 M
+# steps with collisions weighted 150 (33 min), then 4 start-state rounds of 2 M PPO steps with collisions
+# weighted 300 and one more circle-24 entry (10 min each: every round first collects the previous model's
+# states shortly before its contacts and where an obstacle is about to hit a robot, on the crowd and
+# dynamic entries, and half of those worlds start from them); last, of both runs' last rounds, the
+# checkpoint that does best on validation seeds (1 min). The recipe is seed-sensitive (one seed pair of
+# two kept circle-24 at 0.86), so both runs are part of it; results/generalist/stage-n.
+# Usage: [ROOT=runs/generalist] [RUNS="0:0 1:10"] bash policies/generalist.sh
+# RUNS: one BC_SEED:S0 pair per run, run side by side (BC seed BC_SEED, the 8 M PPO steps seed S0, round r
+# seed S0 + r), into $ROOT/run-BC_SEED-S0. Steps with a model.zip are skipped; the selection always runs.
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist}
-BC_SEED=${BC_SEED:-1}; S0=${S0:-10}
+RUNS=${RUNS:-"0:0 1:10"}
 export OMP_NUM_THREADS=1
 mkdir -p "$ROOT"
 # The mixture: every entry is one or more scenarios (agents.config.mixture_scenarios), named by its
@@ -31,29 +33,45 @@ MIX=(
   "dynamic-v0:obstacle_speed=0.6-1.2"
 )
 [ -f "$ROOT/expert.npz" ] || vcs-env collect --mixture "${MIX[@]}" --episodes 1200 --seed 0 --out "$ROOT/expert.npz"
-[ -f "$ROOT/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$ROOT/bc" --net-arch 256 256 --features slots --seed "$BC_SEED" \
-  --epochs 20 --dagger-iters 4 --dagger-episodes 300 --eval-episodes 50
-# Worlds shared by robots: every scenario steps about as many robots.
-[ -f "$ROOT/ppo/model.zip" ] || vcs-env train --mixture "${MIX[@]}" --mixture-balance robots --on-collision terminate \
-  --rewards collision=150 --net-arch 256 256 --features slots --init "$ROOT/bc/model.zip" --seed "$S0" --timesteps 8000000 \
-  --n-worlds 300 --lr-schedule linear --eval-freq 2000000 --eval-episodes 96 --no-progress-bar --out "$ROOT/ppo"
-# Start-state rounds: collect the previous model's pre-contact and danger states on the crowd and dynamic
-# entries (vcs-env collect-states), then 2 M PPO steps with half of those worlds starting from them.
+# One training run: BC_SEED S0 DIR.
+train_run() {
+  local BC_SEED=$1 S0=$2 DIR=$3
+  mkdir -p "$DIR"
+  [ -f "$DIR/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$DIR/bc" --net-arch 256 256 --features slots --seed "$BC_SEED" \
+    --epochs 20 --dagger-iters 4 --dagger-episodes 300 --eval-episodes 50
+  # Worlds shared by robots: every scenario steps about as many robots.
+  [ -f "$DIR/ppo/model.zip" ] || vcs-env train --mixture "${MIX[@]}" --mixture-balance robots --on-collision terminate \
+    --rewards collision=150 --net-arch 256 256 --features slots --init "$DIR/bc/model.zip" --seed "$S0" --timesteps 8000000 \
+    --n-worlds 300 --lr-schedule linear --eval-freq 2000000 --eval-episodes 96 --no-progress-bar --out "$DIR/ppo"
+  # Start-state rounds: collect the previous model's pre-contact and danger states on the crowd and dynamic
+  # entries (vcs-env collect-states), then 2 M PPO steps with half of those worlds starting from them.
+  local prev="$DIR/ppo/model.zip" lr=1.5e-4 r
+  for r in 1 2 3 4; do
+    if [ ! -f "$DIR/round$r/model.zip" ]; then
+      vcs-env collect-states --policy "$prev" --on-collision terminate --mixture "${OBST[@]}" --episodes 400 \
+        --seed $((80000 + 100000 * r)) --out "$DIR/states$r.npz"
+      vcs-env train --mixture "${MIX[@]}" "circle-24-v0:jitter=0.1-0.2/0.1" --mixture-balance robots \
+        --on-collision terminate --rewards collision=300 --net-arch 256 256 --features slots --init "$prev" \
+        --timesteps 2000000 --seed $((S0 + r)) --n-worlds 300 --learning-rate $lr --lr-schedule linear --eval-freq 0 \
+        --checkpoint-freq 500000 --no-progress-bar --start-states "$DIR/states$r.npz" --start-prob 0.5 \
+        --out "$DIR/round$r"
+    fi
+    prev="$DIR/round$r/model.zip"; lr=1e-4
+  done
+}
 OBST=("${MIX[@]:5:7}")
-prev="$ROOT/ppo/model.zip"; lr=1.5e-4
-for r in 1 2 3 4; do
-  if [ ! -f "$ROOT/round$r/model.zip" ]; then
-    vcs-env collect-states --policy "$prev" --on-collision terminate --mixture "${OBST[@]}" --episodes 400 \
-      --seed $((80000 + 100000 * r)) --out "$ROOT/states$r.npz"
-    vcs-env train --mixture "${MIX[@]}" "circle-24-v0:jitter=0.1-0.2/0.1" --mixture-balance robots \
-      --on-collision terminate --rewards collision=300 --net-arch 256 256 --features slots --init "$prev" \
-      --timesteps 2000000 --seed $((S0 + r)) --n-worlds 300 --learning-rate $lr --lr-schedule linear --eval-freq 0 \
-      --checkpoint-freq 500000 --no-progress-bar --start-states "$ROOT/states$r.npz" --start-prob 0.5 \
-      --out "$ROOT/round$r"
-  fi
-  prev="$ROOT/round$r/model.zip"; lr=1e-4
+# The runs side by side (logs in $ROOT/run-*.log); stop if any of them failed.
+dirs=(); pids=()
+for pair in $RUNS; do
+  dir="$ROOT/run-${pair%%:*}-${pair##*:}"; dirs+=("$dir/round4")
+  train_run "${pair%%:*}" "${pair##*:}" "$dir" > "$dir.log" 2>&1 &
+  pids+=($!)
 done
-# Keep the checkpoint of the last round (from 1 M steps on, and its final model) that solves most episodes on
-# validation seeds no suite or probe uses (7000 on): circle-24 swings by tens of points between checkpoints.
-vcs-env select "$ROOT/round4" --from-step 1000000 --no-progress --out "$ROOT/release" \
+for i in "${!pids[@]}"; do
+  wait "${pids[$i]}" || { echo "training run ${dirs[$i]%/round4} failed: see ${dirs[$i]%/round4}.log" >&2; exit 1; }
+done
+# Keep the checkpoint of the runs' last rounds (from 1 M steps on, and their final models) that solves most
+# episodes on validation seeds no suite or probe uses (7000 on): circle-24 swings by tens of points between
+# checkpoints and between seeds.
+vcs-env select "${dirs[@]}" --from-step 1000000 --no-progress --out "$ROOT/release" \
   --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200
