@@ -60,16 +60,18 @@ train_run() {
   done
 }
 OBST=("${MIX[@]:5:7}")
-# The runs side by side (logs in $ROOT/run-*.log); stop if any of them failed.
+# The runs side by side (logs in $ROOT/run-*.log); no selection if any of them failed.
 dirs=(); pids=()
 for pair in $RUNS; do
   dir="$ROOT/run-${pair%%:*}-${pair##*:}"; dirs+=("$dir/round4")
   train_run "${pair%%:*}" "${pair##*:}" "$dir" > "$dir.log" 2>&1 &
   pids+=($!)
 done
+failed=0
 for i in "${!pids[@]}"; do
-  wait "${pids[$i]}" || { echo "training run ${dirs[$i]%/round4} failed: see ${dirs[$i]%/round4}.log" >&2; exit 1; }
+  wait "${pids[$i]}" || { echo "training run ${dirs[$i]%/round4} failed: see ${dirs[$i]%/round4}.log" >&2; failed=1; }
 done
+[ "$failed" = 0 ] || exit 1
 # Keep the checkpoint of the runs' last rounds (from 1 M steps on, and their final models) that solves most
 # episodes on validation seeds no suite or probe uses (7000 on): circle-24 swings by tens of points between
 # checkpoints and between seeds.
