@@ -14,6 +14,9 @@
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist}
 RUNS=${RUNS:-"0:0 1:10"}
+for pair in $RUNS; do
+  [[ $pair =~ ^[0-9]+:[0-9]+$ ]] || { echo "RUNS holds BC_SEED:S0 pairs such as \"0:0 1:10\", got '$pair'" >&2; exit 2; }
+done
 export OMP_NUM_THREADS=1
 mkdir -p "$ROOT"
 # The mixture: every entry is one or more scenarios (agents.config.mixture_scenarios), named by its
