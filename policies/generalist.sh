@@ -64,19 +64,19 @@ train_run() {
 }
 OBST=("${MIX[@]:5:7}")
 # The runs side by side (logs in $ROOT/run-*.log); no selection if any of them failed.
-dirs=(); pids=()
+runs=(); pids=()
 for pair in $RUNS; do
-  dir="$ROOT/run-${pair%%:*}-${pair##*:}"; dirs+=("$dir/round4")
-  train_run "${pair%%:*}" "${pair##*:}" "$dir" > "$dir.log" 2>&1 &
+  bc=${pair%%:*} s0=${pair##*:}; runs+=("$ROOT/run-$bc-$s0")
+  train_run "$bc" "$s0" "${runs[-1]}" > "${runs[-1]}.log" 2>&1 &
   pids+=($!)
 done
 failed=0
 for i in "${!pids[@]}"; do
-  wait "${pids[$i]}" || { echo "training run ${dirs[$i]%/round4} failed: see ${dirs[$i]%/round4}.log" >&2; failed=1; }
+  wait "${pids[$i]}" || { echo "training run ${runs[$i]} failed: see ${runs[$i]}.log" >&2; failed=1; }
 done
 [ "$failed" = 0 ] || exit 1
 # Keep the checkpoint of the runs' last rounds (from 1 M steps on, and their final models) that solves most
 # episodes on validation seeds no suite or probe uses (7000 on): circle-24 swings by tens of points between
 # checkpoints and between seeds.
-vcs-env select "${dirs[@]}" --from-step 1000000 --no-progress --out "$ROOT/release" \
+vcs-env select "${runs[@]/%//round4}" --from-step 1000000 --no-progress --out "$ROOT/release" \
   --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200
