@@ -1,0 +1,36 @@
+#!/bin/bash
+# run.sh B STATES OUT: the fifth round's variant v1 of ../round5.sh (same command, seeds 15 and 16) with parked
+# robots read as obstacles (is-robot flag 0 in their neighbour slots, parked_patch.py, applied to every vcs-env
+# process through sitecustomize), then vcs-env select, ../../stage-m/evaluate.sh and ../contacts.py, all patched.
+# B: run B's directory (its round4/model.zip), STATES: round5.sh's states5.npz. A diagnostic, not a recipe.
+set -euo pipefail
+HERE=$(cd "$(dirname "$0")" && pwd)
+B=$(cd "$1" && pwd); STATES=$(realpath "$2"); OUT=$3; mkdir -p "$OUT/site"; cd "$OUT"
+cp "$HERE/parked_patch.py" site/ && echo "import parked_patch  # noqa: F401" > site/sitecustomize.py
+export OMP_NUM_THREADS=1 PYTHONPATH=$PWD/site
+MIX=(
+  "circle-8-v0:n_robots=4-12/4,jitter=0.1-0.5/0.2"
+  "circle-16-v0:jitter=0.1-0.3/0.2"
+  "circle-24-v0"
+  "swap-v0:n_robots=6-10/4"
+  "crossing-v0:n_robots=8-12/2,jitter=0.1-0.2/0.1"
+  "crowd-5-v0:n_obstacles=3-8"
+  "crowd-5-v0:obstacle_speed=1.0-1.5"
+  "crowd-10-v0:n_obstacles=9-12"
+  "crowd-20-v0:n_obstacles=14-22/2"
+  "dynamic-v0:n_robots=2-6/2"
+  "dynamic-v0:n_obstacles=4-8/2"
+  "dynamic-v0:obstacle_speed=0.6-1.2"
+  "circle-24-v0:jitter=0.1-0.2/0.1"
+)
+for seed in 15 16; do
+  name=p$((seed - 14))
+  vcs-env train --mixture "${MIX[@]}" --mixture-balance robots --on-collision terminate --rewards collision=300 \
+    --net-arch 256 256 --features slots --init "$B/round4/model.zip" --timesteps 2000000 --seed $seed --n-worlds 300 \
+    --learning-rate 1e-4 --lr-schedule linear --eval-freq 0 --checkpoint-freq 500000 --no-progress-bar \
+    --start-states "$STATES" --start-prob 0.5 --out "$name"
+  vcs-env select "$name" --from-step 1000000 --no-progress --out "sel-$name" \
+    --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200
+  OUT="$PWD/eval" bash "$HERE/../../stage-m/evaluate.sh" "sel-$name/model.zip" "$name"
+  python "$HERE/../contacts.py" "sel-$name/model.zip" --seeds 9000:10000
+done
