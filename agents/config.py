@@ -18,7 +18,6 @@ import ast
 import dataclasses
 import functools
 import inspect
-import math
 import shlex
 import textwrap
 import types
@@ -73,8 +72,13 @@ class ScenarioConfig:
     """Weight of the shaping term (None: DEFAULT_SHAPING_WEIGHT of the chosen shaping)."""
 
 
-def build_scenario(cfg: ScenarioConfig):
-    """The :class:`~vcs_env.scenario.Scenario` of a config (preset or suite + overrides + shaping weight)."""
+def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
+    """The :class:`~vcs_env.scenario.Scenario` of a config (preset or suite + overrides + shaping weight).
+
+    A field the config sets that cannot change the scenario's episodes (``jitter`` on a kind
+    that does not read it, an obstacle setting without obstacles) is a ``ValueError``; ``check``
+    limits that test to the fields named (mixtures: an entry's own fields, not the common flags).
+    """
     from vcs_env.scenario import make_scenario
 
     if cfg.shaping not in SHAPING:
@@ -87,7 +91,31 @@ def build_scenario(cfg: ScenarioConfig):
         weights[cfg.shaping] = float(weight)
     if weights:
         over["rewards"] = weights
-    return make_scenario(scenario_base(cfg.scenario), **over)
+    given = over if check is None else {k: v for k, v in over.items() if k in check}
+    return _check_applies(make_scenario(scenario_base(cfg.scenario), **over), given)
+
+
+def _check_applies(scenario, given: dict[str, Any]):
+    """``scenario``, or a ``ValueError`` if a field in ``given`` (set by a flag or a mixture entry)
+    cannot change its episodes: a layout field its kind does not read
+    (:attr:`vcs_env.layouts.ScenarioKind.reads`) or an obstacle setting without obstacles."""
+    from vcs_env.layouts import KINDS
+
+    reads = KINDS[scenario.kind].reads
+    for name in ("jitter", "layout_radius"):
+        if name in given and name not in reads:
+            uses = (
+                f"it reads {', '.join(sorted(reads))} only"
+                if reads
+                else "its layout reads neither jitter nor layout_radius"
+            )
+            raise ValueError(f"{name} does not apply to {scenario.kind} scenarios ({uses}); leave it out")
+    for name in ("obstacle_speed", "obstacle_motion"):
+        if name in given and scenario.n_obstacles == 0:
+            raise ValueError(
+                f"{name} needs obstacles, and this {scenario.kind} scenario has n_obstacles=0 (set n_obstacles too)"
+            )
+    return scenario
 
 
 def scenario_base(name: str):
@@ -147,7 +175,7 @@ def probe_scenario(cfg: ScenarioConfig):
     if suite is not None and "n_robots" in over and base.kind == "circle" and "layout_radius" not in over:
         # The suites' circle radius is for their n; keep the preset's rule (max(5, 0.3 n) [m]).
         over["layout_radius"] = None
-    return make_scenario(base, **over)
+    return _check_applies(make_scenario(base, **over), _overrides(cfg))
 
 
 _DIFF_FIELDS = (
@@ -357,11 +385,11 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
     """``"circle:n_robots=4-16/4,jitter=0-0.4"`` -> ``("circle", {"n_robots": (4, 8, 12, 16),
     "jitter": (0.0, 0.2, 0.4)})``.
 
-    ``FIELD=V`` is one value; ``FIELD=LO-HI/STEP`` the grid LO, LO+STEP, ... up to HI; without
-    ``/STEP`` integers step by 1 and floats give 3 levels (LO, middle, HI).
-    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)``. The name before the colon is a
-    preset or a suite (``crowd-20-v0:obstacle_speed=0.5-1.5`` starts from that suite's
-    conventions, :func:`scenario_base`).
+    ``FIELD=V`` is one value; ``FIELD=LO-HI/STEP`` the grid LO, LO+STEP, ..., HI (STEP must divide
+    HI - LO); without ``/STEP`` integers step by 1 and floats give 3 levels (LO, middle, HI).
+    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)`` (no STEP). A field may appear once.
+    The name before the colon is a preset or a suite (``crowd-20-v0:obstacle_speed=0.5-1.5``
+    starts from that suite's conventions, :func:`scenario_base`).
     """
     preset, _, rest = text.partition(":")
     preset = preset.strip()
@@ -378,6 +406,8 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
                 f"mixture entry {text!r}: {item!r} must be FIELD=VALUE or FIELD=LO-HI[/STEP] with FIELD in "
                 f"{list(MIXTURE_FIELDS)}"
             )
+        if name in fields:
+            raise ValueError(f"mixture entry {text!r}: {name} is set twice")
         conv = MIXTURE_FIELDS[name]
         body, _, step_text = value.partition("/")
         lo_text, dash, hi_text = body.strip().partition("-")
@@ -390,15 +420,20 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
         if hi < lo or (step is not None and step <= 0):
             raise ValueError(f"mixture entry {text!r}: {name} needs LO <= HI and STEP > 0, got {value!r}")
         if name == "obstacle_speed":
+            if step is not None:
+                raise ValueError(
+                    f"mixture entry {text!r}: obstacle_speed=LO-HI is one interval (each obstacle draws its speed "
+                    f"from it), it takes no /STEP; got {value!r}"
+                )
             fields[name] = ((lo, hi),)
-        elif conv is int:
-            fields[name] = tuple(range(lo, hi + 1, step or 1))
-        elif hi == lo:
-            fields[name] = (lo,)
-        else:
-            step = step if step is not None else (hi - lo) / 2
-            count = int(math.floor((hi - lo) / step + 1e-9)) + 1
-            fields[name] = tuple(round(lo + k * step, 12) for k in range(count))
+            continue
+        step = step if step is not None else (1 if conv is int else (hi - lo) / 2)
+        count = round((hi - lo) / step) + 1 if hi > lo else 1
+        if hi > lo and abs(lo + (count - 1) * step - hi) > 1e-9 * max(1.0, abs(hi)):
+            raise ValueError(
+                f"mixture entry {text!r}: {name}={value} does not end at {hi}: the step must divide HI - LO"
+            )
+        fields[name] = tuple(conv(round(lo + k * step, 12)) for k in range(count))
     return preset, fields
 
 
@@ -423,16 +458,24 @@ def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
 
     per_entry = ("n_robots", "n_obstacles", "jitter", "layout_radius", "obstacle_speed")
     clash = [f for f in per_entry if getattr(cfg, f) is not None]
+    if cfg.scenario != type(cfg)().scenario:
+        clash.insert(0, "scenario")
     if clash:
         flags = ", ".join("--" + f.replace("_", "-") for f in clash)
-        raise ValueError(f"with --mixture, set {flags} inside the mixture entries (e.g. circle:n_robots=8)")
+        raise ValueError(
+            f"with --mixture, set {flags} inside the mixture entries (the scenario before the colon, fields "
+            "after it: circle:n_robots=8)"
+        )
     out = []
     for entry in mixture:
         preset, fields = parse_mixture_entry(entry)
         names = list(fields)
         for values in itertools.product(*(fields[n] for n in names)):
             sub = dataclasses.replace(cfg, scenario=preset, **dict(zip(names, values)))
-            out.append(build_scenario(sub))
+            try:
+                out.append(build_scenario(sub, check=tuple(names)))
+            except ValueError as err:
+                raise ValueError(f"mixture entry {entry!r}: {err}") from None
     if not out:
         raise ValueError("--mixture needs at least one entry, e.g. circle:n_robots=4-12/4 crowd")
     configs = [observation_config(s) for s in out]

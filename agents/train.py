@@ -118,7 +118,7 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     mixture: tuple[str, ...] = ()
     """Train on a mixture instead of one scenario: entries PRESET[:FIELD=VALUE|LO-HI[/STEP],...] with
     FIELD in n_robots, n_obstacles, jitter, layout_radius, obstacle_speed, e.g. circle:n_robots=4-16/4,jitter=0-0.4
-    crowd:n_obstacles=3-20/8,obstacle_speed=0.5-1.5 (agents.config.parse_mixture_entry). Every grid point
+    crowd:n_obstacles=3-19/8,obstacle_speed=0.5-1.5 (agents.config.parse_mixture_entry). Every grid point
     is one scenario with a fixed share of the worlds (agents.vec_env.MixtureVecEnv); the other scenario
     flags (max_steps, on_collision, rewards, shaping) apply to all."""
     mixture_balance: str = "worlds"
@@ -281,6 +281,8 @@ def start_states(cfg: TrainConfig, scenarios) -> StartStates | None:
 
     starts = StartStates.load(cfg.start_states, cfg.start_prob)
     hit = starts.matching(scenarios)
+    if not any(len(pool) for pool in starts.pools.values()):
+        raise ValueError(f"{cfg.start_states!r} holds no start states (vcs-env collect-states found none)")
     if not hit:
         raise ValueError(
             f"no start-state pool of {cfg.start_states!r} fits a training scenario ({len(starts.pools)} pools; collect "

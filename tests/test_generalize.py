@@ -3,7 +3,9 @@ suites, training on mixtures (groups of worlds), reproducible toy runs."""
 
 import dataclasses
 import json
+import re
 
+import numpy as np
 import pytest
 
 import vcs_cli as cli
@@ -14,6 +16,7 @@ from agents.config import (
     probe_scenario,
     suite_differences,
 )
+from vcs_env.scenario import MAPS, SCENARIOS
 from vcs_env.suites import get_suite
 
 
@@ -122,6 +125,60 @@ def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
             parse_mixture_entry(entry)
     with pytest.raises(ValueError, match="set --n-robots inside the mixture entries"):
         mixture_scenarios(ScenarioConfig(n_robots=8), ("circle",))
+    with pytest.raises(ValueError, match="set --scenario inside the mixture entries"):
+        mixture_scenarios(ScenarioConfig(scenario="dynamic"), ("circle",))
+
+
+def test_mixture_grids_end_at_hi_and_fields_that_change_nothing_are_refused():
+    """A grid whose step does not reach HI, a step on the speed interval, a field given twice,
+    and a field the entry's scenario does not read are errors naming the entry, never a silently
+    shorter grid or a scenario repeated under another label."""
+    from agents.config import mixture_scenarios, parse_mixture_entry
+
+    assert parse_mixture_entry("circle:n_robots=4-12/4,jitter=0.1-0.5/0.2")[1] == {
+        "n_robots": (4, 8, 12),
+        "jitter": (0.1, 0.3, 0.5),
+    }
+    for entry, msg in (
+        ("circle:n_robots=4-12/3", "does not end at 12: the step must divide HI - LO"),
+        ("circle:jitter=0.1-0.5/0.3", "does not end at 0.5"),
+        ("crowd:obstacle_speed=1.0-1.5/0.1", "it takes no /STEP"),
+        ("circle:n_robots=4,n_robots=8", "n_robots is set twice"),
+    ):
+        with pytest.raises(ValueError, match=f"mixture entry '{re.escape(entry)}': .*{msg}"):
+            parse_mixture_entry(entry)
+    for entry, msg in (
+        ("crowd:jitter=0.1-0.3/0.2", "jitter does not apply to crowd scenarios"),
+        ("dynamic-v0:layout_radius=4", "layout_radius does not apply to dynamic scenarios"),
+        ("circle:obstacle_speed=0.5-1", "obstacle_speed needs obstacles"),
+        ("swap-v0:n_robots=5-9/2", "n_robots must be even"),
+    ):
+        with pytest.raises(ValueError, match=f"mixture entry '{re.escape(entry)}': {msg}"):
+            mixture_scenarios(ScenarioConfig(), (entry,))
+    # A common flag applies where it can: --obstacle-motion beside an entry without obstacles.
+    both = mixture_scenarios(ScenarioConfig(obstacle_motion="stop_and_go"), ("circle", "crowd"))
+    assert [s.n_obstacles for s in both] == [0, 5] and both[1].obstacle_motion == "stop_and_go"
+
+
+@pytest.mark.parametrize("name", sorted({**SCENARIOS, **MAPS}))
+def test_each_kind_reads_exactly_the_layout_fields_it_declares(name):
+    """The oracle of ``ScenarioKind.reads``: changing a declared field changes some of five
+    worlds' starts, goals or obstacles; changing any other leaves all of them unchanged."""
+    from vcs_env.layouts import KINDS, generate
+
+    base = {**SCENARIOS, **MAPS}[name]
+
+    def worlds(s):
+        out = []
+        for seed in range(5):
+            layout = generate(s, np.random.default_rng(seed))
+            out += [np.asarray(v) for v in vars(layout).values() if isinstance(v, np.ndarray)]
+        return out
+
+    for field, value in (("jitter", base.jitter + 0.05), ("layout_radius", base.circle_radius + 0.5)):
+        moved = dataclasses.replace(base, **{field: value})
+        changed = any(a.shape != b.shape or not np.allclose(a, b) for a, b in zip(worlds(base), worlds(moved)))
+        assert changed == (field in KINDS[base.kind].reads), (name, field)
 
 
 def test_suite_names_are_scenario_bases_with_their_conventions():

@@ -47,6 +47,10 @@ class ScenarioKind:
     name: str = ""
     summary: str = ""
     """One line for the docs and the command-line help (which fields it reads)."""
+    reads: frozenset[str] = frozenset({"jitter", "layout_radius"})
+    """The optional layout fields (of ``jitter``, ``layout_radius``) that change this kind's worlds;
+    setting another one explicitly is an error in the command line and mixtures
+    (:func:`agents.config.build_scenario`)."""
 
     def default_radius(self, s: Scenario) -> float:
         """``layout_radius`` when the scenario leaves it None [m]."""
@@ -177,6 +181,7 @@ class Crossing(ScenarioKind):
 class Random(ScenarioKind):
     name = "random"
     summary = "random starts and goals in the square arena ``[-arena_half_size, arena_half_size]^2``."
+    reads = frozenset()
 
     def check_layout(self, s: Scenario) -> None:
         check_arena(s)
@@ -214,6 +219,7 @@ class Crowd(ScenarioKind):
         "robots on a circle (robot_0 from (0, -R) to (0, R)) among ``n_obstacles`` passive obstacles "
         "that cross the same circle and ignore the robots (CrowdNav style)."
     )
+    reads = frozenset({"layout_radius"})
 
     def check_layout(self, s: Scenario) -> None:
         check_ring(s)
@@ -270,6 +276,7 @@ class Crowd(ScenarioKind):
 class Custom(ScenarioKind):
     name = "custom"
     summary = "explicit arrays (:class:`~vcs_env.scenario.CustomLayout`), e.g. to reproduce a layout from a paper."
+    reads = frozenset()
 
     def validate(self, s: Scenario) -> None:
         from .scenario import CustomLayout

@@ -205,6 +205,7 @@ class Walls(MapKind):
         "``n_walls`` random wall segments (length in ``wall_length``) inside a walled square arena of half size "
         "``arena_half_size``; random starts and goals clear of them, each with a route."
     )
+    reads = frozenset()
 
     def n_segments(self, s: Scenario) -> int:
         return 4 + s.n_walls
