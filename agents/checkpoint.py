@@ -32,6 +32,12 @@ from vcs_env.spaces import observation_space
 
 from .config import config_command
 
+SIZE_HINT = (
+    f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors, then the lidar and wall-point blocks if the "
+    "scenario has them)"
+)
+"""How an observation's size follows from the scenario, for error messages."""
+
 
 class CheckpointError(ValueError):
     """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
@@ -175,8 +181,7 @@ def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
         raise CheckpointError(
             f"{what} was made for observation space {_describe(space)}{bounds}, but scenario "
             f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {_describe(expected)} "
-            f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors); use a policy trained for this "
-            "observation layout"
+            f"{SIZE_HINT}; use a policy trained for this observation layout"
         )
 
 

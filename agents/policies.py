@@ -56,7 +56,8 @@ def policy_label(spec: str) -> str:
 def is_checkpoint_spec(spec: Any) -> bool:
     """True if ``spec`` names a file rather than a registered planner: a path object, a string
     ending in ``.zip`` or holding a path separator, or any other string that is not a
-    registered planner name but an existing file (with or without ``.zip``)."""
+    registered planner name but an existing file (with or without ``.zip``) or a run directory
+    holding ``model.zip``."""
     if isinstance(spec, os.PathLike):
         return True
     if not isinstance(spec, str):
@@ -65,7 +66,8 @@ def is_checkpoint_spec(spec: Any) -> bool:
         return True
     from baselines import PLANNERS  # lazy, like vcs_env.planning.make_planner
 
-    return spec not in PLANNERS and (os.path.isfile(spec) or os.path.isfile(spec + ".zip"))
+    exists = os.path.isfile(spec) or os.path.isfile(spec + ".zip") or os.path.isfile(os.path.join(spec, "model.zip"))
+    return spec not in PLANNERS and exists
 
 
 def _check_action_space(space: Any, what: str) -> None:

@@ -244,16 +244,16 @@ def load_policy(path: str | os.PathLike, scenario=None) -> RLlibPolicy:
     if not module_dir.is_dir():
         raise CheckpointError(f"RLlib checkpoint {str(p)!r} has no module {MODULE_ID!r} (expected {module_dir})")
     if scenario is not None:  # before the slow import: the observation size is in the metadata
-        from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM
         from vcs_env.spaces import observation_space
+
+        from .checkpoint import SIZE_HINT
 
         dim, want = meta.get("observation_dim"), observation_space(scenario).shape[0]
         if dim != want:
             raise CheckpointError(
                 f"RLlib checkpoint {str(p)!r} was made for observations of size {dim}, but scenario "
                 f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {want} "
-                f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors); use a policy trained for this "
-                "observation layout"
+                f"{SIZE_HINT}; use a policy trained for this observation layout"
             )
     import_ray()
     import torch

@@ -40,7 +40,10 @@ def validation_suite(spec: str) -> Suite:
     if not name or not sep:
         raise ValueError(f"a validation set is SCENARIO:START:STOP (e.g. dynamic-v0:7000:7300), got {spec!r}")
     scenario = probe_scenario(ScenarioConfig(scenario=name))
-    seeds = parse_seeds(seeds)
+    try:
+        seeds = parse_seeds(seeds)
+    except ValueError as err:
+        raise ValueError(f"validation set {spec!r}: {str(err).replace('--seeds ', '')}") from None
     return Suite(f"validation:{name}@{seeds[0]}:{seeds[-1] + 1}", scenario, seeds, f"validation episodes of {name}")
 
 

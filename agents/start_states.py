@@ -24,6 +24,7 @@ Example (the states before the released generalist's contacts on the dynamic sce
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import dataclass
 
@@ -152,6 +153,12 @@ def cmd_collect_states(args: argparse.Namespace) -> int:
     path = states.save(cfg.out)
     total = sum(len(p) for p in states.pools.values())
     print(f"saved {total} states of {len(states.pools)} scenarios -> {path}")
+    if not total:
+        print(
+            "warning: no states: the policy touched nothing and no obstacle came close in these episodes "
+            "(more --episodes, or a harder mixture); vcs-env train refuses a file without states",
+            file=sys.stderr,
+        )
     print(f"reproduce: {config_command('collect-states', cfg)}")
     return 0
 

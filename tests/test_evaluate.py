@@ -374,6 +374,16 @@ def test_cli_compare_writes_report(tmp_path):
         assert (out / name).stat().st_size > 0, name
 
 
+def test_a_run_directory_named_without_a_slash_is_a_checkpoint(tmp_path, monkeypatch):
+    from agents.policies import is_checkpoint_spec
+
+    (tmp_path / "run").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert not is_checkpoint_spec("run")  # no model.zip yet: a (mistyped) planner name
+    (tmp_path / "run" / "model.zip").write_bytes(b"")
+    assert is_checkpoint_spec("run") and not is_checkpoint_spec("vcs")
+
+
 def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):
     base = ["evaluate", "--suite", "swap-v0-smoke", "--no-progress", "--policy"]
     assert cli.main([*base, "no-such-planner"]) == 2

@@ -117,8 +117,16 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
         Simulator(sc, 2, start_states=wrong)
     with pytest.raises(ValueError, match="probability must be in"):
         StartStates({}, prob=1.5)
-    with pytest.raises(FileNotFoundError, match="collect-states"):
+    with pytest.raises(ValueError, match="collect-states"):
         StartStates.load(tmp_path / "missing.npz")
+    with pytest.raises(ValueError, match="collect-states"):  # a directory
+        StartStates.load(tmp_path)
+    (tmp_path / "empty.npz").write_bytes(b"")
+    (tmp_path / "text.npz").write_text("not an archive")
+    np.savez(tmp_path / "pickled.npz", scenarios=np.array([{}], dtype=object))
+    for bad in ("empty.npz", "text.npz", "pickled.npz"):
+        with pytest.raises(ValueError, match=rf"{bad}' is not a readable \.npz start-state file"):
+            StartStates.load(tmp_path / bad)
     np.savez(tmp_path / "other.npz", x=np.zeros(3))
     with pytest.raises(ValueError, match="not a start-state file"):
         StartStates.load(tmp_path / "other.npz")
@@ -180,3 +188,13 @@ def test_the_rllib_backend_refuses_start_states(tmp_path, capsys):
     args = ["train", "--backend", "rllib", "--start-states", str(tmp_path / "s.npz"), "--out", str(tmp_path / "r")]
     assert main(args) == 2
     assert "--start-states applies to the SB3 backend only" in capsys.readouterr().err
+
+
+def test_training_refuses_a_start_state_file_without_states(tmp_path):
+    from agents.config import build_scenario
+    from agents.train import TrainConfig, start_states
+
+    empty = StartStates({}).save(tmp_path / "empty.npz")
+    cfg = TrainConfig(scenario="dynamic", start_states=str(empty))
+    with pytest.raises(ValueError, match="holds no start states"):
+        start_states(cfg, [build_scenario(cfg)])

@@ -52,7 +52,7 @@ def check_ring(s: Scenario) -> None:
             raise ValueError(
                 f"cannot place {s.n_robots} robots on a circle of radius {s.circle_radius:g} m without overlap: "
                 f"neighbours are {chord:.3f} m apart, need {need:.3f} m (2 radius + min_separation + 2 jitter); "
-                "increase layout_radius or reduce n_robots"
+                "increase layout_radius, or reduce n_robots" + (" or jitter" if s.jitter else "")
             )
 
 
@@ -63,7 +63,8 @@ def check_lanes(s: Scenario) -> float:
     if s.lane_spacing < need - 1e-9:  # 0.5 + 0.3 + 2 * 0.2 is 1.2000000000000002: not a real overlap
         raise ValueError(
             f"lane_spacing={s.lane_spacing:g} m is too small for robots of radius {r:g} m: need >= {need:.3f} m "
-            "(2 radius + min_separation + 2 jitter)"
+            f"(2 radius + min_separation + 2 jitter, jitter={s.jitter:g} m); reduce jitter or min_separation, or "
+            "increase lane_spacing"
         )
     return need
 

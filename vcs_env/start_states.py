@@ -140,20 +140,31 @@ class StartStates:
 
     @classmethod
     def load(cls, path: str | Path, prob: float = 0.5) -> StartStates:
-        """Read pools written by :meth:`save`."""
+        """Read pools written by :meth:`save`.
+
+        Raises:
+            ValueError: no such file, or a file that is not a readable start-state ``.npz``
+                (both named).
+        """
         path = Path(path)
         if not path.is_file():
-            raise FileNotFoundError(f"no start-state file {str(path)!r} (make one with vcs-env collect-states)")
-        with np.load(path, allow_pickle=False) as data:
-            if "scenarios" not in data.files:
-                raise ValueError(f"{str(path)!r} is not a start-state file (no 'scenarios' entry)")
-            pools = {}
-            for s, key in enumerate(data["scenarios"].tolist()):
-                parts = {"world": {}, "motion": {}}
-                for name in data.files:
-                    head, _, rest = name.partition("/")
-                    if head == str(s):
-                        kind, _, field = rest.partition("/")
-                        parts[kind][field] = data[name]
-                pools[key] = StatePool(parts["world"], parts["motion"])
+            raise ValueError(f"no start-state file {str(path)!r} (make one with vcs-env collect-states)")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {name: data[name] for name in data.files}
+        except Exception as e:  # empty, truncated, pickled or not an npz at all
+            raise ValueError(
+                f"{str(path)!r} is not a readable .npz start-state file: {type(e).__name__}: {e}"
+            ) from None
+        if "scenarios" not in arrays:
+            raise ValueError(f"{str(path)!r} is not a start-state file (no 'scenarios' entry)")
+        pools = {}
+        for s, key in enumerate(arrays["scenarios"].tolist()):
+            parts = {"world": {}, "motion": {}}
+            for name, value in arrays.items():
+                head, _, rest = name.partition("/")
+                if head == str(s):
+                    kind, _, field = rest.partition("/")
+                    parts[kind][field] = value
+            pools[key] = StatePool(parts["world"], parts["motion"])
         return cls(pools, prob)
