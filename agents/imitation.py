@@ -91,6 +91,11 @@ def collect(cfg: CollectConfig) -> Path:
     if cfg.episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
     scenarios = scenarios_of(cfg, cfg.mixture)
+    if cfg.episodes < len(scenarios):
+        raise ValueError(
+            f"--episodes {cfg.episodes} is fewer than the mixture's {len(scenarios)} scenarios (one episode each, at "
+            "least)"
+        )
     scenario = scenarios[0]
     print_suite_differences(scenarios, "collecting on")
     seeds = list(range(cfg.seed, cfg.seed + cfg.episodes))

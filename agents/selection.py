@@ -64,7 +64,8 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
         out += [c for c in found if not (m := _STEP.search(c.name)) or int(m[1]) >= from_step]
     if not out:
         raise ValueError(f"no candidate checkpoint from step {from_step} on in {', '.join(map(str, paths))}")
-    return out
+    seen: set[Path] = set()  # a file named twice is scored once, at its first place
+    return [c for c in out if not (c.resolve() in seen or seen.add(c.resolve()))]
 
 
 def select_checkpoint(
@@ -82,6 +83,10 @@ def select_checkpoint(
     """
     if not validation:
         raise ValueError("give at least one validation set")
+    out = Path(out)
+    inside = [c for c in candidates if Path(c).resolve().is_relative_to(out.resolve())]
+    if inside:
+        raise ValueError(f"--out {str(out)!r} holds candidate {str(inside[0])!r}: writing there would overwrite it")
     scores = []
     for c in candidates:
         sets = {}
@@ -99,7 +104,6 @@ def select_checkpoint(
         print(f"{c}: success {each} (mean {row['success']:.3f}), collision {row['collision']:.3f}", flush=True)
     best = max(range(len(scores)), key=lambda i: (scores[i]["success"], -scores[i]["collision"], i))
     chosen = Path(candidates[best])
-    out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     shutil.copy(chosen, out / "model.zip")
     if config_path(chosen).exists():

@@ -155,6 +155,10 @@ def test_mixture_grids_end_at_hi_and_fields_that_change_nothing_are_refused():
     ):
         with pytest.raises(ValueError, match=f"mixture entry '{re.escape(entry)}': {msg}"):
             mixture_scenarios(ScenarioConfig(), (entry,))
+    from agents.imitation import CollectConfig, collect
+
+    with pytest.raises(ValueError, match="--episodes 2 is fewer than the mixture's 3 scenarios"):
+        collect(CollectConfig(mixture=("circle:n_robots=4-8/4", "crowd"), episodes=2, out="unused.npz"))
     # A common flag applies where it can: --obstacle-motion beside an entry without obstacles.
     both = mixture_scenarios(ScenarioConfig(obstacle_motion="stop_and_go"), ("circle", "crowd"))
     assert [s.n_obstacles for s in both] == [0, 5] and both[1].obstacle_motion == "stop_and_go"

@@ -38,6 +38,12 @@ def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoint
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="holds no model.zip"):
         candidates_of([tmp_path / "empty"])
+    # A file named twice (directly and through its run) is one candidate, at its first place.
+    twice = candidates_of([run / "model.zip", run], from_step=1000)
+    assert [c.name for c in twice] == ["model.zip", "model_1000.zip"]
+    # Writing the kept checkpoint into a candidate's run directory would overwrite it.
+    with pytest.raises(ValueError, match="holds candidate .*model.zip'"):
+        select_checkpoint(twice, [validation_suite("crowd-5-v0:7000:7001")], run)
 
 
 def test_bad_validation_sets_are_named():
