@@ -47,6 +47,10 @@ class FamilyWarning(UserWarning):
     """A policy runs on a scenario family (layout kind) it was not trained on."""
 
 
+class UncheckedWarning(UserWarning):
+    """A checkpoint without observation config: only its observation size could be checked."""
+
+
 V0_EGO_DIM = 8
 """Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
 
@@ -212,11 +216,27 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
                 if version != OBSERVATION_VERSION
                 else "use a policy trained with this observation config"
             )
+            if isinstance(saved, dict):
+                keys = sorted(set(saved) | set(expected), key=str)
+                diff = "; ".join(
+                    f"{k}: {json.dumps(saved.get(k))} (scenario: {json.dumps(expected.get(k))})"
+                    for k in keys
+                    if saved.get(k) != expected.get(k)
+                )
+            else:
+                diff = f"{json.dumps(saved)} (scenario: {json.dumps(expected, sort_keys=True)})"
             raise CheckpointError(
-                f"{what} was trained with observation config {json.dumps(saved, sort_keys=True)}, but scenario "
-                f"kind={scenario.kind!r} gives {json.dumps(expected, sort_keys=True)} ({hint})"
+                f"{what} was trained with another observation config than scenario kind={scenario.kind!r} gives: "
+                f"{diff} ({hint})"
             )
     check_observation_space(space, scenario, what)
+    if saved is None:
+        warnings.warn(
+            f"{what} has no observation config in its run record (no model.json beside it?): only its "
+            "observation size was checked, not what the numbers mean",
+            UncheckedWarning,
+            stacklevel=3,
+        )
     family = meta.get("scenario_family")
     if family and scenario.kind not in family:
         warnings.warn(

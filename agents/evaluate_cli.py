@@ -158,7 +158,11 @@ def add_commands(sub) -> None:
 
     p = sub.add_parser("compare", help="score several policies on the same episodes; write a report")
     _common_args(p)
-    p.add_argument("--policies", required=True, help="comma-separated planner names and/or checkpoint paths")
+    p.add_argument(
+        "--policies",
+        required=True,
+        help="comma-separated planner names and/or checkpoint paths, each optionally LABEL=... (its name in tables)",
+    )
     p.add_argument("--out", required=True, help="output directory for results.md, results.json and plots")
     p.add_argument("--episode", type=int, default=0, help="index of the episode whose trajectories to plot")
     p.add_argument("--no-plots", action="store_true", help="skip the matplotlib plots")
@@ -167,7 +171,11 @@ def add_commands(sub) -> None:
     p = sub.add_parser(
         "probe", help="score policies beside the VCS expert off their training distribution (the probe table)"
     )
-    p.add_argument("--policies", required=True, help="comma-separated planner names and/or checkpoint paths")
+    p.add_argument(
+        "--policies",
+        required=True,
+        help="comma-separated planner names and/or checkpoint paths, each optionally LABEL=... (its name in tables)",
+    )
     p.add_argument("--out", required=True, help="output directory for probes.md and probes.json")
     p.add_argument("--families", default=None, help="comma-separated families to probe (default: all)")
     p.add_argument("--episodes", type=int, default=100, help="episodes per probe (seeds from 5000)")

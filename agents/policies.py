@@ -146,6 +146,15 @@ def resolve_policy(
     if isinstance(policy, Planner):
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
     if is_checkpoint_spec(policy):
+        if action_mode != "delta":
+            from .checkpoint import config_path, resolve
+
+            made = config_path(resolve(policy))
+            if made.is_file():  # a run record: vcs-env train, bc and rllib always act in delta mode
+                raise ValueError(
+                    f"{str(policy)!r} was trained by vcs-env (run record {made.name}), whose policies act in delta "
+                    f"mode; --action-mode {action_mode} would read its actions in other units"
+                )
         model = load_checkpoint(policy, scenario)
         label = name or Path(policy).stem
         return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint")

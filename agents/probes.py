@@ -13,6 +13,7 @@ in at least :data:`EXPERT_BAR` of the episodes (issue 13's generalisation bar: w
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -85,18 +86,25 @@ def select_probes(families: str | None) -> tuple[Probe, ...]:
 
 
 def policy_labels(specs: list[str], expert: str | None = "vcs") -> dict[str, str]:
-    """``{label: spec}`` with the ``expert`` first (None: in the given order): planners by name, a
-    checkpoint by its run directory (``policies/circle8/model.zip`` -> ``circle8``) or its file
-    stem (:func:`agents.policies.policy_label`); two policies with one label are an error."""
+    """``{label: spec}`` with the ``expert`` first (None: in the given order): ``LABEL=SPEC`` by
+    its label, planners by name, a checkpoint by its run directory (``policies/circle8/model.zip``
+    -> ``circle8``) or its file stem (:func:`agents.policies.policy_label`); two policies with one
+    label are an error."""
     from .policies import policy_label
 
     out = {} if expert is None else {expert: expert}
     for spec in specs:
         if spec == expert:
             continue
-        label = policy_label(spec)
+        named, sep, rest = spec.partition("=")
+        if sep and named and rest and "/" not in named and os.sep not in named:
+            label, spec = named.strip(), rest.strip()
+        else:
+            label = policy_label(spec)
         if label in out:
-            raise ValueError(f"two policies would be labelled {label!r} in the table: {out[label]}, {spec}")
+            raise ValueError(
+                f"two policies would be labelled {label!r} in the table: {out[label]}, {spec} (name them: LABEL=PATH)"
+            )
         out[label] = spec
     return out
 

@@ -3,6 +3,7 @@ checkpoints), fair comparison and the ``evaluate`` / ``compare`` commands."""
 
 import json
 import math
+import shutil
 import subprocess
 import sys
 
@@ -382,6 +383,17 @@ def test_a_run_directory_named_without_a_slash_is_a_checkpoint(tmp_path, monkeyp
     assert not is_checkpoint_spec("run")  # no model.zip yet: a (mistyped) planner name
     (tmp_path / "run" / "model.zip").write_bytes(b"")
     assert is_checkpoint_spec("run") and not is_checkpoint_spec("vcs")
+
+
+def test_a_trained_checkpoint_refuses_absolute_actions(tmp_path):
+    from agents.policies import resolve_policy
+
+    scenario = get_suite("circle-8-v0-smoke").scenario
+    with pytest.raises(ValueError, match="act in delta mode; --action-mode absolute"):
+        resolve_policy("policies/circle8/model.zip", scenario, action_mode="absolute")
+    # Without a run record (an SB3 zip trained elsewhere) the mode is the caller's to choose.
+    shutil.copy("policies/circle8/model.zip", tmp_path / "model.zip")
+    assert resolve_policy(str(tmp_path / "model.zip"), scenario, action_mode="absolute").kind == "checkpoint"
 
 
 def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):

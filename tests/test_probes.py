@@ -33,9 +33,14 @@ def test_bad_probe_requests_are_named():
         select_probes("circle,circel")
     with pytest.raises(ValueError, match="positive integer"):
         PROBES[0].suite(0)
-    with pytest.raises(ValueError, match="labelled 'circle8'"):
+    with pytest.raises(ValueError, match="labelled 'circle8'.*LABEL=PATH"):
         policy_labels(["policies/circle8/model.zip", "other/circle8.zip"])
     assert list(policy_labels(["hrvo", "policies/circle8/model.zip"])) == ["vcs", "hrvo", "circle8"]
+    # LABEL=SPEC names a policy: two checkpoints of one run directory side by side.
+    named = policy_labels(["final=runs/a/ppo/model.zip", "best=runs/a/ppo/best_model.zip"], expert=None)
+    assert named == {"final": "runs/a/ppo/model.zip", "best": "runs/a/ppo/best_model.zip"}
+    with pytest.raises(ValueError, match="labelled 'vcs'"):
+        policy_labels(["vcs=policies/circle8/model.zip"])
 
 
 def test_gap_check_counts_only_probes_the_expert_solves():
