@@ -156,7 +156,7 @@ def resolve_policy(
                     f"mode; --action-mode {action_mode} would read its actions in other units"
                 )
         model = load_checkpoint(policy, scenario)
-        label = name or Path(policy).stem
+        label = name or policy_label(str(policy))
         return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint")
     if isinstance(policy, str):
         planner = make_planner(policy)

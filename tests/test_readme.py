@@ -52,5 +52,7 @@ def test_short_cli_commands_run(cmd, tmp_path):
 
 @pytest.mark.parametrize("code", PYTHON, ids=[f"snippet{i}" for i in range(len(PYTHON))])
 def test_python_snippets_run(code, tmp_path):
-    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    # Snippets that use the released policies run where the README's commands do: the repository root.
+    cwd = ROOT if "policies/" in code else tmp_path
+    proc = subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
