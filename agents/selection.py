@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -87,6 +88,13 @@ def select_checkpoint(
     inside = [c for c in candidates if Path(c).resolve().is_relative_to(out.resolve())]
     if inside:
         raise ValueError(f"--out {str(out)!r} holds candidate {str(inside[0])!r}: writing there would overwrite it")
+    from .policies import load_checkpoint
+
+    with warnings.catch_warnings():  # errors only: evaluate warns once per candidate below
+        warnings.simplefilter("ignore")
+        for c in candidates:  # every candidate fits every set before the first is scored
+            for suite in validation:
+                load_checkpoint(c, suite.scenario)
     scores = []
     for c in candidates:
         sets = {}

@@ -3,6 +3,7 @@
 
 import json
 import shutil
+from pathlib import Path
 
 import pytest
 
@@ -41,6 +42,18 @@ def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoint
     # A file named twice (directly and through its run) is one candidate, at its first place.
     twice = candidates_of([run / "model.zip", run], from_step=1000)
     assert [c.name for c in twice] == ["model.zip", "model_1000.zip"]
+    # A candidate made for other observations stops the selection before any scoring.
+    k2 = tmp_path / "k2"
+    k2.mkdir()
+    shutil.copy(CIRCLE8, k2 / "model.zip")
+    meta = json.loads(Path(CIRCLE8).with_suffix(".json").read_text())
+    meta["observation"]["n_neighbors"] = 2
+    (k2 / "model.json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="another observation config"):
+        select_checkpoint(
+            [run / "model.zip", k2 / "model.zip"], [validation_suite("crowd-5-v0:7000:7001")], tmp_path / "o"
+        )
+    assert not (tmp_path / "o").exists()
     # Writing the kept checkpoint into a candidate's run directory would overwrite it.
     with pytest.raises(ValueError, match="holds candidate .*model.zip'"):
         select_checkpoint(twice, [validation_suite("crowd-5-v0:7000:7001")], run)

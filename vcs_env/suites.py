@@ -300,6 +300,11 @@ def get_suite(name_or_suite: str | Suite) -> Suite:
     """A suite by name (or the given suite); ``ValueError`` listing the names if unknown."""
     if isinstance(name_or_suite, Suite):
         return name_or_suite
+    if not isinstance(name_or_suite, str):
+        raise ValueError(
+            f"a suite is a name or a Suite, got {type(name_or_suite).__name__} (a Scenario runs on seeds as "
+            "Suite(name, scenario, seeds))"
+        )
     if name_or_suite not in SUITES:
         raise ValueError(f"unknown suite {name_or_suite!r}; suites are {sorted(SUITES)}")
     return SUITES[name_or_suite]
