@@ -198,3 +198,10 @@ def test_training_refuses_a_start_state_file_without_states(tmp_path):
     cfg = TrainConfig(scenario="dynamic", start_states=str(empty))
     with pytest.raises(ValueError, match="holds no start states"):
         start_states(cfg, [build_scenario(cfg)])
+
+
+def test_cli_names_the_subcommand_of_a_bad_episode_count(capsys):
+    from vcs_cli import main
+
+    assert main(["collect-states", "--episodes", "0", "--out", "unused.npz"]) == 2
+    assert "vcs-env collect-states: error: --episodes must be >= 1, got 0" in capsys.readouterr().err

@@ -39,7 +39,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if getattr(args, "episodes", 1) is not None and getattr(args, "episodes", 1) < 1:
-        parser.error("--episodes must be >= 1")
+        print(f"vcs-env {args.command}: error: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
+        return 2
     try:
         return int(args.func(args) or 0)
     except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message
