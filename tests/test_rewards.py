@@ -146,3 +146,28 @@ def test_the_danger_weight_enters_a_suite_fingerprint_only_when_set():
 
     assert with_danger(0.0).fingerprint == suite.fingerprint
     assert with_danger(1.0).fingerprint != suite.fingerprint
+
+
+def test_arrival_speed_is_minus_the_speed_the_arriving_step_began_with():
+    """Only the arriving step carries the term, at -v / v_max with v the speed before that step."""
+    s = vcs_env.make_scenario("circle", n_robots=1, jitter=0.3, rewards={"arrival_speed": 1.0})  # a free run
+    totals = {}
+    for name in ("vcs", "straight"):
+        eng = NavEngine(s, batch_size=2, expert=name)
+        eng.reset(seeds=[0, 1])
+        seen, total = 0, np.zeros((2, 1))
+        for _ in range(s.max_steps):
+            before = eng.world.speed.copy()
+            res = eng.step(eng.expert_action.copy())
+            term = res.terms["arrival_speed"]
+            np.testing.assert_allclose(term, np.where(res.events.reached, -before / eng.world.v_max, 0.0))
+            seen += int(res.events.reached.sum())
+            total += term
+            if not eng.world.active.any():
+                break
+        assert seen == 2  # the robot of each world arrived once
+        totals[name] = total.mean()
+    assert all(-1.0 <= t < 0.0 for t in totals.values()), totals
+    eng = NavEngine(vcs_env.make_scenario("swap"))
+    eng.reset(seeds=[0])
+    assert "arrival_speed" not in eng.step(np.zeros((1, 2, 2))).terms  # computed only when weighted

@@ -3,6 +3,7 @@ as the world it was taken from; reset worlds start from a pool with the given pr
 from their own generators; files round-trip; bad pools and files give clear errors; collected
 states precede the policy's contacts; training runs from them."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +112,11 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
             for f, v in getattr(pool, part).items():
                 np.testing.assert_array_equal(getattr(back.pools[key], part)[f], v)
     assert back.matching([sc, small, dynamic(n_robots=4)]) == [sc, small]
+    # Files keyed by the whole repr, reward weights included (before reward terms could be added), still fit.
+    old_key = repr(dataclasses.replace(sc, rewards=type(sc.rewards)()))
+    assert "rewards=RewardWeights(" in old_key and old_key != scenario_key(sc)
+    old = StartStates.load(StartStates({old_key: pool_of(sc)}).save(tmp_path / "old.npz"))
+    assert old.matching([sc]) == [sc]
     # A pool saved under another scenario's key (here: other robot count) is refused by name.
     wrong = StartStates({scenario_key(sc): starts.pools[scenario_key(small)]})
     with pytest.raises(ValueError, match=r"pool of scenario dynamic \(n=3, m=6\) has pos of shape \(2, 2\)"):

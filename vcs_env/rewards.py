@@ -179,6 +179,29 @@ class Danger(RewardTerm):
         return np.where(x.events.acted, -x.dt * worst, 0.0)
 
 
+class ArrivalSpeed(RewardTerm):
+    """``-v / v_max`` on the step the goal is reached, ``v`` the robot's speed [m/s] when that step
+    began (0 on other steps). An arriving robot stops dead (``kernels.commit``); this term asks it
+    to arrive slowly, so robots behind and beside it are not surprised by the stop."""
+
+    name = "arrival_speed"
+    only_when_weighted = True
+
+    def __init__(self) -> None:
+        self.speed: np.ndarray | None = None  # (B, n) [m/s] at the start of the coming step
+
+    def start(self, world: WorldState, expert: Planner | None, worlds: Sequence[int] | np.ndarray) -> None:
+        if self.speed is None or self.speed.shape != world.speed.shape:
+            self.speed = world.speed.copy()
+        else:
+            self.speed[worlds] = world.speed[worlds]
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        out = np.where(x.events.reached, -self.speed / x.world.v_max, 0.0)
+        self.speed = x.world.speed.copy()
+        return out
+
+
 class FunctionTerm(RewardTerm):
     """A term from a :data:`RewardFn`, zero for robots that did not act."""
 
@@ -189,7 +212,9 @@ class FunctionTerm(RewardTerm):
         return np.where(x.events.acted, np.asarray(self.fn(x.world, x.events, x.actions), dtype=np.float64), 0.0)
 
 
-TERMS: tuple[type[RewardTerm], ...] = (Progress, Arrival, Collision, Time, VcsImitation, VcsPotential, Danger)
+TERMS: tuple[type[RewardTerm], ...] = (
+    Progress, Arrival, Collision, Time, VcsImitation, VcsPotential, Danger, ArrivalSpeed,
+)  # fmt: skip
 """The built-in terms, in the order they are summed; each has a weight in ``RewardWeights``."""
 
 

@@ -84,8 +84,9 @@ class RewardWeights:
     terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`);
     ``danger`` = ``-dt * max_j exp(-t_j / DANGER_TIME)`` [s], ``t_j`` the time until the robot
     would touch robot or obstacle ``j`` if both kept their velocities (0 when touching; walls not
-    counted; :class:`vcs_env.rewards.Danger`). Each term is an object in
-    :data:`vcs_env.rewards.TERMS`.
+    counted; :class:`vcs_env.rewards.Danger`); ``arrival_speed`` = ``-v / v_max`` on the step the
+    goal is reached, ``v`` the speed [m/s] when that step began (:class:`vcs_env.rewards.ArrivalSpeed`).
+    Each term is an object in :data:`vcs_env.rewards.TERMS`.
     """
 
     progress: float = 1.0
@@ -95,6 +96,7 @@ class RewardWeights:
     vcs_imitation: float = 0.0
     vcs_potential: float = 0.0
     danger: float = 0.0
+    arrival_speed: float = 0.0
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

@@ -23,7 +23,7 @@ the motion state.
 
 from __future__ import annotations
 
-import dataclasses
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,11 +33,14 @@ import numpy as np
 from .scenario import Scenario
 from .state import WorldState
 
+_REWARDS = re.compile(r", rewards=RewardWeights\([^)]*\)")
+"""The reward weights in a scenario's repr (keys of files written before they were left out)."""
+
 
 def scenario_key(scenario: Scenario) -> str:
-    """The key of a scenario's pool: its repr with default reward weights (a pool serves any
-    reward, not another layout, robot, obstacle or episode setting)."""
-    return repr(dataclasses.replace(scenario, rewards=type(scenario.rewards)()))
+    """The key of a scenario's pool: its repr without the reward weights (a pool serves any reward,
+    and reward terms added later, not another layout, robot, obstacle or episode setting)."""
+    return _REWARDS.sub("", repr(scenario))
 
 
 @dataclass
@@ -159,7 +162,7 @@ class StartStates:
         if "scenarios" not in arrays:
             raise ValueError(f"{str(path)!r} is not a start-state file (no 'scenarios' entry)")
         pools = {}
-        for s, key in enumerate(arrays["scenarios"].tolist()):
+        for s, key in enumerate(_REWARDS.sub("", k) for k in arrays["scenarios"].tolist()):
             parts = {"world": {}, "motion": {}}
             for name, value in arrays.items():
                 head, _, rest = name.partition("/")
