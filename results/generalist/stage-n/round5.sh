@@ -7,21 +7,7 @@ set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
 B=$(cd "$1" && pwd); OUT=$2; mkdir -p "$OUT"; cd "$OUT"
 export OMP_NUM_THREADS=1
-MIX=(
-  "circle-8-v0:n_robots=4-12/4,jitter=0.1-0.5/0.2"
-  "circle-16-v0:jitter=0.1-0.3/0.2"
-  "circle-24-v0"
-  "swap-v0:n_robots=6-10/4"
-  "crossing-v0:n_robots=8-12/2,jitter=0.1-0.2/0.1"
-  "crowd-5-v0:n_obstacles=3-8"
-  "crowd-5-v0:obstacle_speed=1.0-1.5"
-  "crowd-10-v0:n_obstacles=9-12"
-  "crowd-20-v0:n_obstacles=14-22/2"
-  "dynamic-v0:n_robots=2-6/2"
-  "dynamic-v0:n_obstacles=4-8/2"
-  "dynamic-v0:obstacle_speed=0.6-1.2"
-  "circle-24-v0:jitter=0.1-0.2/0.1"
-)
+source "$HERE/mixture.sh"
 OBST=("${MIX[@]:5:7}")
 [ -f states5.npz ] || vcs-env collect-states --policy "$B/round4/model.zip" --on-collision terminate --mixture "${OBST[@]}" \
   --episodes 400 --seed 580000 --out states5.npz
