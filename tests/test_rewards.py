@@ -2,6 +2,7 @@
 object passed to the env."""
 
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -171,3 +172,11 @@ def test_arrival_speed_is_minus_the_speed_the_arriving_step_began_with():
     eng = NavEngine(vcs_env.make_scenario("swap"))
     eng.reset(seeds=[0])
     assert "arrival_speed" not in eng.step(np.zeros((1, 2, 2))).terms  # computed only when weighted
+
+
+def test_rewards_flag_help_names_every_term():
+    # --rewards takes any term of TERMS; its help (the ScenarioConfig field's docstring) lists them.
+    from agents.config import ScenarioConfig, field_docs
+
+    listed = set(re.findall(r"\w+", field_docs(ScenarioConfig)["rewards"].split("names:")[1]))
+    assert {t.name for t in TERMS} <= listed
