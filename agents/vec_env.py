@@ -76,6 +76,14 @@ class SharedSlots(VecEnv):
         return [False for _ in self._get_indices(indices)]
 
 
+def _robot_actions(actions, num_envs: int) -> np.ndarray:
+    """``actions`` as ``(num_envs, 2)`` float64, one row per robot slot; ``ValueError`` on another size."""
+    out = np.asarray(actions, dtype=np.float64)
+    if out.size != 2 * num_envs:
+        raise ValueError(f"actions must have shape ({num_envs}, 2), one row per robot slot, got {out.shape}")
+    return out.reshape(num_envs, 2)
+
+
 class NavVecEnv(SharedSlots):
     """``B`` worlds x ``n`` robots as ``B * n`` SB3 slots sharing one policy (module docstring).
 
@@ -172,7 +180,7 @@ class NavVecEnv(SharedSlots):
         return self._slot_view(self._obs).copy()
 
     def step_async(self, actions: np.ndarray) -> None:
-        self._actions = np.asarray(actions, dtype=np.float64).reshape(self.n_worlds, self.n_robots, 2)
+        self._actions = _robot_actions(actions, self.num_envs).reshape(self.n_worlds, self.n_robots, 2)
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._actions is None:
@@ -335,7 +343,7 @@ class MixtureVecEnv(SharedSlots):
         return self._concat([g.reset() for g in self.groups])
 
     def step_async(self, actions: np.ndarray) -> None:
-        parts = np.split(np.asarray(actions, dtype=np.float64).reshape(self.num_envs, 2), self._slot_bounds)
+        parts = np.split(_robot_actions(actions, self.num_envs), self._slot_bounds)
         for g, a in zip(self.groups, parts):
             g.step_async(a)
 

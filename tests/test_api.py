@@ -38,6 +38,11 @@ def test_render_modes():
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 5  # something is drawn
+    # Bodies far outside the view (here an obstacle 10 km away) are off the picture, not an error.
+    far = vcs_env.parallel_env(scenario="crowd", render_mode="rgb_array")
+    far.reset(seed=0)
+    far.engine.world.obs_pos[0, 0] = (1e4, -1e4)
+    assert far.render().shape == frame.shape
     env.close()
 
 
@@ -75,6 +80,84 @@ def test_info_events_and_state():
     terms = info["reward_terms"]
     w = env.scenario.rewards.as_dict()
     assert rew["robot_0"] == pytest.approx(sum(w[k] * v for k, v in terms.items()))
+
+
+def test_expert_actions_handed_out_are_the_callers_own():
+    # Stored expert labels must not change when the env resets, and editing one in place must not
+    # change what the env compares against (vcs_imitation).
+    env = vcs_env.parallel_env(scenario="circle", n_robots=4, jitter=0.2, expert="vcs")
+    _, infos = env.reset(seed=0)
+    for _ in range(3):
+        _, _, _, _, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    kept = infos["robot_1"]["expert_action"]
+    snapshot = kept.copy()
+    engine_before = env.engine.expert_action.copy()
+    kept += 0.5
+    np.testing.assert_array_equal(env.engine.expert_action, engine_before)
+    env.reset(seed=1)
+    np.testing.assert_array_equal(kept, snapshot + 0.5)
+    single = gym.make("vcs_env/Circle-v1", expert="vcs")
+    _, info = single.reset(seed=0)
+    held = info["expert_action"].copy()
+    info["expert_action"] += 0.5
+    np.testing.assert_array_equal(single.unwrapped.engine.expert_action[0, 0], held)
+
+
+def test_obstacle_motion_keyword_is_the_scenario_field_in_every_adapter():
+    pz = vcs_env.parallel_env(scenario="dynamic", obstacle_motion="constant")
+    single = gym.make("vcs_env/Dynamic-v1", obstacle_motion="constant")
+    vec = gym.make_vec("vcs_env/Dynamic-v1", num_envs=2, obstacle_motion="constant")
+    for env in (pz, single.unwrapped, vec.unwrapped):
+        assert env.scenario.obstacle_motion == "constant"
+    pz.reset(seed=0)
+    single.reset(seed=0)
+    vec.reset(seed=0)
+    v0 = pz.engine.world.obs_vel.copy()
+    for _ in range(5):  # constant velocity: no turns (the dynamic preset's obstacles turn)
+        pz.step({a: np.zeros(2) for a in pz.agents})
+    far = np.abs(pz.engine.world.obs_pos).max(axis=-1) < pz.scenario.arena_half_size - 0.5  # no wall bounce
+    np.testing.assert_allclose(pz.engine.world.obs_vel[far], v0[far])
+    with pytest.raises(ValueError, match="obstacle_motion must be one of"):
+        vcs_env.parallel_env(scenario="dynamic", obstacle_motion="teleport")
+    with pytest.raises(ValueError, match="ObstacleMotion"):
+        vcs_env.parallel_env(scenario="dynamic", obstacle_motion=3)
+
+
+def test_engine_arguments_are_checked_by_name():
+    from vcs_env.engine import NavEngine
+
+    s = vcs_env.make_scenario("circle", n_robots=2)
+    for kw, message in (({"gamma": "x"}, "gamma must be a number"), ({"max_steps": 0}, "max_steps must be"),
+                        ({"max_steps": 2.5}, "max_steps must be")):  # fmt: skip
+        with pytest.raises(ValueError, match=message):
+            NavEngine(s, **kw)
+
+
+def test_bad_seeds_and_limits_are_named(tmp_path, capsys):
+    import vcs_cli as cli
+    from agents.vec_env import NavVecEnv
+
+    env = vcs_env.parallel_env(max_cycles=np.int64(5))  # numpy integers are integers
+    for seed in (1.5, -3, "abc"):
+        with pytest.raises(ValueError, match="seeds must be non-negative integers"):
+            env.reset(seed=seed)
+    with pytest.raises(ValueError, match="max_cycles must be"):
+        env.max_cycles = 0
+    with pytest.raises(ValueError, match=r"obstacle_speed must be a \(low, high\) pair"):
+        vcs_env.make_scenario("crowd", obstacle_speed=1.0)
+    vec = gym.make_vec("vcs_env/Circle-v1", num_envs=2)
+    with pytest.raises(ValueError, match="seed must be an integer, None or one seed per world"):
+        vec.reset(seed="ab")
+    slots = NavVecEnv(vcs_env.make_scenario("circle", n_robots=4), n_worlds=2)
+    slots.reset()
+    with pytest.raises(ValueError, match=r"actions must have shape \(8, 2\)"):
+        slots.step(np.zeros((5, 2)))
+    # The CLI: a negative seed is named; output files may go to directories that do not exist yet.
+    assert cli.main(["rollout", "--seed", "-5"]) == 2
+    assert "--seed must be >= 0" in capsys.readouterr().err
+    out = tmp_path / "new" / "dir" / "metrics.json"
+    assert cli.main(["rollout", "--episodes", "1", "--n-robots", "2", "--max-steps", "5", "--json", str(out)]) == 0
+    assert out.exists()
 
 
 def test_pickle_round_trip():

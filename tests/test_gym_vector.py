@@ -45,6 +45,7 @@ def assert_same(a, b, path="info"):
         ("vcs_env/Dynamic-v1", {}),
         ("vcs_env/Crowd-v1", {"expert": "vcs", "on_collision": "continue"}),
         ("vcs_env/Circle-v1", {"n_robots": 1, "n_obstacles": 0}),
+        ("vcs_env/Dynamic-v1", {"max_episode_steps": 7}),  # a TimeLimit in sync mode
         ("vcs_env/Navigation-v1", {"scenario": "corridor", "action_mode": "absolute", "on_collision": "continue"}),
     ],
 )
@@ -109,6 +110,8 @@ def test_bad_input_raises_clear_errors():
         env.reset(options={"reset_mask": np.zeros(2, dtype=bool)})
     with pytest.raises(ValueError, match="num_envs"):
         VcsNavVectorEnv(num_envs=0)
+    with pytest.raises(ValueError, match="max_episode_steps"):
+        VcsNavVectorEnv(num_envs=2, max_episode_steps=0)
     with pytest.raises(ValueError, match="seeds"):
         env.reset(seed=[1, 2, 3])
 

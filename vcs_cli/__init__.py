@@ -41,6 +41,9 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "episodes", 1) is not None and getattr(args, "episodes", 1) < 1:
         print(f"vcs-env {args.command}: error: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
         return 2
+    if isinstance(getattr(args, "seed", None), int) and args.seed < 0:
+        print(f"vcs-env {args.command}: error: --seed must be >= 0, got {args.seed}", file=sys.stderr)
+        return 2
     try:
         return int(args.func(args) or 0)
     except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message

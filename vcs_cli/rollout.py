@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from agents.config import ScenarioConfig, add_config_args, build_scenario, config_from_args
 
@@ -23,6 +24,9 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     cfg = config_from_args(ScenarioConfig, args)
     scenario = build_scenario(cfg)
     planner = make_planner(args.planner)
+    for out in (args.gif, args.video, args.plot, args.json):  # before the episodes, not after them
+        if out:
+            Path(out).parent.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.seed, args.seed + args.episodes))
     render = range(len(seeds)) if (args.gif or args.video) else ()
     controller = planner_controller(planner)

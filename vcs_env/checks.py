@@ -34,7 +34,7 @@ def check_int(name: str, value: int, lo: int, hi: int) -> None:
 
 def check_interval(name: str, value: Sequence[float], lo: float, hi: float) -> None:
     """Raise ``ValueError`` unless ``value`` is a ``(low, high)`` pair in ``[lo, hi]`` with low <= high."""
-    if len(value) != 2:
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
         raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
     check_range(f"{name}[0]", value[0], lo, hi)
     check_range(f"{name}[1]", value[1], lo, hi)

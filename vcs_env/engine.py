@@ -12,6 +12,7 @@ adapters over it, so episode semantics are defined once:
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -69,9 +70,16 @@ class StepResult:
                 "min_separation": sep[i],
             }
             if self.expert_action is not None:
-                info["expert_action"] = self.expert_action[b, i]
+                info["expert_action"] = self.expert_action[b, i].copy()
             out.append(info)
         return out
+
+
+def check_max_steps(value, name: str = "max_steps") -> int:
+    """``value`` as an int if it is an integer >= 1; ``ValueError`` naming ``name`` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)
 
 
 class NavEngine:
@@ -86,7 +94,10 @@ class NavEngine:
             shaping terms.
         reward_terms: extra named terms ``{name: (weight, term)}``, a term being a
             :class:`~vcs_env.rewards.RewardTerm` or a function (:data:`~vcs_env.rewards.RewardFn`).
-        obstacle_motion: overrides the scenario's obstacle motion model.
+        obstacle_motion: an :class:`~vcs_env.obstacles.ObstacleMotion` that overrides the
+            scenario's obstacle motion model, or the name of a model (``"constant"``, ...), which
+            sets the Scenario field ``obstacle_motion`` (so the envs' keyword of that name works
+            like every other Scenario field).
         gamma: discount of the ``vcs_potential`` shaping term ``gamma * phi(s') - phi(s)``; use
             the learner's (see :func:`vcs_env.rewards.potential_term`).
         max_steps: overrides ``scenario.max_steps``.
@@ -106,6 +117,8 @@ class NavEngine:
         max_steps: int | None = None,
         start_states: StartStates | None = None,
     ):
+        if isinstance(obstacle_motion, str):
+            scenario, obstacle_motion = dataclasses.replace(scenario, obstacle_motion=obstacle_motion), None
         self.sim = Simulator(scenario, batch_size, action_mode, obstacle_motion, start_states)
         self.scenario = scenario
         self.action_mode = action_mode
@@ -115,10 +128,12 @@ class NavEngine:
         self.expert: Planner | None = None if expert is None else make_planner(expert)
         for term in self.terms.values():
             term.check(self.expert)
+        if isinstance(gamma, bool) or not isinstance(gamma, (int, float, np.integer, np.floating)):
+            raise ValueError(f"gamma must be a number in [0, 1], got {gamma!r}")
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"gamma must be in [0, 1], got {gamma}")
         self.gamma = float(gamma)
-        self.max_steps = scenario.max_steps if max_steps is None else int(max_steps)
+        self.max_steps = scenario.max_steps if max_steps is None else check_max_steps(max_steps)
         self._expert_action: np.ndarray | None = None
 
     @property
@@ -148,7 +163,8 @@ class NavEngine:
         action = self.expert.act(world, self.action_mode)
         if idx is None or self._expert_action is None:
             self._expert_action = action
-        else:
+        else:  # a new array: the old one may be held by a caller (infos, StepResult)
+            self._expert_action = self._expert_action.copy()
             self._expert_action[idx] = action[idx]
 
     @property

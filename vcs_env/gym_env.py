@@ -49,7 +49,8 @@ class VcsNavEnv(RenderMixin, gym.Env):
     ## Arguments
     ``scenario`` (name or Scenario), ``others`` (planner for the other robots), ``render_mode``
     (``human``, ``rgb_array``, ``ansi``), ``action_mode``, ``expert``, ``reward_terms``,
-    ``obstacle_motion``, ``gamma``, and Scenario fields as keyword overrides.
+    ``obstacle_motion`` (an ``ObstacleMotion`` model, or a model's name as for the Scenario field),
+    ``gamma``, and Scenario fields as keyword overrides.
 
     ## Vectorized
     ``gym.make_vec(id, num_envs, vectorization_mode="vector_entry_point")`` gives
@@ -81,6 +82,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.scenario = make_scenario(scenario, **scenario_overrides)
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma)
+        self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         n = self.scenario.n_robots
         self.others = make_planner(others) if n > 1 else None
         self._others_mask = np.arange(n) > 0  # robots the `others` planner drives (not robot_0)
@@ -101,7 +103,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         obs = self.engine.reset([world_seed])
         if self._renderer is not None:
             self._renderer.reset()
-        info = {} if self.engine.expert_action is None else {"expert_action": self.engine.expert_action[0, 0]}
+        info = {} if self.engine.expert_action is None else {"expert_action": self.engine.expert_action[0, 0].copy()}
         if self.render_mode == "human":
             self.render()
         return obs[0, 0], info
@@ -134,7 +136,8 @@ class VcsNavVectorEnv(VectorEnv):
     steps every world (and plans every other robot) at once.
 
     It returns what ``vectorization_mode="sync"`` returns for the same seeds and actions,
-    bit for bit: observations ``(num_envs, 8 + 8 K)`` float32, rewards ``(num_envs,)`` float64,
+    bit for bit: observations ``(num_envs, D)`` float32 (D: :func:`vcs_env.observations.observation_dim`),
+    rewards ``(num_envs,)`` float64,
     terminated / truncated ``(num_envs,)`` bool, and the single env's ``info`` batched the
     Gymnasium way (each key an array with a ``_key`` mask; ``reward_terms`` nested;
     ``collided_with`` an object array of lists). ``reset(seed=s)`` seeds world ``i`` as
@@ -146,7 +149,10 @@ class VcsNavVectorEnv(VectorEnv):
     ``reset(options={"reset_mask": mask})`` resets only the worlds in ``mask`` ``(num_envs,)``
     bool. SB3 drives it through :class:`agents.gym_vec.GymVectorToSB3`.
 
-    Arguments: ``num_envs`` and those of :class:`VcsNavEnv` (no rendering).
+    Arguments: ``num_envs`` and those of :class:`VcsNavEnv` (no rendering), and
+    ``max_episode_steps``, which ``gym.make`` turns into a ``TimeLimit`` in the other modes: every
+    world's episode is then truncated after that many steps (or the scenario's ``max_steps``, if
+    fewer), as there.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -162,6 +168,7 @@ class VcsNavVectorEnv(VectorEnv):
         reward_terms: Mapping[str, tuple[float, RewardFn]] | None = None,
         obstacle_motion=None,
         gamma: float = 0.99,
+        max_episode_steps: int | None = None,
         **scenario_overrides,
     ):
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
@@ -171,7 +178,19 @@ class VcsNavVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = None
         self.scenario = make_scenario(scenario, **scenario_overrides)
-        self.engine = NavEngine(self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma)
+        if max_episode_steps is not None and (
+            isinstance(max_episode_steps, bool)
+            or not isinstance(max_episode_steps, (int, np.integer))
+            or max_episode_steps < 1
+        ):
+            raise ValueError(f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}")
+        limit = (
+            self.scenario.max_steps if max_episode_steps is None else min(self.scenario.max_steps, max_episode_steps)
+        )
+        self.engine = NavEngine(
+            self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
+        )
+        self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         self.others = make_planner(others) if self.scenario.n_robots > 1 else None
         self._others_mask = np.arange(self.scenario.n_robots) > 0  # robots `others` drives (not robot_0)
         self.single_observation_space = observation_space(self.scenario)
@@ -210,6 +229,8 @@ class VcsNavVectorEnv(VectorEnv):
         elif seed is None:
             seeds = [None] * self.num_envs
         else:
+            if isinstance(seed, (str, bytes, bool)) or not hasattr(seed, "__len__"):
+                raise ValueError(f"seed must be an integer, None or one seed per world, got {seed!r}")
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"got {len(seeds)} seeds for num_envs={self.num_envs}")

@@ -225,11 +225,15 @@ class Crowd(ScenarioKind):
         check_ring(s)
         r, r_obs = s.robot.radius, s.obstacle_radius[1]
         ring = 2.0 * math.pi * s.circle_radius
-        used = s.n_robots * (2 * r + s.min_separation) + s.n_obstacles * (2 * r_obs + s.min_separation)
+        # Every body takes two places on the ring, its start and the antipodal goal (with an even
+        # robot count the robots' goals are each other's starts).
+        robot_places = s.n_robots if s.n_robots % 2 == 0 else 2 * s.n_robots
+        used = robot_places * (2 * r + s.min_separation) + 2 * s.n_obstacles * (2 * r_obs + s.min_separation)
         if used > ring:
             raise ValueError(
                 f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles on a crowd circle of radius "
-                f"{s.circle_radius:g} m: they need {used:.1f} m of its {ring:.1f} m; increase layout_radius"
+                f"{s.circle_radius:g} m: their starts and goals need {used:.1f} m of its {ring:.1f} m; "
+                "increase layout_radius"
             )
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
@@ -262,12 +266,32 @@ class Crowd(ScenarioKind):
                     pos[k], target[k] = p, g
                     bodies += [(p, radius[k]), (g, radius[k])]
                     break
-            else:
-                raise ValueError(
-                    f"could not place crowd obstacle {k} without overlap after {MAX_TRIES} tries; "
-                    "increase layout_radius or reduce n_obstacles / min_separation"
-                )
+            else:  # the random draws found no room: search every place, in an order drawn from rng
+                spots = Crowd._spots(s)
+                spots = spots[rng.permutation(len(spots))]
+                centre = np.array([c for c, _ in bodies])
+                clear = np.array([rad for _, rad in bodies]) + radius[k] + s.min_separation
+                fits = np.ones(len(spots), dtype=bool)
+                for q in (spots, -spots):
+                    fits &= (np.linalg.norm(q[:, None] - centre[None], axis=-1) >= clear).all(axis=1)
+                if not fits.any():
+                    raise ValueError(
+                        f"could not place crowd obstacle {k} without overlap; "
+                        "increase layout_radius or reduce n_obstacles / min_separation"
+                    )
+                pos[k] = spots[np.argmax(fits)]
+                target[k] = -pos[k]
+                bodies += [(pos[k], radius[k]), (target[k], radius[k])]
         return pos, target
+
+    @staticmethod
+    def _spots(s: Scenario) -> np.ndarray:
+        """Every start the random draw can give, on a grid ``(720 * 25, 2)`` [m]: 720 angles on the
+        circle, each with a 5 x 5 grid of the +-0.5 m noise."""
+        ang = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
+        ring = s.circle_radius * np.stack((np.cos(ang), np.sin(ang)), axis=-1)
+        off = np.stack(np.meshgrid(*2 * (np.linspace(-0.5, 0.5, 5),)), axis=-1).reshape(-1, 2)
+        return (ring[:, None] + off[None]).reshape(-1, 2)
 
     def view_extent(self, s: Scenario) -> float:
         return s.circle_radius + s.jitter + 0.5 + s.robot.radius + 0.5

@@ -11,7 +11,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from . import spaces as nav_spaces
-from .engine import NavEngine, RewardFn
+from .engine import NavEngine, RewardFn, check_max_steps
 from .observations import state_vector
 from .planning import Planner
 from .render import Renderer, RenderMixin
@@ -63,7 +63,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     ## Arguments
     ``scenario`` (name or Scenario), ``render_mode`` (``human``, ``rgb_array``, ``ansi``),
     ``max_cycles`` (default ``scenario.max_steps``), ``action_mode``, ``expert`` (planner or
-    name, e.g. ``"vcs"``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion``,
+    name, e.g. ``"vcs"``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion`` (an
+    ``ObstacleMotion`` model, or a model's name as for the Scenario field),
     ``gamma`` (discount of the ``vcs_potential`` shaping; the learner's), and any Scenario
     field as a keyword override (``n_robots=16``).
 
@@ -109,11 +110,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.scenario = make_scenario(scenario, **scenario_overrides)
-        if max_cycles is not None and (
-            isinstance(max_cycles, bool) or not isinstance(max_cycles, int) or max_cycles < 1
-        ):
-            raise ValueError(f"max_cycles must be an integer >= 1, got {max_cycles!r}")
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles)
+        self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         self.render_mode = render_mode
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
@@ -130,7 +128,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
 
     @max_cycles.setter
     def max_cycles(self, value: int) -> None:
-        self.engine.max_steps = int(value)
+        self.engine.max_steps = check_max_steps(value, "max_cycles")
 
     def observation_space(self, agent: str) -> spaces.Box:
         self._check_agent(agent)
@@ -156,7 +154,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         if self._renderer is not None:
             self._renderer.reset()
         expert = self.engine.expert_action
-        infos = {a: ({} if expert is None else {"expert_action": expert[0, i]}) for i, a in enumerate(self.agents)}
+        infos = {
+            a: ({} if expert is None else {"expert_action": expert[0, i].copy()}) for i, a in enumerate(self.agents)
+        }
         if self.render_mode == "human":
             self.render()
         return {a: obs[0, i] for i, a in enumerate(self.agents)}, infos

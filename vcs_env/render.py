@@ -62,10 +62,12 @@ class Renderer:
         return self._pg
 
     def _px(self, p: np.ndarray) -> np.ndarray:
+        """Pixel coordinates of points ``p`` ``(..., 2)`` [m]; points far outside the view are clipped to
+        8 view sizes around it (off the picture either way), as pygame draws in 16-bit integers."""
         scale = self.size / (2.0 * self.extent)
         x = (p[..., 0] + self.extent) * scale
         y = (self.extent - p[..., 1]) * scale
-        return np.stack((x, y), axis=-1)
+        return np.clip(np.stack((x, y), axis=-1), -8.0 * self.size, 9.0 * self.size)
 
     def reset(self) -> None:
         self.trails = []

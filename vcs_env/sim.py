@@ -25,6 +25,11 @@ from .start_states import StartStates, StatePool
 from .state import WorldState
 
 
+def _is_seed(x) -> bool:
+    """A seed the worlds' generators take: a non-negative integer (not a bool)."""
+    return isinstance(x, (int, np.integer)) and not isinstance(x, bool) and x >= 0
+
+
 @dataclass
 class StepEvents:
     """What happened in one step, per world and robot. Robots that were not active at the start
@@ -75,6 +80,11 @@ class Simulator:
         self.scenario = scenario
         self.batch_size = int(batch_size)
         self.action_mode = action_mode
+        if obstacle_motion is not None and not isinstance(obstacle_motion, ObstacleMotion):
+            raise ValueError(
+                f"obstacle_motion must be a vcs_env.obstacles.ObstacleMotion, got {type(obstacle_motion).__name__} "
+                "(a model's name goes in the Scenario field obstacle_motion)"
+            )
         self.motion = obstacle_motion if obstacle_motion is not None else make_motion(scenario)
         self.rngs: list[np.random.Generator] = [np.random.default_rng() for _ in range(self.batch_size)]
         self.world: WorldState = self._empty_world()
@@ -135,12 +145,17 @@ class Simulator:
             The world state (a reference; copy it to keep a snapshot).
         """
         idx = list(range(self.batch_size)) if worlds is None else [int(w) for w in worlds]
-        if seeds is None or isinstance(seeds, (int, np.integer)):
+        if seeds is None or _is_seed(seeds):
             seed_list = [None if seeds is None else int(seeds) + i for i in range(len(idx))]
         else:
+            if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__len__"):
+                raise ValueError(f"seed must be a non-negative integer or one per world, got {seeds!r}")
             seed_list = list(seeds)
             if len(seed_list) != len(idx):
                 raise ValueError(f"got {len(seed_list)} seeds for {len(idx)} worlds")
+            bad = [s for s in seed_list if s is not None and not _is_seed(s)]
+            if bad:
+                raise ValueError(f"seeds must be non-negative integers or None, got {bad[0]!r}")
         w = self.world
         fresh, restored = [], []
         for b, seed in zip(idx, seed_list):
