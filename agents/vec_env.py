@@ -17,7 +17,8 @@ Semantics of a slot (a robot's episode inside its world's episode):
   the terminal observation), ``info["episode"] = {"r", "l", "t", "success", "collision",
   "reached", "time_to_goal"}`` and ``info["is_success"]`` (SB3's ``ep_info_buffer`` and
   ``ep_success_buffer`` then work without a ``VecMonitor``).
-* **padding**: after its robot ended and until its world resets (other robots still drive),
+* **padding**: after its robot ended and until its world resets (other robots still drive), and
+  from the start for a robot that had already finished in a saved state the world starts from,
   the slot returns an all-zero observation, zero reward, ``done=False`` and
   ``info["padding"] = True``; its actions are ignored (the engine ignores inactive robots).
   Real observations are never all-zero (index 4 holds ``v_max / V_REF > 0``), so the policy
@@ -152,7 +153,10 @@ class NavVecEnv(SharedSlots):
         return self._slot_view(self._live).copy()
 
     def _start_episodes(self, worlds: np.ndarray) -> None:
-        self._live[worlds] = True
+        """New episodes in ``worlds``: their driving robots' slots are live, the rest padding (a world
+        started from a saved state, :mod:`vcs_env.start_states`, may hold robots that already finished)."""
+        self._live[worlds] = self.engine.world.active[worlds]
+        self._obs[worlds] = np.where(self._live[worlds, :, None], self._obs[worlds], 0.0)
         self._ep_return[worlds] = 0.0
         self._ep_len[worlds] = 0
         self._collided[worlds] = False
@@ -233,9 +237,10 @@ class NavVecEnv(SharedSlots):
                 info["TimeLimit.truncated"] = False
 
         self._live &= ~robot_done
+        self._obs[:] = res.obs
         if ended.any():
             self._start_episodes(np.flatnonzero(ended))
-        obs = np.where(self._live[..., None], res.obs, 0.0).astype(np.float32)
+        obs = np.where(self._live[..., None], self._obs, 0.0).astype(np.float32)
         self._obs[:] = obs
         return (
             self._slot_view(obs).copy(),

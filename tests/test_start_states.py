@@ -211,3 +211,30 @@ def test_cli_names_the_subcommand_of_a_bad_episode_count(capsys):
 
     assert main(["collect-states", "--episodes", "0", "--out", "unused.npz"]) == 2
     assert "vcs-env collect-states: error: --episodes must be >= 1, got 0" in capsys.readouterr().err
+
+
+def test_robots_that_finished_in_a_saved_state_are_padding_in_the_vec_env():
+    # A saved state may hold robots that already arrived (half of those collect-states takes on the
+    # dynamic suite): their slots are padding from the start, never a live robot without reward.
+    from agents.vec_env import NavVecEnv
+
+    sc = dynamic(n_robots=3, max_steps=40)
+    sim = Simulator(sc, 1)
+    sim.reset(3)
+    sim.world.active[0, 1] = False  # robot 1 arrived and parked
+    sim.world.reached[0, 1] = True
+    pool = StatePool.take(sim.world, sim.motion_params, [0])
+    env = NavVecEnv(sc, n_worlds=2, start_states=StartStates({scenario_key(sc): pool}, prob=1.0))
+    env.seed(0)
+    obs = env.reset()
+    np.testing.assert_array_equal(env.live_mask(), [True, False, True] * 2)
+    assert not obs[[1, 4]].any() and obs[[0, 2, 3, 5], 4].all()  # index 4: v_max, > 0 for real robots
+    ended = False
+    for _ in range(60):
+        obs, reward, dones, infos = env.step(np.zeros((6, 2)))
+        assert reward[[1, 4]].sum() == 0 and all(infos[i].get("padding") for i in (1, 4) if not dones[i])
+        if dones[1]:  # the world reset: the padding segment closes without bootstrapping
+            assert infos[1]["TimeLimit.truncated"] is False and "episode" not in infos[1]
+            ended = True
+            break
+    assert ended
