@@ -70,7 +70,7 @@ def config_path(checkpoint: str | os.PathLike) -> Path:
 
 def jsonable(x: Any) -> Any:
     """Nested copy for strict JSON: dataclasses as dicts, numpy scalars and arrays as Python
-    numbers and lists, NaN and inf as ``None``."""
+    numbers and lists, NaN and inf as ``None``, paths as strings."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
         return jsonable(dataclasses.asdict(x))
     if isinstance(x, Mapping):
@@ -85,6 +85,8 @@ def jsonable(x: Any) -> Any:
         return int(x)
     if isinstance(x, (float, np.floating)):
         return float(x) if math.isfinite(x) else None
+    if isinstance(x, os.PathLike):
+        return os.fspath(x)
     return x
 
 

@@ -38,7 +38,7 @@ from vcs_env.suites import Suite, get_suite
 
 from .checkpoint import jsonable
 from .config import mixture_split
-from .policies import resolve_policy
+from .policies import policy_label, resolve_policy
 
 DEFAULT_BATCH = 25
 """Worlds stepped together. Smaller batches waste less time on worlds that already ended
@@ -255,8 +255,8 @@ def compare(policies: Sequence[Any] | Mapping[str, Any], suite: str | Suite, **k
     named = _named(policies)
     if not named:
         raise ValueError("compare needs at least one policy")
-    names = [label or p for label, p in named if isinstance(label or p, str)]
-    if len(set(names)) != len(names):  # fail before spending time on the first ones
+    names = [label or policy_label(os.fspath(p)) for label, p in named if label or isinstance(p, (str, os.PathLike))]
+    if len(set(names)) != len(names):  # fail before spending time on the first ones (the names evaluate gives)
         raise ValueError(f"policies must have distinct names, got {names}; pass a {{name: policy}} mapping")
     results: dict[str, EvalResult] = {}
     for label, policy in named:

@@ -15,7 +15,8 @@ separate MLPs, so the value fit does not disturb the actor.
 **DAgger** (``--dagger-iters K``): after BC, K rounds of: play ``dagger_episodes`` episodes
 where each robot executes the expert's action with probability ``beta_k = dagger_beta *
 0.5**k`` and the learner's deterministic action otherwise, label every visited state with the
-expert action (``NavEngine.expert_action``), add the states to the dataset and continue
+expert action (``NavEngine.expert_action``; the expert is the planner that collected the
+dataset, ``vcs-env collect --planner``), add the states to the dataset and continue
 training on the union. With ``--init CHECKPOINT`` the policy starts from a trained one (a
 ``bc`` or ``train`` checkpoint of the same ``--net-arch``) instead of a fresh one; with
 ``--epochs 0`` the DAgger rounds then start from it as it is, so the expert labels the states
@@ -353,12 +354,13 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     report["evaluations"] = [{"stage": stage, **(closed_loop(stage) or {})}]
 
     rng = np.random.default_rng(cfg.seed)
+    labeller = meta.get("planner", "vcs")  # DAgger labels with the planner that made the dataset
     dagger_steps = 0
     for k in range(cfg.dagger_iters):
         beta = cfg.dagger_beta * 0.5**k
         seeds = range(cfg.dagger_seed + k * cfg.dagger_episodes, cfg.dagger_seed + (k + 1) * cfg.dagger_episodes)
         actor = lambda o: policy.predict(o, deterministic=True)[0]  # noqa: E731
-        new = play_mixture(scenarios, seeds, actor=actor, beta=beta, rng=rng)
+        new = play_mixture(scenarios, seeds, actor=actor, beta=beta, rng=rng, expert=labeller)
         dagger_steps += len(new["actions"])
         new_ret = discounted_returns(new["rewards"], new["traj_start"], cfg.gamma)
         data = concat_datasets(data, new)

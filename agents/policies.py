@@ -66,8 +66,10 @@ def is_checkpoint_spec(spec: Any) -> bool:
         return True
     from baselines import PLANNERS  # lazy, like vcs_env.planning.make_planner
 
+    from .rllib_train import is_rllib_checkpoint
+
     exists = os.path.isfile(spec) or os.path.isfile(spec + ".zip") or os.path.isfile(os.path.join(spec, "model.zip"))
-    return spec not in PLANNERS and exists
+    return spec not in PLANNERS and (exists or is_rllib_checkpoint(spec))
 
 
 def _check_action_space(space: Any, what: str) -> None:
@@ -148,12 +150,13 @@ def resolve_policy(
     if is_checkpoint_spec(policy):
         if action_mode != "delta":
             from .checkpoint import config_path, resolve
+            from .rllib_train import METADATA, is_rllib_checkpoint
 
-            made = config_path(resolve(policy))
-            if made.is_file():  # a run record: vcs-env train, bc and rllib always act in delta mode
+            made = METADATA if is_rllib_checkpoint(policy) else config_path(resolve(policy))
+            if is_rllib_checkpoint(policy) or made.is_file():  # vcs-env train, bc and rllib act in delta mode
                 raise ValueError(
-                    f"{str(policy)!r} was trained by vcs-env (run record {made.name}), whose policies act in delta "
-                    f"mode; --action-mode {action_mode} would read its actions in other units"
+                    f"{str(policy)!r} was trained by vcs-env (run record {Path(made).name}), whose policies act in "
+                    f"delta mode; --action-mode {action_mode} would read its actions in other units"
                 )
         model = load_checkpoint(policy, scenario)
         label = name or policy_label(str(policy))

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from ray.rllib.env.multi_agent_env import MultiAgentEnv
 from ray.rllib.env.wrappers.pettingzoo_env import ParallelPettingZooEnv
@@ -112,6 +113,10 @@ class PettingZooNavEnv(ParallelPettingZooEnv):
         self.agents = list(self.possible_agents)
         self.observation_spaces = {i: self.par_env.observation_space(f"robot_{i}") for i in self.possible_agents}
         self.action_spaces = {i: self.par_env.action_space(f"robot_{i}") for i in self.possible_agents}
+        # The base class keyed these by the PettingZoo names ("robot_3"); the agents here are ints.
+        self._agent_ids = set(self.possible_agents)
+        self.observation_space = gym.spaces.Dict(self.observation_spaces)
+        self.action_space = gym.spaces.Dict(self.action_spaces)
 
     @staticmethod
     def _ints(d: dict) -> dict:

@@ -316,6 +316,12 @@ def train(cfg: RLlibConfig) -> dict[str, Any]:
         raise ValueError(f"env_adapter must be one of {list(ADAPTERS)}, got {cfg.env_adapter!r}")
     if cfg.init:
         raise ValueError("--init is not supported with --backend rllib (it loads SB3 weights)")
+    if cfg.mixture or cfg.mixture_balance != "worlds":
+        raise ValueError("--mixture and --mixture-balance apply to the SB3 backend only (RLlib runs one scenario)")
+    if cfg.target_kl is not None:
+        raise ValueError("--target-kl applies to the SB3 backend only (RLlib's PPO adapts a KL coefficient instead)")
+    if cfg.checkpoint_freq != TrainConfig.checkpoint_freq:
+        raise ValueError("--checkpoint-freq applies to the SB3 backend only (RLlib saves one checkpoint at the end)")
     if cfg.start_states is not None:
         raise ValueError("--start-states applies to the SB3 backend only (the RLlib env runners start fresh)")
     if cfg.features != "flat":

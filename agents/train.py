@@ -323,7 +323,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     torch.set_num_threads(1)
     from stable_baselines3 import PPO
 
-    from .checkpoint import load_model, load_policy_weights, save_model, scenario_family
+    from .checkpoint import jsonable, load_model, load_policy_weights, save_model, scenario_family
     from .vec_env import MixtureVecEnv, NavVecEnv
 
     out = Path(cfg.out)
@@ -345,7 +345,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         if cfg.init:
             meta = load_policy_weights(model, cfg.init, scenario)
             print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
-    (out / "config.json").write_text(json.dumps(dataclasses.asdict(cfg), indent=2) + "\n")
+    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
     remaining = cfg.timesteps - model.num_timesteps
     callback = _callbacks(cfg, scenarios, out, t_start)
     what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])

@@ -16,7 +16,10 @@ Semantics of a slot (a robot's episode inside its world's episode):
   ``info["TimeLimit.truncated"]`` (True only for a time-out, so SB3 bootstraps the value of
   the terminal observation), ``info["episode"] = {"r", "l", "t", "success", "collision",
   "reached", "time_to_goal"}`` and ``info["is_success"]`` (SB3's ``ep_info_buffer`` and
-  ``ep_success_buffer`` then work without a ``VecMonitor``).
+  ``ep_success_buffer`` then work without a ``VecMonitor``). Do not add one, nor score with SB3's
+  ``evaluate_policy``: both count every ``done`` as an episode, and padding segments (below) end
+  with ``done=True`` too; ``VecMonitor`` also overwrites ``info["episode"]``. Score policies with
+  :mod:`agents.evaluate`.
 * **padding**: after its robot ended and until its world resets (other robots still drive), and
   from the start for a robot that had already finished in a saved state the world starts from,
   the slot returns an all-zero observation, zero reward, ``done=False`` and
@@ -51,6 +54,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices,
 
 from vcs_env.engine import NavEngine
 from vcs_env.metrics import robots_succeeded
+from vcs_env.observations import observation_config
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import action_space, observation_space
 from vcs_env.start_states import StartStates
@@ -58,7 +62,8 @@ from vcs_env.start_states import StartStates
 
 class SharedSlots(VecEnv):
     """SB3 ``VecEnv`` plumbing for a VecEnv whose slots are all one object: attribute access and
-    method calls go to that object, there are no per-slot images and no wrappers."""
+    method calls go to that object (a method runs once, its result stands for every slot asked
+    for; an attribute is set for all slots or none), there are no per-slot images and no wrappers."""
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None] * self.num_envs
@@ -67,11 +72,15 @@ class SharedSlots(VecEnv):
         return [getattr(self, attr_name) for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        if len(list(self._get_indices(indices))) != self.num_envs:
+            raise ValueError(
+                f"the slots of {type(self).__name__} are one object: set_attr sets all of them (indices=None)"
+            )
         setattr(self, attr_name, value)
 
     def env_method(self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs) -> list[Any]:
-        method = getattr(self, method_name)
-        return [method(*method_args, **method_kwargs) for _ in self._get_indices(indices)]
+        result = getattr(self, method_name)(*method_args, **method_kwargs)
+        return [result for _ in self._get_indices(indices)]
 
     def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
@@ -323,9 +332,13 @@ class MixtureVecEnv(SharedSlots):
             NavVecEnv(s, c, action_mode, expert=expert, gamma=gamma, max_steps=max_steps, start_states=start_states)
             for s, c in zip(scenarios, counts)
         ]
-        shapes = {g.observation_space.shape for g in self.groups}
-        if len(shapes) != 1:
-            raise ValueError(f"mixture scenarios must share one observation size, got {sorted(shapes)}")
+        configs = [observation_config(g.engine.scenario) for g in self.groups]
+        if any(c != configs[0] for c in configs):
+            other = next(c for c in configs if c != configs[0])
+            raise ValueError(
+                "mixture scenarios must share one observation config (the same numbers mean the same thing), "
+                f"got {configs[0]} and {other}"
+            )
         self.n_worlds = int(n_worlds)
         self.render_mode = None
         self._world_offsets = np.cumsum([0] + counts[:-1]).tolist()

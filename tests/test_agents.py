@@ -1,11 +1,13 @@
 """agents/: the SB3 VecEnv adapter, checkpoints, behaviour cloning, and CLI smoke runs (cleanrl style)."""
 
 import json
+import os
 import re
 import shutil
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -414,3 +416,52 @@ def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
     v0.save(tmp_path / "v0.zip")
     with pytest.raises(CheckpointError, match=r"made for observation v0 \(vcs_nav_v0: 72 = 8 \+ 8 K"):
         load_model(tmp_path / "v0.zip", circle)
+
+
+def test_bc_takes_paths_and_dagger_labels_with_the_datasets_planner(tmp_path, monkeypatch):
+    # The Path collect() returns goes into BCConfig as it is (model.json is written), and DAgger asks
+    # the planner that collected the data, not the VCS expert, for its labels.
+    import agents.imitation as imitation
+
+    data = imitation.collect(
+        imitation.CollectConfig(scenario="swap", n_robots=2, episodes=3, planner="hrvo", out=str(tmp_path / "d.npz"))
+    )
+    assert isinstance(data, type(tmp_path))
+    experts = []
+    play = imitation.play_mixture
+    monkeypatch.setattr(imitation, "play_mixture", lambda *a, **kw: experts.append(kw.get("expert")) or play(*a, **kw))
+    cfg = imitation.BCConfig(
+        data=data, out=tmp_path / "bc", epochs=1, dagger_iters=1, dagger_episodes=2, eval_episodes=1, net_arch=(16,)
+    )
+    imitation.behaviour_clone(cfg)
+    assert experts == ["hrvo"]
+    assert json.loads((tmp_path / "bc" / "model.json").read_text())["config"]["data"] == str(data)
+
+
+def test_vec_env_plumbing_slots_mixtures_and_names(tmp_path):
+    from agents.evaluate import compare
+    from agents.policies import is_checkpoint_spec
+    from agents.vec_env import MixtureVecEnv
+    from vcs_env.lidar import LidarSpec
+
+    # The slots are one object: a method runs once (a reset is one reset), set_attr is for all slots.
+    env = NavVecEnv(make_scenario("circle", n_robots=3), n_worlds=2)
+    calls = []
+    env.ping = lambda: calls.append(1) or len(calls)
+    assert env.env_method("ping", indices=[0, 2, 4]) == [1, 1, 1] and calls == [1]
+    with pytest.raises(ValueError, match="set_attr sets all of them"):
+        env.set_attr("n_worlds", 5, indices=[1])
+    # A mixture needs one observation config, not only one size (4 slots = 3 slots + 8 beams).
+    same_size = [make_scenario("circle", n_robots=3, n_neighbors=4),
+                 make_scenario("circle", n_robots=3, n_neighbors=3, lidar=LidarSpec(n_beams=8))]  # fmt: skip
+    assert NavVecEnv(same_size[0]).observation_space.shape == NavVecEnv(same_size[1]).observation_space.shape
+    with pytest.raises(ValueError, match="one observation config"):
+        MixtureVecEnv(same_size, 2)
+    # compare refuses two policies that evaluate would give one name, before evaluating either.
+    with pytest.raises(ValueError, match="distinct names"):
+        released = Path(__file__).parents[1] / "policies/circle8/model.zip"
+        compare([str(released), str(tmp_path / "circle8" / "model.zip")], "circle-8-v0")
+    # An RLlib run directory is a checkpoint, with or without a slash.
+    (tmp_path / "rl_run" / "checkpoint").mkdir(parents=True)
+    (tmp_path / "rl_run" / "checkpoint" / "vcs_env.json").write_text("{}")
+    assert is_checkpoint_spec(os.path.relpath(tmp_path / "rl_run"))

@@ -231,7 +231,7 @@ def test_mixture_vec_env_is_its_groups_side_by_side():
         assert [sorted(i) for i in got[3]] == [sorted(i) for w in want for i in w[3]]
     with pytest.raises(ValueError, match="n_worlds must be an integer >= the number of mixture scenarios"):
         MixtureVecEnv(scenarios, n_worlds=1)
-    with pytest.raises(ValueError, match="one observation size"):
+    with pytest.raises(ValueError, match="one observation config"):
         MixtureVecEnv([scenarios[0], make_scenario("crowd", n_neighbors=2)], n_worlds=2)
 
 

@@ -93,6 +93,7 @@ def test_pettingzoo_adapter_ends_when_no_robot_is_left():
     env = PettingZooNavEnv(scenario)
     obs, _ = env.reset(seed=0)
     assert sorted(obs) == env.agents == [0, 1]
+    assert set(env.observation_space.spaces) == set(env.action_space.spaces) == {0, 1}  # int ids, as the agents
     np.testing.assert_array_equal(
         obs[1], parallel_env(scenario=scenario).reset(seed=world_seeds(0, 0, 1)[0])[0]["robot_1"]
     )
@@ -147,12 +148,20 @@ def _run(*argv: str, timeout: float = 120, code: str | None = None) -> subproces
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
 
 
-def test_bad_input_gets_one_line_errors(tmp_path):
+def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     from vcs_cli import main
 
     with pytest.raises(SystemExit):  # argparse: unknown backend
         main(["train", "--backend", "tf"])
     assert main(["train", "--num-env-runners", "2", "--out", str(tmp_path / "x")]) == 2  # sb3 + rllib flag
+    # SB3-only training flags are refused, not dropped (a --mixture run trained on circle alone).
+    for flags, name in (
+        (["--mixture", "crowd:n_obstacles=3"], "--mixture"),
+        (["--target-kl", "0.02"], "--target-kl"),
+        (["--checkpoint-freq", "1000"], "--checkpoint-freq"),
+    ):
+        assert main(["train", "--backend", "rllib", *flags, "--out", str(tmp_path / "m")]) == 2
+        assert name in capsys.readouterr().err
     # Nothing listens on this port: an error before Ray is started, naming the address.
     port = free_port()
     res = _run("train", "--backend", "rllib", "--address", f"127.0.0.1:{port}", "--out", str(tmp_path / "y"))
