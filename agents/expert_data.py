@@ -169,13 +169,32 @@ def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any
             data = {k: f[k] for k in f.files}
     except Exception as e:
         raise ValueError(f"dataset {str(path)!r} is not a readable .npz file: {type(e).__name__}: {e}") from None
-    missing = {"observations", "actions", "traj_start", "meta"} - set(data)
+    missing = {"observations", "actions", "rewards", "traj_start", "traj_seed", "meta"} - set(data)
     if missing:
         raise ValueError(f"dataset {str(path)!r} lacks {sorted(missing)} (not a vcs-env collect dataset)")
     meta = json.loads(str(data.pop("meta")))
     if meta.get("format") != DATASET_FORMAT:
         raise ValueError(f"dataset {str(path)!r} has format {meta.get('format')!r}, expected {DATASET_FORMAT!r}")
+    check_rows(data, f"dataset {str(path)!r}")
     return data, meta
+
+
+def check_rows(data: dict[str, np.ndarray], what: str = "dataset") -> int:
+    """The row count N of a dataset (module docstring) whose arrays agree; ``ValueError`` naming the
+    first that does not (or N = 0)."""
+    obs, start = data["observations"], np.asarray(data["traj_start"])
+    n = len(obs)
+    if obs.ndim != 2 or n == 0:
+        raise ValueError(f"{what} holds no robot-steps (observations of shape {obs.shape}, expected (N > 0, D))")
+    shapes = {"actions": (n, 2), "rewards": (n,)}
+    for key, shape in shapes.items():
+        if key in data and data[key].shape != shape:
+            raise ValueError(f"{what}: {key} has shape {data[key].shape}, expected {shape} (N = {n} observations)")
+    if start.ndim != 1 or len(start) < 2 or start[0] != 0 or start[-1] != n or np.any(np.diff(start) < 0):
+        raise ValueError(f"{what}: traj_start must rise from 0 to N = {n}, got {start[:3]}...{start[-2:]}")
+    if "traj_seed" in data and len(data["traj_seed"]) != len(start) - 1:
+        raise ValueError(f"{what}: traj_seed has {len(data['traj_seed'])} entries for {len(start) - 1} trajectories")
+    return n
 
 
 def concat_datasets(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -52,7 +52,15 @@ from .config import (
     config_from_dict,
     mixture_scenarios,
 )
-from .expert_data import DATASET_FORMAT, concat_datasets, discounted_returns, load_dataset, play_mixture, save_dataset
+from .expert_data import (
+    DATASET_FORMAT,
+    check_rows,
+    concat_datasets,
+    discounted_returns,
+    load_dataset,
+    play_mixture,
+    save_dataset,
+)
 
 LOSSES = ("nll", "mse")
 """Behaviour-cloning losses: Gaussian log-likelihood, or squared error of the mean."""
@@ -152,6 +160,9 @@ def bc_fit(
     import torch as th
 
     check_choice("loss", loss, LOSSES)
+    check_rows({"observations": np.asarray(obs), "actions": np.asarray(actions), "traj_start": [0, len(obs)]}, "bc_fit")
+    if returns is not None and np.shape(returns) != (len(obs),):
+        raise ValueError(f"bc_fit: returns has shape {np.shape(returns)}, expected ({len(obs)},)")
     g = th.Generator().manual_seed(seed)
     obs_t = th.as_tensor(obs, dtype=th.float32)
     act_t = th.as_tensor(actions, dtype=th.float32)
@@ -257,7 +268,7 @@ class BCConfig:
 def _split(data: dict[str, np.ndarray], frac: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Row masks (train, held-out), holding out whole episodes (seeds)."""
     seeds = np.unique(data["traj_seed"])
-    n_val = int(round(frac * len(seeds))) if len(seeds) > 1 else 0
+    n_val = min(int(round(frac * len(seeds))), len(seeds) - 1)  # at least one episode to train on
     val_seeds = np.random.default_rng(seed).permutation(seeds)[:n_val]
     lengths = np.diff(data["traj_start"])
     row_seed = np.repeat(data["traj_seed"], lengths)
