@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, observation_config
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, observation_config, observation_dim
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -197,11 +197,13 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
     another scenario family.
 
     A checkpoint without observation config in its metadata (or without metadata) whose size
-    has the v0 form ``8 + 8 K`` is a v0 checkpoint: refused with the reason.
+    has the v0 form ``8 + 8 K`` and is not the size ``scenario`` observes is a v0 checkpoint:
+    refused with the reason (one of the scenario's size, e.g. with lidar, goes on to the size check).
     """
     saved = meta.get("observation")
     dim = getattr(space, "shape", (None,))[0]
-    if saved is None and dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % NEIGHBOR_DIM == 0:
+    v0_form = dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % NEIGHBOR_DIM == 0
+    if saved is None and v0_form and dim != observation_dim(scenario):
         command = meta.get("command")
         raise CheckpointError(
             f"{what} was made for observation v0 (vcs_nav_v0: {dim} = {V0_EGO_DIM} + {NEIGHBOR_DIM} K floats, "

@@ -388,6 +388,16 @@ def test_a_v0_checkpoint_is_refused_with_the_reason():
     meta = {"command": "vcs-env train --n-robots 8"}
     with pytest.raises(CheckpointError, match=r"observation v0.*changed in v1.*Retrain it on v1 with its command: vcs"):
         check_checkpoint_fits(meta, space, scenario, "policy")
+    # A v1 observation that happens to have that form (5 lidar beams: 11 + 8 K + 5 = 8 + 8 (K + 1)) and
+    # no run record is only unchecked, not called v0.
+    from vcs_env.lidar import LidarSpec
+    from vcs_env.spaces import observation_space
+
+    lidar = make_scenario("circle", lidar=LidarSpec(n_beams=5))
+    space = observation_space(lidar)
+    assert (space.shape[0] - 8) % 8 == 0
+    with pytest.warns(UserWarning, match="no observation config"):
+        check_checkpoint_fits({}, space, lidar, "policy")
 
 
 def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
