@@ -51,7 +51,8 @@ def run_wall_time(run: Path) -> tuple[float, float]:
 
 def learning_curve(run: Path) -> dict[str, list[float]]:
     """The periodic evaluations of a run (``eval.jsonl``) as columns: timesteps, episode success
-    and collision rates, mean time to goal [s]. Empty lists if the run has none."""
+    and collision rates, mean time to goal [s] (NaN where no episode was solved: null in the file).
+    Empty lists if the run has none."""
     cols = {"timesteps": [], "success": [], "collision": [], "time_to_goal": []}
     path = run / "eval.jsonl"
     lines = path.read_text().splitlines() if path.exists() else []
@@ -60,7 +61,7 @@ def learning_curve(run: Path) -> dict[str, list[float]]:
         cols["timesteps"].append(int(e["timesteps"]))
         cols["success"].append(float(e["episode_success"]))
         cols["collision"].append(float(e["episode_collision"]))
-        cols["time_to_goal"].append(float(e["time_to_goal"]))
+        cols["time_to_goal"].append(math.nan if e["time_to_goal"] is None else float(e["time_to_goal"]))
     return cols
 
 

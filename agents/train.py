@@ -186,7 +186,7 @@ def scalar_results(res: dict[str, Any]) -> dict[str, float]:
 def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from .checkpoint import save_model, scenario_family
+    from .checkpoint import jsonable, save_model, scenario_family
     from .evaluate import evaluate as score_on_suite
     from .evaluate import score_scenarios
     from .policies import predictor_controller
@@ -232,8 +232,8 @@ def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
             for k in ("episode_success", "episode_collision", "robot_success", "robot_collision", "time_to_goal"):
                 self.logger.record(f"eval/{k}", res[k])
             self.history.append(res)
-            with open(out / "eval.jsonl", "a") as f:
-                f.write(json.dumps(res) + "\n")
+            with open(out / "eval.jsonl", "a") as f:  # strict JSON: NaN (no episode solved) as null
+                f.write(json.dumps(jsonable(res), allow_nan=False) + "\n")
             print(
                 f"[eval @ {res['timesteps']:>9d}] success {res['episode_success']:.2f} (robots "
                 f"{res['robot_success']:.3f}) collision {res['episode_collision']:.2f} (robots "

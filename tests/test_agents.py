@@ -277,6 +277,8 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     assert "crowd-5-v0-smoke: success" in out and meta["history"][-1]["suite"]["success"] == suite_success
     assert meta["scenario"]["rewards"]["time"] == 1.0
     assert (tmp_path / "ppo/checkpoints/model_128.zip").exists() and list((tmp_path / "ppo/tb").iterdir())
+    for line in (tmp_path / "ppo/eval.jsonl").read_text().splitlines():  # strict JSON (no NaN)
+        json.loads(line, parse_constant=lambda c: pytest.fail(f"eval.jsonl holds {c}"))
     out = vcs_env_cli(
         "train --resume ppo/checkpoints/model_128.zip --timesteps 384 --out ppo2 --no-progress-bar", tmp_path
     )
