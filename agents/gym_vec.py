@@ -50,9 +50,13 @@ class GymVectorToSB3(VecEnv):
         self._actions: np.ndarray | None = None
 
     def reset(self) -> np.ndarray:
-        """Reset every env; a pending ``seed(s)`` seeds env ``i`` with ``s + i``."""
+        """Reset every env; a pending ``seed(s)`` seeds env ``i`` with ``s + i``, and pending
+        ``set_options(options)`` go to the vector env's ``reset`` (one dict for all envs)."""
         seeds = None if self._seeds[0] is None else [int(s) for s in self._seeds]
-        obs, _ = self.env.reset(seed=seeds)
+        options = self._options[0] if self._options else {}
+        if any(o != options for o in self._options):
+            raise ValueError("GymVectorToSB3 passes one options dict to the vector env's reset; got one per env")
+        obs, _ = self.env.reset(seed=seeds, options=options or None)
         self._reset_seeds()
         self._reset_options()
         self.reset_infos = [{} for _ in range(self.num_envs)]

@@ -148,6 +148,10 @@ def test_sb3_adapter_equals_dummy_vec_env():
             assert info_a[i]["TimeLimit.truncated"] == info_b[i]["TimeLimit.truncated"]
         dones += int(done_a.sum())
     assert dones >= 3
+    # set_options reaches the vector env's reset (here a mask that selects nothing: its error).
+    fast.set_options({"reset_mask": np.zeros(3, dtype=bool)})
+    with pytest.raises(ValueError, match="reset_mask"):
+        fast.reset()
 
 
 def test_sb3_ppo_learns_through_the_adapter():
