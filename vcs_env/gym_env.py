@@ -10,7 +10,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from .engine import NavEngine, RewardFn
+from .engine import NavEngine, RewardFn, check_max_steps
 from .planning import Planner, make_planner
 from .render import Renderer, RenderMixin
 from .scenario import Scenario, make_scenario
@@ -178,15 +178,9 @@ class VcsNavVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self.render_mode = None
         self.scenario = make_scenario(scenario, **scenario_overrides)
-        if max_episode_steps is not None and (
-            isinstance(max_episode_steps, bool)
-            or not isinstance(max_episode_steps, (int, np.integer))
-            or max_episode_steps < 1
-        ):
-            raise ValueError(f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}")
-        limit = (
-            self.scenario.max_steps if max_episode_steps is None else min(self.scenario.max_steps, max_episode_steps)
-        )
+        limit = self.scenario.max_steps
+        if max_episode_steps is not None:
+            limit = min(limit, check_max_steps(max_episode_steps, "max_episode_steps"))
         self.engine = NavEngine(
             self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
         )

@@ -110,6 +110,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.scenario = make_scenario(scenario, **scenario_overrides)
+        if max_cycles is not None:
+            max_cycles = check_max_steps(max_cycles, "max_cycles")
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles)
         self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         self.render_mode = render_mode
