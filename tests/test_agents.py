@@ -430,26 +430,6 @@ def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
         load_model(tmp_path / "v0.zip", circle)
 
 
-def test_bc_takes_paths_and_dagger_labels_with_the_datasets_planner(tmp_path, monkeypatch):
-    # The Path collect() returns goes into BCConfig as it is (model.json is written), and DAgger asks
-    # the planner that collected the data, not the VCS expert, for its labels.
-    import agents.imitation as imitation
-
-    data = imitation.collect(
-        imitation.CollectConfig(scenario="swap", n_robots=2, episodes=3, planner="hrvo", out=str(tmp_path / "d.npz"))
-    )
-    assert isinstance(data, type(tmp_path))
-    experts = []
-    play = imitation.play_mixture
-    monkeypatch.setattr(imitation, "play_mixture", lambda *a, **kw: experts.append(kw.get("expert")) or play(*a, **kw))
-    cfg = imitation.BCConfig(
-        data=data, out=tmp_path / "bc", epochs=1, dagger_iters=1, dagger_episodes=2, eval_episodes=1, net_arch=(16,)
-    )
-    imitation.behaviour_clone(cfg)
-    assert experts == ["hrvo"]
-    assert json.loads((tmp_path / "bc" / "model.json").read_text())["config"]["data"] == str(data)
-
-
 def test_vec_env_plumbing_slots_mixtures_and_names(tmp_path):
     from agents.evaluate import compare
     from agents.policies import is_checkpoint_spec
@@ -477,29 +457,3 @@ def test_vec_env_plumbing_slots_mixtures_and_names(tmp_path):
     (tmp_path / "rl_run" / "checkpoint").mkdir(parents=True)
     (tmp_path / "rl_run" / "checkpoint" / "vcs_env.json").write_text("{}")
     assert is_checkpoint_spec(os.path.relpath(tmp_path / "rl_run"))
-
-
-def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on(tmp_path):
-    import agents.imitation as imitation
-    from agents.expert_data import load_dataset
-
-    path = imitation.collect(
-        imitation.CollectConfig(scenario="swap", n_robots=2, episodes=2, out=str(tmp_path / "d.npz"))
-    )
-    with np.load(path) as f:
-        arrays = {k: f[k] for k in f.files}
-    for key, change, message in (
-        ("rewards", None, r"lacks \['rewards'\]"),
-        ("actions", lambda a: a[:, :1], r"actions has shape \(\d+, 1\)"),
-        ("observations", lambda a: a[:0], "holds no robot-steps"),
-        ("traj_start", lambda a: a[:-1], "traj_start must rise from 0 to N"),
-    ):
-        bad = {k: v for k, v in arrays.items() if k != key}
-        if change is not None:
-            bad[key] = change(arrays[key])
-        np.savez(tmp_path / "bad.npz", **bad)
-        with pytest.raises(ValueError, match=message):
-            load_dataset(tmp_path / "bad.npz")
-    # Holding out 90 % of 2 episodes still trains on one (it held out both: a ZeroDivisionError).
-    cfg = imitation.BCConfig(data=str(path), out=str(tmp_path / "bc"), epochs=1, val_fraction=0.9, eval_episodes=1)
-    assert imitation.behaviour_clone(cfg)["rows"] > 0
