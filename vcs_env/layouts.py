@@ -263,26 +263,30 @@ class Crowd(ScenarioKind):
                     np.linalg.norm(q - c) - rad - radius[k] >= s.min_separation for c, rad in bodies for q in (p, g)
                 )
                 if ok:
-                    pos[k], target[k] = p, g
-                    bodies += [(p, radius[k]), (g, radius[k])]
                     break
             else:  # the random draws found no room: search every place, in an order drawn from rng
-                spots = Crowd._spots(s)
-                spots = spots[rng.permutation(len(spots))]
-                centre = np.array([c for c, _ in bodies])
-                clear = np.array([rad for _, rad in bodies]) + radius[k] + s.min_separation
-                fits = np.ones(len(spots), dtype=bool)
-                for q in (spots, -spots):
-                    fits &= (np.linalg.norm(q[:, None] - centre[None], axis=-1) >= clear).all(axis=1)
-                if not fits.any():
-                    raise ValueError(
-                        f"could not place crowd obstacle {k} without overlap; "
-                        "increase layout_radius or reduce n_obstacles / min_separation"
-                    )
-                pos[k] = spots[np.argmax(fits)]
-                target[k] = -pos[k]
-                bodies += [(pos[k], radius[k]), (target[k], radius[k])]
+                p = Crowd._search(rng, s, bodies, radius[k], k)
+            pos[k], target[k] = p, -p
+            bodies += [(p, radius[k]), (-p, radius[k])]
         return pos, target
+
+    @staticmethod
+    def _search(rng: np.random.Generator, s: Scenario, bodies: list, r: float, k: int) -> np.ndarray:
+        """The first of :meth:`_spots`, in an order drawn from ``rng``, whose start and antipodal goal keep
+        clear of ``bodies`` (the random draws' test); ``ValueError`` if none does."""
+        spots = Crowd._spots(s)
+        spots = spots[rng.permutation(len(spots))]
+        centre = np.array([c for c, _ in bodies])
+        rad = np.array([rad for _, rad in bodies])
+        fits = np.ones(len(spots), dtype=bool)
+        for q in (spots, -spots):
+            fits &= (np.linalg.norm(q[:, None] - centre[None], axis=-1) - rad - r >= s.min_separation).all(axis=1)
+        if not fits.any():
+            raise ValueError(
+                f"could not place crowd obstacle {k} without overlap; "
+                "increase layout_radius or reduce n_obstacles / min_separation"
+            )
+        return spots[np.argmax(fits)]
 
     @staticmethod
     def _spots(s: Scenario) -> np.ndarray:
