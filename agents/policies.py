@@ -152,10 +152,11 @@ def resolve_policy(
             from .checkpoint import config_path, resolve
             from .rllib_train import METADATA, is_rllib_checkpoint
 
-            made = METADATA if is_rllib_checkpoint(policy) else config_path(resolve(policy))
-            if is_rllib_checkpoint(policy) or made.is_file():  # vcs-env train, bc and rllib act in delta mode
+            rllib = is_rllib_checkpoint(policy)
+            record = Path(METADATA) if rllib else config_path(resolve(policy))
+            if rllib or record.is_file():  # vcs-env train, bc and rllib act in delta mode
                 raise ValueError(
-                    f"{str(policy)!r} was trained by vcs-env (run record {Path(made).name}), whose policies act in "
+                    f"{str(policy)!r} was trained by vcs-env (run record {record.name}), whose policies act in "
                     f"delta mode; --action-mode {action_mode} would read its actions in other units"
                 )
         model = load_checkpoint(policy, scenario)

@@ -165,7 +165,6 @@ class NavVecEnv(SharedSlots):
         """New episodes in ``worlds``: their driving robots' slots are live, the rest padding (a world
         started from a saved state, :mod:`vcs_env.start_states`, may hold robots that already finished)."""
         self._live[worlds] = self.engine.world.active[worlds]
-        self._obs[worlds] = np.where(self._live[worlds, :, None], self._obs[worlds], 0.0)
         self._ep_return[worlds] = 0.0
         self._ep_len[worlds] = 0
         self._collided[worlds] = False
@@ -178,18 +177,21 @@ class NavVecEnv(SharedSlots):
         obs = self.engine.reset(seeds)
         self._reset_seeds()
         self._reset_options()
-        self._obs[:] = obs
-        self._start_episodes(np.arange(self.n_worlds))
         self.reset_infos = [{} for _ in range(self.num_envs)]
-        return self._slot_view(self._obs).copy()
+        return self._begin(obs)
 
     def reset_worlds(self, seeds: Sequence[int]) -> np.ndarray:
         """Reset world ``b`` with ``seeds[b]`` (a fixed evaluation list); returns ``(B * n, D)``."""
         if len(seeds) != self.n_worlds:
             raise ValueError(f"need one seed per world ({self.n_worlds}), got {len(seeds)}")
         self._reset_seeds()
-        self._obs[:] = self.engine.reset([int(s) for s in seeds])
+        return self._begin(self.engine.reset([int(s) for s in seeds]))
+
+    def _begin(self, obs: np.ndarray) -> np.ndarray:
+        """Every world's first observations ``obs`` ``(B, n, D)``: new episodes, padding slots zeroed;
+        returns them as ``(B * n, D)``."""
         self._start_episodes(np.arange(self.n_worlds))
+        self._obs[:] = np.where(self._live[..., None], obs, 0.0)
         return self._slot_view(self._obs).copy()
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -246,10 +248,9 @@ class NavVecEnv(SharedSlots):
                 info["TimeLimit.truncated"] = False
 
         self._live &= ~robot_done
-        self._obs[:] = res.obs
         if ended.any():
             self._start_episodes(np.flatnonzero(ended))
-        obs = np.where(self._live[..., None], self._obs, 0.0).astype(np.float32)
+        obs = np.where(self._live[..., None], res.obs, 0.0).astype(np.float32)
         self._obs[:] = obs
         return (
             self._slot_view(obs).copy(),
