@@ -22,12 +22,17 @@ ARRIVED_WITHIN = 0.5  # [s]
 EARLY = 2.0  # [s]
 
 
+def first_contact(ep):
+    """The episode's first contact (``vcs_env.contacts.Contact``; the at-fault side of a tie first), or None."""
+    events = contact_events(ep)
+    return min(events, key=lambda c: (c.step, not c.at_fault)) if events else None
+
+
 def classify(ep) -> tuple[str, bool, bool] | None:
     """(class, at fault, first 2 s) of the episode's first contact, or None without contacts."""
-    events = contact_events(ep)
-    if not events:
+    first = first_contact(ep)
+    if first is None:
         return None
-    first = min(events, key=lambda c: (c.step, not c.at_fault))  # the at-fault side of a tie first
     kind = first.kind
     if kind == "parked":
         arrived = ep.reached_step[first.other]

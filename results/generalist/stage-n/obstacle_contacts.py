@@ -20,9 +20,9 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
+from contacts import first_contact  # this directory's contacts.py
 
 from agents.policies import resolve_policy
-from vcs_env.contacts import contact_events
 from vcs_env.rollout import run_episodes
 from vcs_env.suites import get_suite
 
@@ -83,11 +83,8 @@ def main() -> None:
         rows, gaps = [], []
         for ep in run_episodes(scenario, controller, range(lo, hi), batch_size=250):
             gaps.append(smallest_gaps(ep))
-            events = contact_events(ep)
-            if not events:
-                continue
-            first = min(events, key=lambda c: (c.step, not c.at_fault))
-            if first.kind == "obstacle" and first.at_fault:
+            first = first_contact(ep)
+            if first is not None and first.kind == "obstacle" and first.at_fault:
                 rows.append(describe(ep, first) | {"seed": ep.seed})
         gaps = np.concatenate(gaps)
         p10 = np.percentile(gaps[np.isfinite(gaps)], 10)
