@@ -265,7 +265,8 @@ def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, 
         device: torch device.
 
     Raises:
-        CheckpointError: missing, corrupt, made for observation v0, or for another observation config.
+        CheckpointError: missing, corrupt, saved by another SB3 algorithm than PPO, made for
+            observation v0, or for another observation config.
     """
     from .rllib_train import is_rllib_checkpoint, load_policy
 
@@ -286,6 +287,12 @@ def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, 
     if not data or "observation_space" not in data or not params or "policy" not in params:
         raise CheckpointError(
             f"checkpoint {str(path)!r} is not an SB3 policy checkpoint (no observation space or policy weights)"
+        )
+    if "clip_range" not in data:  # A2C shares PPO's policy class; SAC, TD3, DQN have their own
+        cls = getattr(data.get("policy_class"), "__name__", "unknown")
+        raise CheckpointError(
+            f"checkpoint {str(path)!r} was saved by another SB3 algorithm than PPO (policy class {cls}, no "
+            "clip_range): vcs-env loads the PPO checkpoints of `vcs-env train` and `vcs-env bc`"
         )
     if scenario is not None:
         check_checkpoint_fits(read_metadata(path), data["observation_space"], scenario, f"checkpoint {str(path)!r}")

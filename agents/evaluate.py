@@ -20,6 +20,7 @@ This module imports neither torch nor stable-baselines3 at import time.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
@@ -124,6 +125,19 @@ class EvalResult:
         )
 
 
+@contextlib.contextmanager
+def _seeded_sampling(seed: int, deterministic: bool):
+    """Draw an SB3 policy's sampled actions (torch's global generator) from ``seed``, restoring
+    torch's generator state afterwards; nothing to do for deterministic actions or without torch."""
+    torch = sys.modules.get("torch")
+    if deterministic or torch is None:
+        yield
+        return
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed % 2**63)
+        yield
+
+
 def evaluate(
     policy: Any,
     suite: str | Suite,
@@ -143,7 +157,9 @@ def evaluate(
         suite: suite name or :class:`~vcs_env.suites.Suite`.
         name: display name (default: derived from ``policy``).
         action_mode: action units of the policy (``delta`` or ``absolute``; planners adapt).
-        deterministic: passed to ``predict``.
+        deterministic: passed to ``predict``. Sampled actions (False) of an SB3 policy come from
+            torch's generator seeded from the suite's first seed (torch's global state is restored
+            afterwards): the same suite and ``batch_size`` give the same episodes.
         batch_size: worlds stepped together (see :data:`DEFAULT_BATCH`).
         keep_episodes: indices into ``suite.seeds`` whose recorded episodes to keep (for plots).
         progress: show a progress bar; None shows one when stderr is a terminal.
@@ -164,21 +180,22 @@ def evaluate(
     rows: list[dict[str, float]] = []
     kept: dict[int, Episode] = {}
     compute, decisions = 0.0, 0
-    warm_up(suite.scenario, resolved.controller, suite.seeds[0], action_mode)
-    t0 = time.perf_counter()
-    try:
-        for start in range(0, suite.n_episodes, batch_size):
-            seeds = suite.seeds[start : start + batch_size]
-            episodes = run_episodes(suite.scenario, resolved.controller, seeds, action_mode=action_mode)
-            for i, ep in enumerate(episodes, start):
-                rows.append(episode_metrics(ep))
-                compute += ep.compute_time
-                decisions += ep.decisions
-                if i in keep:
-                    kept[i] = ep
-            bar.update(len(seeds))
-    finally:
-        bar.close()
+    with _seeded_sampling(int(suite.seeds[0]), deterministic):
+        warm_up(suite.scenario, resolved.controller, suite.seeds[0], action_mode)
+        t0 = time.perf_counter()
+        try:
+            for start in range(0, suite.n_episodes, batch_size):
+                seeds = suite.seeds[start : start + batch_size]
+                episodes = run_episodes(suite.scenario, resolved.controller, seeds, action_mode=action_mode)
+                for i, ep in enumerate(episodes, start):
+                    rows.append(episode_metrics(ep))
+                    compute += ep.compute_time
+                    decisions += ep.decisions
+                    if i in keep:
+                        kept[i] = ep
+                bar.update(len(seeds))
+        finally:
+            bar.close()
     return EvalResult(
         policy=resolved.name,
         suite=suite,

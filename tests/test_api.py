@@ -67,6 +67,32 @@ def test_bad_actions_raise_clear_errors():
         env.step({"robot_0": np.zeros(2), "robot_1": np.zeros(2), "robot_9": np.zeros(2)})
     with pytest.raises(ValueError, match="dict"):
         env.step([np.zeros(2), np.zeros(2)])
+    # Anything but real numbers is refused by name in every adapter (complex parts were dropped
+    # with a ComplexWarning, strings were parsed as numbers).
+    for bad in (np.array([1j, 0.0]), ["0.5", "0"], [0.5, "x"]):
+        with pytest.raises(ValueError, match="robot_0 must be real numbers"):
+            env.step({"robot_0": bad, "robot_1": np.zeros(2)})
+    single = gym.make("vcs_env/Swap-v1").unwrapped
+    single.reset(seed=0)
+    with pytest.raises(ValueError, match="action must be real numbers"):
+        single.step(np.array([0.5 + 1j, 0.0]))
+    vec = gym.make_vec("vcs_env/Swap-v1", num_envs=2, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    with pytest.raises(ValueError, match="actions must be real numbers"):
+        vec.step(np.zeros((2, 2), dtype=complex))
+    # An unknown planner for the other robots is named even when there are none to drive.
+    with pytest.raises(ValueError, match="unknown planner 'nope'"):
+        gym.make("vcs_env/Circle-v1", n_robots=1, others="nope")
+
+
+def test_render_fps_is_real_time_for_the_scenario_step():
+    for dt in (0.1, 0.05):
+        par = vcs_env.parallel_env(scenario="circle", dt=dt)
+        aec = vcs_env.env(scenario="circle", dt=dt)
+        single = gym.make("vcs_env/Circle-v1", dt=dt)
+        for e in (par, aec, single):
+            assert e.metadata["render_fps"] == pytest.approx(1.0 / dt)
+    assert vcs_env.parallel_env(scenario="circle").metadata["render_modes"] == ["human", "rgb_array", "ansi"]
 
 
 def test_info_events_and_state():

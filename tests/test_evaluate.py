@@ -328,6 +328,23 @@ def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):
     with pytest.raises(ValueError, match=r"observation space Box\(19,\)"):
         evaluate(tmp_path / "other.zip", suite, progress=False)
 
+    # Sampled actions: the same suite gives the same episodes (torch's global generator moves on
+    # in between), and they are not the deterministic ones.
+    runs = [evaluate(str(tmp_path / "good.zip"), suite, deterministic=False, progress=False) for _ in range(2)]
+
+    def played(res):  # every metric but the compute time, NaN equal to NaN
+        return np.array([[v for k, v in sorted(r.items()) if k != "compute_per_decision"] for r in res.rows])
+
+    np.testing.assert_array_equal(played(runs[0]), played(runs[1]))
+    assert not np.array_equal(played(res), played(runs[0]), equal_nan=True)  # they are samples
+
+    # Another SB3 algorithm's checkpoint is named, not loaded as PPO (A2C shares PPO's policy class).
+    from stable_baselines3 import A2C
+
+    A2C("MlpPolicy", SpacesOnly(observation_space(suite.scenario)), n_steps=8, device="cpu").save(tmp_path / "a2c.zip")
+    with pytest.raises(ValueError, match="another SB3 algorithm than PPO.*ActorCriticPolicy"):
+        evaluate(tmp_path / "a2c.zip", suite, progress=False)
+
 
 # --------------------------------------------------------------------------- compare
 def test_compare_uses_episodes_every_policy_solved():

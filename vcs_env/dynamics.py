@@ -27,12 +27,16 @@ from .state import WorldState
 ACTION_MODES = ("delta", "absolute")
 
 
-def check_actions(actions: np.ndarray, shape: tuple[int, ...], what: str = "actions") -> np.ndarray:
-    """Return ``actions`` as float64 of ``shape``; raise ``ValueError`` on a wrong shape, NaN or inf."""
+def check_actions(actions, shape: tuple[int, ...], what: str = "actions") -> np.ndarray:
+    """Return ``actions`` as float64 of ``shape``; raise ``ValueError`` naming ``what`` on anything
+    but real numbers (complex, strings), on a wrong shape, NaN or inf."""
     try:
-        arr = np.asarray(actions, dtype=np.float64)
+        raw = np.asarray(actions)
+        if raw.dtype.kind not in "biufO":
+            raise TypeError(f"dtype {raw.dtype}")
+        arr = raw.astype(np.float64)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"{what} must be numeric arrays of shape {shape}: {e}") from None
+        raise ValueError(f"{what} must be real numbers of shape {shape}, got {actions!r} ({e})") from None
     if arr.shape != shape:
         raise ValueError(f"{what} must have shape {shape}, got {arr.shape}")
     if not np.isfinite(arr).all():

@@ -10,6 +10,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from .dynamics import check_actions
 from .engine import NavEngine, RewardFn, check_max_steps
 from .planning import Planner, make_planner
 from .render import Renderer, RenderMixin
@@ -84,8 +85,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma)
         self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         n = self.scenario.n_robots
-        self.others = make_planner(others) if n > 1 else None
+        others = make_planner(others)  # checked even when no other robot needs it
+        self.others = others if n > 1 else None
         self._others_mask = np.arange(n) > 0  # robots the `others` planner drives (not robot_0)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.scenario.dt}  # one step per frame: real time
         self.render_mode = render_mode
         self.observation_space = observation_space(self.scenario)
         self.action_space = action_space()
@@ -109,14 +112,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         return obs[0, 0], info
 
     def step(self, action):
-        try:
-            arr = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"action must be numeric with shape (2,), got {action!r}") from None
-        if arr.shape != (2,):
-            raise ValueError(f"action must have shape (2,), got {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"action must be finite, got {arr}")
+        arr = check_actions(action, (2,), "action")
         if self.others is not None:
             actions = _others_actions(self.others, self.engine, self._others_mask)
         else:
@@ -185,7 +181,8 @@ class VcsNavVectorEnv(VectorEnv):
             self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
         )
         self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
-        self.others = make_planner(others) if self.scenario.n_robots > 1 else None
+        others = make_planner(others)  # checked even when no other robot needs it
+        self.others = others if self.scenario.n_robots > 1 else None
         self._others_mask = np.arange(self.scenario.n_robots) > 0  # robots `others` drives (not robot_0)
         self.single_observation_space = observation_space(self.scenario)
         self.single_action_space = action_space()
@@ -243,14 +240,7 @@ class VcsNavVectorEnv(VectorEnv):
         return self._obs.copy(), info
 
     def step(self, actions):
-        try:
-            arr = np.asarray(actions, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"actions must be numeric with shape ({self.num_envs}, 2), got {actions!r}") from None
-        if arr.shape != (self.num_envs, 2):
-            raise ValueError(f"actions must have shape ({self.num_envs}, 2), got {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"actions must be finite, got {arr[~np.isfinite(arr)][:4]}")
+        arr = check_actions(actions, (self.num_envs, 2))
         eng = self.engine
         if self.others is not None:
             batch = _others_actions(self.others, eng, self._others_mask)

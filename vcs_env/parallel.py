@@ -11,6 +11,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from . import spaces as nav_spaces
+from .dynamics import check_actions
 from .engine import NavEngine, RewardFn, check_max_steps
 from .observations import state_vector
 from .planning import Planner
@@ -114,6 +115,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
             max_cycles = check_max_steps(max_cycles, "max_cycles")
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles)
         self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
+        self.metadata = {**self.metadata, "render_fps": 1.0 / self.scenario.dt}  # one step per frame: real time
         self.render_mode = render_mode
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
@@ -189,14 +191,17 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
 
     def _live_rows(self, actions: Mapping[str, np.ndarray]) -> np.ndarray | None:
         """The live agents' actions ``(len(agents), 2)`` float64 when ``actions`` has exactly
-        one finite action of shape (2,) per live agent; None otherwise (then
+        one finite real action of shape (2,) per live agent; None otherwise (then
         :meth:`_parse_actions` names the problem)."""
         if len(actions) != len(self.agents):
             return None
         try:
-            rows = np.array([actions[a] for a in self.agents], dtype=np.float64)
+            rows = np.array([actions[a] for a in self.agents])
         except (KeyError, TypeError, ValueError):
             return None
+        if rows.dtype.kind not in "biuf":  # complex, strings, objects: named by the slow path
+            return None
+        rows = rows.astype(np.float64, copy=False)
         if rows.shape != (len(self.agents), 2) or not np.isfinite(rows).all():
             return None
         return rows
@@ -208,15 +213,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
             i = self._check_agent(agent)
             if agent not in self.agents:
                 continue  # a finished robot's action is ignored
-            try:
-                arr = np.asarray(act, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise ValueError(f"action of {agent} must be numeric with shape (2,), got {act!r}") from None
-            if arr.shape != (2,):
-                raise ValueError(f"action of {agent} must have shape (2,), got {arr.shape}")
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"action of {agent} must be finite, got {arr}")
-            batch[0, i] = arr
+            batch[0, i] = check_actions(act, (2,), f"action of {agent}")
         missing = [a for a in self.agents if a not in actions]
         if missing:
             raise ValueError(f"missing actions for live agents {missing}")

@@ -34,10 +34,10 @@ class Renderer:
         extent: half size of the drawn square [m] (centred on the origin).
         size: image side [px].
         mode: ``"human"`` opens a window; ``"rgb_array"`` draws off-screen.
-        fps: frame rate of the human window.
+        fps: frame rate of the human window [1/s] (the adapters pass 1 / dt: real time).
     """
 
-    def __init__(self, extent: float, size: int = 600, mode: str = "rgb_array", fps: int = 10):
+    def __init__(self, extent: float, size: int = 600, mode: str = "rgb_array", fps: float = 10.0):
         self.extent, self.size, self.mode, self.fps = float(extent), int(size), mode, fps
         self._pg = None
         self._screen = None
