@@ -14,7 +14,8 @@ window, as fractions of the one-step limits.
 * holonomic: target velocity ``a v_max`` (world frame), clipped to the unit disc.
 
 Out-of-range components are clipped to ``[-1, 1]`` (a documented clip, like every Box action
-space); NaN, inf and wrong shapes are errors (:func:`check_actions`).
+space); NaN, inf, wrong shapes and anything but real numbers (complex, strings) are errors
+(:func:`check_actions`, used by every adapter).
 """
 
 from __future__ import annotations
