@@ -35,7 +35,12 @@ def twin_range(origin, angle, discs, segments, max_range):
         a, b = np.asarray(a), np.asarray(b)
         m = np.array([[d[0], a[0] - b[0]], [d[1], a[1] - b[1]]])
         det = np.linalg.det(m)
-        if abs(det) < 1e-12:
+        if abs(det) < 1e-12:  # parallel: on the segment's line the nearer end ahead is hit
+            off = a - o
+            if abs(off[0] * d[1] - off[1] * d[0]) <= 1e-9:
+                ta, tb = off @ d, (b - o) @ d
+                if max(ta, tb) >= 0.0:  # an end ahead; 0 from a point on the segment
+                    best = min(best, max(0.0, min(ta, tb)))
             continue
         t, u = np.linalg.solve(m, a - o)
         if t >= 0.0 and 0.0 <= u <= 1.0:
@@ -96,6 +101,29 @@ def test_beams_by_hand():
     s2 = Scenario(**{**s.__dict__, "lidar": LidarSpec(n_beams=1, fov=0.5, max_range=10.0)})
     w.heading[:] = math.pi / 2  # straight at the obstacle
     assert scan(w, s2.lidar)[0, 0, 0] == pytest.approx(2.5)
+
+
+@pytest.mark.parametrize(
+    "heading, wall, want",
+    [
+        (0.0, ((2.0, 0.0), (3.0, 0.0)), 2.0),
+        (math.pi, ((-3.0, 0.0), (-2.0, 0.0)), 2.0),
+        (math.pi / 2, ((0.0, 0.6), (0.0, 3.0)), 0.6),  # in a door, looking along its jamb
+        (-math.pi / 2, ((0.0, -3.0), (0.0, -0.6)), 0.6),
+        (math.pi / 4, ((1.0, 1.0), (2.0, 2.0)), math.sqrt(2.0)),
+    ],
+)
+def test_a_wall_seen_end_on_is_hit_at_its_nearer_end(heading, wall, want):
+    """A beam along a wall's own line reads the distance to the wall's nearer end; it read max
+    range (the beam and the wall are parallel, or parallel within rounding)."""
+    s = Scenario(
+        kind="custom",
+        n_robots=1,
+        custom=CustomLayout(start=((0.0, 0.0),), goal=((-1.0, 1.0),), heading=(heading,), walls=(wall,)),
+        lidar=LidarSpec(n_beams=3, fov=0.3, max_range=4.0),
+    )
+    r = scan(Simulator(s).reset(0), s.lidar)[0, 0]
+    assert r[1] == pytest.approx(want, abs=1e-9) and r[0] == 4.0 and r[2] == 4.0
 
 
 def test_noise_is_seeded_by_the_world_and_clipped():

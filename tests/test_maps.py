@@ -49,6 +49,14 @@ def test_random_walls_differ_by_seed():
         ({"kind": "corridor", "corridor_width": 0.6}, "passage"),
         ({"kind": "room", "door_width": 7.0}, "door_width"),
         ({"kind": "doorway", "layout_radius": 0.3}, "from a wall"),
+        # Robots outside the arena's walls (they drove round the outside of the box).
+        ({"kind": "doorway", "arena_half_size": 2.0, "layout_radius": 3.0}, "outside the arena's walls"),
+        ({"kind": "doorway", "n_robots": 30, "arena_half_size": 4.0, "layout_radius": 2.22}, "outside the arena"),
+        # Random walls too dense to draw a layout for every seed: refused here, not at some reset.
+        (
+            {"kind": "walls", "n_walls": 20, "wall_length": (2, 4), "arena_half_size": 4.0, "n_robots": 6},
+            "trial layouts",
+        ),
     ],
 )
 def test_bad_maps_are_refused_with_a_clear_error(overrides, message):
@@ -73,6 +81,17 @@ def test_route_goes_through_the_door():
     assert target[0, 0, 0] < 0.0 and target[0, 0, 1] > 0.5 + r  # a node left of the wall, above the edge
     e, d = route_direction(w)
     np.testing.assert_allclose(np.linalg.norm(e, axis=-1), d)
+
+
+def test_a_route_runs_along_a_wall_at_any_angle():
+    # A lone wall in the open, end to end between start and goal: the route goes around one end.
+    # With nodes in eight fixed world directions, walls near 22.5 deg (mod 45) had no route at all.
+    r, half = 0.25, 1.5
+    for deg in np.arange(0.0, 180.0, 2.5):
+        d = np.array([math.cos(math.radians(deg)), math.sin(math.radians(deg))])
+        length = Roadmap(np.array([[-half * d, half * d]]), r).route_length(-(half + 1) * d, (half + 1) * d)
+        straight = 2 * (half + 1)
+        assert straight < length < straight + 1.0, (deg, length)
 
 
 def test_following_the_route_reaches_the_goal_without_contact():

@@ -74,12 +74,22 @@ def _ray_disc(ox, oy, dx, dy, cx, cy, rho):
 
 @njit(cache=True, inline="always")
 def _ray_segment(ox, oy, dx, dy, ax, ay, bx, by):
-    """Distance along the unit ray ``o + t d`` to the segment ``[a, b]`` (inf if missed or parallel)."""
+    """Distance along the unit ray ``o + t d`` to the segment ``[a, b]`` (inf if missed). A ray
+    along the segment's own line (parallel within rounding, within 1e-9 m of it) meets its nearer
+    end ahead, or reads 0 from a point on the segment."""
     ex, ey = bx - ax, by - ay
-    den = dx * ey - dy * ex
-    if den == 0.0:
-        return np.inf
     wx, wy = ax - ox, ay - oy
+    den = dx * ey - dy * ex
+    if abs(den) <= 1e-12 * math.sqrt(ex * ex + ey * ey):
+        if abs(wx * dy - wy * dx) > 1e-9:  # parallel, off the line
+            return np.inf
+        ta = wx * dx + wy * dy
+        tb = (bx - ox) * dx + (by - oy) * dy
+        if ta < 0.0 and tb < 0.0:
+            return np.inf
+        if ta < 0.0 or tb < 0.0:
+            return 0.0
+        return min(ta, tb)
     t = (wx * ey - wy * ex) / den
     u = (wx * dy - wy * dx) / den
     if t < 0.0 or u < 0.0 or u > 1.0:

@@ -33,8 +33,9 @@ if TYPE_CHECKING:
 
 class MapKind(ScenarioKind):
     """A kind with static walls (:mod:`vcs_env.walls`). Its obstacles are placed at random in
-    the arena, clear of the walls; :meth:`check_layout` requires starts, goals and obstacles
-    clear of the walls and a route for every robot (:func:`check_walls`)."""
+    the arena, clear of the walls (they move through walls: walls stop robots only);
+    :meth:`check_layout` requires starts, goals and obstacles clear of the walls and a route for
+    every robot (:func:`check_walls`)."""
 
     def default_radius(self, s: Scenario) -> float:
         return 3.0
@@ -128,6 +129,17 @@ class Doorway(MapKind):
     def places(self, s, rng):
         return _two_way(s, 2.0 * s.arena_half_size)
 
+    def check_layout(self, s):
+        start, goal = self.places(s, np.random.default_rng(0))
+        far = float(np.abs(np.concatenate((start, goal))).max()) + s.robot.radius + s.jitter
+        if far > s.arena_half_size:
+            raise ValueError(
+                f"doorway: {s.n_robots} robots from x = -+layout_radius ({s.circle_radius:g} m) outward in lanes "
+                f"{s.lane_spacing:g} m apart reach {far:g} m from the centre, outside the arena's walls at "
+                f"arena_half_size={s.arena_half_size:g} m; increase arena_half_size or reduce layout_radius / n_robots"
+            )
+        super().check_layout(s)
+
     def walls(self, s, start, goal):
         h, d = s.arena_half_size, s.door_width / 2.0
         if d >= h:
@@ -199,6 +211,10 @@ class Intersection(MapKind):
         return np.array(out)
 
 
+TRIAL_LAYOUTS = 8
+"""Layouts the ``walls`` kind draws at construction (seeds 0-7): if one fails, the scenario is refused."""
+
+
 class Walls(MapKind):
     name = "walls"
     summary = (
@@ -214,12 +230,27 @@ class Walls(MapKind):
         check_arena(s)
         if s.wall_length[0] >= 2.0 * s.arena_half_size:
             raise ValueError(f"wall_length={s.wall_length} does not fit an arena of half size {s.arena_half_size:g}")
+        # Layouts are drawn at reset; a map too dense to draw reliably is refused here, not by a
+        # reset that fails at random (an autoreset in the middle of training).
+        failed = []
+        for seed in range(TRIAL_LAYOUTS):
+            try:
+                self.generate(s, np.random.default_rng(seed))
+            except ValueError as e:
+                failed.append(str(e))
+        if failed:
+            raise ValueError(
+                f"walls: {len(failed)} of {TRIAL_LAYOUTS} trial layouts found no place and route for every robot, so "
+                f"resets would fail at random; reduce n_robots / n_walls / wall_length or increase arena_half_size "
+                f"(first: {failed[0]})"
+            )
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         from .routes import Roadmap
 
         obs_radius = obstacle_radii(s, rng)
         n, r, h = s.n_robots, s.robot.radius, s.arena_half_size
+        last = "no route for every robot"
         for _ in range(50):
             seg = np.concatenate((box_walls(h), self._segments(s, rng)))
 
@@ -227,25 +258,30 @@ class Walls(MapKind):
                 return clearance(p, seg) - r >= s.min_separation
 
             starts, goals = Sampler(rng, h, s.min_separation), Sampler(rng, h, s.min_separation)
-            start = np.array([starts.sample(r, f"the start of robot {i}", clear) for i in range(n)]).reshape(n, 2)
-            goal = np.array(
-                [
-                    goals.sample(
-                        r,
-                        f"the goal of robot {i}",
-                        lambda p, q=start[i]: clear(p) and np.linalg.norm(p - q) >= MIN_GOAL_DISTANCE,
-                    )
-                    for i in range(n)
-                ]
-            ).reshape(n, 2)
+            try:
+                start = np.array([starts.sample(r, f"the start of robot {i}", clear) for i in range(n)]).reshape(n, 2)
+                goal = np.array(
+                    [
+                        goals.sample(
+                            r,
+                            f"the goal of robot {i}",
+                            lambda p, q=start[i]: clear(p) and np.linalg.norm(p - q) >= MIN_GOAL_DISTANCE,
+                        )
+                        for i in range(n)
+                    ]
+                ).reshape(n, 2)
+            except ValueError as e:  # no free place among these walls: draw other walls
+                last = str(e)
+                continue
             roadmap = Roadmap(seg, r)
             if all(np.isfinite(roadmap.route_length(start[i], goal[i])) for i in range(n)):
                 lay = finish(s, start, goal, *place_obstacles(s, rng, start, goal, obs_radius, seg))
                 lay.segments = seg
                 return lay
+            last = "no route for every robot"
         raise ValueError(
-            f"walls: no layout with a route for every robot in 50 draws; reduce n_walls / wall_length or "
-            f"increase arena_half_size (now {h:g} m)"
+            f"walls: no layout with a place and a route for every robot in 50 draws of the walls (last: {last}); "
+            f"reduce n_robots / n_walls / wall_length or increase arena_half_size (now {h:g} m)"
         )
 
     @staticmethod

@@ -4,7 +4,9 @@ radius gives each robot its next visible waypoint.
 Walls are segments (:mod:`vcs_env.walls`); a robot of radius ``r`` fits wherever its centre
 stays at least ``r`` from every segment (outside every *capsule*). The roadmap's nodes sit around
 each segment end point, on a circle of radius ``rho = (r + MARGIN) / cos(pi / 8)`` (those of
-eight directions that point beyond the end, kept where they are clear of the capsules): the
+eight directions that point beyond the end, and the two at 3 pi / 8 from the wall's own outward
+direction, which keep ``r + MARGIN`` from its line whatever its angle; kept where they are clear
+of the capsules): the
 chord between two neighbouring nodes keeps ``r + MARGIN`` from the end point, so a route can turn around a wall end. Two
 points *see* each other when the segment between them keeps at least ``r`` from every wall.
 A goal's cost-to-go is Dijkstra over the visibility edges; a robot's next waypoint is its goal
@@ -111,6 +113,18 @@ class Roadmap:
         out = self.segments - self.segments[:, ::-1]  # (s, 2, 2): at end a, a - b; at end b, b - a
         outward = (out.reshape(-1, 2) @ dirs.T) > 0.0  # (2 s, 8)
         cand = (ends[:, None] + rho * dirs)[outward]
+        # Beside each end, the two points of the same circle at 3 pi/8 from the outward direction,
+        # r + MARGIN from the wall's line: without them the world's directions leave a wall at
+        # 22.5 deg (mod 45) with no node beside it a route along it can use. For walls along the
+        # axes they are nodes already (dropped as duplicates, so those roadmaps are unchanged).
+        u = out.reshape(-1, 2) / np.linalg.norm(out.reshape(-1, 2), axis=-1, keepdims=True)  # (2 s, 2)
+        side = []
+        for a in (3 * math.pi / 8, -3 * math.pi / 8):  # u turned by a
+            ca, sa = math.cos(a), math.sin(a)
+            side.append(ends + rho * np.stack((ca * u[:, 0] - sa * u[:, 1], sa * u[:, 0] + ca * u[:, 1]), -1))
+        side = np.concatenate(side)
+        gap = np.sqrt(((side[:, None] - cand[None]) ** 2).sum(-1)).min(axis=1, initial=np.inf)
+        cand = np.concatenate((cand, side[gap > 1e-9]))
         clear = clearance(cand, self.segments) >= self._r
         self.nodes = np.ascontiguousarray(cand[clear])  # (N, 2) [m]
         vis = _visible_pairs(self.nodes, self.segments, self._r)
