@@ -106,6 +106,12 @@ def test_robot_that_never_moves_is_a_deadlock():
     m = metrics.episode_metrics(ep)
     assert m["deadlock"] == 1.0 and m["success"] == m["timeout"] == 0.0
     assert math.isnan(m["time_to_goal"]) and m["arrived_fraction"] == 0.0
+    # An episode shorter than the deadlock window cannot show a robot stuck: a time out.
+    short = make_episode(
+        np.zeros((51, 2)), speed=still[:51], heading=still[:51], reached_step=-1, dt=0.1, goal=(5.0, 0.0)
+    )
+    m = metrics.episode_metrics(short)
+    assert m["timeout"] == 1.0 and m["deadlock"] == 0.0
 
 
 def test_wilson_interval():

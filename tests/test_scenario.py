@@ -13,7 +13,9 @@ from vcs_env import layouts
 from vcs_env.engine import NavEngine
 from vcs_env.layouts import generate
 from vcs_env.scenario import SCENARIOS, CustomLayout, ObstacleTrajectory, Scenario, make_scenario
+from vcs_env.sim import Simulator
 from vcs_env.spaces import observation_space
+from vcs_env.suites import SUITES
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
@@ -125,6 +127,11 @@ def test_crowd_layouts_are_refused_when_built_or_placed_on_every_seed():
         gap = np.linalg.norm(centres[:, None] - centres[None], axis=-1) - radii[:, None] - radii[None]
         np.fill_diagonal(gap, np.inf)
         assert gap.min() >= s.min_separation - 1e-9, seed
+    # Obstacles placed first can leave no room for the next even where the search looks: the
+    # layout then places them all again (these seeds gave up at reset, aborting an evaluation).
+    big = make_scenario(SUITES["crowd-10-v0"].scenario, obstacle_radius=(0.6, 0.8), layout_radius=7.0)
+    for seed in (20051, 20092, 20125):
+        Simulator(big).reset(seed)
 
 
 # ------------------------------------------------------------------ properties

@@ -213,6 +213,11 @@ class Dynamic(Random):
     summary = "random starts and goals among obstacles on arbitrary trajectories bouncing in the arena."
 
 
+CROWD_REDRAWS = 20
+"""Times a crowd layout places all its obstacles afresh (same generator) when the ones placed first
+left no room on the ring for the next, before reset gives up with ``ValueError``."""
+
+
 class Crowd(ScenarioKind):
     name = "crowd"
     summary = (
@@ -240,7 +245,13 @@ class Crowd(ScenarioKind):
         obs_radius = obstacle_radii(s, rng)
         start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
         goal = -start
-        obs_pos, obs_target = self._obstacles(rng, s, start, goal, obs_radius)
+        for attempt in range(CROWD_REDRAWS):
+            try:
+                obs_pos, obs_target = self._obstacles(rng, s, start, goal, obs_radius)
+                break
+            except ValueError:  # the obstacles placed first left no room for one: place them all again
+                if attempt == CROWD_REDRAWS - 1:
+                    raise
         return finish(s, start, goal, obs_pos, obs_target, obs_radius)
 
     @staticmethod

@@ -3,7 +3,8 @@
 Episode outcomes (exactly one is true): ``success`` (every robot arrived, nothing touched),
 ``collision`` (some robot touched a robot or obstacle), ``deadlock`` (time out with some
 unfinished robot stuck: it moved less than ``DEADLOCK_DISTANCE`` over the last
-``DEADLOCK_WINDOW`` seconds), ``timeout`` (any other time out). Collisions split into
+``DEADLOCK_WINDOW`` seconds; an episode shorter than that is never a deadlock), ``timeout``
+(any other time out). Collisions split into
 ``at_fault_collision`` (some contact was a robot's fault) and ``not_at_fault_collision`` (none
 was); ``parked_collision``: some robot touched a parked one (:mod:`vcs_env.contacts`).
 
@@ -94,9 +95,9 @@ def mean_jerk(ep: Episode) -> np.ndarray:
 
 def _stuck(ep: Episode, unfinished: np.ndarray) -> bool:
     k = max(1, int(round(DEADLOCK_WINDOW / ep.dt)))
-    if not unfinished.any():
+    if not unfinished.any() or len(ep.pos) < k + 1:  # shorter than the window: a plain time out
         return False
-    window = ep.pos[-min(k + 1, len(ep.pos)) :]
+    window = ep.pos[-(k + 1) :]
     moved = np.linalg.norm(np.diff(window, axis=0), axis=-1).sum(axis=0)
     return bool(np.any(moved[unfinished] < DEADLOCK_DISTANCE))
 
