@@ -102,6 +102,11 @@ class VCSParams:
     """A robot within braking distance of its goal (communicated preferred speed below its
     v_max) is about to park: take full responsibility for it, as for an obstacle, instead of
     sharing the avoidance (False: every active robot is reciprocal, the ablation)."""
+    stopping_obstacles: bool = False
+    """A moving obstacle may stop at any moment (``stop_and_go`` obstacles do): it also gets a
+    static twin at its current position, as an arriving robot does, whose margin covers the
+    robot's stopping time, so the robot does not follow it closer than it can brake (False, the
+    default: obstacles keep their velocity) [ours]."""
     stop_margin: bool = True
     """The margin of a static object (parked robot, standing obstacle) covers the robot's own
     stopping time: max(T_m, v_R / a_max) (False: T_m)."""
@@ -197,6 +202,7 @@ class VCSParams:
             check_positive("VCSParams.horizon", self.horizon)
         for name in (
             "arriving_non_reactive",
+            "stopping_obstacles",
             "stop_margin",
             "joint_escape",
             "crowd_margin",

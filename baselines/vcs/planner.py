@@ -292,7 +292,8 @@ class VCSPlanner(Planner):
 
         Returns:
             ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (2 n + m + s,) [s] per sensed object:
-            robots, obstacles, the static twin of each arriving robot, then wall segments (inf: not sensed).
+            robots, obstacles, the static twin of each arriving robot, then wall segments (inf: not sensed;
+            the twins of ``stopping_obstacles`` are not reported).
         """
         self.plan(world)  # memory and inputs of this state
         own, comm, detour = self._inputs(world)

@@ -204,7 +204,8 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
     """Fill the records of robot i in world b (all but the horizons, stage 2) into ``wk.nbs``.
     Returns their number; ``wk.order`` lists them nearest surface first. During a stall detour
     the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up. Records:
-    robots, obstacles, the static twins of arriving robots, then walls, at most ``2 n + m + s``."""
+    robots, obstacles, the static twins of arriving robots (and, with ``stopping_obstacles``, of
+    moving obstacles), then walls, at most ``2 n + 2 m + s``."""
     n = world.pos.shape[1]
     speed, heading, v_max, active, obs_vel = world.speed, world.heading, world.v_max, world.active, world.obs_vel
     sensed, nbs, key = wk.sensed, wk.nbs, wk.key
@@ -214,14 +215,17 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
     vry = v_r * math.sin(heading[b, i])
     a_max_i = world.a_max[b, i]
     count = 0
-    for twin in (False, True):  # then the static twins of arriving robots
+    for twin in (False, True):  # then the static twins of arriving robots (and of stopping obstacles)
         for s in range(ns):
             o = sensed[s]
             j = o.idx
             if j >= n:
-                if twin:
-                    continue
-                ok, vjx, vjy, is_robot, mover = True, obs_vel[b, j - n, 0], obs_vel[b, j - n, 1], False, False
+                vjx, vjy = obs_vel[b, j - n, 0], obs_vel[b, j - n, 1]
+                if twin:  # a moving obstacle that may stop: static where it is now
+                    if not p.stopping_obstacles or vjx * vjx + vjy * vjy <= STATIC_SPEED * STATIC_SPEED:
+                        continue
+                    vjx, vjy = 0.0, 0.0
+                ok, is_robot, mover = True, False, False
             else:
                 ok, vjx, vjy, is_robot, mover = robot_role(
                     twin,
@@ -237,6 +241,7 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
                 continue
             nb = nbs[count]
             fill_record(nb, o.px, o.py, o.d, o.r, vjx, vjy, j, is_robot, mover, vrx, vry, a_max_i, p, r_ca, detour)
+            nb.twin = twin
             rpx = 0.0
             rpy = 0.0
             if is_robot:
@@ -296,7 +301,7 @@ def work(n, m, s, p):
     """Scratch arrays of stages 1 and 2 for ``n`` robots, ``m`` obstacles and ``s`` wall segments
     (:data:`~.records.Work`)."""
     ctotal = p.coarse_n_v * p.coarse_n_theta + 1
-    k = 2 * n + m + s  # arriving robots have a static twin
+    k = 2 * n + 2 * m + s  # arriving robots (and stopping obstacles) have a static twin
     return Work(
         np.zeros(1, dtype=ROBOT),  # robot: the planning robot's context
         np.zeros(n + m, dtype=SENSED),  # sensed: objects within r_ca

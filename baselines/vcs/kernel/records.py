@@ -75,6 +75,7 @@ PARAMS = np.dtype(
         ("ramp_check", "?"),
         ("wall_brake", "?"),
         ("arriving_non_reactive", "?"),
+        ("stopping_obstacles", "?"),  # moving obstacles also get a static twin (they may stop)
         ("least_harm", "?"),  # least-harm fallback (else the RVO penalty)
         ("crowd_margin", "?"),
         ("crowd_reach", "?"),  # contesting movers: any the robot could meet (else: closing ones)
@@ -119,6 +120,7 @@ def params_record(p) -> np.ndarray:
         "ramp_check": p.ramp_check,
         "wall_brake": p.wall_brake,
         "arriving_non_reactive": p.arriving_non_reactive,
+        "stopping_obstacles": p.stopping_obstacles,
         "least_harm": p.fallback == "least_harm",
         "crowd_margin": p.crowd_margin,
         "crowd_reach": p.crowd_margin and p.crowd_reach and p.horizon == "adaptive",
@@ -156,6 +158,7 @@ NEIGHBOUR = np.dtype(
         ("kind", "i8"),  # K_RECIPROCAL, K_MOVER or K_STATIC
         ("overlap", "?"),  # true penetration: a half-plane instead of a cone
         ("mover", "?"),  # an active robot (whatever the reciprocity rule)
+        ("twin", "?"),  # the static twin of an arriving robot or of a moving obstacle that may stop
         ("wall", "?"),  # a wall segment (vcs-method §2.18): p is its nearest point
         ("ax", "f8"),  # wall end points relative to the robot [m]
         ("ay", "f8"),

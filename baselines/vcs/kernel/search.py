@@ -13,7 +13,7 @@ from .cost import admissible, consider, cost, ramp_clear, relevant, robot_contex
 from .fallback import fallback_search
 from .horizon import apply_horizons, contesting_movers, set_horizons
 from .neighbours import setup_neighbours, work
-from .records import INF, K_STATIC, SQRT_HALF, STEP_SLACK, Grid
+from .records import INF, SQRT_HALF, STEP_SLACK, Grid
 from .scalar import reach_steps, steps_for, wrap
 from .walls import senses_wall
 from .window import candidate, goal_step, threats, window
@@ -315,5 +315,6 @@ def evaluate_points(b, i, world, inputs, st, cand_dv, cand_dth, out_ok, out_cost
     for q in range(out_horizon.shape[0]):
         out_horizon[q] = INF
     for q in range(count):
-        twin = nbs[q].kind == K_STATIC and nbs[q].mover  # an active robot taken as static
-        out_horizon[nbs[q].idx + (n + m if twin else 0)] = nbs[q].th
+        if nbs[q].twin and nbs[q].idx >= n:
+            continue  # a stopping obstacle's twin: not reported
+        out_horizon[nbs[q].idx + (n + m if nbs[q].twin else 0)] = nbs[q].th

@@ -76,6 +76,7 @@ def fill_wall(nb, ax, ay, bx, by, k, r0, vrx, vry, a_max_i, p):
     nb.idx = k
     nb.kind = K_STATIC
     nb.mover = False
+    nb.twin = False
     nb.stopk = 1.0 / a_max_i if p.stop_margin else 0.0
     nb.tc0 = capsule_tau(ax, ay, bx, by, vrx, vry, r0)
     reff = r0 + p.delta_min
