@@ -191,11 +191,19 @@ def test_no_walls_gives_empty_arrays():
         ((((0.0, 0.0), (1.0, 0.0), (2.0, 0.0)),), ((-2.0, 0.0),), "shape"),
         ((((-2.1, -1.0), (-2.1, 1.0)),), ((-2.0, 0.0),), "start 0"),
         (tuple(map(tuple, box_segments(1.0).tolist())), ((0.0, 0.0),), "no route"),
+        ({"x": 1}, ((-2.0, 0.0),), "or a list of such arrays, got dict"),  # was numpy's TypeError
     ],
 )
 def test_bad_custom_walls_are_refused_with_a_clear_error(walls, start, message):
     with pytest.raises(ValueError, match=message):
         wall_scenario(start, ((2.0, 0.0),), walls)
+
+
+def test_walls_may_be_a_list_of_polygons():
+    # One segment array per polygon, of different lengths (numpy's "inhomogeneous shape" before).
+    tri = polygon_segments(((0.5, 0.5), (1.5, 0.5), (0.5, 1.5)))
+    s = wall_scenario(((-2.0, -2.0),), ((2.0, -2.0),), [tri, box_segments(3.0)])
+    np.testing.assert_array_equal(Simulator(s).reset(0).seg_a[0, :7], np.concatenate((tri, box_segments(3.0)))[:, 0])
 
 
 def test_polygon_is_a_closed_chain():

@@ -110,7 +110,8 @@ def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, ex
         if not np.isfinite(roadmap.route_length(lay.start[i], lay.goal[i])):
             raise ValueError(
                 f"{s.kind} layout: no route for robot {i} from {np.round(lay.start[i], 3).tolist()} to "
-                f"{np.round(lay.goal[i], 3).tolist()} between the walls (robot radius {r} m)"
+                f"{np.round(lay.goal[i], 3).tolist()} between the walls (robot radius {r} m: gaps and doors "
+                f"narrower than about a robot diameter + 0.2 m = {2 * r + 0.2:.2f} m hold no route, vcs_env.routes)"
             )
 
 

@@ -75,10 +75,24 @@ def box_segments(half_x: float, half_y: float | None = None) -> np.ndarray:
 
 
 def check_segments(segments, what: str = "walls") -> np.ndarray:
-    """``segments`` as a finite ``(s, 2, 2)`` float array (``[[ax, ay], [bx, by]]`` per row);
+    """``segments`` as a finite ``(s, 2, 2)`` float array (``[[ax, ay], [bx, by]]`` per row; a
+    list of such arrays, e.g. one :func:`polygon_segments` per polygon, gives their rows together);
     raises ``ValueError`` naming ``what`` for a bad shape, non-finite values, or a degenerate
     segment shorter than :data:`MIN_LENGTH`."""
-    seg = np.asarray(segments, dtype=np.float64)
+    try:
+        seg = np.asarray(segments, dtype=np.float64)
+    except (TypeError, ValueError):
+        # A list of segment arrays of different lengths (one per polygon): their rows together.
+        try:
+            parts = [np.asarray(p, dtype=np.float64).reshape(-1, 2, 2) for p in segments]
+            seg = np.concatenate(parts) if parts else np.zeros((0, 2, 2))
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"{what} must be segments of shape (s, 2, 2) ([[ax, ay], [bx, by]] each), or a list of such "
+                f"arrays, got {type(segments).__name__} {segments!r:.80}"
+            ) from None
+    if seg.ndim == 4 and seg.shape[2:] == (2, 2):  # a list of segment arrays of one length
+        seg = seg.reshape(-1, 2, 2)
     if seg.size == 0:
         return np.zeros((0, 2, 2))
     if seg.ndim != 3 or seg.shape[1:] != (2, 2):
