@@ -153,7 +153,12 @@ class ExpertLabels(Hook):
 
 
 def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
-    path = Path(path)
+    """Write ``data`` and ``meta`` to ``path`` and return the file written: numpy adds ``.npz`` to a
+    name without it, so the returned path has it; an existing directory is refused."""
+    given = Path(path)
+    if given.is_dir():
+        raise ValueError(f"--out {str(given)!r} is a directory; give a file name such as data/expert.npz")
+    path = given if given.suffix == ".npz" else given.with_name(given.name + ".npz")
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **data, meta=np.array(json.dumps(meta)))
     return path

@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -183,6 +184,36 @@ def scalar_results(res: dict[str, Any]) -> dict[str, float]:
     return {k: v for k, v in res.items() if isinstance(v, (int, float))}
 
 
+BEST_KEY = ((1, "episode_success"), (1, "robot_success"), (-1, "robot_collision"), (-1, "time_to_goal"))
+"""best_model.zip: most successful episodes, then robots, then fewest collisions, then fastest."""
+
+FIXED_ON_RESUME = (
+    "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",
+    "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl",
+)  # fmt: skip
+"""Fields a resumed run keeps from its checkpoint (the network and the PPO settings in the model)."""
+
+
+def check_ppo_settings(cfg: TrainConfig) -> None:
+    """Raise ``ValueError`` naming the field for PPO settings SB3 would crash on or silently misuse."""
+    from vcs_env.checks import check_int, check_positive, check_range
+
+    for name in ("n_steps", "batch_size", "n_epochs"):
+        check_int(name, getattr(cfg, name), 1, 10**9)
+    if not cfg.net_arch or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in cfg.net_arch):
+        raise ValueError(f"net_arch must be one or more layer sizes >= 1, got {cfg.net_arch!r}")
+    for name in ("learning_rate", "clip_range"):
+        check_positive(name, getattr(cfg, name))
+    for name in ("ent_coef", "vf_coef", "max_grad_norm"):
+        check_positive(name, getattr(cfg, name), allow_zero=True)
+    check_range("gae_lambda", cfg.gae_lambda, 0.0, 1.0)
+    check_range("log_std_init", cfg.log_std_init, -20.0, 2.0)
+    if cfg.target_kl is not None:
+        check_positive("target_kl", cfg.target_kl)
+    for name in ("eval_freq", "checkpoint_freq"):
+        check_int(name, getattr(cfg, name), 0, 10**12)
+
+
 def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
     from stable_baselines3.common.callbacks import BaseCallback
 
@@ -205,6 +236,20 @@ def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
 
         def _on_training_start(self) -> None:
             self.last_eval = self.last_ckpt = self.num_timesteps
+
+        def restore(self, timesteps: int) -> None:
+            """Resuming at ``timesteps`` in ``out``: the run's evaluations up to there stay its
+            history (later ones, of a branch the resume abandons, leave eval.jsonl) and the best
+            of them stays the one to beat."""
+            log = out / "eval.jsonl"
+            if not log.exists():
+                return
+            rows = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
+            self.history = [r for r in rows if r.get("timesteps", 0) <= timesteps]
+            log.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in self.history))
+            for r in self.history:
+                key = tuple(-math.inf if r.get(k) is None else s * r[k] for s, k in BEST_KEY)
+                self.best = key if self.best is None or key > self.best else self.best
 
         def _on_rollout_end(self) -> None:
             buf = [e for e in self.model.ep_info_buffer if "success" in e]
@@ -241,8 +286,7 @@ def _callbacks(cfg: TrainConfig, scenarios, out: Path, t_start: float):
                 f"[{res['wall_time']:.0f} s]",
                 flush=True,
             )
-            # Best = most successful episodes, then fewest collisions, then fastest.
-            key = (res["episode_success"], res["robot_success"], -res["robot_collision"], -res["time_to_goal"])
+            key = tuple(s * res[k] for s, k in BEST_KEY)
             if self.best is None or key > self.best:
                 self.best = key
                 save_model(self.model, out / "best_model.zip", "ppo", cfg, scenario, family, evaluation=res)
@@ -303,10 +347,9 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
     scenario = scenarios[0]
     print_suite_differences(scenarios)
-    if cfg.init and resume:
-        raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
     if cfg.timesteps < 0 or cfg.n_worlds < 1 or cfg.eval_episodes < 1:
         raise ValueError("timesteps must be >= 0, n_worlds and eval_episodes >= 1")
+    check_ppo_settings(cfg)
     if cfg.mixture_balance not in ("worlds", "robots"):
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
@@ -334,7 +377,7 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     else:
         venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance, start_states=starts)
     tb = str(out / "tb") if cfg.tensorboard else None
-    if resume:
+    if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
         model = load_model(resume, scenario, env=venv)
         model.tensorboard_log = tb
         model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
@@ -348,6 +391,8 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
     (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
     remaining = cfg.timesteps - model.num_timesteps
     callback = _callbacks(cfg, scenarios, out, t_start)
+    if resume:
+        callback.restore(model.num_timesteps)
     what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
     what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
     print(
@@ -399,15 +444,46 @@ def cmd_train(args: argparse.Namespace) -> int:
     rllib_train.reject_rllib_flags(args)
     base = None
     if args.resume:
-        from .checkpoint import read_metadata
-
-        saved = read_metadata(args.resume).get("config")
-        if saved is None:
-            raise ValueError(f"cannot resume {args.resume!r}: no config JSON beside it (expected a vcs-env checkpoint)")
-        base = dataclasses.replace(config_from_dict(TrainConfig, saved), init=None)
+        base = resume_base(args)
     cfg = config_from_args(TrainConfig, args, base)
     train(cfg, resume=args.resume)
     return 0
+
+
+def resume_base(args: argparse.Namespace) -> TrainConfig:
+    """The saved config of the run ``args.resume`` continues, with ``out`` its run directory
+    unless ``--out`` is given; ``ValueError`` for a checkpoint that is not a PPO run's, for
+    ``--init``, and for flags that would change what the checkpoint fixes (:data:`FIXED_ON_RESUME`)."""
+    from .checkpoint import read_metadata, resolve
+
+    if args.init is not None:
+        raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
+    meta = read_metadata(args.resume)
+    saved = meta.get("config")
+    if saved is None:
+        raise ValueError(f"cannot resume {args.resume!r}: no config JSON beside it (expected a vcs-env checkpoint)")
+    if meta.get("kind") != "ppo":
+        raise ValueError(
+            f"cannot resume {args.resume!r}: a {meta.get('kind', 'unknown')} checkpoint, not a PPO run's "
+            "(--init starts a PPO run from its weights)"
+        )
+    base = config_from_dict(TrainConfig, saved)
+    changed = []
+    for name in FIXED_ON_RESUME:
+        given = getattr(args, name, None)
+        given = tuple(given) if isinstance(given, list) else given
+        if given is not None and given != getattr(base, name):
+            changed.append(f"--{name.replace('_', '-')} (run: {getattr(base, name)!r}, given: {given!r})")
+    if changed:
+        raise ValueError(
+            f"a resumed run keeps its network and PPO settings; {', '.join(changed)} would not apply. "
+            "Start a new run from the checkpoint's weights with --init to change them"
+        )
+    if getattr(args, "out", None) is None:
+        path = resolve(args.resume)
+        run = path.parent.parent if path.parent.name == "checkpoints" else path.parent
+        base = dataclasses.replace(base, out=str(run))
+    return base
 
 
 def add_commands(sub) -> None:
@@ -424,7 +500,8 @@ def add_commands(sub) -> None:
     p.add_argument(
         "--resume",
         default=None,
-        help="continue a run from this checkpoint (its config JSON is reused; "
-        "flags given here override it, e.g. --timesteps for the new total)",
+        help="continue a PPO run from this checkpoint, in its run directory unless --out is given (its config "
+        "JSON is reused: --timesteps sets the new total, evaluation, checkpoint and scenario flags may change; the "
+        "network and PPO settings stay the checkpoint's)",
     )
     p.set_defaults(func=cmd_train)

@@ -53,3 +53,16 @@ def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on
     # Holding out 90 % of 2 episodes still trains on one (it held out both: a ZeroDivisionError).
     cfg = imitation.BCConfig(data=str(path), out=str(tmp_path / "bc"), epochs=1, val_fraction=0.9, eval_episodes=1)
     assert imitation.behaviour_clone(cfg)["rows"] > 0
+
+
+def test_collect_names_the_file_it_writes(tmp_path, capsys):
+    # numpy adds .npz to a name without it; the command printed the name without, and `bc --data`
+    # with that name found nothing. A directory as --out is refused by name.
+    import vcs_cli as cli
+
+    base = ["collect", "--scenario", "circle", "--n-robots", "2", "--episodes", "2"]
+    assert cli.main([*base, "--out", str(tmp_path / "noext")]) == 0
+    assert f"-> {tmp_path / 'noext.npz'}" in capsys.readouterr().out
+    assert (tmp_path / "noext.npz").is_file()
+    assert cli.main([*base, "--out", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err

@@ -46,6 +46,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
+    except BrokenPipeError:  # output piped into e.g. `head`, which has closed: stop quietly
+        sys.stdout = None
+        return 0
     except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message
         print(f"vcs-env {args.command}: error: {e}", file=sys.stderr)
         return 2

@@ -1,0 +1,67 @@
+"""``vcs-env train --resume``: where it writes, what it keeps, what it refuses; PPO settings checks."""
+
+import json
+
+import pytest
+
+import vcs_cli as cli
+
+pytest.importorskip("stable_baselines3")
+
+TINY = ["--n-robots", "4", "--n-worlds", "4", "--eval-episodes", "2", "--no-progress-bar"]
+
+
+def _timesteps(path):
+    return [r["timesteps"] for r in map(json.loads, path.read_text().splitlines())]
+
+
+def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path, monkeypatch, capsys):
+    run = tmp_path / "run"
+    args = ["train", *TINY, "--timesteps", "6144", "--eval-freq", "2048", "--checkpoint-freq", "2048"]
+    assert cli.main([*args, "--out", str(run)]) == 0
+    assert _timesteps(run / "eval.jsonl") == [2048, 4096, 6144]
+    # From another directory and an earlier checkpoint, without --out: the run's own directory
+    # (it wrote to the saved relative `out`, i.e. a new directory here); the evaluations after the
+    # checkpoint belong to the branch the resume leaves, and go.
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    ckpt = run / "checkpoints" / "model_2048.zip"
+    assert cli.main(["train", "--resume", str(ckpt), "--timesteps", "8192", "--no-progress-bar"]) == 0
+    assert not any(elsewhere.iterdir())
+    assert _timesteps(run / "eval.jsonl") == [2048, 4096, 6144, 8192]
+    assert [h["timesteps"] for h in json.loads((run / "model.json").read_text())["history"]] == [2048, 4096, 6144, 8192]
+    capsys.readouterr()
+    # Flags the checkpoint fixes, --init, and checkpoints that are not a PPO run's are refused.
+    for extra, message in (
+        (["--n-steps", "16"], "keeps its network and PPO settings; --n-steps"),
+        (["--net-arch", "32"], "--net-arch"),
+        (["--init", str(ckpt)], "--init and --resume exclude each other"),
+    ):
+        assert cli.main(["train", "--resume", str(run), "--timesteps", "10000", *extra]) == 2
+        assert message in capsys.readouterr().err
+    meta = json.loads((run / "model.json").read_text())
+    (run / "bc.zip").write_bytes((run / "model.zip").read_bytes())
+    (run / "bc.json").write_text(json.dumps({**meta, "kind": "bc"}))
+    assert cli.main(["train", "--resume", str(run / "bc.zip"), "--timesteps", "10000"]) == 2
+    assert "a bc checkpoint, not a PPO run's" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--n-steps", "0"], "n_steps must be an integer"),
+        (["--batch-size", "0"], "batch_size must be an integer"),
+        (["--n-epochs", "0"], "n_epochs must be an integer"),
+        (["--net-arch", "0"], "net_arch must be"),
+        (["--clip-range", "-1"], "clip_range must be"),
+        (["--target-kl", "-1"], "target_kl must be"),
+        (["--eval-freq", "-5"], "eval_freq must be"),
+        (["--log-std-init", "nan"], "log_std_init must be"),
+    ],
+)
+def test_ppo_settings_are_checked_by_name(flags, message, tmp_path, capsys):
+    # They crashed in SB3 (n_steps, batch_size), after a whole rollout (n_epochs), or trained on.
+    assert cli.main(["train", *TINY, "--timesteps", "10", *flags, "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
