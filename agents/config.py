@@ -232,6 +232,21 @@ def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
     return out
 
 
+def check_out_file(path: str | None, flag: str, suffixes: tuple[str, ...] = ()) -> None:
+    """Before any work: ``ValueError`` if the output file ``path`` of ``flag`` is an existing
+    directory or lacks one of ``suffixes``; its parent directory is made."""
+    if path is None:
+        return
+    from pathlib import Path
+
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{flag} {path!r} is a directory; give a file name")
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise ValueError(f"{flag} must end in {' or '.join(suffixes)}, got {path!r}")
+    p.parent.mkdir(parents=True, exist_ok=True)
+
+
 def parse_seeds(text: str) -> tuple[int, ...]:
     """``"5000:5100"`` -> seeds 5000..5099 (start included, stop excluded, like ``range``);
     ``"7"`` -> (7,). Raises ``ValueError`` naming the expected form."""

@@ -13,11 +13,18 @@ the suites' jitter, ``on_collision="continue"``, spacing and limits), so only wh
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from vcs_env.suites import Suite, get_suite, suite_names
 
-from .config import _SCENARIO_FLAGS, ScenarioConfig, add_config_args, config_from_args, parse_seeds, probe_scenario
+from .config import (
+    _SCENARIO_FLAGS,
+    ScenarioConfig,
+    add_config_args,
+    check_out_file,
+    config_from_args,
+    parse_seeds,
+    probe_scenario,
+)
 from .evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate
 from .report import fmt, table_lines, table_metrics, write_report
 
@@ -57,6 +64,7 @@ def episodes_of(args) -> Suite:
 
 
 def cmd_evaluate(args) -> int:
+    check_out_file(args.json, "--json")
     res = evaluate(
         args.policy,
         episodes_of(args),
@@ -66,7 +74,6 @@ def cmd_evaluate(args) -> int:
     )
     _print_summary(res)
     if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         with open(args.json, "w") as f:
             json.dump(res.to_dict(), f, indent=1, allow_nan=False)
         print(f"wrote {args.json}")

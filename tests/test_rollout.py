@@ -55,3 +55,22 @@ def test_rendering_happens_outside_the_timed_controller_calls(monkeypatch):
     assert len(ep.frames) == ep.steps + 1 == len(draws)
     assert min(draws) > max(calls)  # every frame is drawn after the last controller call
     assert np.asarray(ep.frames[0]).ndim == 3
+
+
+def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monkeypatch):
+    # A wrong video suffix or a directory as an output file failed only after every episode.
+    import vcs_cli as cli
+    import vcs_env.rollout as ro
+
+    def no_episodes(*args, **kwargs):
+        raise AssertionError("episodes ran before the output paths were checked")
+
+    monkeypatch.setattr(ro, "run_episodes", no_episodes)
+    for args, message in (
+        (["rollout", "--video", str(tmp_path / "v.avi")], "--video must end in .mp4"),
+        (["rollout", "--gif", str(tmp_path / "g.png")], "--gif must end in .gif"),
+        (["rollout", "--json", str(tmp_path)], "is a directory"),
+        (["evaluate", "--suite", "circle-8-v0-smoke", "--policy", "vcs", "--json", str(tmp_path)], "is a directory"),
+    ):
+        assert cli.main(args) == 2
+        assert message in capsys.readouterr().err

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
-from agents.config import ScenarioConfig, add_config_args, build_scenario, config_from_args
+from agents.config import ScenarioConfig, add_config_args, build_scenario, check_out_file, config_from_args
 
 ROLLOUT_SKIP = ("rewards", "shaping", "shaping_weight")
 """Scenario flags a planner rollout has no use for (rewards do not change what a planner does)."""
@@ -24,9 +23,10 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     cfg = config_from_args(ScenarioConfig, args)
     scenario = build_scenario(cfg)
     planner = make_planner(args.planner)
-    for out in (args.gif, args.video, args.plot, args.json):  # before the episodes, not after them
-        if out:
-            Path(out).parent.mkdir(parents=True, exist_ok=True)
+    # Before the episodes, not after them.
+    for out, flag, suffixes in ((args.gif, "--gif", (".gif",)), (args.video, "--video", (".mp4",)),
+                                (args.plot, "--plot", ()), (args.json, "--json", ())):  # fmt: skip
+        check_out_file(out, flag, suffixes)
     seeds = list(range(args.seed, args.seed + args.episodes))
     render = range(len(seeds)) if (args.gif or args.video) else ()
     controller = planner_controller(planner)
