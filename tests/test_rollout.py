@@ -74,3 +74,11 @@ def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monk
     ):
         assert cli.main(args) == 2
         assert message in capsys.readouterr().err
+    # An existing file where a run directory goes: a message, not a FileExistsError traceback.
+    monkeypatch.undo()
+    (tmp_path / "afile").write_text("")
+    assert (
+        cli.main(["compare", "--suite", "circle-8-v0-smoke", "--policies", "vcs", "--out", str(tmp_path / "afile")])
+        == 2
+    )
+    assert "File exists" in capsys.readouterr().err

@@ -52,3 +52,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message
         print(f"vcs-env {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except (FileExistsError, IsADirectoryError, NotADirectoryError) as e:  # an output path in the way
+        print(
+            f"vcs-env {args.command}: error: {e.strerror}: {e.filename!r} (an output path is in the way)",
+            file=sys.stderr,
+        )
+        return 2
