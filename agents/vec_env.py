@@ -19,7 +19,9 @@ Semantics of a slot (a robot's episode inside its world's episode):
   ``ep_success_buffer`` then work without a ``VecMonitor``). Do not add one, nor score with SB3's
   ``evaluate_policy``: both count every ``done`` as an episode, and padding segments (below) end
   with ``done=True`` too; ``VecMonitor`` also overwrites ``info["episode"]``. Score policies with
-  :mod:`agents.evaluate`.
+  :mod:`agents.evaluate`. ``VecNormalize`` would count the padding slots' zero observations in
+  its statistics, and :mod:`agents.evaluate` feeds policies raw observations (the observations
+  are already scaled to [-1, 1], :mod:`vcs_env.observations`): train without it.
 * **padding**: after its robot ended and until its world resets (other robots still drive), and
   from the start for a robot that had already finished in a saved state the world starts from,
   the slot returns an all-zero observation, zero reward, ``done=False`` and
