@@ -72,7 +72,8 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """Everything a ``vcs-env train`` run depends on; saved as JSON beside every checkpoint."""
 
     timesteps: int = 1_000_000
-    """Total environment steps, counted per robot (one slot step = one timestep)."""
+    """Total environment steps, counted per robot (one slot step = one timestep); PPO learns in
+    whole rollouts (n_steps x slots), so a run stops at the next multiple (a note says so)."""
     seed: int = 0
     """Seed of PPO (torch, numpy, action space) and of the training worlds (world b: seed + b)."""
     n_worlds: int = 16
@@ -391,6 +392,13 @@ def train(cfg: TrainConfig, resume: str | None = None) -> dict[str, Any]:
         f"training {what} shaping={cfg.shaping}: {venv.num_envs} slots, {remaining} timesteps -> {out}",
         flush=True,
     )
+    rollout = model.n_steps * venv.num_envs
+    if remaining > 0 and remaining % rollout:
+        print(
+            f"note: PPO learns in whole rollouts of {rollout} timesteps (n_steps x slots): this run stops at "
+            f"{model.num_timesteps + -(-remaining // rollout) * rollout} timesteps, not {cfg.timesteps}",
+            flush=True,
+        )
     if remaining > 0:
         model.learn(
             total_timesteps=remaining,

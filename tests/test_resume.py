@@ -20,6 +20,7 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     args = ["train", *TINY, "--timesteps", "6144", "--eval-freq", "2048", "--checkpoint-freq", "2048"]
     assert cli.main([*args, "--out", str(run)]) == 0
     assert _timesteps(run / "eval.jsonl") == [2048, 4096, 6144]
+    assert "note: PPO learns in whole rollouts" not in capsys.readouterr().out  # 6144 = 3 rollouts
     # From another directory and an earlier checkpoint, without --out: the run's own directory
     # (it wrote to the saved relative `out`, i.e. a new directory here); the evaluations after the
     # checkpoint belong to the branch the resume leaves, and go.
@@ -27,7 +28,8 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
     ckpt = run / "checkpoints" / "model_2048.zip"
-    assert cli.main(["train", "--resume", str(ckpt), "--timesteps", "8192", "--no-progress-bar"]) == 0
+    assert cli.main(["train", "--resume", str(ckpt), "--timesteps", "8000", "--no-progress-bar"]) == 0
+    assert "this run stops at 8192 timesteps, not 8000" in capsys.readouterr().out
     assert not any(elsewhere.iterdir())
     assert _timesteps(run / "eval.jsonl") == [2048, 4096, 6144, 8192]
     assert [h["timesteps"] for h in json.loads((run / "model.json").read_text())["history"]] == [2048, 4096, 6144, 8192]
