@@ -13,6 +13,7 @@ the suites' jitter, ``on_collision="continue"``, spacing and limits), so only wh
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 from vcs_env.suites import Suite, get_suite, suite_names
 
@@ -87,6 +88,8 @@ def cmd_compare(args) -> int:
     suite = episodes_of(args)
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
+    if Path(args.out).exists() and not Path(args.out).is_dir():  # before the episodes, not after them
+        raise ValueError(f"--out {args.out!r} is a file; give a directory for the report")
     comp = compare(
         policies,
         suite,

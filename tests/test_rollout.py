@@ -74,11 +74,12 @@ def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monk
     ):
         assert cli.main(args) == 2
         assert message in capsys.readouterr().err
-    # An existing file where a run directory goes: a message, not a FileExistsError traceback.
+    # An existing file where a report or run directory goes: a message, not a FileExistsError
+    # traceback (compare: before its episodes; train: when it makes the directory).
+    afile = tmp_path / "afile"
+    afile.write_text("")
+    assert cli.main(["compare", "--suite", "circle-8-v0-smoke", "--policies", "vcs", "--out", str(afile)]) == 2
+    assert "is a file; give a directory" in capsys.readouterr().err
     monkeypatch.undo()
-    (tmp_path / "afile").write_text("")
-    assert (
-        cli.main(["compare", "--suite", "circle-8-v0-smoke", "--policies", "vcs", "--out", str(tmp_path / "afile")])
-        == 2
-    )
+    assert cli.main(["train", "--n-robots", "2", "--timesteps", "10", "--out", str(afile)]) == 2
     assert "File exists" in capsys.readouterr().err
