@@ -38,7 +38,7 @@ import numpy as np
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
 
-from .config import mixture_split
+from .config import check_out_file, mixture_split
 
 DATASET_FORMAT = "vcs-env-expert-v1"
 
@@ -155,11 +155,9 @@ class ExpertLabels(Hook):
 def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, Any]) -> Path:
     """Write ``data`` and ``meta`` to ``path`` and return the file written: numpy adds ``.npz`` to a
     name without it, so the returned path has it; an existing directory is refused."""
+    check_out_file(str(path), "--out")  # not a directory; its parent is made
     given = Path(path)
-    if given.is_dir():
-        raise ValueError(f"--out {str(given)!r} is a directory; give a file name such as data/expert.npz")
     path = given if given.suffix == ".npz" else given.with_name(given.name + ".npz")
-    path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **data, meta=np.array(json.dumps(meta)))
     return path
 
