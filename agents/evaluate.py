@@ -148,6 +148,7 @@ def evaluate(
     batch_size: int = DEFAULT_BATCH,
     keep_episodes: Sequence[int] = (),
     progress: bool | None = None,
+    shield: bool = True,
 ) -> EvalResult:
     """Run every episode of ``suite`` with ``policy`` and measure it.
 
@@ -163,6 +164,7 @@ def evaluate(
         batch_size: worlds stepped together (see :data:`DEFAULT_BATCH`).
         keep_episodes: indices into ``suite.seeds`` whose recorded episodes to keep (for plots).
         progress: show a progress bar; None shows one when stderr is a terminal.
+        shield: False runs a checkpoint without the shield its run record names (:mod:`agents.shield`).
 
     Returns:
         The per-episode rows, their aggregate and the timing.
@@ -174,7 +176,7 @@ def evaluate(
     bad = [k for k in keep if not 0 <= k < suite.n_episodes]
     if bad:
         raise ValueError(f"episode indices {bad} are out of range for {suite.name} (0..{suite.n_episodes - 1})")
-    resolved = resolve_policy(policy, suite.scenario, action_mode, deterministic, name)
+    resolved = resolve_policy(policy, suite.scenario, action_mode, deterministic, name, shield)
     show = sys.stderr.isatty() if progress is None else bool(progress)
     bar = _Progress(suite.n_episodes, f"{resolved.name} on {suite.name}", show)
     rows: list[dict[str, float]] = []

@@ -72,6 +72,7 @@ def cmd_evaluate(args) -> int:
         action_mode=args.action_mode,
         batch_size=args.batch_size,
         progress=False if args.no_progress else None,
+        shield=not args.no_shield,
     )
     _print_summary(res)
     if args.json:
@@ -97,6 +98,7 @@ def cmd_compare(args) -> int:
         batch_size=args.batch_size,
         keep_episodes=(args.episode,),
         progress=False if args.no_progress else None,
+        shield=not args.no_shield,
     )
     files = write_report(comp, args.out, episode=args.episode, plots=not args.no_plots)
     print("\n".join(table_lines(comp)))
@@ -120,6 +122,7 @@ def cmd_probe(args) -> int:
         action_mode=args.action_mode,
         batch_size=args.batch_size,
         progress=False if args.no_progress else None,
+        shield=not args.no_shield,
     )
     planners = {label for label, spec in policies.items() if not is_checkpoint_spec(spec)}
     command = f"vcs-env probe --policies {shlex.quote(args.policies)} --out {shlex.quote(str(args.out))}"
@@ -128,6 +131,8 @@ def cmd_probe(args) -> int:
         command += f" --action-mode {args.action_mode}"
     if args.batch_size != DEFAULT_BATCH:  # changes nothing but speed; said so the run can be repeated as made
         command += f" --batch-size {args.batch_size}"
+    if args.no_shield:
+        command += " --no-shield"
     print("\n".join(table_lines(table, planners)))
     files = write_probes(table, args.out, planners, command)
     print(f"wrote {', '.join(str(f) for f in files)}")
@@ -156,6 +161,15 @@ def _common_args(p) -> None:
     )
     p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _shield_arg(p)
+
+
+def _shield_arg(p) -> None:
+    p.add_argument(
+        "--no-shield",
+        action="store_true",
+        help="run checkpoints without the safety shield their run record names (agents.shield)",
+    )
 
 
 def add_commands(sub) -> None:
@@ -192,4 +206,5 @@ def add_commands(sub) -> None:
     p.add_argument("--action-mode", choices=["delta", "absolute"], default="delta", help="as for compare")
     p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _shield_arg(p)
     p.set_defaults(func=cmd_probe)

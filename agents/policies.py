@@ -9,7 +9,8 @@ Accepted (:func:`resolve_policy`):
   it sees per-robot observations; each step it is called once with the observations of all
   robots of all worlds stacked, ``(B * n, D)``, and returns ``(B * n, 2)`` actions (rows of robots
   that are not active are ignored);
-* the path of a stable-baselines3 PPO checkpoint (``.zip``), loaded on the CPU.
+* the path of a stable-baselines3 PPO checkpoint (``.zip``), loaded on the CPU; a checkpoint
+  whose run record names a shield (:mod:`agents.shield`) runs with it unless ``shield=False``.
 
 No torch or stable-baselines3 import at import time; loading a checkpoint does, inside
 :func:`load_checkpoint` (through :func:`agents.checkpoint.load_model`).
@@ -29,7 +30,8 @@ from vcs_env.rollout import Controller, planner_controller
 from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 
-from .checkpoint import check_observation_space, load_model
+from .checkpoint import check_observation_space, load_model, read_metadata
+from .shield import shield_from_record, shielded_controller
 
 
 @dataclass
@@ -136,9 +138,16 @@ def predictor_controller(predictor: Any, deterministic: bool = True, name: str =
 
 
 def resolve_policy(
-    policy: Any, scenario: Scenario, action_mode: str = "delta", deterministic: bool = True, name: str | None = None
+    policy: Any,
+    scenario: Scenario,
+    action_mode: str = "delta",
+    deterministic: bool = True,
+    name: str | None = None,
+    shield: bool = True,
 ) -> ResolvedPolicy:
     """Turn a planner name, :class:`Planner`, ``PolicyPredictor`` or checkpoint path into a controller.
+
+    ``shield=False`` runs a checkpoint's network without the shield its run record names.
 
     Raises:
         ValueError: unknown planner name, bad checkpoint, observation space mismatch, or an
@@ -148,11 +157,12 @@ def resolve_policy(
     if isinstance(policy, Planner):
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
     if is_checkpoint_spec(policy):
+        from .rllib_train import METADATA, is_rllib_checkpoint
+
+        rllib = is_rllib_checkpoint(policy)
         if action_mode != "delta":
             from .checkpoint import config_path, resolve
-            from .rllib_train import METADATA, is_rllib_checkpoint
 
-            rllib = is_rllib_checkpoint(policy)
             record = Path(METADATA) if rllib else config_path(resolve(policy))
             if rllib or record.is_file():  # vcs-env train, bc and rllib act in delta mode
                 raise ValueError(
@@ -161,7 +171,11 @@ def resolve_policy(
                 )
         model = load_checkpoint(policy, scenario)
         label = name or policy_label(str(policy))
-        return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint")
+        controller = predictor_controller(model, deterministic, label)
+        guard = shield_from_record(read_metadata(policy)) if shield and not rllib else None
+        if guard is not None:
+            controller = shielded_controller(controller, guard, scenario)
+        return ResolvedPolicy(label, controller, "checkpoint")
     if isinstance(policy, str):
         planner = make_planner(policy)
         return ResolvedPolicy(name or policy, planner_controller(planner, action_mode), "planner")

@@ -20,6 +20,7 @@ COMMAND_MODULES = (
     "agents.imitation",
     "agents.start_states",
     "agents.selection",
+    "agents.shield",
     "benchmarks.run",
 )
 """Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers

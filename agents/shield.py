@@ -1,0 +1,210 @@
+"""A safety shield: a minimal-intervention filter on a learned policy's actions, from its observation alone.
+
+The shield predicts, for the action the policy chose and for a fixed grid of alternatives, how close the
+robot would come to its sensed neighbours within ``horizon`` seconds, and replaces the policy's action
+only when that action would come closer than ``margin``. It reads nothing but the robot's own
+observation (observation version 1, :mod:`vcs_env.observations`), so a shielded policy stays a
+decentralised policy: observation in, action out.
+
+Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
+
+* the robot holds the candidate action for the whole horizon: its speed changes at ``a_0 a_max``
+  [m/s^2] within ``[0, v_max]`` and its heading at ``a_1 omega_max`` [rad/s] (the ``delta`` action units
+  of :mod:`vcs_env.dynamics`, for unicycle robots), sampled every ``horizon / ceil(horizon / 0.1 s)``;
+* every sensed obstacle moves on at its observed velocity; a sensed robot counts only while its speed
+  is at most ``robot_speed`` [m/s] (robots that stopped, parked robots among them), since a moving
+  robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
+  (on circle-24 every robot's shield firing cost 14 points of success,
+  ``results/generalist/shield/README.md``);
+* the gap is the distance between centres minus both radii [m].
+
+Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least
+``margin``; otherwise the candidate (the policy's action or one of :data:`GRID`, acceleration and turn
+in ``{-1, -0.5, 0, 0.5, 1}``) with the largest smallest gap, capped at ``margin``, and among those that
+reach the margin the one nearest the policy's action.
+
+A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
+``vcs-env shield``); :func:`agents.policies.resolve_policy` applies it wherever a checkpoint is run
+(``vcs-env evaluate``, ``compare`` and ``probe``), unless ``shield=False`` / ``--no-shield``. Loading the
+``.zip`` with stable-baselines3 directly gives the network alone; :meth:`Shield.filter` applies the
+shield to its actions.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
+from vcs_env.rollout import Controller
+from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
+from vcs_env.state import WorldState
+
+LEVELS = (-1.0, -0.5, 0.0, 0.5, 1.0)
+GRID = np.array([(a, w) for a in LEVELS for w in LEVELS])
+"""The alternative actions ``(25, 2)`` (acceleration, turn) in delta action units."""
+SAMPLE = 0.1
+"""Longest interval between predicted positions [s]."""
+
+
+@dataclass(frozen=True)
+class Shield:
+    """Parameters of the shield (module docstring)."""
+
+    horizon: float = 1.5
+    """How far ahead the shield predicts [s]."""
+    margin: float = 0.1
+    """Smallest predicted gap the policy's action may leave to any counted neighbour [m]."""
+    robot_speed: float = 0.05
+    """Sensed robots at most this fast are counted, faster ones left to the policy [m/s]."""
+
+    def __post_init__(self):
+        for name, low in (("horizon", 0.0), ("margin", None), ("robot_speed", None)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"shield {name} must be a finite number, got {value!r}")
+            if (low is not None and value <= low) or value < 0:
+                raise ValueError(f"shield {name} must be {'> 0' if low is not None else '>= 0'}, got {value!r}")
+
+    def min_gaps(self, obs: np.ndarray, candidates: np.ndarray, n_neighbors: int) -> np.ndarray:
+        """Smallest predicted gap [m] ``(N, K)`` of every robot under every candidate action.
+
+        Args:
+            obs: observations ``(N, D)`` (observation version 1, ``n_neighbors`` slots).
+            candidates: actions ``(N, K, 2)`` in delta units, each held over the horizon.
+            n_neighbors: neighbour slots in the observation.
+
+        Returns:
+            ``+inf`` where no neighbour counts.
+        """
+        o = np.asarray(obs, dtype=np.float64)
+        N = o.shape[0]
+        v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
+        v0, radius = o[:, 0] * v_max, o[:, 7] * R_REF
+        slots = o[:, EGO_DIM : EGO_DIM + n_neighbors * NEIGHBOR_DIM].reshape(N, n_neighbors, NEIGHBOR_DIM)
+        pos = slots[..., 1:3] * SENSE_REF  # (N, S, 2) [m], robot frame
+        vel = slots[..., 3:5] * (2 * V_REF)
+        vel[..., 0] += v0[:, None]  # relative -> the neighbour's own velocity, robot frame [m/s]
+        counted = (slots[..., 0] > 0.5) & (
+            (slots[..., 7] < 0.5) | (np.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2) <= self.robot_speed)
+        )
+        reach = radius[:, None] + slots[..., 5] * R_REF  # (N, S) [m]
+        steps = math.ceil(self.horizon / SAMPLE - 1e-9)
+        h = self.horizon / steps
+        speed = np.repeat(v0[:, None], candidates.shape[1], 1)
+        heading = np.zeros_like(speed)
+        x, y = np.zeros_like(speed), np.zeros_like(speed)
+        gap = np.full(speed.shape, np.inf)
+        for t in range(1, steps + 1):
+            speed = np.clip(speed + candidates[..., 0] * (a_max * h)[:, None], 0.0, v_max[:, None])
+            heading = heading + candidates[..., 1] * (w_max * h)[:, None]
+            x, y = x + speed * h * np.cos(heading), y + speed * h * np.sin(heading)
+            other = pos + vel * (t * h)  # (N, S, 2)
+            dx, dy = x[:, :, None] - other[:, None, :, 0], y[:, :, None] - other[:, None, :, 1]
+            d = np.sqrt(dx**2 + dy**2) - reach[:, None]
+            gap = np.minimum(gap, np.where(counted[:, None], d, np.inf).min(-1))
+        return gap
+
+    def filter(self, obs: np.ndarray, actions: np.ndarray, n_neighbors: int) -> tuple[np.ndarray, np.ndarray]:
+        """The shielded actions and where the shield replaced the policy's.
+
+        Args:
+            obs: observations ``(..., D)``.
+            actions: the policy's actions ``(..., 2)`` (clipped to ``[-1, 1]`` first, as the env does).
+            n_neighbors: neighbour slots in the observation.
+
+        Returns:
+            actions ``(..., 2)`` float64 and the replaced mask ``(...)`` bool.
+        """
+        lead = np.shape(actions)[:-1]
+        act = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
+        o = np.asarray(obs).reshape(act.shape[0], -1)
+        if o.shape[1] < EGO_DIM + n_neighbors * NEIGHBOR_DIM:
+            raise ValueError(f"the shield needs observations of {n_neighbors} neighbour slots, got length {o.shape[1]}")
+        candidates = np.concatenate((act[:, None], np.broadcast_to(GRID, (act.shape[0], *GRID.shape))), axis=1)
+        gap = self.min_gaps(o, candidates, n_neighbors)
+        unsafe = gap[:, 0] < self.margin
+        score = np.minimum(gap, self.margin) * 1e6 - np.linalg.norm(candidates - act[:, None], axis=-1)
+        best = np.take_along_axis(candidates, score.argmax(1)[:, None, None], 1)[:, 0]
+        out = np.where(unsafe[:, None], best, act)
+        return out.reshape(*lead, 2), unsafe.reshape(lead)
+
+
+def check_scenario(scenario: Scenario) -> None:
+    """Refuse scenarios the shield's prediction does not model (holonomic robots)."""
+    if scenario.robot.holonomic:
+        raise ValueError(
+            "the shield predicts unicycle robots; this scenario's robots are holonomic (run with --no-shield)"
+        )
+
+
+def shielded_controller(controller: Controller, shield: Shield, scenario: Scenario) -> Controller:
+    """``controller`` with ``shield`` applied to the actions of active robots.
+
+    The returned controller counts, in ``control.stats``, the active robot-steps (``"decisions"``)
+    and those where the shield replaced the policy's action (``"replaced"``)."""
+    check_scenario(scenario)
+    k = scenario.n_neighbors
+    stats = {"decisions": 0, "replaced": 0}
+
+    def control(world: WorldState, obs: np.ndarray) -> np.ndarray:
+        actions, replaced = shield.filter(obs, controller(world, obs), k)
+        stats["decisions"] += int(world.active.sum())
+        stats["replaced"] += int((replaced & world.active).sum())
+        return np.where(world.active[..., None], actions, 0.0)
+
+    control.stats = stats
+    return control
+
+
+def shield_from_record(record: dict[str, Any]) -> Shield | None:
+    """The shield a run record names (``record["shield"]``), or None."""
+    spec = record.get("shield")
+    if spec is None:
+        return None
+    if not isinstance(spec, dict) or set(spec) - set(Shield.__dataclass_fields__):
+        keys = list(Shield.__dataclass_fields__)
+        raise ValueError(f"the run record's shield must be an object with keys of {keys}, got {spec!r}")
+    return Shield(**spec)
+
+
+def attach(checkpoint: str | os.PathLike, shield: Shield | None) -> dict[str, Any]:
+    """Write ``shield`` into the run record of ``checkpoint`` (None removes it); return the record."""
+    from .checkpoint import config_path, read_metadata, resolve
+
+    path = resolve(checkpoint)
+    record = read_metadata(path)
+    if not record:
+        raise ValueError(f"{str(path)!r} has no run record ({config_path(path).name}); the shield is kept there")
+    record.pop("shield", None)
+    if shield is not None:
+        record["shield"] = asdict(shield)
+    config_path(path).write_text(json.dumps(record, indent=2) + "\n")
+    return record
+
+
+def cmd_shield(args) -> int:
+    shield = None if args.remove else Shield(args.horizon, args.margin, args.robot_speed)
+    attach(args.checkpoint, shield)
+    said = "removed the shield from" if shield is None else f"wrote {asdict(shield)} into"
+    print(f"{said} the run record of {args.checkpoint}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser(
+        "shield",
+        help="give a checkpoint a safety shield (kept in its run record, applied wherever it is evaluated)",
+        description=__doc__.split("\n\n")[0],
+    )
+    p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
+    p.add_argument("--horizon", type=float, default=Shield.horizon, help="prediction horizon [s]")
+    p.add_argument("--margin", type=float, default=Shield.margin, help="smallest predicted gap to keep [m]")
+    p.add_argument("--robot-speed", type=float, default=Shield.robot_speed, help="robots at most this fast count [m/s]")
+    p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
+    p.set_defaults(func=cmd_shield)
