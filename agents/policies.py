@@ -31,7 +31,7 @@ from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 
 from .checkpoint import check_observation_space, load_model, read_metadata
-from .shield import shield_from_record, shielded_controller
+from .shield import ShieldedPredictor, shield_from_record
 
 
 @dataclass
@@ -80,15 +80,17 @@ def _check_action_space(space: Any, what: str) -> None:
         raise ValueError(f"{what} produces actions of shape {tuple(shape)}, the env needs (2,)")
 
 
-def load_checkpoint(path: str | os.PathLike, scenario: Scenario):
+def load_checkpoint(path: str | os.PathLike, scenario: Scenario, shield: bool = True):
     """Load a stable-baselines3 PPO checkpoint on the CPU and check it fits ``scenario``.
 
     Args:
         path: the ``.zip`` file (the suffix may be left out) or a run directory with ``model.zip``.
         scenario: the scenario whose observation space the model must take.
+        shield: apply the safety shield the checkpoint's run record names, if any (:mod:`agents.shield`).
 
     Returns:
-        The loaded ``stable_baselines3.PPO`` model (a ``PolicyPredictor``).
+        The loaded ``stable_baselines3.PPO`` model (a ``PolicyPredictor``), inside an
+        :class:`agents.shield.ShieldedPredictor` when its record names a shield and ``shield`` is true.
 
     Raises:
         agents.checkpoint.CheckpointError: (a ``ValueError``) the file is missing, corrupt or not
@@ -102,9 +104,12 @@ def load_checkpoint(path: str | os.PathLike, scenario: Scenario):
             f"loading the checkpoint {str(path)!r} needs stable-baselines3; install it with: "
             f"pip install 'vcs-env[train]' ({e})"
         ) from None
+    from .rllib_train import is_rllib_checkpoint
+
     model = load_model(path, scenario)
     _check_action_space(model.action_space, f"checkpoint {str(path)!r}")
-    return model
+    guard = shield_from_record(read_metadata(path)) if shield and not is_rllib_checkpoint(path) else None
+    return model if guard is None else ShieldedPredictor(model, guard, scenario)
 
 
 def predictor_controller(predictor: Any, deterministic: bool = True, name: str = "policy") -> Controller:
@@ -157,25 +162,20 @@ def resolve_policy(
     if isinstance(policy, Planner):
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
     if is_checkpoint_spec(policy):
-        from .rllib_train import METADATA, is_rllib_checkpoint
-
-        rllib = is_rllib_checkpoint(policy)
         if action_mode != "delta":
             from .checkpoint import config_path, resolve
+            from .rllib_train import METADATA, is_rllib_checkpoint
 
+            rllib = is_rllib_checkpoint(policy)
             record = Path(METADATA) if rllib else config_path(resolve(policy))
             if rllib or record.is_file():  # vcs-env train, bc and rllib act in delta mode
                 raise ValueError(
                     f"{str(policy)!r} was trained by vcs-env (run record {record.name}), whose policies act in "
                     f"delta mode; --action-mode {action_mode} would read its actions in other units"
                 )
-        model = load_checkpoint(policy, scenario)
+        model = load_checkpoint(policy, scenario, shield)
         label = name or policy_label(str(policy))
-        controller = predictor_controller(model, deterministic, label)
-        guard = shield_from_record(read_metadata(policy)) if shield and not rllib else None
-        if guard is not None:
-            controller = shielded_controller(controller, guard, scenario)
-        return ResolvedPolicy(label, controller, "checkpoint")
+        return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint")
     if isinstance(policy, str):
         planner = make_planner(policy)
         return ResolvedPolicy(name or policy, planner_controller(planner, action_mode), "planner")

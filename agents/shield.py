@@ -20,14 +20,15 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
 
 Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least
 ``margin``; otherwise the candidate (the policy's action or one of :data:`GRID`, acceleration and turn
-in ``{-1, -0.5, 0, 0.5, 1}``) with the largest smallest gap, capped at ``margin``, and among those that
-reach the margin the one nearest the policy's action.
+in ``{-1, -0.5, 0, 0.5, 1}``) with the largest score ``1e6 * min(gap, margin) - |candidate - action|`` (gap
+in metres, the first candidate on ties): the largest smallest gap capped at ``margin``, and of those equal in
+it to within a few micrometres (all that reach the margin, say) the one nearest the policy's action.
 
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
-``vcs-env shield``); :func:`agents.policies.resolve_policy` applies it wherever a checkpoint is run
-(``vcs-env evaluate``, ``compare`` and ``probe``), unless ``shield=False`` / ``--no-shield``. Loading the
-``.zip`` with stable-baselines3 directly gives the network alone; :meth:`Shield.filter` applies the
-shield to its actions.
+``vcs-env shield``); :func:`agents.policies.load_checkpoint` returns it as a :class:`ShieldedPredictor`,
+so it applies wherever a checkpoint is run (``vcs-env evaluate``, ``compare``, ``probe``, ``select``,
+:func:`agents.policies.resolve_policy`), unless ``shield=False`` / ``--no-shield``.
+:func:`agents.checkpoint.load_model` and stable-baselines3's ``PPO.load`` give the network alone.
 """
 
 from __future__ import annotations
@@ -41,9 +42,7 @@ from typing import Any
 import numpy as np
 
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
-from vcs_env.rollout import Controller
 from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
-from vcs_env.state import WorldState
 
 LEVELS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 GRID = np.array([(a, w) for a in LEVELS for w in LEVELS])
@@ -143,23 +142,33 @@ def check_scenario(scenario: Scenario) -> None:
         )
 
 
-def shielded_controller(controller: Controller, shield: Shield, scenario: Scenario) -> Controller:
-    """``controller`` with ``shield`` applied to the actions of active robots.
+class ShieldedPredictor:
+    """An SB3-style ``PolicyPredictor`` whose actions pass through a shield.
 
-    The returned controller counts, in ``control.stats``, the active robot-steps (``"decisions"``)
-    and those where the shield replaced the policy's action (``"replaced"``)."""
-    check_scenario(scenario)
-    k = scenario.n_neighbors
-    stats = {"decisions": 0, "replaced": 0}
+    Args:
+        model: the network's predictor (``predict(observation, state, episode_start, deterministic)``).
+        shield: the shield.
+        scenario: the scenario it runs in (its neighbour slots; holonomic robots are refused).
 
-    def control(world: WorldState, obs: np.ndarray) -> np.ndarray:
-        actions, replaced = shield.filter(obs, controller(world, obs), k)
-        stats["decisions"] += int(world.active.sum())
-        stats["replaced"] += int((replaced & world.active).sum())
-        return np.where(world.active[..., None], actions, 0.0)
+    ``replaced`` and ``decisions`` count the rows whose action the shield replaced and all rows seen.
+    """
 
-    control.stats = stats
-    return control
+    def __init__(self, model: Any, shield: Shield, scenario: Scenario):
+        check_scenario(scenario)
+        self.model, self.shield, self.n_neighbors = model, shield, scenario.n_neighbors
+        self.observation_space = getattr(model, "observation_space", None)
+        self.action_space = getattr(model, "action_space", None)
+        self.replaced = self.decisions = 0
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
+        """The network's actions ``(..., 2)`` float32 for ``observation`` ``(..., D)``, shielded; and its state."""
+        actions, state = self.model.predict(
+            observation, state=state, episode_start=episode_start, deterministic=deterministic
+        )
+        safe, replaced = self.shield.filter(observation, actions, self.n_neighbors)
+        self.replaced += int(replaced.sum())
+        self.decisions += replaced.size
+        return safe.astype(np.float32), state
 
 
 def shield_from_record(record: dict[str, Any]) -> Shield | None:

@@ -1,0 +1,193 @@
+"""The safety shield (agents.shield): its prediction is what the simulator then does, its choice follows the
+documented rule (a readable per-robot oracle), it reads the observation alone, it lowers the released
+generalist's collisions on dynamic obstacles against the network without it, and its record and CLI refuse
+bad input by name."""
+
+import dataclasses
+import json
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from agents.evaluate import evaluate
+from agents.policies import load_checkpoint
+from agents.shield import GRID, SAMPLE, Shield, ShieldedPredictor, attach, shield_from_record
+from vcs_cli import main
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observe
+from vcs_env.scenario import SCENARIOS
+from vcs_env.sim import Simulator
+from vcs_env.suites import Suite
+
+GENERALIST = "policies/generalist/model.zip"
+
+
+def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tuple[np.ndarray, bool]:
+    """One robot, one candidate at a time, in plain Python: the module docstring's rule."""
+    v_max, a_max, w_max = row[4] * 3.0, row[5] * 10.0, row[6] * 2 * math.pi
+    v0, radius = row[0] * v_max, row[7] * 2.0
+    others = []
+    for j in range(k):
+        s = row[EGO_DIM + j * NEIGHBOR_DIM : EGO_DIM + (j + 1) * NEIGHBOR_DIM]
+        vx, vy = s[3] * 6.0 + v0, s[4] * 6.0
+        if s[0] > 0.5 and (s[7] < 0.5 or math.hypot(vx, vy) <= shield.robot_speed):
+            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0))
+    steps = math.ceil(shield.horizon / SAMPLE - 1e-9)
+    h = shield.horizon / steps
+
+    def smallest_gap(acc: float, turn: float) -> float:
+        speed, heading, x, y, best = v0, 0.0, 0.0, 0.0, math.inf
+        for t in range(1, steps + 1):
+            speed = min(max(speed + acc * a_max * h, 0.0), v_max)
+            heading += turn * w_max * h
+            x, y = x + speed * h * math.cos(heading), y + speed * h * math.sin(heading)
+            for ox, oy, vx, vy, r in others:
+                best = min(best, math.hypot(x - ox - vx * t * h, y - oy - vy * t * h) - radius - r)
+        return best
+
+    action = np.clip(action, -1, 1)
+    if smallest_gap(*action) >= shield.margin:
+        return action, False
+    candidates = [action, *GRID]
+    score = [1e6 * min(smallest_gap(*c), shield.margin) - float(np.linalg.norm(c - action)) for c in candidates]
+    return candidates[score.index(max(score))], True
+
+
+def _world_observations(scenario, seeds, steps=30):
+    """Observations of real worlds of ``scenario`` after ``steps`` steps of random actions."""
+    sim = Simulator(scenario, batch_size=len(seeds))
+    sim.reset(list(seeds))
+    rng = np.random.default_rng(0)
+    for _ in range(steps):
+        sim.step(rng.uniform(-1, 1, (len(seeds), scenario.n_robots, 2)))
+    return observe(sim.world, scenario).reshape(-1, 75), rng.uniform(-1.2, 1.2, (len(seeds) * scenario.n_robots, 2))
+
+
+def test_filter_matches_the_readable_oracle_on_real_observations():
+    shield = Shield(horizon=1.5, margin=0.1)
+    obs, actions = _world_observations(SCENARIOS["dynamic"], range(40))
+    out, replaced = shield.filter(obs, actions, 8)
+    assert 0 < replaced.sum() < len(obs)  # both branches are exercised
+    for row, act, got, rep in zip(obs, actions, out, replaced):
+        want, want_rep = _oracle(shield, row.astype(np.float64), act, 8)
+        assert rep == want_rep
+        np.testing.assert_allclose(got, want, atol=1e-12)
+    assert np.array_equal(out[~replaced], np.clip(actions[~replaced], -1, 1))  # untouched where safe
+
+
+def test_prediction_is_what_the_simulator_does():
+    """Obstacles on straight lines, the robot holding one action: the predicted smallest gap to the sensed
+    obstacles over the horizon is the one the simulator then produces, for every candidate."""
+    scenario = dataclasses.replace(SCENARIOS["crowd"], n_obstacles=6, on_collision="continue")
+    shield = Shield(horizon=1.5, margin=0.1)
+    steps = round(shield.horizon / scenario.dt)
+    for seed in range(3):
+        sim = Simulator(scenario)
+        world = sim.reset([seed])
+        obs = observe(world, scenario)[0]
+        sensed = np.hypot(*(world.obs_pos[0] - world.pos[0, 0]).T) <= scenario.r_ca
+        for cand in GRID[::4]:
+            predicted = shield.min_gaps(obs, np.broadcast_to(cand, (1, 1, 2)).copy(), 8)[0, 0]
+            sim.reset([seed])
+            gaps = []
+            for _ in range(steps):
+                sim.step(np.broadcast_to(cand, (1, 1, 2)))
+                w = sim.world
+                d = np.hypot(*(w.obs_pos[0] - w.pos[0, 0]).T) - w.obs_radius[0] - w.radius[0, 0]
+                gaps.append(d[sensed].min())
+            assert predicted == pytest.approx(min(gaps), abs=1e-6)
+
+
+def _obs(speed=1.0, neighbours=()):
+    """One unicycle robot of the default spec (v_max 1, a_max 0.5, omega_max pi/2, radius 0.25, dt 0.1)
+    with neighbours ``(x, y, vx, vy, radius, is_robot)`` in its frame [m, m/s] (absolute velocities)."""
+    o = np.zeros(EGO_DIM + 8 * NEIGHBOR_DIM)
+    o[:11] = [speed, 0.5, 1, 0, 1 / 3, 0.05, 0.25, 0.125, 0.6, 0.1, 0.1]
+    for j, (x, y, vx, vy, r, robot) in enumerate(neighbours):
+        s = EGO_DIM + j * NEIGHBOR_DIM
+        o[s : s + NEIGHBOR_DIM] = [1, x / 10, y / 10, (vx - speed) / 6, vy / 6, r / 2, 0, robot]
+    return o
+
+
+def test_who_counts_and_what_replaces_an_unsafe_action():
+    shield = Shield()
+    ahead = [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)]  # a still obstacle 0.7 m ahead of a robot at 1 m/s
+    act, rep = shield.filter(_obs(1.0, ahead), np.array([1.0, 0.0]), 8)
+    assert rep and not np.array_equal(act, [1.0, 0.0])  # full speed ahead is replaced ...
+    gaps = shield.min_gaps(_obs(1.0, ahead)[None], np.stack(([1.0, 0.0], act, [-1.0, 0.0]))[None], 8)[0]
+    assert gaps[0] < gaps[2] < 0 < shield.margin <= gaps[1]  # ... by a turn that keeps the margin (braking would not)
+    # Nothing sensed, or the obstacle behind: the action stands, bit for bit.
+    assert not shield.filter(_obs(1.0), np.array([0.3, -0.7]), 8)[1]
+    assert not shield.filter(_obs(1.0, [(-1.5, 0.0, 0.0, 0.0, 0.25, 0.0)]), np.array([1.0, 0.0]), 8)[1]
+    # A parked robot counts like a still obstacle; a driving robot on the same spot is left to the policy.
+    assert shield.filter(_obs(1.0, [(*ahead[0][:5], 1.0)]), np.array([1.0, 0.0]), 8)[1]
+    assert not shield.filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0)]), np.array([1.0, 0.0]), 8)[1]
+    assert Shield(robot_speed=1.0).filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0)]), np.array([1.0, 0.0]), 8)[1]
+    # Shapes follow the actions: (B, n, 2) in, (B, n, 2) and (B, n) out.
+    out, rep = shield.filter(np.stack([_obs(1.0, ahead)] * 6).reshape(2, 3, -1), np.tile([1.0, 0.0], (2, 3, 1)), 8)
+    assert out.shape == (2, 3, 2) and rep.shape == (2, 3) and rep.all()
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"horizon": 0.0}, "horizon must be > 0"),
+        ({"margin": -0.1}, "margin must be >= 0"),
+        ({"margin": float("nan")}, "margin must be a finite number"),
+        ({"robot_speed": True}, "robot_speed must be a finite number"),
+        ({"horizon": "1"}, "horizon must be a finite number"),
+    ],
+)
+def test_bad_parameters_are_named(kw, match):
+    with pytest.raises(ValueError, match=match):
+        Shield(**kw)
+
+
+def test_record_round_trip_and_cli(tmp_path, capsys):
+    model = tmp_path / "g" / "model.zip"
+    model.parent.mkdir()
+    shutil.copy(GENERALIST, model)
+    record = json.loads(open(GENERALIST.replace(".zip", ".json")).read())
+    record.pop("shield", None)
+    model.with_suffix(".json").write_text(json.dumps(record))
+    scenario = SCENARIOS["dynamic"]
+    assert not isinstance(load_checkpoint(model, scenario), ShieldedPredictor)  # no shield in the record
+    assert main(["shield", str(model), "--horizon", "1.0", "--margin", "0.2"]) == 0
+    assert "wrote" in capsys.readouterr().out
+    saved = json.loads(model.with_suffix(".json").read_text())
+    assert shield_from_record(saved) == Shield(horizon=1.0, margin=0.2)
+    assert {k: saved[k] for k in record} == record  # nothing else in the record changed
+    shielded = load_checkpoint(model, scenario)
+    assert isinstance(shielded, ShieldedPredictor) and shielded.shield == Shield(horizon=1.0, margin=0.2)
+    assert not isinstance(load_checkpoint(model, scenario, shield=False), ShieldedPredictor)
+    # One observation in, one action out, as SB3's predict; the shield's choice where it steps in.
+    obs = _obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)]).astype(np.float32)
+    action, _ = shielded.predict(obs, deterministic=True)
+    network, _ = shielded.model.predict(obs, deterministic=True)
+    assert action.shape == (2,) and action.dtype == np.float32 and shielded.replaced == shielded.decisions == 1
+    np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, 8)[0])
+    assert main(["shield", str(model), "--remove"]) == 0
+    assert "shield" not in json.loads(model.with_suffix(".json").read_text())
+    assert main(["shield", str(model), "--horizon", "0"]) == 2
+    assert "error: shield horizon must be > 0, got 0.0" in capsys.readouterr().err
+    assert "shield" not in json.loads(model.with_suffix(".json").read_text())
+    with pytest.raises(ValueError, match="keys of"):
+        shield_from_record({"shield": {"horizon": 1.0, "reach": 2}})
+    model.with_suffix(".json").unlink()
+    with pytest.raises(ValueError, match="has no run record"):
+        attach(model, Shield())
+    holonomic = dataclasses.replace(scenario, robot=dataclasses.replace(scenario.robot, holonomic=True))
+    with pytest.raises(ValueError, match="holonomic"):
+        ShieldedPredictor(None, Shield(), holonomic)
+
+
+def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
+    """The ablation: the released network with and without its shield on the same fresh dynamic episodes
+    (seeds no suite, probe or validation set uses)."""
+    suite = Suite("dynamic-fresh", SCENARIOS["dynamic"], tuple(range(60000, 60200)), "fresh dynamic episodes")
+    shielded = evaluate(GENERALIST, suite, progress=False).summary
+    network = evaluate(GENERALIST, suite, progress=False, shield=False).summary
+    assert shielded["collision"]["mean"] < network["collision"]["mean"]
+    assert shielded["success"]["mean"] > network["success"]["mean"]
+    assert shielded["time_to_goal"]["mean"] < 1.1 * network["time_to_goal"]["mean"]
