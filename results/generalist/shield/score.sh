@@ -15,4 +15,4 @@ echo "probes done"
 OUT=$EVAL bash results/generalist/stage-m/evaluate.sh $P shielded
 mkdir -p $EVAL/network
 vcs-env evaluate --scenario dynamic-v0 --seeds 9000:10000 --policy $P --no-shield --no-progress --json $EVAL/network/fresh.json \
-  | sed -n 2,3p
+  | sed -n 3,4p
