@@ -98,6 +98,8 @@ class EvalResult:
     """Wall time of the whole evaluation, simulation included [s]."""
     episodes: dict[int, Episode] = field(default_factory=dict)
     """Recorded episodes kept on request, by index into ``suite.seeds``."""
+    shield: dict[str, float] | None = None
+    """Parameters of the safety shield the policy ran with (:mod:`agents.shield`), or None."""
 
     @property
     def seconds_per_decision(self) -> float:
@@ -119,6 +121,7 @@ class EvalResult:
                 "ms_per_decision": 1e3 * self.seconds_per_decision,
                 "decisions": self.decisions,
                 "wall_time": self.wall_time,
+                "shield": self.shield,
                 "summary": self.summary,
                 "episodes": [{"seed": s, **r} for s, r in zip(self.suite.seeds, self.rows)],
             }
@@ -207,6 +210,7 @@ def evaluate(
         decisions=decisions,
         wall_time=time.perf_counter() - t0,
         episodes=kept,
+        shield=resolved.shield,
     )
 
 

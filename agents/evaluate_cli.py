@@ -27,7 +27,7 @@ from .config import (
     probe_scenario,
 )
 from .evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate
-from .report import fmt, table_lines, table_metrics, write_report
+from .report import describe_shield, fmt, table_lines, table_metrics, write_report
 
 
 def _print_summary(res: EvalResult) -> None:
@@ -36,6 +36,8 @@ def _print_summary(res: EvalResult) -> None:
         f"{res.policy} on {s.name} ({s.n_episodes} episodes, fingerprint {s.fingerprint}): "
         f"{res.wall_time:.1f} s, {1e3 * res.seconds_per_decision:.3f} ms/decision"
     )
+    if res.shield:
+        print(f"with its safety shield: {describe_shield(res.shield)}")
     print(f"{'metric':<20} {'mean':>9} {'95% interval':>21} {'n':>5}")
     for metric in table_metrics():
         st = res.summary.get(metric.name)

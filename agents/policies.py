@@ -18,6 +18,7 @@ No torch or stable-baselines3 import at import time; loading a checkpoint does, 
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +31,7 @@ from vcs_env.rollout import Controller, planner_controller
 from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 
-from .checkpoint import check_observation_space, load_model, read_metadata
+from .checkpoint import check_observation_space, config_path, load_model, read_metadata, resolve
 from .shield import ShieldedPredictor, shield_from_record
 
 
@@ -44,6 +45,8 @@ class ResolvedPolicy:
     """``controller(world, obs (B, n, D)) -> actions (B, n, 2)``."""
     kind: str
     """``planner``, ``predictor`` or ``checkpoint``."""
+    shield: dict[str, float] | None = None
+    """Parameters of the safety shield a checkpoint runs with (:mod:`agents.shield`), or None."""
 
 
 def policy_label(spec: str) -> str:
@@ -108,7 +111,9 @@ def load_checkpoint(path: str | os.PathLike, scenario: Scenario, shield: bool = 
 
     model = load_model(path, scenario)
     _check_action_space(model.action_space, f"checkpoint {str(path)!r}")
-    guard = shield_from_record(read_metadata(path)) if shield and not is_rllib_checkpoint(path) else None
+    guard = None
+    if shield and not is_rllib_checkpoint(path):
+        guard = shield_from_record(read_metadata(path), str(config_path(resolve(path))))
     return model if guard is None else ShieldedPredictor(model, guard, scenario)
 
 
@@ -163,7 +168,6 @@ def resolve_policy(
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
     if is_checkpoint_spec(policy):
         if action_mode != "delta":
-            from .checkpoint import config_path, resolve
             from .rllib_train import METADATA, is_rllib_checkpoint
 
             rllib = is_rllib_checkpoint(policy)
@@ -175,7 +179,8 @@ def resolve_policy(
                 )
         model = load_checkpoint(policy, scenario, shield)
         label = name or policy_label(str(policy))
-        return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint")
+        guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
+        return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint", guard)
     if isinstance(policy, str):
         planner = make_planner(policy)
         return ResolvedPolicy(name or policy, planner_controller(planner, action_mode), "planner")

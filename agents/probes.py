@@ -114,16 +114,18 @@ def run_probes(policies: dict[str, str], probes: tuple[Probe, ...], n_episodes: 
 
     Returns:
         ``{"expert": label, "probes": [{"probe", "axis", "episodes", "policies": {label:
-        {"success", "collision"}}}]}`` (rates in [0, 1]).
+        {"success", "collision"}}}], "shields": {label: parameters}}`` (rates in [0, 1]; the safety
+        shields checkpoints ran with, :mod:`agents.shield`).
     """
     from .evaluate import compare
 
-    rows = []
+    rows, shields = [], {}
     for probe in probes:
         comp = compare(policies, probe.suite(n_episodes), **kwargs)
         rates = {name: {m: comp.summaries[name][m]["mean"] for m in ("success", "collision")} for name in comp.results}
         rows.append({"probe": probe.name, "axis": probe.axis, "episodes": n_episodes, "policies": rates})
-    return {"expert": next(iter(policies)), "probes": rows}
+        shields.update({name: res.shield for name, res in comp.results.items() if res.shield})
+    return {"expert": next(iter(policies)), "probes": rows, "shields": shields}
 
 
 def gaps(table: dict, planners: set[str]) -> dict[str, list[tuple[str, float]]]:
@@ -177,7 +179,11 @@ def write_probes(table: dict, out: str | Path, planners: set[str], command: str)
     info = machine_info()
     load = ", ".join(f"{x:.1f}" for x in info["load_average"] or ())
     stamp = f"{datetime.date.today().isoformat()}, {info['cpu']}, {info['usable_cores']} cores, load average {load}"
-    md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), ""]
+    from .report import describe_shield
+
+    shields = table.get("shields", {})
+    notes = [f"{name} ran with its safety shield: {describe_shield(p)}." for name, p in shields.items()]
+    md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), *notes, ""]
     (out / "probes.md").write_text("\n".join(md))
     (out / "probes.json").write_text(json.dumps({**table, "command": command, "date": stamp}, indent=1))
     return [out / "probes.md", out / "probes.json"]

@@ -74,6 +74,7 @@ def markdown_table(comparison: Comparison) -> str:
             f"straight line at v_max) and path ratio over the {n_solved} episodes every policy solved; the other "
             "means over all episodes where defined, ± the 95 % half-width. Min separation is the smallest "
             "surface gap (negative = overlap). ms/decision = policy compute time per active robot per step.",
+            *shield_lines(comparison),
             "",
             f"Extra time [s] percentiles over the {n_solved} episodes every policy solved:",
             "",
@@ -82,6 +83,22 @@ def markdown_table(comparison: Comparison) -> str:
             *pct_rows,
             "",
         ]
+    )
+
+
+def shield_lines(comparison: Comparison) -> list[str]:
+    """A note per policy that ran with a safety shield (:mod:`agents.shield`), with its parameters."""
+    return [
+        f"{name} ran with its safety shield: {describe_shield(res.shield)}."
+        for name, res in comparison.results.items()
+        if res.shield
+    ]
+
+
+def describe_shield(shield: dict[str, float]) -> str:
+    """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s``."""
+    return (
+        f"horizon {shield['horizon']:g} s, margin {shield['margin']:g} m, robots at most {shield['robot_speed']:g} m/s"
     )
 
 

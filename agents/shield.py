@@ -8,14 +8,15 @@ decentralised policy: observation in, action out.
 
 Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
 
-* the robot holds the candidate action for the whole horizon: its speed changes at ``a_0 a_max``
-  [m/s^2] within ``[0, v_max]`` and its heading at ``a_1 omega_max`` [rad/s] (the ``delta`` action units
-  of :mod:`vcs_env.dynamics`, for unicycle robots), sampled every ``horizon / ceil(horizon / 0.1 s)``;
+* the robot holds the candidate action, step after step of the observation's ``dt``, over the fewest
+  steps that reach the horizon, as the simulator moves it (:mod:`vcs_env.dynamics`, ``delta`` action
+  units, unicycle robots): each step its speed changes by ``a_0 a_max dt`` within ``[0, v_max]`` and its
+  heading by ``a_1 omega_max dt``, then it drives straight for ``dt``; positions are taken at every
+  step's end and, for steps longer than 0.1 s, every ``dt / ceil(dt / 0.1 s)`` along it;
 * every sensed obstacle moves on at its observed velocity; a sensed robot counts only while its speed
   is at most ``robot_speed`` [m/s] (robots that stopped, parked robots among them), since a moving
   robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
-  (on circle-24 every robot's shield firing cost 14 points of success,
-  ``results/generalist/shield/README.md``);
+  (on circle-24, counting every robot cost 15 points of success, ``results/generalist/shield/README.md``);
 * the gap is the distance between centres minus both radii [m].
 
 Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least
@@ -35,13 +36,14 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
+from vcs_env.observations import DT_REF, EGO_DIM, NEIGHBOR_DIM, SENSE_REF
 from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 
 LEVELS = (-1.0, -0.5, 0.0, 0.5, 1.0)
@@ -49,6 +51,16 @@ GRID = np.array([(a, w) for a in LEVELS for w in LEVELS])
 """The alternative actions ``(25, 2)`` (acceleration, turn) in delta action units."""
 SAMPLE = 0.1
 """Longest interval between predicted positions [s]."""
+HORIZON_MAX = 10.0
+"""Longest horizon [s] (the neighbours' positions read at most 10 m away)."""
+NEAR_SLACK = 1e-6
+"""Slack of :meth:`Shield.near`'s bound [m], for rounding."""
+
+
+def step_of(obs: np.ndarray) -> np.ndarray:
+    """The step ``dt`` [s] ``(N,)`` of every row of ``obs``, from its feature 10 (``dt / DT_REF`` in float32,
+    rounded back to the microsecond)."""
+    return np.maximum(np.round(np.asarray(obs, dtype=np.float64)[:, 10] * DT_REF, 6), 1e-6)
 
 
 @dataclass(frozen=True)
@@ -63,12 +75,15 @@ class Shield:
     """Sensed robots at most this fast are counted, faster ones left to the policy [m/s]."""
 
     def __post_init__(self):
-        for name, low in (("horizon", 0.0), ("margin", None), ("robot_speed", None)):
+        for name, low, high in (("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 raise ValueError(f"shield {name} must be a finite number, got {value!r}")
             if (low is not None and value <= low) or value < 0:
                 raise ValueError(f"shield {name} must be {'> 0' if low is not None else '>= 0'}, got {value!r}")
+            if high is not None and value > high:
+                raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
+            object.__setattr__(self, name, float(value))
 
     def min_gaps(self, obs: np.ndarray, candidates: np.ndarray, n_neighbors: int) -> np.ndarray:
         """Smallest predicted gap [m] ``(N, K)`` of every robot under every candidate action.
@@ -82,22 +97,37 @@ class Shield:
             ``+inf`` where no neighbour counts.
         """
         o = np.asarray(obs, dtype=np.float64)
+        dt = step_of(o)
+        gap = np.full(candidates.shape[:2], np.inf)
+        for value in np.unique(dt):  # one step length at a time (one, unless rows of several scenarios)
+            rows = dt == value
+            gap[rows] = self._min_gaps(o[rows], candidates[rows], n_neighbors, float(value))
+        return gap
+
+    def _min_gaps(self, o: np.ndarray, candidates: np.ndarray, n_neighbors: int, dt: float) -> np.ndarray:
         counted, pos, vel, _, _, reach, v0, v_max, a_max, w_max = self._neighbours(o, n_neighbors)
-        steps = math.ceil(self.horizon / SAMPLE - 1e-9)
-        h = self.horizon / steps
+        sub = max(1, math.ceil(dt / SAMPLE - 1e-9))  # samples along each step's straight segment
         speed = np.repeat(v0[:, None], candidates.shape[1], 1)
         heading = np.zeros_like(speed)
         x, y = np.zeros_like(speed), np.zeros_like(speed)
         gap = np.full(speed.shape, np.inf)
-        for t in range(1, steps + 1):
-            speed = np.clip(speed + candidates[..., 0] * (a_max * h)[:, None], 0.0, v_max[:, None])
-            heading = heading + candidates[..., 1] * (w_max * h)[:, None]
-            x, y = x + speed * h * np.cos(heading), y + speed * h * np.sin(heading)
-            other = pos + vel * (t * h)  # (N, S, 2)
-            dx, dy = x[:, :, None] - other[:, None, :, 0], y[:, :, None] - other[:, None, :, 1]
-            d = np.sqrt(dx**2 + dy**2) - reach[:, None]
-            gap = np.minimum(gap, np.where(counted[:, None], d, np.inf).min(-1))
+        for t in range(1, int(self.steps(dt)) + 1):
+            speed = np.clip(speed + candidates[..., 0] * (a_max * dt)[:, None], 0.0, v_max[:, None])
+            heading = heading + candidates[..., 1] * (w_max * dt)[:, None]
+            cos, sin = np.cos(heading), np.sin(heading)
+            for j in range(1, sub + 1):
+                tau = dt * j / sub
+                px, py = x + speed * tau * cos, y + speed * tau * sin
+                other = pos + vel * ((t - 1 + j / sub) * dt)  # (N, S, 2)
+                dx, dy = px[:, :, None] - other[:, None, :, 0], py[:, :, None] - other[:, None, :, 1]
+                d = np.sqrt(dx**2 + dy**2) - reach[:, None]
+                gap = np.minimum(gap, np.where(counted[:, None], d, np.inf).min(-1))
+            x, y = px, py
         return gap
+
+    def steps(self, dt: float | np.ndarray) -> np.ndarray:
+        """Steps of ``dt`` [s] the prediction covers: the fewest that reach the horizon (at least one)."""
+        return np.maximum(1, np.ceil(self.horizon / np.asarray(dt, dtype=np.float64) - 1e-9)).astype(int)
 
     def _neighbours(self, o: np.ndarray, n_neighbors: int) -> tuple[np.ndarray, ...]:
         """Per slot ``(N, S)``: counted mask, position and velocity ``(N, S, 2)`` in the robot frame [m, m/s],
@@ -115,31 +145,40 @@ class Shield:
         return counted, pos, vel, speed, slots[..., 6] * SENSE_REF, reach, v0, v_max, a_max, w_max
 
     def near(self, obs: np.ndarray, n_neighbors: int) -> np.ndarray:
-        """``(N,)`` bool: some counted neighbour is within ``margin + horizon * (v_max + its speed)`` now
-        (the gap feature reads at most 10 m, never more than the true gap); elsewhere no action can come
-        within the margin over the horizon."""
-        counted, _, _, speed, gap, _, _, v_max, *_ = self._neighbours(np.asarray(obs, dtype=np.float64), n_neighbors)
-        return (counted & (gap < self.margin + self.horizon * (v_max[:, None] + speed))).any(1)
+        """``(N,)`` bool: some counted neighbour is within ``margin + T * (v_max + its speed)`` now, ``T`` the
+        time the prediction covers (the gap feature reads at most 10 m, never more than the true gap; 1e-6 m
+        of slack for rounding); elsewhere no action can come within the margin over the horizon."""
+        o = np.asarray(obs, dtype=np.float64)
+        counted, _, _, speed, gap, _, _, v_max, *_ = self._neighbours(o, n_neighbors)
+        dt = step_of(o)
+        cover = (self.steps(dt) * dt)[:, None]
+        return (counted & (gap < self.margin + NEAR_SLACK + cover * (v_max[:, None] + speed))).any(1)
 
     def filter(self, obs: np.ndarray, actions: np.ndarray, n_neighbors: int) -> tuple[np.ndarray, np.ndarray]:
-        """The shielded actions and where the shield replaced the policy's.
+        """The shielded actions and where the policy's action fell short of the margin.
 
         Args:
             obs: observations ``(..., D)``.
-            actions: the policy's actions ``(..., 2)`` (clipped to ``[-1, 1]`` first, as the env does).
+            actions: the policy's actions ``(..., 2)`` in delta units (clipped to ``[-1, 1]`` first, as the
+                env does).
             n_neighbors: neighbour slots in the observation.
 
         Returns:
-            actions ``(..., 2)`` float64 and the replaced mask ``(...)`` bool.
+            actions ``(..., 2)`` float64, and the mask ``(...)`` bool of the rows whose action fell short
+            (replaced by the best candidate, which may be the action itself when no candidate does better).
         """
         lead = np.shape(actions)[:-1]
+        if np.shape(actions)[-1:] != (2,) or np.shape(obs)[:-1] != lead:
+            raise ValueError(
+                f"the shield needs observations (..., D) and actions (..., 2) of the same leading shape, got "
+                f"{np.shape(obs)} and {np.shape(actions)}"
+            )
         act = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
         o = np.asarray(obs).reshape(act.shape[0], -1)
         if o.shape[1] < EGO_DIM + n_neighbors * NEIGHBOR_DIM:
             raise ValueError(f"the shield needs observations of {n_neighbors} neighbour slots, got length {o.shape[1]}")
-        # Rows where a counted neighbour could come within the margin at all (the robot moves at most
-        # v_max * horizon, the neighbour |velocity| * horizon); then the policy's action, then the
-        # alternatives only where it falls short (row by row the same numbers as all at once).
+        # Rows where a counted neighbour could come within the margin at all (near); there the policy's
+        # action; the alternatives only where it falls short (row by row the same numbers as all at once).
         unsafe = self.near(o, n_neighbors)
         unsafe[unsafe] = self.min_gaps(o[unsafe], act[unsafe, None], n_neighbors)[:, 0] < self.margin
         out = act.copy()
@@ -156,7 +195,8 @@ def check_scenario(scenario: Scenario) -> None:
     """Refuse scenarios the shield's prediction does not model (holonomic robots)."""
     if scenario.robot.holonomic:
         raise ValueError(
-            "the shield predicts unicycle robots; this scenario's robots are holonomic (run with --no-shield)"
+            "the shield predicts unicycle robots; this scenario's robots are holonomic "
+            "(run the network alone: --no-shield, or shield=False)"
         )
 
 
@@ -168,7 +208,9 @@ class ShieldedPredictor:
         shield: the shield.
         scenario: the scenario it runs in (its neighbour slots; holonomic robots are refused).
 
-    ``replaced`` and ``decisions`` count the rows whose action the shield replaced and all rows seen.
+    The shield reads actions in delta units (``action_mode="delta"``, what ``vcs-env train`` policies emit).
+    ``replaced`` and ``decisions`` count the rows whose action fell short of the margin and all rows given
+    to :meth:`predict` (robots that are no longer active included).
     """
 
     def __init__(self, model: Any, shield: Shield, scenario: Scenario):
@@ -189,25 +231,34 @@ class ShieldedPredictor:
         return safe.astype(np.float32), state
 
 
-def shield_from_record(record: dict[str, Any]) -> Shield | None:
-    """The shield a run record names (``record["shield"]``), or None."""
-    spec = record.get("shield")
+def shield_from_record(record: dict[str, Any], where: str = "the run record") -> Shield | None:
+    """The shield a run record names (``record["shield"]``), or None; ``where`` names the record in errors."""
+    spec = record.get("shield") if isinstance(record, dict) else None
     if spec is None:
         return None
     if not isinstance(spec, dict) or set(spec) - set(Shield.__dataclass_fields__):
         keys = list(Shield.__dataclass_fields__)
-        raise ValueError(f"the run record's shield must be an object with keys of {keys}, got {spec!r}")
-    return Shield(**spec)
+        raise ValueError(f"the shield in {where} must be an object with keys of {keys}, got {spec!r}")
+    try:
+        return Shield(**spec)
+    except ValueError as e:
+        raise ValueError(f"{where}: {e}") from None
 
 
 def attach(checkpoint: str | os.PathLike, shield: Shield | None) -> dict[str, Any]:
     """Write ``shield`` into the run record of ``checkpoint`` (None removes it); return the record."""
     from .checkpoint import config_path, read_metadata, resolve
+    from .rllib_train import is_rllib_checkpoint
 
+    if is_rllib_checkpoint(checkpoint):
+        raise ValueError(f"{str(checkpoint)!r} is an RLlib checkpoint; shields are kept in the run records of SB3 ones")
     path = resolve(checkpoint)
     record = read_metadata(path)
-    if not record:
-        raise ValueError(f"{str(path)!r} has no run record ({config_path(path).name}); the shield is kept there")
+    if not isinstance(record, dict) or not record:
+        raise ValueError(
+            f"{str(path)!r} has no run record to keep the shield in ({config_path(path).name} is missing, empty "
+            "or not a JSON object)"
+        )
     record.pop("shield", None)
     if shield is not None:
         record["shield"] = asdict(shield)

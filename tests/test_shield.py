@@ -76,12 +76,16 @@ def test_filter_matches_the_readable_oracle_on_real_observations():
     assert np.array_equal(out[~replaced], np.clip(actions[~replaced], -1, 1))  # untouched where safe
 
 
-def test_prediction_is_what_the_simulator_does():
+@pytest.mark.parametrize("dt, speed", [(0.1, 0.0), (0.05, 0.6), (0.2, 0.3), (0.5, 0.8)])
+def test_prediction_is_what_the_simulator_does(dt, speed):
     """Obstacles on straight lines, the robot holding one action: the predicted smallest gap to the sensed
-    obstacles over the horizon is the one the simulator then produces, for every candidate."""
-    scenario = dataclasses.replace(SCENARIOS["crowd"], n_obstacles=6, on_collision="continue")
+    obstacles is the one the simulator then produces, at every step's end and, for steps over 0.1 s, along
+    its straight segment, for every candidate, whatever the step and the robot's starting speed."""
+    scenario = dataclasses.replace(
+        SCENARIOS["crowd"], n_obstacles=6, on_collision="continue", dt=dt, initial_speed=speed
+    )
     shield = Shield(horizon=1.5, margin=0.1)
-    steps = round(shield.horizon / scenario.dt)
+    steps, sub = math.ceil(1.5 / dt - 1e-9), max(1, math.ceil(dt / SAMPLE - 1e-9))
     for seed in range(3):
         sim = Simulator(scenario)
         world = sim.reset([seed])
@@ -92,11 +96,14 @@ def test_prediction_is_what_the_simulator_does():
             sim.reset([seed])
             gaps = []
             for _ in range(steps):
+                before, obs_before = sim.world.pos[0, 0].copy(), sim.world.obs_pos[0].copy()
                 sim.step(np.broadcast_to(cand, (1, 1, 2)))
                 w = sim.world
-                d = np.hypot(*(w.obs_pos[0] - w.pos[0, 0]).T) - w.obs_radius[0] - w.radius[0, 0]
-                gaps.append(d[sensed].min())
-            assert predicted == pytest.approx(min(gaps), abs=1e-6)
+                for f in np.arange(1, sub + 1) / sub:  # straight motion of both within the step
+                    p, q = before + f * (w.pos[0, 0] - before), obs_before + f * (w.obs_pos[0] - obs_before)
+                    d = np.hypot(*(q - p).T) - w.obs_radius[0] - w.radius[0, 0]
+                    gaps.append(d[sensed].min())
+            assert predicted == pytest.approx(min(gaps), abs=1e-5)
 
 
 def _obs(speed=1.0, neighbours=()):
@@ -133,6 +140,7 @@ def test_who_counts_and_what_replaces_an_unsafe_action():
     "kw, match",
     [
         ({"horizon": 0.0}, "horizon must be > 0"),
+        ({"horizon": 1e9}, "horizon must be at most 10"),
         ({"margin": -0.1}, "margin must be >= 0"),
         ({"margin": float("nan")}, "margin must be a finite number"),
         ({"robot_speed": True}, "robot_speed must be a finite number"),
@@ -142,6 +150,14 @@ def test_who_counts_and_what_replaces_an_unsafe_action():
 def test_bad_parameters_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
         Shield(**kw)
+
+
+def test_any_real_number_and_any_step_work():
+    assert Shield(horizon=np.float32(1.5), margin=np.int64(0)) == Shield(horizon=1.5, margin=0.0)
+    row = _obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)])
+    assert Shield(horizon=1e-10).filter(row, np.array([1.0, 0.0]), 8)[0].shape == (2,)  # one step at least
+    with pytest.raises(ValueError, match="same leading shape"):
+        Shield().filter(np.stack([row] * 5), np.zeros((3, 2)), 8)
 
 
 def test_record_round_trip_and_cli(tmp_path, capsys):
@@ -174,6 +190,10 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
     with pytest.raises(ValueError, match="keys of"):
         shield_from_record({"shield": {"horizon": 1.0, "reach": 2}})
+    for bad in ("[1, 2]", "{}"):
+        model.with_suffix(".json").write_text(bad)
+        with pytest.raises(ValueError, match="has no run record to keep the shield in"):
+            attach(model, Shield())
     model.with_suffix(".json").unlink()
     with pytest.raises(ValueError, match="has no run record"):
         attach(model, Shield())
@@ -186,8 +206,11 @@ def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     """The ablation: the released network with and without its shield on the same fresh dynamic episodes
     (seeds no suite, probe or validation set uses)."""
     suite = Suite("dynamic-fresh", SCENARIOS["dynamic"], tuple(range(60000, 60200)), "fresh dynamic episodes")
-    shielded = evaluate(GENERALIST, suite, progress=False).summary
-    network = evaluate(GENERALIST, suite, progress=False, shield=False).summary
+    shielded_run = evaluate(GENERALIST, suite, progress=False)
+    network_run = evaluate(GENERALIST, suite, progress=False, shield=False)
+    assert shielded_run.to_dict()["shield"] == {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}
+    assert network_run.to_dict()["shield"] is None  # what ran is in the results
+    shielded, network = shielded_run.summary, network_run.summary
     assert shielded["collision"]["mean"] < network["collision"]["mean"]
     assert shielded["success"]["mean"] > network["success"]["mean"]
     assert shielded["time_to_goal"]["mean"] < 1.1 * network["time_to_goal"]["mean"]
