@@ -28,7 +28,8 @@ it to within a few micrometres (all that reach the margin, say) the one nearest 
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
 ``vcs-env shield``); :func:`agents.policies.load_checkpoint` returns it as a :class:`ShieldedPredictor`,
 so it applies wherever a checkpoint is run (``vcs-env evaluate``, ``compare``, ``probe``, ``select``,
-:func:`agents.policies.resolve_policy`), unless ``shield=False`` / ``--no-shield``.
+:func:`agents.policies.resolve_policy`), unless ``shield=False`` (``--no-shield`` on ``evaluate``,
+``compare`` and ``probe``); their results say which policy ran with which shield.
 :func:`agents.checkpoint.load_model` and stable-baselines3's ``PPO.load`` give the network alone.
 """
 

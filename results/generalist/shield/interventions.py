@@ -1,7 +1,7 @@
 """How often the released generalist's shield replaces the network's action: per suite, the share of the
 decisions of active robots (one robot, one step) where it stepped in, and the episodes where it did at all.
 
-    python results/generalist/shield/interventions.py > results/generalist/shield/interventions.txt
+    python results/generalist/shield/interventions.py 2> /dev/null > results/generalist/shield/interventions.txt
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ SUITES = ("circle-8-v0", "circle-16-v0", "circle-24-v0", "swap-v0", "crossing-v0
 def main() -> None:
     shield = shield_from_record(read_metadata(POLICY))
     print(f"# {POLICY}, shield {shield}")
-    print("| suite | decisions replaced | episodes with a replacement |")
+    print("| suite | decisions it stepped in | episodes where it did |")
     print("|---|---|---|")
     for name in SUITES:
         suite = get_suite(name)
