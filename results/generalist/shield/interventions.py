@@ -19,30 +19,35 @@ SUITES = ("circle-8-v0", "circle-16-v0", "circle-24-v0", "swap-v0", "crossing-v0
           "crowd-20-v0", "dynamic-v0", "random-dense-v0")  # fmt: skip
 
 
+def interventions(name: str, shield) -> tuple[int, int, int, int]:
+    """(decisions it stepped in, decisions, episodes where it did, episodes) on suite ``name``."""
+    suite = get_suite(name)
+    network = load_checkpoint(POLICY, suite.scenario, shield=False)
+    count = {"decisions": 0, "stepped": 0}
+    touched: set[int] = set()
+
+    def control(world, obs):
+        B, n, D = obs.shape
+        actions = network.predict(obs.reshape(B * n, D), deterministic=True)[0].reshape(B, n, 2)
+        safe, stepped = shield.filter(obs, actions, suite.scenario.n_neighbors)
+        stepped &= world.active
+        count["decisions"] += int(world.active.sum())
+        count["stepped"] += int(stepped.sum())
+        touched.update(np.flatnonzero(stepped.any(1)).tolist())  # world b plays suite.seeds[b]
+        return np.where(world.active[..., None], safe, 0.0)
+
+    run_episodes(suite.scenario, control, suite.seeds)  # all seeds in one batch
+    return count["stepped"], count["decisions"], len(touched), suite.n_episodes
+
+
 def main() -> None:
     shield = shield_from_record(read_metadata(POLICY))
     print(f"# {POLICY}, shield {shield}")
     print("| suite | decisions it stepped in | episodes where it did |")
     print("|---|---|---|")
     for name in SUITES:
-        suite = get_suite(name)
-        network = load_checkpoint(POLICY, suite.scenario, shield=False)
-        count = {"decisions": 0, "replaced": 0}
-        touched: set[int] = set()
-
-        def control(world, obs):
-            B, n, D = obs.shape
-            actions = network.predict(obs.reshape(B * n, D), deterministic=True)[0].reshape(B, n, 2)
-            safe, replaced = shield.filter(obs, actions, suite.scenario.n_neighbors)
-            replaced &= world.active
-            count["decisions"] += int(world.active.sum())
-            count["replaced"] += int(replaced.sum())
-            touched.update(np.flatnonzero(replaced.any(1)).tolist())  # world b plays suite.seeds[b]
-            return np.where(world.active[..., None], safe, 0.0)
-
-        run_episodes(suite.scenario, control, suite.seeds)  # all seeds in one batch
-        share = count["replaced"] / count["decisions"]
-        print(f"| {name} | {share:.4f} ({count['replaced']} of {count['decisions']}) | {len(touched)} of {suite.n_episodes} |")
+        stepped, decisions, touched, episodes = interventions(name, shield)
+        print(f"| {name} | {stepped / decisions:.4f} ({stepped} of {decisions}) | {touched} of {episodes} |")
 
 
 if __name__ == "__main__":
