@@ -179,10 +179,9 @@ def write_probes(table: dict, out: str | Path, planners: set[str], command: str)
     info = machine_info()
     load = ", ".join(f"{x:.1f}" for x in info["load_average"] or ())
     stamp = f"{datetime.date.today().isoformat()}, {info['cpu']}, {info['usable_cores']} cores, load average {load}"
-    from .report import describe_shield
+    from .report import shield_lines
 
-    shields = table.get("shields", {})
-    notes = [f"{name} ran with its safety shield: {describe_shield(p)}." for name, p in shields.items()]
+    notes = shield_lines(table.get("shields", {}))
     md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), *notes, ""]
     (out / "probes.md").write_text("\n".join(md))
     (out / "probes.json").write_text(json.dumps({**table, "command": command, "date": stamp}, indent=1))

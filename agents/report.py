@@ -74,7 +74,7 @@ def markdown_table(comparison: Comparison) -> str:
             f"straight line at v_max) and path ratio over the {n_solved} episodes every policy solved; the other "
             "means over all episodes where defined, ± the 95 % half-width. Min separation is the smallest "
             "surface gap (negative = overlap). ms/decision = policy compute time per active robot per step.",
-            *shield_lines(comparison),
+            *shield_lines({name: res.shield for name, res in comparison.results.items()}),
             "",
             f"Extra time [s] percentiles over the {n_solved} episodes every policy solved:",
             "",
@@ -86,13 +86,9 @@ def markdown_table(comparison: Comparison) -> str:
     )
 
 
-def shield_lines(comparison: Comparison) -> list[str]:
-    """A note per policy that ran with a safety shield (:mod:`agents.shield`), with its parameters."""
-    return [
-        f"{name} ran with its safety shield: {describe_shield(res.shield)}."
-        for name, res in comparison.results.items()
-        if res.shield
-    ]
+def shield_lines(shields: Mapping[str, dict[str, float] | None]) -> list[str]:
+    """A note per policy that ran with a safety shield (``{name: parameters or None}``, :mod:`agents.shield`)."""
+    return [f"{name} ran with its safety shield: {describe_shield(p)}." for name, p in shields.items() if p]
 
 
 def describe_shield(shield: dict[str, float]) -> str:
