@@ -49,6 +49,26 @@ def test_make_scenario_overrides_and_nested_dicts():
         make_scenario("circle", n_robot=3)
     with pytest.raises(ValueError, match="unknown scenario"):
         make_scenario("nope")
+    # A typo inside the nested dicts names the field and the valid ones (not Python's TypeError).
+    with pytest.raises(ValueError, match=r"unknown rewards fields \['colision'\].*'collision'"):
+        make_scenario("circle", rewards={"colision": 30.0})
+    with pytest.raises(ValueError, match=r"unknown robot fields \['vmax'\].*'v_max'"):
+        make_scenario("circle", robot={"vmax": 2.0})
+
+
+def test_least_time_to_goal_bounds_every_robots_trip():
+    # The bound holds on every layout: no robot starts within v_max * least_time_to_goal + r_goal of its goal.
+    for name, over in [("circle", {"jitter": 0.3}), ("swap", {"jitter": 0.2}), ("crossing", {}), ("crowd", {})]:
+        s = make_scenario(name, **over)
+        assert s.least_time_to_goal > 0
+        for seed in range(20):
+            lay = generate(s, np.random.default_rng(seed))
+            trip = np.linalg.norm(lay.goal - lay.start, axis=-1) - s.r_goal
+            assert trip.min() >= s.least_time_to_goal * s.robot.v_max - 1e-9, (name, seed)
+    assert make_scenario("random").least_time_to_goal == 0.0  # no bound from the kind
+    # A circle of 256 robots has a 76.8 m radius: nobody can arrive within the preset's 60 s.
+    big = make_scenario("circle", n_robots=256)
+    assert big.least_time_to_goal > big.max_time
 
 
 @pytest.mark.parametrize(
@@ -104,8 +124,13 @@ def test_custom_validation():
         ObstacleTrajectory(times=(0.0, 1.0, 1.0), positions=((0, 0), (1, 0), (2, 0)))
     with pytest.raises(ValueError, match="speed"):
         ObstacleTrajectory(times=(0.0, 0.1), positions=((0, 0), (10, 0)))
-    with pytest.raises(ValueError, match="start"):
+    with pytest.raises(ValueError, match=r"start must be an \(n, 2\) array \[m\], got shape \(1, 3\)"):
         CustomLayout(start=((0, 0, 0),), goal=((1, 0),))
+    # A non-finite value is named as such, with its index (not reported as a shape problem).
+    with pytest.raises(ValueError, match=r"start\[1\] is not finite: \(nan, 0.0\)"):
+        CustomLayout(start=((0, 0), (float("nan"), 0)), goal=((1, 0), (2, 0)))
+    with pytest.raises(ValueError, match=r"speed\[0\] is not finite"):
+        CustomLayout(start=((0, 0),), goal=((1, 0),), speed=(float("inf"),))
     with pytest.raises(ValueError, match="heading"):
         CustomLayout(start=((0, 0),), goal=((1, 0),), heading=(0.0, 1.0))
 

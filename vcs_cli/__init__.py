@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import sys
 
 COMMAND_MODULES = (
@@ -28,12 +29,52 @@ and sets ``func``. They must not import torch or stable-baselines3 at module lev
 imports them all to build ``--help``); heavy imports go inside the command functions."""
 
 
+COMPILING = ("rollout", "evaluate", "compare", "probe", "train", "collect", "bc", "collect-states", "select", "bench")
+"""Commands that run the simulator (and the planners), whose kernels numba compiles on first use."""
+
+
+def compile_note() -> None:
+    """One line on stderr when the simulator and VCS planner kernels are not in numba's on-disk
+    cache yet, so that the first command's pause is explained."""
+    from baselines.vcs.kernel import plan_batch
+    from vcs_env import kernels
+
+    if not kernels.on_disk(kernels.integrate, kernels.observe, plan_batch):
+        print(
+            "vcs-env: compiling the simulator and planner kernels once (about a minute; numba caches them on disk)",
+            file=sys.stderr,
+        )
+
+
+def plain(text: str | None) -> str | None:
+    """Help text without reST markup: ``x`` and :role:`x` become x (docstrings serve as descriptions)."""
+    if not text:
+        return text
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", text)
+    return re.sub(r"``([^`]+)``", r"\1", text)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vcs-env", description="Multi-robot navigation with a VCS expert planner.")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_commands(sub)
+    for command in sub.choices.values():
+        command.description = plain(command.description)
+        for action in command._actions:
+            action.help = plain(action.help)
     return parser
+
+
+def package_version() -> str:
+    """The installed distribution's version (``vcs-env``), or ``unknown`` when run from a bare checkout."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vcs-env")
+    except PackageNotFoundError:
+        return "unknown"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,6 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     if isinstance(getattr(args, "seed", None), int) and args.seed < 0:
         print(f"vcs-env {args.command}: error: --seed must be >= 0, got {args.seed}", file=sys.stderr)
         return 2
+    if args.command in COMPILING:
+        compile_note()
     try:
         return int(args.func(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which has closed: stop quietly

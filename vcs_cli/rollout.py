@@ -6,6 +6,7 @@ import argparse
 import json
 
 from agents.config import ScenarioConfig, add_config_args, build_scenario, check_out_file, config_from_args
+from vcs_env.planning import PLANNERS
 
 ROLLOUT_SKIP = ("rewards", "shaping", "shaping_weight")
 """Scenario flags a planner rollout has no use for (rewards do not change what a planner does)."""
@@ -82,7 +83,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
 def add_commands(sub) -> None:
     p = sub.add_parser("rollout", help="run a scripted planner and print per-episode metrics")
     add_config_args(p, ScenarioConfig, skip=ROLLOUT_SKIP)
-    p.add_argument("--planner", default="vcs", help="planner name (see vcs_env.planning.make_planner)")
+    p.add_argument("--planner", default="vcs", help=f"planner name, one of: {', '.join(PLANNERS)} (default: vcs)")
     p.add_argument("--episodes", type=int, default=3)
     p.add_argument("--seed", type=int, default=0, help="seed of the first episode (then seed+1, ...)")
     p.add_argument("--gif", default=None, help="write the episodes to this GIF")

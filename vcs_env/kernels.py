@@ -379,3 +379,17 @@ def commit(active, present, reached_ever, collided_ever, speed, reached, collide
 # The wall contact kernels live in wall_kernels.py, which builds on the helpers above (hence the
 # import here); they are part of this module's interface.
 from .wall_kernels import WALL_REACH, wall_cache, wall_events, wall_events_cached  # noqa: E402, F401
+
+
+def on_disk(*kernels) -> bool:
+    """Whether numba's on-disk cache holds every one of ``kernels`` (``cache=True`` dispatchers)
+    already, so that the first call loads it instead of compiling it (which takes tens of
+    seconds for the whole simulator and planner). An index file written for older sources counts
+    as present: the first call then still recompiles."""
+    import os
+
+    for kernel in kernels:
+        index = getattr(getattr(getattr(kernel, "_cache", None), "_cache_file", None), "_index_path", None)
+        if index is None or not os.path.exists(index):
+            return False
+    return True

@@ -56,6 +56,11 @@ class ScenarioKind:
         """``layout_radius`` when the scenario leaves it None [m]."""
         return 5.0
 
+    def least_trip(self, s: Scenario) -> float:
+        """A lower bound on the straight distance [m] from start to goal (within ``r_goal``) that
+        every robot of every layout of ``s`` must cover; 0.0 where the kind gives none."""
+        return 0.0
+
     def n_segments(self, s: Scenario) -> int:
         """Most wall segments a layout of ``s`` has (the size of the world's segment arrays)."""
         return 0
@@ -92,6 +97,10 @@ class Circle(ScenarioKind):
     def default_radius(self, s: Scenario) -> float:
         return max(5.0, 0.3 * s.n_robots)
 
+    def least_trip(self, s: Scenario) -> float:
+        # The goal is the antipode of the jittered start, which lies within jitter of the circle.
+        return max(0.0, 2.0 * (s.circle_radius - s.jitter) - s.r_goal)
+
     def check_layout(self, s: Scenario) -> None:
         check_ring(s)
         super().check_layout(s)
@@ -119,6 +128,10 @@ class Swap(ScenarioKind):
         if 2.0 * s.circle_radius < need:
             raise ValueError(f"layout_radius={s.circle_radius:g} m is too short for a swap: need >= {need / 2:.3f} m")
         super().check_layout(s)
+
+    def least_trip(self, s: Scenario) -> float:
+        # Starts (jittered) and goals lie 2 layout_radius apart along a lane.
+        return max(0.0, 2.0 * s.circle_radius - s.jitter - s.r_goal)
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         obs_radius = obstacle_radii(s, rng)
@@ -159,6 +172,8 @@ class Crossing(ScenarioKind):
                 f"width {spread:.3f} m; increase layout_radius or reduce n_robots / lane_spacing"
             )
         super().check_layout(s)
+
+    least_trip = Swap.least_trip
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         obs_radius = obstacle_radii(s, rng)
@@ -240,6 +255,9 @@ class Crowd(ScenarioKind):
                 f"{s.circle_radius:g} m: their starts and goals need {used:.1f} m of its {ring:.1f} m; "
                 "increase layout_radius"
             )
+
+    def least_trip(self, s: Scenario) -> float:
+        return max(0.0, 2.0 * s.circle_radius - s.r_goal)  # start and goal are antipodes of the ring
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         obs_radius = obstacle_radii(s, rng)

@@ -157,9 +157,15 @@ class CustomLayout:
 
     def __post_init__(self) -> None:
         def pts(name, value):
-            arr = np.asarray(value, dtype=np.float64)
-            if arr.ndim != 2 or arr.shape[1] != 2 or not np.all(np.isfinite(arr)):
-                raise ValueError(f"CustomLayout.{name} must be a finite (n, 2) array, got shape {arr.shape}")
+            try:
+                arr = np.asarray(value, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"CustomLayout.{name} must be an (n, 2) array of numbers [m], got {value!r}") from None
+            if arr.ndim != 2 or arr.shape[1] != 2:
+                raise ValueError(f"CustomLayout.{name} must be an (n, 2) array [m], got shape {arr.shape}")
+            bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+            if bad.size:
+                raise ValueError(f"CustomLayout.{name}[{bad[0]}] is not finite: {tuple(arr[bad[0]].tolist())}")
             return tuple(map(tuple, arr.tolist()))
 
         object.__setattr__(self, "start", pts("start", self.start))
@@ -171,8 +177,10 @@ class CustomLayout:
             value = getattr(self, name)
             if value is not None:
                 arr = np.asarray(value, dtype=np.float64)
-                if arr.shape != (n,) or not np.all(np.isfinite(arr)):
-                    raise ValueError(f"CustomLayout.{name} must be a finite array of shape ({n},)")
+                if arr.shape != (n,):
+                    raise ValueError(f"CustomLayout.{name} must have shape ({n},) (one per robot), got {arr.shape}")
+                if not np.all(np.isfinite(arr)):
+                    raise ValueError(f"CustomLayout.{name}[{np.flatnonzero(~np.isfinite(arr))[0]}] is not finite")
                 object.__setattr__(self, name, tuple(arr.tolist()))
         if self.speed is not None and min(self.speed) < 0:
             raise ValueError("CustomLayout.speed must be >= 0")
@@ -317,6 +325,13 @@ class Scenario:
         return self.max_steps * self.dt
 
     @property
+    def least_time_to_goal(self) -> float:
+        """A lower bound on the time [s] every robot needs to reach its goal at ``v_max`` from the
+        layout's geometry alone (0.0 where the kind gives none). When it exceeds :attr:`max_time`,
+        no robot can arrive before the episode is truncated."""
+        return _kinds()[self.kind].least_trip(self) / self.robot.v_max
+
+    @property
     def world_extent(self) -> float:
         """A generous half size of the area of an episode [m] (placement bounds; observations do
         not depend on it since observation v1)."""
@@ -402,7 +417,12 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
         raise ValueError(f"unknown Scenario fields {sorted(unknown)}; valid fields are {sorted(names)}")
     for key in ("robot", "rewards"):
         if isinstance(overrides.get(key), dict):
-            overrides[key] = dataclasses.replace(getattr(base, key), **overrides[key])
+            current = getattr(base, key)
+            valid = {f.name for f in dataclasses.fields(current)}
+            wrong = sorted(set(overrides[key]) - valid)
+            if wrong:
+                raise ValueError(f"unknown {key} fields {wrong}; valid {key} fields are {sorted(valid)}")
+            overrides[key] = dataclasses.replace(current, **overrides[key])
     if base.kind == "custom" and overrides.get("kind", "custom") != "custom":
         overrides.setdefault("custom", None)
     return dataclasses.replace(base, **overrides)

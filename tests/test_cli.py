@@ -1,0 +1,75 @@
+"""The ``vcs-env`` command line as a user meets it: its version, help texts without markup, the
+planner names it accepts, and the note before the first compilation of the kernels."""
+
+import re
+import textwrap
+
+import pytest
+
+import vcs_cli
+from vcs_env import kernels
+from vcs_env.planning import PLANNERS
+
+
+def test_version_flag_prints_the_installed_version(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        vcs_cli.build_parser().parse_args(["--version"])
+    assert exit_.value.code == 0
+    out = capsys.readouterr().out.strip()
+    assert out == f"vcs-env {vcs_cli.package_version()}"
+    assert re.fullmatch(r"vcs-env \d+\.\d+\.\d+.*", out)
+
+
+def test_help_texts_have_no_rest_markup():
+    parser = vcs_cli.build_parser()
+    sub = next(a for a in parser._actions if a.choices and "rollout" in a.choices)
+    for name, command in sub.choices.items():
+        text = command.format_help()
+        assert "``" not in text and not re.search(r":[a-z]+:`", text), f"reST markup in `vcs-env {name} --help`"
+
+
+def test_plain_strips_roles_and_literals():
+    assert (
+        vcs_cli.plain("``vcs-env select``: see :func:`~agents.x.f` and :class:`A`")
+        == "vcs-env select: see agents.x.f and A"
+    )
+
+
+def test_rollout_help_lists_the_planner_names():
+    command = vcs_cli.build_parser()._subparsers._group_actions[0].choices["rollout"]
+    text = " ".join(command.format_help().split())
+    assert len(PLANNERS) >= 6
+    for name in PLANNERS:
+        assert re.search(rf"\b{name}\b", text), name
+
+
+def test_on_disk_tells_a_compiled_kernel_from_a_new_one(tmp_path, monkeypatch):
+    # A fresh module with a cached kernel: not on disk before its first call, on disk after it.
+    (tmp_path / "fresh_kernel_mod.py").write_text(
+        textwrap.dedent(
+            """
+            from numba import njit
+
+            @njit(cache=True)
+            def twice(x):
+                return 2.0 * x
+            """
+        )
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    import fresh_kernel_mod
+
+    assert not kernels.on_disk(fresh_kernel_mod.twice)
+    assert fresh_kernel_mod.twice(2.0) == 4.0
+    assert kernels.on_disk(fresh_kernel_mod.twice)
+    assert not kernels.on_disk(fresh_kernel_mod.twice, lambda x: x)  # not a cached kernel: not on disk
+
+
+def test_first_command_says_it_compiles(monkeypatch, capsys):
+    monkeypatch.setattr(kernels, "on_disk", lambda *k: False)
+    vcs_cli.compile_note()
+    assert "compiling the simulator and planner kernels once" in capsys.readouterr().err
+    monkeypatch.setattr(kernels, "on_disk", lambda *k: True)
+    vcs_cli.compile_note()
+    assert capsys.readouterr().err == ""
