@@ -97,10 +97,6 @@ class Circle(ScenarioKind):
     def default_radius(self, s: Scenario) -> float:
         return max(5.0, 0.3 * s.n_robots)
 
-    def least_trip(self, s: Scenario) -> float:
-        # The goal is the antipode of the jittered start, which lies within jitter of the circle.
-        return max(0.0, 2.0 * (s.circle_radius - s.jitter) - s.r_goal)
-
     def check_layout(self, s: Scenario) -> None:
         check_ring(s)
         super().check_layout(s)
@@ -109,6 +105,10 @@ class Circle(ScenarioKind):
         obs_radius = obstacle_radii(s, rng)
         start = jittered(rng, circle_points(s.n_robots, s.circle_radius, 0.0), s.jitter)
         return finish(s, start, -start, *place_obstacles(s, rng, start, -start, obs_radius))
+
+    def least_trip(self, s: Scenario) -> float:
+        # The goal is the antipode of the jittered start, which lies within jitter of the circle.
+        return max(0.0, 2.0 * (s.circle_radius - s.jitter) - s.r_goal)
 
 
 class Swap(ScenarioKind):
