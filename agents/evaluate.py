@@ -13,7 +13,7 @@ The report (markdown table, plots) is :mod:`agents.report`; the ``evaluate`` and
 commands are :mod:`agents.evaluate_cli`::
 
     vcs-env evaluate --suite circle-16-v0 --policy vcs --json out.json
-    vcs-env compare --suite crowd-5-v0 --policies vcs,straight,runs/ppo/model.zip --out results/
+    vcs-env compare --suite crowd-5-v0 --policies vcs,straight,runs/ppo/model.zip --out runs/compare
 
 This module imports neither torch nor stable-baselines3 at import time.
 """

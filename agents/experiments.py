@@ -1,4 +1,4 @@
-"""Score finished training runs on a suite and tabulate them per method (the README's RL table).
+"""Score finished training runs on a suite and tabulate them per method (the RL table of ``docs/training.md``).
 
 Run directories are named ``<anything>_<method>_s<seed>`` (e.g. ``runs/crowd5_ppo_s0``). Every
 run's final ``model.zip`` (or, with ``--model best_model.zip``, the policy of its best periodic

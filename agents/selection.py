@@ -1,7 +1,7 @@
 """``vcs-env select``: keep the checkpoint of a run that solves most validation episodes.
 
 The checkpoints of one PPO run can differ by tens of points on a hard family (circle-24 in
-``results/generalist/stage-i``), so a release keeps the best of its last checkpoints on validation
+stage I in ``docs/experiments.md``), so a release keeps the best of its last checkpoints on validation
 episodes no suite or probe uses, instead of whatever the last step left::
 
     vcs-env select runs/generalist/round2 --from-step 1000000 \\

@@ -16,7 +16,7 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
 * every sensed obstacle moves on at its observed velocity; a sensed robot counts only while its speed
   is at most ``robot_speed`` [m/s] (robots that stopped, parked robots among them), since a moving
   robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
-  (on circle-24, counting every robot cost 15 points of success, ``results/generalist/shield/README.md``);
+  (on circle-24, counting every robot cost 15 points of success, ``docs/experiments.md``);
 * the gap is the distance between centres minus both radii [m].
 
 Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least

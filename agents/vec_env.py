@@ -300,8 +300,8 @@ class MixtureVecEnv(SharedSlots):
     (:func:`mixture_world_counts`: an equal share of the worlds, or of the robots with
     ``balance="robots"``), so every rollout holds all of them. Groups rather than padding to the largest robot
     count: no slot is spent on robots that do not exist, and each group keeps the one-call step
-    of its engine; the cost is one engine call per group and step (measured in the README:
-    "Training on mixtures").
+    of its engine; the cost is one engine call per group and step (measured in
+    ``docs/training.md``, "Mixtures").
 
     Seeding: ``seed(s)`` then ``reset()`` seeds world ``b`` of the mixture with ``s + b``, like
     :class:`NavVecEnv`.

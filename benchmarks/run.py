@@ -3,7 +3,8 @@ side by side with real peers (PettingZoo MPE, VMAS, RVO2 ORCA via pyrvo) in one 
 
 Writes a Markdown report (``--out``, default ``benchmarks/RESULTS.md``) and the raw numbers as
 JSON next to it (same name, ``.json``). ``--quick`` uses tiny sizes (the smoke test); its
-numbers mean nothing. Peers come from the ``bench`` extra (``pip install 'vcs-env[bench]'``); a
+numbers mean nothing, so without ``--out`` it writes ``runs/bench-quick/RESULTS.md`` (``runs/`` is
+not committed), never the committed report. Peers come from the ``bench`` extra (``pip install 'vcs-env[bench]'``); a
 peer that cannot be imported is reported as missing, with the reason.
 
 Sections: 1. env throughput (random actions), 2. planner throughput, 3. PPO training
@@ -29,6 +30,13 @@ from .report import _rate, render
 from .timing import Budget, fit_exponent, machine_info, ratio, side_by_side
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "RESULTS.md"
+QUICK_OUT = Path("runs") / "bench-quick" / "RESULTS.md"
+"""Where ``--quick`` writes without ``--out`` (relative to the working directory; ``runs/`` is gitignored)."""
+
+
+def default_out(quick: bool) -> Path:
+    """The report path when ``--out`` is not given: the committed report only for a full run."""
+    return QUICK_OUT if quick else DEFAULT_OUT
 
 
 @dataclass
@@ -348,13 +356,14 @@ def _commit() -> str:
 
 
 def run(
-    quick: bool = False, out: Path | str = DEFAULT_OUT, sections=SECTIONS, command: str = "", merge: bool = False
+    quick: bool = False, out: Path | str | None = None, sections=SECTIONS, command: str = "", merge: bool = False
 ) -> dict:
-    """Run the benchmarks and write ``out`` (Markdown) and ``out`` with ``.json``; returns the data.
+    """Run the benchmarks and write ``out`` (Markdown; default :func:`default_out`) and ``out`` with
+    ``.json``; returns the data.
 
     With ``merge``, the sections not run are kept from the existing JSON next to ``out`` (their
     numbers are from that earlier run)."""
-    out = Path(out)
+    out = Path(out) if out is not None else default_out(quick)
     sz = quick_sizes() if quick else Sizes()
     t0 = time.perf_counter()
     machine = machine_info()
@@ -426,7 +435,11 @@ def _command_line() -> str:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quick", action="store_true", help="tiny sizes (smoke test; the numbers mean nothing)")
-    p.add_argument("--out", default=str(DEFAULT_OUT), help="Markdown report path; the JSON goes next to it")
+    p.add_argument(
+        "--out",
+        default=None,
+        help=f"Markdown report; the JSON goes next to it (default benchmarks/RESULTS.md; with --quick {QUICK_OUT})",
+    )
     p.add_argument("--sections", default=",".join(SECTIONS), help=f"comma-separated subset of {','.join(SECTIONS)}")
     p.add_argument(
         "--merge", action="store_true", help="keep the sections not run from the existing JSON next to --out"

@@ -7,8 +7,8 @@
 # states shortly before its contacts and where an obstacle is about to hit a robot, on the crowd and
 # dynamic entries, and half of those worlds start from them); last, of both runs' last rounds, the
 # checkpoint that does best on validation seeds (1 min), released with a safety shield on its actions
-# (results/generalist/shield). The recipe is seed-sensitive (one seed pair of two kept circle-24 at 0.86),
-# so both runs are part of it; results/generalist/stage-n.
+# (docs/experiments.md, the safety shield). The recipe is seed-sensitive (one seed pair of two kept circle-24 at 0.86),
+# so both runs are part of it; docs/experiments.md, stage N.
 # Usage: [ROOT=runs/generalist] [RUNS="0:0 1:10"] bash policies/generalist.sh
 # RUNS: one BC_SEED:S0 pair per run, run side by side (BC seed BC_SEED, the 8 M PPO steps seed S0, round r
 # seed S0 + r), into $ROOT/run-BC_SEED-S0. Steps with a model.zip are skipped; the selection always runs.
@@ -82,5 +82,5 @@ done
 vcs-env select "${runs[@]/%//round4}" --from-step 1000000 --no-progress --out "$ROOT/release" \
   --validation circle-24-v0:7000:7200 dynamic-v0:7000:7300 crowd-20-v0:7000:7200
 # The released policy runs with a safety shield (agents/shield.py) kept in its run record: horizon 1.5 s, margin
-# 0.1 m, robots counted at most 0.05 m/s fast, chosen on the same validation seeds (results/generalist/shield).
+# 0.1 m, robots counted at most 0.05 m/s fast, chosen on the same validation seeds (docs/experiments.md, the safety shield).
 vcs-env shield "$ROOT/release/model.zip" --horizon 1.5 --margin 0.1 --robot-speed 0.05

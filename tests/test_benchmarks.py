@@ -140,6 +140,22 @@ def test_cli_has_bench_command():
     assert args.quick and args.out == "x.md"
 
 
+def test_quick_run_without_out_writes_no_committed_file(monkeypatch):
+    """A smoke run never overwrites the committed report: without ``--out`` it goes under ``runs/``
+    (gitignored), even from the repository root; a full run still writes ``benchmarks/RESULTS.md``."""
+    from benchmarks.run import DEFAULT_OUT, default_out
+    from vcs_cli import build_parser
+
+    monkeypatch.chdir(ROOT)
+    args = build_parser().parse_args(["bench", "--quick"])
+    assert args.out is None
+    out = default_out(args.quick).resolve()
+    committed = {p.resolve() for p in (ROOT / "benchmarks").iterdir()}
+    assert out not in committed and out.with_suffix(".json") not in committed
+    assert out.relative_to(ROOT).parts[0] == "runs" and "runs/" in (ROOT / ".gitignore").read_text().split()
+    assert default_out(False) == DEFAULT_OUT == ROOT / "benchmarks" / "RESULTS.md"
+
+
 def test_rllib_section_is_rendered_from_its_json_and_replaced_in_place(tmp_path):
     """``python -m benchmarks`` rewrites RESULTS.md; section 6 (RLlib, measured separately) comes
     back from benchmarks/rllib_bench.json, once, before any later section."""

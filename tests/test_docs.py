@@ -124,3 +124,61 @@ def test_extending_examples_run(monkeypatch):
     for code in examples:
         exec(compile(code, str(EXTENDING), "exec"), {})
     assert "column" in layouts.KINDS and "stop" in planning.PLANNERS
+
+
+# The docs pages' commands and code, as the README's are (tests/test_readme.py): every `vcs-env` line of a
+# bash block parses, every Python block runs (blocks the README also holds run there), every relative link
+# and every cited repository path exists.
+PAGES = sorted((ROOT / "docs").glob("*.md"))
+README_CODE = {body for lang, body in FENCE.findall((ROOT / "README.md").read_text()) if lang == "python"}
+DOC_CLI = [
+    (page.name, line.strip())
+    for page in PAGES
+    for lang, body in FENCE.findall(page.read_text())
+    if lang == "bash"
+    for line in body.splitlines()
+    if line.strip().startswith("vcs-env ")
+]
+DOC_PYTHON = [
+    (page.name, body)
+    for page in PAGES
+    if page != EXTENDING  # its examples register plug-ins: test_extending_examples_run
+    for lang, body in FENCE.findall(page.read_text())
+    if lang == "python" and body not in README_CODE
+]
+LINK = re.compile(r"\]\(([^)#\s]+)\)")
+CITED = re.compile(r"`((?:results|policies|docs|benchmarks|agents|baselines|vcs_env|notebooks)/[^`\s]*)`")
+HISTORY = ROOT / "docs" / "experiments.md"
+"""Cites the experiment folders that left the tree, each with the commit that keeps it."""
+
+
+@pytest.mark.parametrize("page,cmd", DOC_CLI, ids=[f"{p}:{c[8:40]}" for p, c in DOC_CLI])
+def test_docs_cli_commands_parse(page, cmd):
+    import shlex
+
+    from vcs_cli import build_parser
+
+    args = build_parser().parse_args(shlex.split(cmd)[1:])
+    assert callable(args.func)
+
+
+@pytest.mark.parametrize("page,code", DOC_PYTHON, ids=[f"{p}:{i}" for i, (p, _) in enumerate(DOC_PYTHON)])
+def test_docs_python_blocks_run(page, code, tmp_path):
+    import subprocess
+    import sys
+
+    cwd = ROOT if "policies/" in code else tmp_path  # released policies load from the repository root
+    proc = subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+@pytest.mark.parametrize("page", [ROOT / "README.md", *PAGES], ids=lambda p: p.name)
+def test_links_and_cited_paths_exist(page):
+    text = page.read_text()
+    missing = [t for t in LINK.findall(text) if "://" not in t and not (page.parent / t).exists()]
+    if page != HISTORY:
+        for path in CITED.findall(text):
+            pattern = re.sub(r"<[^>]+>", "*", path.rstrip(".,;:"))
+            if not any(ROOT.glob(pattern)):
+                missing.append(path)
+    assert missing == []

@@ -258,7 +258,7 @@ def test_mixture_balance_by_robots_steps_about_as_many_robots_per_scenario():
 
 
 def test_reproduction_command_of_a_toy_mixture_run_gives_the_same_metrics(tmp_path, capsys):
-    """Honest reproducibility (README "Reproducibility"): re-running the command saved beside a
+    """Honest reproducibility (``docs/training.md``, "Reproducibility"): re-running the command saved beside a
     checkpoint gives the same evaluation metrics on the same machine and library versions. The
     test compares metrics, not weight bytes (those may differ across CPUs)."""
     import shlex

@@ -1,4 +1,4 @@
-"""The README tells the truth: its install and test commands are what CI runs, every `vcs-env`
+"""The README tells the truth: its install, run and test commands are what CI runs, every `vcs-env`
 command in it parses, the short ones run as written, and its Python snippets run."""
 
 import re
@@ -19,12 +19,32 @@ CLI = [c for c in COMMANDS if c.startswith("vcs-env ")]
 SHORT = ("vcs-env rollout", "vcs-env evaluate --suite circle-8-v0-smoke")
 
 
+def _without_marker_selection(cmd: str) -> list[str]:
+    """``cmd``'s words without a ``-m EXPR`` selection: a quick subset is the command it narrows."""
+    words = shlex.split(cmd)
+    i = words.index("-m", 3) if "-m" in words[3:] else None
+    return words if i is None else words[:i] + words[i + 2 :]
+
+
 def test_ci_runs_the_readme_install_and_test_commands():
+    """Every README ``pip`` line is in .ci/run as written, and so is the full test command; a README
+    test command that selects a subset by marker (``-m "not slow"``) is covered by the full one."""
     ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    ci_pytest = [shlex.split(line) for line in ci if line.startswith("python -m pytest")]
     for cmd in COMMANDS:
-        if cmd.startswith("pip ") or cmd.startswith("python -m pytest"):
+        if cmd.startswith("pip "):
             assert cmd in ci, f"README command not in .ci/run: {cmd}"
-    assert any(c.startswith("python -m pytest") for c in COMMANDS)
+        if cmd.startswith("python -m pytest"):
+            assert _without_marker_selection(cmd) in ci_pytest, f"README command not covered by .ci/run: {cmd}"
+    assert "python -m pytest -q" in COMMANDS and "python -m pytest -q" in ci  # the full suite
+    assert _without_marker_selection('python -m pytest -m "not slow" -q') == ["python", "-m", "pytest", "-q"]
+
+
+def test_ci_runs_the_readme_rollout_after_the_light_install():
+    ci = (ROOT / ".ci" / "run").read_text()
+    rollout = next(c for c in COMMANDS if c.startswith("vcs-env rollout"))
+    light = next(c for c in COMMANDS if c.startswith("pip install") and "[render]" in c)
+    assert light in ci and rollout in ci and ci.index(light) < ci.index(rollout) < ci.index("[all]")
 
 
 @pytest.mark.parametrize("cmd", CLI)

@@ -25,7 +25,7 @@ from .scenario import (
 from .sim import Simulator, StepEvents
 from .state import WorldState
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 GYM_IDS = {
     "vcs_env/Navigation-v1": "circle",
