@@ -7,15 +7,17 @@ Regenerate it only for a deliberate change of layouts (and bump the env versions
 """
 
 import hashlib
-import json
 import pathlib
 
+import bitwise
 import numpy as np
 import pytest
 
 from vcs_env.layouts import generate
 from vcs_env.scenario import make_scenario
 
+REGENERATE = "python tests/test_layout_regression.py"
+"""Writes this platform's entry of the fixture (:mod:`bitwise`)."""
 FIXTURE = pathlib.Path(__file__).parent / "data" / "layout_hashes.json"
 SEEDS = (0, 1, 7)
 CASES = {
@@ -66,17 +68,15 @@ def fingerprint(case: str) -> dict:
 
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_layout_matches_fixture(case):
-    expected = json.loads(FIXTURE.read_text())[case]
-    assert fingerprint(case) == expected
+    assert fingerprint(case) == bitwise.expected(FIXTURE, REGENERATE)[case]
 
 
 def test_fixture_covers_every_case_and_kind():
     from vcs_env.layouts import KINDS
 
-    assert set(json.loads(FIXTURE.read_text())) == set(CASES)
+    assert set(bitwise.expected(FIXTURE, REGENERATE)) == set(CASES)
     assert {_scenario(c).kind for c in CASES} == set(KINDS)
 
 
 if __name__ == "__main__":
-    FIXTURE.write_text(json.dumps({c: fingerprint(c) for c in CASES}, indent=1, sort_keys=True) + "\n")
-    print(f"wrote {FIXTURE}")
+    bitwise.write(FIXTURE, {c: fingerprint(c) for c in CASES})

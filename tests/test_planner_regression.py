@@ -9,9 +9,9 @@ Regenerate it only for a deliberate change of planner behaviour.
 """
 
 import hashlib
-import json
 import pathlib
 
+import bitwise
 import numpy as np
 import pytest
 
@@ -20,6 +20,8 @@ from baselines.vcs import VCSPlanner
 from vcs_env.engine import NavEngine
 from vcs_env.scenario import make_scenario
 
+REGENERATE = "python tests/test_planner_regression.py"
+"""Writes this platform's entry of the fixture (:mod:`bitwise`)."""
 FIXTURE = pathlib.Path(__file__).parent / "data" / "planner_hashes.json"
 STEPS = 100
 CASES = {
@@ -84,10 +86,8 @@ def fingerprint(case: str) -> dict:
 
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_planner_matches_fixture(case):
-    expected = json.loads(FIXTURE.read_text())[case]
-    assert fingerprint(case) == expected
+    assert fingerprint(case) == bitwise.expected(FIXTURE, REGENERATE)[case]
 
 
 if __name__ == "__main__":
-    FIXTURE.write_text(json.dumps({c: fingerprint(c) for c in sorted(CASES)}, indent=1, sort_keys=True) + "\n")
-    print(f"wrote {FIXTURE}")
+    bitwise.write(FIXTURE, {c: fingerprint(c) for c in sorted(CASES)})
