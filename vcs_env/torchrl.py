@@ -246,7 +246,8 @@ class VcsNavEnv(EnvBase):
 
     # -------------------------------------------------------------- helpers
     def _tensor(self, x: np.ndarray) -> torch.Tensor:
-        return torch.from_numpy(np.ascontiguousarray(x)).to(self.device)
+        """A copy of ``x`` on the env's device (never a view: the env's arrays change in place)."""
+        return torch.tensor(x, device=self.device)
 
     def _output(self, reward: np.ndarray | None) -> TensorDict:
         """The env's tensordict from the current arrays (``reward`` ``(B, n)`` after a step, None after reset)."""
