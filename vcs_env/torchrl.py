@@ -32,6 +32,13 @@ def _check_seed(seed) -> int | None:
     return int(seed)
 
 
+def _replaced(a: np.ndarray, rows: np.ndarray, value) -> np.ndarray:
+    """A copy of ``a`` with ``a[rows] = value`` (``a`` itself untouched)."""
+    out = a.copy()
+    out[rows] = value
+    return out
+
+
 class VcsNavEnv(EnvBase):
     """Multi-robot navigation among moving obstacles as a batched TorchRL env (``vcs_nav_v1``).
 
@@ -212,14 +219,14 @@ class VcsNavEnv(EnvBase):
                 self._pending_seeds[b] = None
             obs = self.engine.reset(seeds, worlds.tolist())
             active = self.engine.world.active
-            self._live[worlds] = active[worlds]
-            self._terminated[worlds] = False
-            self._truncated[worlds] = False
-            self._reached[worlds] = False
-            self._collided[worlds] = False
-            for value in self._terms.values():
-                value[worlds] = 0.0
-            self._obs[worlds] = np.where(active[worlds, :, None], obs[worlds], 0.0)
+            # New arrays, never writes into old ones: the tensors handed out are views of them (_tensor).
+            self._live = _replaced(self._live, worlds, active[worlds])
+            self._terminated = _replaced(self._terminated, worlds, False)
+            self._truncated = _replaced(self._truncated, worlds, False)
+            self._reached = _replaced(self._reached, worlds, False)
+            self._collided = _replaced(self._collided, worlds, False)
+            self._terms = {name: _replaced(v, worlds, 0.0) for name, v in self._terms.items()}
+            self._obs = _replaced(self._obs, worlds, np.where(active[worlds, :, None], obs[worlds], 0.0))
         return self._output(reward=None)
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
@@ -233,8 +240,8 @@ class VcsNavEnv(EnvBase):
         actions = np.where(live[..., None], action.detach().cpu().numpy().astype(np.float64), 0.0)
         res = self.engine.step(actions)
         ended = live & (res.terminated | res.truncated)
-        self._terminated |= live & res.terminated
-        self._truncated |= live & res.truncated & ~res.terminated
+        self._terminated = self._terminated | (live & res.terminated)
+        self._truncated = self._truncated | (live & res.truncated & ~res.terminated)
         self._live = live & ~ended
         # The robots that drove this step see where they ended up (their last observation when they finished).
         self._obs = np.where(live[..., None], res.obs, 0.0).astype(np.float32)
@@ -246,8 +253,9 @@ class VcsNavEnv(EnvBase):
 
     # -------------------------------------------------------------- helpers
     def _tensor(self, x: np.ndarray) -> torch.Tensor:
-        """A copy of ``x`` on the env's device (never a view: the env's arrays change in place)."""
-        return torch.tensor(x, device=self.device)
+        """``x`` as a tensor on the env's device: a view on the CPU (the env never writes into an array it
+        handed out: :meth:`_step` and :meth:`_reset` make new ones)."""
+        return torch.from_numpy(np.ascontiguousarray(x)).to(self.device)
 
     def _output(self, reward: np.ndarray | None) -> TensorDict:
         """The env's tensordict from the current arrays (``reward`` ``(B, n)`` after a step, None after reset)."""
