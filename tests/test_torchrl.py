@@ -2,6 +2,9 @@
 with the batched engine, partial resets, robots that finish at different times, seeding, errors, and a
 tiny collector run. The ``torchrl`` extra is part of ``.[all]``: these tests run, never skip."""
 
+import pathlib
+import re
+
 import numpy as np
 import pytest
 import torch
@@ -12,6 +15,7 @@ from vcs_env.scenario import make_scenario
 from vcs_env.torchrl import VcsNavEnv
 
 torch.set_num_threads(1)
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def replay(actions: np.ndarray):
@@ -239,3 +243,10 @@ def test_a_collector_with_a_multi_agent_policy_collects_frames():
     assert batch.batch_size == (4, 8)
     assert batch["next", "agents", "reward"].shape == (4, 8, n, 1)
     assert batch["agents", "action"].abs().max() <= 1.0
+
+
+def test_the_docs_example_runs():
+    text = (ROOT / "docs" / "torchrl.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.DOTALL)
+    assert len(blocks) == 1
+    exec(compile(blocks[0], "docs/torchrl.md", "exec"), {})
