@@ -209,11 +209,12 @@ def test_bad_seed_and_actions_raise_value_errors():
         env.step(td)
 
 
-def test_a_collector_with_a_multi_agent_policy_collects_frames():
+def test_a_collector_with_a_multi_agent_policy_collects_frames_for_gae():
     from tensordict.nn import NormalParamExtractor, TensorDictModule
     from torch import nn
     from torchrl.collectors import Collector
     from torchrl.modules import MultiAgentMLP, ProbabilisticActor, TanhNormal
+    from torchrl.objectives.value import GAE
 
     torch.manual_seed(0)
     env = VcsNavEnv("swap", 4)
@@ -243,6 +244,24 @@ def test_a_collector_with_a_multi_agent_policy_collects_frames():
     assert batch.batch_size == (4, 8)
     assert batch["next", "agents", "reward"].shape == (4, 8, n, 1)
     assert batch["agents", "action"].abs().max() <= 1.0
+    # The per-robot keys plug into TorchRL's GAE as in its multi-agent PPO tutorial.
+    critic = TensorDictModule(
+        MultiAgentMLP(obs_dim, 1, n_agents=n, centralized=True, share_params=True, depth=1, num_cells=16),
+        in_keys=[("agents", "observation")],
+        out_keys=[("agents", "state_value")],
+    )
+    gae = GAE(gamma=0.99, lmbda=0.95, value_network=critic)
+    gae.set_keys(
+        reward=("agents", "reward"),
+        done=("agents", "done"),
+        terminated=("agents", "terminated"),
+        value=("agents", "state_value"),
+        advantage=("agents", "advantage"),
+        value_target=("agents", "value_target"),
+    )
+    with torch.no_grad():
+        gae(batch)
+    assert batch["agents", "advantage"].shape == (4, 8, n, 1) and torch.isfinite(batch["agents", "advantage"]).all()
 
 
 def test_the_docs_example_runs():
