@@ -269,3 +269,11 @@ def test_the_docs_example_runs():
     blocks = re.findall(r"```python\n(.*?)```", text, re.DOTALL)
     assert len(blocks) == 1
     exec(compile(blocks[0], "docs/torchrl.md", "exec"), {})
+
+
+def test_the_benchmark_contestants_step():
+    from benchmarks.torchrl_bench import builders
+
+    for name, build in builders(n=2, B=3).items():
+        step = build()
+        assert [step(), step()] == [3, 3], name
