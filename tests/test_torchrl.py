@@ -8,6 +8,7 @@ import re
 import numpy as np
 import pytest
 import torch
+from tensordict import TensorDict
 from torchrl.envs.utils import check_env_specs, step_mdp
 
 from vcs_env.engine import NavEngine
@@ -119,6 +120,12 @@ def test_partial_reset_resets_only_the_masked_worlds():
     fresh.set_seed(3)
     first = fresh.reset()
     assert (out["agents", "observation"][~kept] == first["agents", "observation"][~kept]).all()
+    # Given only the per-robot "_reset", a world resets when all its robots ask.
+    per_robot = torch.zeros(B, env.n_robots, 1, dtype=torch.bool)
+    per_robot[1] = True
+    per_robot[3, 0] = True
+    env.reset(TensorDict({"agents": TensorDict({"_reset": per_robot}, (B, env.n_robots))}, (B,)))
+    assert env.engine.world.steps.tolist() == [0, 0, 0, 3]
 
 
 def test_robots_finishing_at_different_times_keep_their_world_running():
@@ -165,8 +172,9 @@ def test_same_seed_same_rollout():
     assert not torch.equal(a, c)
 
 
-def test_expert_action_is_the_engine_expert_for_the_observation():
-    env = VcsNavEnv("crossing", 3, expert="straight")
+@pytest.mark.parametrize("scenario, expert", [("crossing", "straight"), ("swap", "vcs")])
+def test_expert_action_is_the_engine_expert_for_the_observation(scenario, expert):
+    env = VcsNavEnv(scenario, 3, expert=expert)
     env.set_seed(0)
     td = env.reset()
     assert torch.equal(td["agents", "expert_action"], torch.tensor(env.engine.expert_action, dtype=torch.float32))
