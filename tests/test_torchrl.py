@@ -272,11 +272,12 @@ def test_a_collector_with_a_multi_agent_policy_collects_frames_for_gae():
     assert batch["agents", "advantage"].shape == (4, 8, n, 1) and torch.isfinite(batch["agents", "advantage"]).all()
 
 
-def test_the_docs_example_runs():
+def test_the_docs_examples_run():
     text = (ROOT / "docs" / "torchrl.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.DOTALL)
-    assert len(blocks) == 1
-    exec(compile(blocks[0], "docs/torchrl.md", "exec"), {})
+    assert len(blocks) == 2  # the quick start and the proposed README section
+    for code in blocks:
+        exec(compile(code, "docs/torchrl.md", "exec"), {})
 
 
 def test_the_benchmark_contestants_step():
