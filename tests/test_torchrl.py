@@ -157,6 +157,9 @@ def test_robots_finishing_at_different_times_keep_their_world_running():
     assert not nxt["terminated"][:, limit - 1].any()
     assert nxt["agents", "truncated"][:, limit - 1, 1:].all() and not nxt["agents", "truncated"][:, limit - 1, 0].any()
     assert data["agents", "mask"][:, limit].all() and not data["agents", "done"][:, limit].any()  # reset
+    # TorchRL's rollout stops at the first done world (the env-level flags prevail), not at robot 0's arrival.
+    env.set_seed(0)
+    assert env.rollout(T, policy).batch_size == (B, limit)
 
 
 def test_same_seed_same_rollout():
