@@ -220,6 +220,7 @@ def test_bad_seed_and_actions_raise_value_errors():
         env.step(td)
 
 
+@pytest.mark.filterwarnings("ignore:Creating .*WeightUpdater:DeprecationWarning")  # torchrl.collectors' import
 def test_a_collector_with_a_multi_agent_policy_collects_frames_for_gae():
     from tensordict.nn import NormalParamExtractor, TensorDictModule
     from torch import nn
