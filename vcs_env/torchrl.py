@@ -51,10 +51,12 @@ class VcsNavEnv(EnvBase):
 
     ## Action Space
     ``("agents", "action")``: ``Bounded(-1, 1)``, shape ``(num_envs, n, 2)`` float32. ``action_mode="delta"``
-    (default): (speed change, heading change) as fractions of the one-step limits ``a_max dt`` [m/s] and
-    ``omega_max dt`` [rad]; ``"absolute"``: (speed, heading) commands as fractions of ``v_max`` [m/s] and
-    pi [rad] (:mod:`vcs_env.dynamics`). Values outside [-1, 1] are clipped; a non-finite action of a driving
-    robot raises ``ValueError``. Actions of finished robots (``mask`` False) are ignored.
+    (default): a point of the one-step velocity change window, for a unicycle robot (speed change, heading
+    change) as fractions of ``a_max dt`` [m/s] and ``omega_max dt`` [rad]; ``"absolute"``: a velocity command
+    tracked within the limits, for a unicycle target speed ``(a_0 + 1) / 2 v_max`` [m/s] and heading
+    ``a_1 pi`` [rad] (holonomic robots: :mod:`vcs_env.dynamics`). Values outside [-1, 1] are clipped; a
+    non-finite action of a driving robot raises ``ValueError``. Actions of finished robots (``mask`` False)
+    are ignored.
 
     ## Observation Space
     ======================================  ======================  =============================================
