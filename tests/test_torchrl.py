@@ -169,6 +169,36 @@ def test_robots_finishing_at_different_times_keep_their_world_running():
     assert env.rollout(T, policy).batch_size == (B, limit)
 
 
+def test_returned_tensordicts_do_not_change_afterwards():
+    """The env hands out views of its arrays, so it must never write into one it handed out."""
+    env = VcsNavEnv("dynamic", 4, max_steps=3)
+    env.set_seed(0)
+    first = env.reset()
+    kept = first.clone()
+    td = first
+    for _ in range(4):  # through a time-out and the resets that follow it
+        td = env.rand_action(td)
+        out, td = env.step_and_maybe_reset(td)
+        kept_out = out.clone()
+    env.reset()
+    for td, copy in ((first, kept), (out, kept_out)):  # TorchRL adds entries to them ("next"): not ours
+        assert (td.select(*copy.keys(True, True)) == copy).all()
+
+
+def test_per_robot_returns_with_reward_sum():
+    """TorchRL's RewardSum on ('agents', 'reward') sums each robot's episode and restarts with its world."""
+    from torchrl.envs import RewardSum, TransformedEnv
+
+    env = VcsNavEnv("dynamic", 4, max_steps=10)
+    tenv = TransformedEnv(env, RewardSum(in_keys=[env.reward_key], out_keys=[("agents", "episode_reward")]))
+    check_env_specs(tenv, seed=0)
+    tenv.set_seed(0)
+    data = tenv.rollout(25, break_when_any_done=False)
+    reward, total = data["next", "agents", "reward"], data["next", "agents", "episode_reward"]
+    for episode in (slice(0, 10), slice(10, 20)):
+        torch.testing.assert_close(total[:, episode], reward[:, episode].cumsum(1))
+
+
 def test_same_seed_same_rollout():
     B, T = 8, 20
     actions = np.random.default_rng(1).uniform(-1, 1, (T, B, 6, 2)).astype(np.float32)
