@@ -10,7 +10,8 @@ one step (``B`` per call), whatever its agent count.
 * ``torchrl_vmas``: VMAS ``navigation`` with ``n_agents = n``, CPU, 200-step episodes, spawning square
   scaled as in :func:`benchmarks.env_bench.vmas_spawn_half_size`.
 
-Run: ``python -m benchmarks.torchrl_bench`` (``--n 8 --B 1024``).
+Run: ``python -m benchmarks.torchrl_bench`` (``--n 8 --B 1024``), with ``OMP_NUM_THREADS=1`` as
+``python -m benchmarks`` sets it (numpy and the numba kernels on one thread, like torch here).
 """
 
 from __future__ import annotations
