@@ -16,6 +16,9 @@ PENDING_MOVE: set[str] = set()
 benchmarks); the lead empties this set when that move is merged."""
 ADAPTERS = {"__init__.py", "parallel.py", "gym_env.py", "spaces.py", "render.py"}
 """API adapters of ``vcs_env`` that may use Gymnasium and PettingZoo types."""
+TORCH = {"torch", "torchrl", "tensordict"}
+TORCH_ADAPTERS = {"torchrl.py"}
+"""The modules of ``vcs_env`` that may import torch (the ``torchrl`` extra); ``import vcs_env`` loads none of them."""
 
 
 def imported_names(source: str, package: str = "vcs_env") -> set[str]:
@@ -84,6 +87,18 @@ def test_pending_moves_are_still_in_vcs_env():
 def test_core_modules_have_no_api_types(path):
     bad = imported_names(path.read_text()) & {"gymnasium", "pettingzoo"}
     assert not bad, f"{path.name} imports {sorted(bad)}: spaces and API types belong in the adapters (spaces.py)"
+
+
+@pytest.mark.parametrize("path", [p for p in _modules() if p.name not in TORCH_ADAPTERS], ids=lambda p: p.name)
+def test_only_the_torchrl_adapter_imports_torch(path):
+    bad = imported_names(path.read_text()) & TORCH
+    assert not bad, f"{path.name} imports {sorted(bad)}: torch belongs in vcs_env/torchrl.py (torchrl extra) or agents"
+
+
+def test_importing_vcs_env_does_not_load_torch():
+    code = f"import sys, vcs_env\nprint(sorted({{m.split('.')[0] for m in sys.modules}} & set({sorted(TORCH)})))\n"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]"
 
 
 def test_an_env_runs_without_loading_upper_layers():
