@@ -3,6 +3,7 @@ few PPO iterations on a two-node Ray cluster (two raylets on loopback) scored by
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import secrets
@@ -22,8 +23,10 @@ from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM
 
 pytest.importorskip("ray.rllib", reason="the rllib extra (pip install 'vcs-env[rllib]')")
 
-from agents.rllib_env import NavMultiAgentEnv, PettingZooNavEnv, world_seeds  # noqa: E402
-from agents.rllib_train import LOCAL_NODE_IP, RLlibConfig, RLlibPolicy, rebuild_command  # noqa: E402
+from agents.checkpoint import RLlibPolicy  # noqa: E402
+from agents.runs import RLlibConfig, run_command  # noqa: E402
+from agents.train.rllib_cluster import LOCAL_NODE_IP  # noqa: E402
+from agents.train.rllib_env import NavMultiAgentEnv, PettingZooNavEnv, world_seeds  # noqa: E402
 from vcs_env.parallel import parallel_env  # noqa: E402
 from vcs_env.scenario import make_scenario  # noqa: E402
 
@@ -133,19 +136,19 @@ def test_policy_predicts_the_clipped_mean_or_samples():
     assert np.all(np.abs(noisy) <= 1) and not np.allclose(noisy, act)
 
 
-def test_rebuild_command_and_flags():
+def test_run_command_and_flags():
     from vcs_cli import build_parser
 
     cfg = RLlibConfig(n_robots=4, num_env_runners=2, address="127.0.0.1:6379")
-    cmd = rebuild_command(cfg)
+    cmd = run_command("rllib_ppo", cfg)
     assert cmd.startswith("vcs-env train --backend rllib ") and "--num-env-runners 2" in cmd
     args = build_parser().parse_args(shlex.split(cmd)[1:])
     assert args.backend == "rllib" and args.num_env_runners == 2 and args.address == "127.0.0.1:6379"
 
 
-def _run(*argv: str, timeout: float = 120, code: str | None = None) -> subprocess.CompletedProcess:
+def _run(*argv: str, timeout: float = 120, code: str | None = None, env=None) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-c", code, *argv] if code else [VCS_ENV, *argv]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env or ENV)
 
 
 def test_bad_input_gets_one_line_errors(tmp_path, capsys):
@@ -158,7 +161,6 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     for flags, name in (
         (["--mixture", "crowd:n_obstacles=3"], "--mixture"),
         (["--target-kl", "0.02"], "--target-kl"),
-        (["--checkpoint-freq", "1000"], "--checkpoint-freq"),
     ):
         assert main(["train", "--backend", "rllib", *flags, "--out", str(tmp_path / "m")]) == 2
         assert name in capsys.readouterr().err
@@ -229,7 +231,11 @@ class Cluster:
             f"sys.exit(0 if sum(n['Alive'] for n in ray.nodes()) == {n} else 1)"
         )
         res = _run(self.address, code=wait, timeout=120)
-        assert res.returncode == 0, f"the cluster did not reach {n} nodes: " + res.stderr[-2000:]
+        assert res.returncode == 0, f"the cluster did not reach {n} nodes: " + res.stderr[-2000:] + self.log_text()
+
+    def log_text(self) -> str:
+        self.log.flush()
+        return (Path(self.temp) / "ray_start.log").read_text()[-3000:]
 
     def stop(self) -> None:
         """Stop the raylets (Ray stops what it started), kill their process groups, then any
@@ -251,35 +257,36 @@ class Cluster:
         self.log.close()
         subprocess.run(["rm", "-rf", self.temp], check=False)
 
+    def up(self, env: dict[str, str] = ENV) -> Cluster:
+        """Start a head and a second raylet (1 CPU each) and wait until both are alive."""
+        self.start(head=True, env=env)
+        deadline = time.time() + 60
+        while True:
+            try:
+                socket.create_connection((LOOPBACK, self.port), timeout=1).close()
+                break
+            except OSError:
+                if time.time() > deadline or self.procs[0].poll() is not None:
+                    raise RuntimeError("no Ray head: " + (Path(self.temp) / "ray_start.log").read_text()) from None
+                time.sleep(0.5)
+        self.start(head=False, env=env)
+        self.wait_for_nodes(2)
+        return self
+
 
 @pytest.fixture(scope="module")
 def ray_cluster():
     """Two raylets (1 CPU each) on a loopback address with their own temp dir and token."""
     cluster = Cluster()
     try:
-        cluster.start(head=True)
-        deadline = time.time() + 60
-        while True:
-            try:
-                socket.create_connection((LOOPBACK, cluster.port), timeout=1).close()
-                break
-            except OSError:
-                if time.time() > deadline or cluster.procs[0].poll() is not None:
-                    raise RuntimeError("no Ray head: " + (Path(cluster.temp) / "ray_start.log").read_text()) from None
-                time.sleep(0.5)
-        cluster.start(head=False)
-        cluster.wait_for_nodes(2)
-        yield cluster
+        yield cluster.up()
     finally:
         cluster.stop()
 
 
 def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tmp_path):
-    import json
-
-    from agents.checkpoint import CheckpointError
+    from agents.checkpoint import CheckpointError, load_model
     from agents.evaluate import evaluate
-    from agents.rllib_train import load_policy
 
     out = tmp_path / "run"
     args = ["train", "--backend", "rllib", "--address", ray_cluster.address, "--num-env-runners", "2"]
@@ -308,7 +315,7 @@ def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tm
     # Another observation layout: a one-line error naming the sizes.
     size = EGO_DIM + NEIGHBOR_DIM * make_scenario("circle").n_neighbors
     with pytest.raises(CheckpointError, match=f"observations of size {size}") as err:
-        load_policy(ckpt, make_scenario("circle", n_robots=4, n_neighbors=2))
+        load_model(ckpt, make_scenario("circle", n_robots=4, n_neighbors=2))
     assert "\n" not in str(err.value)
 
 

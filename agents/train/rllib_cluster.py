@@ -1,28 +1,17 @@
-"""Where an RLlib run executes: importing Ray with a clear error, checking a cluster address and
-that every node can import vcs-env, and starting or joining Ray (:func:`init_ray`)."""
+"""Where an RLlib run executes: checking a cluster address and that every node can import vcs-env,
+and starting or joining Ray (:func:`init_ray`)."""
 
 from __future__ import annotations
 
 import socket
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from .rllib_train import RLlibConfig
+from ..checkpoint import import_ray
+from ..runs import RLlibConfig
 
 LOCAL_NODE_IP = "127.0.0.2"
 """Node address of a local Ray instance: loopback. Ray replaces 127.0.0.1 and localhost by the
 machine's network address (to be reachable from other nodes), but not other 127.x addresses."""
-INSTALL_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
-
-
-def import_ray():
-    """``ray`` with RLlib, or a one-line ImportError naming the extra."""
-    try:
-        import ray
-        import ray.rllib  # noqa: F401
-    except ImportError as e:
-        raise ImportError(f"--backend rllib needs Ray RLlib; install it with: {INSTALL_HINT} ({e})") from None
-    return ray
 
 
 def check_address(address: str, timeout: float = 3.0) -> None:
@@ -54,7 +43,7 @@ def _package_probe():
         import socket
 
         out: dict[str, Any] = {"node": socket.gethostname(), "missing": []}
-        for dist, module in (("vcs-env", "agents.rllib_env"), ("torch", "torch"), ("ray", "ray.rllib")):
+        for dist, module in (("vcs-env", "agents.train.rllib_env"), ("torch", "torch"), ("ray", "ray.rllib")):
             try:
                 out[dist] = md.version(dist)
                 importlib.import_module(module)
@@ -128,6 +117,3 @@ def init_ray(cfg: RLlibConfig):
     cpus = int(ray.cluster_resources().get("CPU", 0))
     print(f"ray cluster: {len(nodes)} node{'s' * (len(nodes) != 1)}, {cpus} CPUs", flush=True)
     return ray
-
-
-# --------------------------------------------------------------------------- config
