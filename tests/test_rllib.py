@@ -334,3 +334,49 @@ def test_a_node_without_the_package_is_named(ray_cluster, tmp_path):
     assert res.returncode == 2 and len(errors) == 1 and errors[0].startswith("vcs-env train: error:"), res.stderr
     assert "lacks vcs-env" in errors[0] and ray_cluster.address.split(":")[0] in errors[0], errors[0]
     assert not (tmp_path / "run").exists()
+
+
+def test_ray_auth_mode_of_a_run(tmp_path, monkeypatch):
+    from agents.train.rllib_cluster import auth_mode
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    for name in ("RAY_AUTH_MODE", "RAY_AUTH_TOKEN", "RAY_AUTH_TOKEN_PATH"):
+        monkeypatch.delenv(name, raising=False)
+    assert auth_mode(joining=False) == "disabled" and auth_mode(joining=True) == "disabled"
+    (tmp_path / ".ray").mkdir()
+    (tmp_path / ".ray" / "auth_token").write_text("x" * 64)
+    assert auth_mode(joining=False) == "disabled" and auth_mode(joining=True) == "token"
+    monkeypatch.setenv("RAY_AUTH_MODE", "token")
+    assert auth_mode(joining=False) == "token"
+
+
+def test_a_laptop_run_leaves_no_token_and_a_two_raylet_cluster_resumes_it(tmp_path):
+    """Ray 2.60 wrote ~/.ray/auth_token on the first local run; every `ray start --head` then
+    required it, and the second raylet and the driver (no RAY_AUTH_* set) failed to authenticate.
+    Now the local run leaves no token, and README's cluster path works after it: a head, a second
+    raylet and ``--address`` continue the local run, killed mid-way, from its newest checkpoint."""
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in ENV.items() if not k.startswith("RAY_AUTH")} | {"HOME": str(home)}
+    out = tmp_path / "run"
+    small = ["--scenario", "circle", "--n-robots", "4", "--n-worlds", "2", "--n-steps", "16", "--batch-size", "64"]
+    small += ["--n-epochs", "1", "--eval-freq", "0", "--eval-episodes", "2", "--checkpoint-freq", "128"]
+    res = _run("train", "--backend", "rllib", "--num-env-runners", "0", *small, "--timesteps", "256", "--out", str(out),
+               env=env, timeout=300)  # fmt: skip
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert not (home / ".ray" / "auth_token").exists()
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["checkpoint_128"]
+    subprocess.run(["rm", "-rf", str(out / "checkpoint")], check=True)  # killed before its end
+    cluster = Cluster()
+    try:
+        cluster.up(env)
+        res = _run("train", "--resume", str(out), "--address", cluster.address, "--timesteps", "384", env=env,
+                   timeout=300)  # fmt: skip
+    finally:
+        cluster.stop()
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    newest = out / "checkpoints" / "checkpoint_128"
+    assert f"its newest checkpoint is {newest} (128 timesteps)" in res.stdout, res.stdout
+    assert "ray cluster: 2 nodes, 2 CPUs" in res.stdout, res.stdout
+    meta = json.loads((out / "checkpoint" / "vcs_env.json").read_text())
+    assert meta["num_timesteps"] >= 384 and f"--address {cluster.address}" in meta["command"]
