@@ -104,6 +104,13 @@ class Checkpoint:
         """Where a run directory of this format keeps its final checkpoint."""
         raise NotImplementedError
 
+    @classmethod
+    def in_run(cls, run: Path) -> list[Checkpoint]:
+        """The checkpoints of this format a run directory holds: periodic ones by step, then the final one."""
+        steps = sorted((int(m[1]), p) for p in run.glob("checkpoints/*") if (m := cls.periodic.fullmatch(p.name)))
+        found = [cls.find(p) for _, p in steps] + [cls.find(cls.final(run)) if cls.final(run).exists() else None]
+        return [c for c in found if c is not None]
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}({str(self.path)!r})"
 
@@ -290,17 +297,10 @@ def latest_checkpoint(spec: str | os.PathLike) -> Checkpoint:
     given = find_checkpoint(path)
     if not path.is_dir() or (given is not None and given.path == path):  # a file, or a checkpoint directory
         return open_checkpoint(path)
-    found = [c for fmt in FORMATS for c in _saved(fmt, path)]
+    found = [c for fmt in FORMATS for c in fmt.in_run(path)]
     if not found:
         return open_checkpoint(path)  # the run directory's own error: not found, with every form
     return max(reversed(found), key=lambda c: c.timesteps)
-
-
-def _saved(fmt: type[Checkpoint], run: Path) -> list[Checkpoint]:
-    """The checkpoints of format ``fmt`` a run directory holds: periodic ones, then the final one."""
-    out = [fmt.find(p) for p in sorted((run / "checkpoints").glob("*")) if fmt.periodic.fullmatch(p.name)]
-    out.append(fmt.find(fmt.final(run)) if fmt.final(run).exists() else None)
-    return [c for c in out if c is not None]
 
 
 # --------------------------------------------------------------------------- checks

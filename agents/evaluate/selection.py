@@ -55,9 +55,7 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            steps = [c for c in (p / "checkpoints").glob("model_*.zip") if _STEP.fullmatch(c.name)]
-            found = sorted(steps, key=lambda c: int(_STEP.fullmatch(c.name)[1]))
-            found += [p / "model.zip"] if (p / "model.zip").exists() else []
+            found = [c.path for c in SB3Checkpoint.in_run(p)]
             if not found:
                 raise ValueError(f"run directory {str(p)!r} holds no model.zip and no checkpoints/model_<steps>.zip")
         else:
