@@ -1,6 +1,6 @@
-"""Training: PPO with one policy shared by all robots (``vcs-env train``), cleanrl style.
+"""PPO with one policy shared by all robots (``vcs-env train``), cleanrl style.
 
-This package is the SB3 backend (here) and the RLlib one (:mod:`agents.train.rllib`), both on
+The training package: the SB3 backend (here) and the RLlib one (:mod:`agents.train.rllib`), both on
 one typed :class:`~agents.runs.TrainConfig` (a docstring per field = the ``--help`` of its flag),
 one periodic evaluation (:mod:`agents.train.periodic`) and the checkpoint formats of
 :mod:`agents.checkpoint`. :func:`train` is one flat function. A run directory holds::
