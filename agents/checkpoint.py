@@ -1,28 +1,35 @@
-"""Save and load policy checkpoints with clear errors.
+"""What a checkpoint is: one object per format, each detecting, loading and describing itself once.
 
-A checkpoint is an SB3 PPO ``.zip`` plus a JSON file beside it with the same stem
-(``runs/x/model.zip`` + ``runs/x/model.json``): the typed config that produced it, the scenario
-(field by field), the observation config (:func:`vcs_env.observations.observation_config`:
-version, sizes, scales), the scenario family it was trained on (the layout kinds) and what kind
-of run wrote it (``ppo``, ``bc``). Both ``vcs-env train --init/--resume`` and the evaluation
-harness load through :func:`load_model`, which turns every failure into a
-:class:`CheckpointError` naming the file and the problem: missing file, not a zip / truncated /
+Two formats (:data:`FORMATS`), both with a run record (:func:`agents.runs.run_record`):
+
+* :class:`SB3Checkpoint`: an SB3 PPO ``.zip`` with its record beside it under the same stem
+  (``runs/x/model.zip`` + ``runs/x/model.json``), from ``vcs-env train`` and ``vcs-env bc``; given
+  as the zip (suffix optional) or its run directory (``model.zip`` in it);
+* :class:`RLlibCheckpoint`: the checkpoint directory of ``vcs-env train --backend rllib``
+  (``Algorithm.save_to_path`` with ``vcs_env.json`` in it), given as itself or its run directory.
+
+:func:`open_checkpoint` finds the format of a path once; callers then ask the object (its
+:attr:`~Checkpoint.record`, :meth:`~Checkpoint.load`, :meth:`~Checkpoint.describe`), never the path
+again. Every failure is a :class:`CheckpointError` naming the file and the problem: not found (with
+every accepted form), a run record given instead of its checkpoint, not a zip / truncated /
 unreadable, a policy made for observation v0 (before the fixed physical scales of v1), or for
-another observation config (e.g. another ``n_neighbors``). Using a policy on a scenario family
-it was not trained on is allowed, with a :class:`FamilyWarning` naming both.
+another observation config (e.g. another ``n_neighbors``). Using a policy on a scenario family it
+was not trained on is allowed, with a :class:`FamilyWarning` naming both. :func:`latest_checkpoint`
+is what ``vcs-env train --resume RUN_DIR`` continues: the newest checkpoint of a run directory.
+
+stable-baselines3, torch and Ray are imported when a checkpoint is loaded, not before.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
-import math
 import os
+import re
 import warnings
 import zipfile
-from collections.abc import Mapping
+from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -30,13 +37,22 @@ from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, obs
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
-from .config import config_command
+from .runs import jsonable, run_record
 
 SIZE_HINT = (
     f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors, then the lidar and wall-point blocks if the "
     "scenario has them)"
 )
 """How an observation's size follows from the scenario, for error messages."""
+RAY_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
+"""How to install Ray RLlib, for error messages."""
+V0_EGO_DIM = 8
+"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
+ACCEPTED = (
+    "an SB3 .zip file (the suffix may be left out), a run directory with model.zip, an RLlib checkpoint "
+    "directory (with vcs_env.json) or an RLlib run directory (with checkpoint/)"
+)
+"""Every form a checkpoint may be given in, for error messages."""
 
 
 class CheckpointError(ValueError):
@@ -51,112 +67,247 @@ class UncheckedWarning(UserWarning):
     """A checkpoint without observation config: only its observation size could be checked."""
 
 
-V0_EGO_DIM = 8
-"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
+def import_ray():
+    """``ray`` with RLlib, or a one-line ImportError naming the extra."""
+    try:
+        import ray
+        import ray.rllib  # noqa: F401
+    except ImportError as e:
+        raise ImportError(f"--backend rllib needs Ray RLlib; install it with: {RAY_HINT} ({e})") from None
+    return ray
 
 
-def scenario_family(scenarios: Scenario | list[Scenario] | tuple[Scenario, ...]) -> list[str]:
-    """The scenario family of a run: the sorted layout kinds it trains on (``["circle", "crowd"]``)."""
-    if isinstance(scenarios, Scenario):
-        scenarios = [scenarios]
-    return sorted({s.kind for s in scenarios})
+# --------------------------------------------------------------------------- formats
+class Checkpoint:
+    """A checkpoint found on disk; a subclass per format (:data:`FORMATS`)."""
+
+    format: ClassVar[str]
+    """``sb3`` or ``rllib``."""
+    record_name: ClassVar[str]
+    """File name of the run record."""
+    periodic: ClassVar[re.Pattern]
+    """Name of a periodic checkpoint in ``<run>/checkpoints/``, its step count as group 1."""
+
+    def __init__(self, path: Path, record_path: Path):
+        self.path = path
+        """The checkpoint itself (the ``.zip`` file, the RLlib checkpoint directory)."""
+        self.record_path = record_path
+        """Its run record (may be missing for a plain SB3 zip)."""
+
+    @classmethod
+    def find(cls, path: Path) -> Checkpoint | None:
+        """The checkpoint of this format that ``path`` names, or None."""
+        raise NotImplementedError
+
+    @classmethod
+    def final(cls, run: Path) -> Path:
+        """Where a run directory of this format keeps its final checkpoint."""
+        raise NotImplementedError
+
+    @classmethod
+    def in_run(cls, run: Path) -> list[Checkpoint]:
+        """The checkpoints of this format a run directory holds: periodic ones by step, then the final one."""
+        steps = sorted((int(m[1]), p) for p in run.glob("checkpoints/*") if (m := cls.periodic.fullmatch(p.name)))
+        found = [cls.find(p) for _, p in steps] + [cls.find(cls.final(run)) if cls.final(run).exists() else None]
+        return [c for c in found if c is not None]
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({str(self.path)!r})"
+
+    def __str__(self) -> str:
+        return str(self.path)
+
+    def describe(self) -> str:
+        """How error messages name it (``checkpoint 'runs/x/model.zip'``)."""
+        return f"checkpoint {str(self.path)!r}"
+
+    @cached_property
+    def record(self) -> dict[str, Any]:
+        """The run record; ``{}`` if there is none (a plain SB3 zip is still loadable)."""
+        if not self.record_path.is_file():
+            return {}
+        try:
+            return json.loads(self.record_path.read_text())
+        except (OSError, json.JSONDecodeError) as e:
+            raise CheckpointError(f"checkpoint metadata {self.record_path} is not valid JSON: {e}") from None
+
+    @property
+    def run_dir(self) -> Path:
+        """The run directory the checkpoint belongs to (periodic ones sit in its ``checkpoints/``)."""
+        parent = self.path.parent
+        return parent.parent if parent.name == "checkpoints" else parent
+
+    @property
+    def timesteps(self) -> int:
+        """Environment steps it was trained for (its record, else its periodic name, else 0)."""
+        steps = self.record.get("num_timesteps")
+        match = self.periodic.fullmatch(self.path.name)
+        return int(steps) if steps is not None else int(match[1]) if match else 0
+
+    def load(self, scenario: Scenario | None = None, env=None, device: str = "cpu"):
+        """The policy, checked against ``scenario`` if given (:func:`check_checkpoint_fits`).
+
+        ``env`` (a VecEnv) attaches an SB3 model to continue training it.
+        """
+        raise NotImplementedError
 
 
+class SB3Checkpoint(Checkpoint):
+    """An SB3 PPO ``.zip`` of ``vcs-env train`` or ``vcs-env bc``, its record beside it (``model.json``)."""
+
+    format = "sb3"
+    record_name = "model.json"
+    periodic = re.compile(r"model_(\d+)\.zip")
+
+    @classmethod
+    def find(cls, path: Path) -> SB3Checkpoint | None:
+        for p in (path, path.with_name(path.name + ".zip") if path.suffix != ".zip" else None, path / "model.zip"):
+            if p is not None and p.is_file():
+                return cls(p, config_path(p))
+        return None
+
+    @classmethod
+    def final(cls, run: Path) -> Path:
+        return run / "model.zip"
+
+    def load(self, scenario: Scenario | None = None, env=None, device: str = "cpu"):
+        """The ``stable_baselines3.PPO`` model, checked first."""
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.save_util import load_from_zip_file
+
+        path = str(self.path)
+        if not zipfile.is_zipfile(self.path):
+            raise CheckpointError(f"checkpoint {path!r} is corrupt: not a zip archive (an SB3 .zip is expected)")
+        try:
+            data, params, _ = load_from_zip_file(path, device=device, print_system_info=False)
+        except Exception as e:  # truncated members, bad pickles, bad tensors ...
+            raise CheckpointError(f"checkpoint {path!r} is corrupt or unreadable: {type(e).__name__}: {e}") from None
+        if not data or "observation_space" not in data or not params or "policy" not in params:
+            raise CheckpointError(
+                f"checkpoint {path!r} is not an SB3 policy checkpoint (no observation space or policy weights)"
+            )
+        if "clip_range" not in data:  # A2C shares PPO's policy class; SAC, TD3, DQN have their own
+            cls = getattr(data.get("policy_class"), "__name__", "unknown")
+            raise CheckpointError(
+                f"checkpoint {path!r} was saved by another SB3 algorithm than PPO (policy class {cls}, no "
+                "clip_range): vcs-env loads the PPO checkpoints of `vcs-env train` and `vcs-env bc`"
+            )
+        if scenario is not None:
+            check_checkpoint_fits(self.record, data["observation_space"], scenario, self.describe())
+        try:
+            return PPO.load(path, env=env, device=device)
+        except Exception as e:
+            raise CheckpointError(f"checkpoint {path!r} could not be loaded: {type(e).__name__}: {e}") from None
+
+
+class RLlibCheckpoint(Checkpoint):
+    """The checkpoint directory of ``vcs-env train --backend rllib``: RLlib's files and ``vcs_env.json``."""
+
+    format = "rllib"
+    record_name = "vcs_env.json"
+    periodic = re.compile(r"checkpoint_(\d+)")
+    MODULE_ID: ClassVar[str] = "shared"
+    """The RLModule every robot's policy is."""
+
+    @classmethod
+    def find(cls, path: Path) -> RLlibCheckpoint | None:
+        for p in (path, path / "checkpoint"):
+            if (p / cls.record_name).is_file():
+                return cls(p, p / cls.record_name)
+        return None
+
+    @classmethod
+    def final(cls, run: Path) -> Path:
+        return run / "checkpoint"
+
+    def describe(self) -> str:
+        return f"RLlib checkpoint {str(self.path)!r}"
+
+    @property
+    def module_dir(self) -> Path:
+        """Where the shared RLModule's state is."""
+        return self.path / "learner_group" / "learner" / "rl_module" / self.MODULE_ID
+
+    def load(self, scenario: Scenario | None = None, env=None, device: str = "cpu") -> RLlibPolicy:
+        """The shared module as an :class:`RLlibPolicy` (``predict`` only; SB3 cannot continue it)."""
+        if env is not None:
+            raise CheckpointError(f"{str(self.path)!r} is an RLlib checkpoint; SB3 training cannot continue it")
+        meta = self.record
+        if not self.module_dir.is_dir():
+            raise CheckpointError(f"{self.describe()} has no module {self.MODULE_ID!r} (expected {self.module_dir})")
+        if scenario is not None:  # before the slow import: the observation size is in the record
+            dim, want = meta.get("observation_dim"), observation_space(scenario).shape[0]
+            if dim != want:
+                raise CheckpointError(
+                    f"{self.describe()} was made for observations of size {dim}, but scenario "
+                    f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {want} "
+                    f"{SIZE_HINT}; use a policy trained for this observation layout"
+                )
+        import_ray()
+        import torch
+        from ray.rllib.core.rl_module.rl_module import RLModule
+
+        torch.set_num_threads(1)
+        try:
+            module = RLModule.from_checkpoint(self.module_dir.resolve().as_posix())
+        except Exception as e:
+            raise CheckpointError(f"{self.describe()} could not be loaded: {type(e).__name__}: {e}") from None
+        if scenario is not None:
+            check_checkpoint_fits(meta, module.observation_space, scenario, self.describe())
+        module.eval()
+        return RLlibPolicy(module, name=Path(meta.get("config", {}).get("out", self.path.parent.name)).name)
+
+
+FORMATS: tuple[type[Checkpoint], ...] = (SB3Checkpoint, RLlibCheckpoint)
+"""Every checkpoint format, in the order they are tried."""
+
+
+def find_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint | None:
+    """The checkpoint ``spec`` names (an object of its format), or None."""
+    if isinstance(spec, Checkpoint):
+        return spec
+    path = Path(spec)
+    if path.suffix == ".json":  # a run record is not a checkpoint
+        return None
+    return next((c for fmt in FORMATS if (c := fmt.find(path)) is not None), None)
+
+
+def open_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint:
+    """The checkpoint ``spec`` names, or a one-line :class:`CheckpointError` naming every accepted form."""
+    found = find_checkpoint(spec)
+    if found is not None:
+        return found
+    path = Path(spec)
+    for fmt in FORMATS:
+        if path.name == fmt.record_name and path.is_file():
+            holder = "model.zip" if fmt is SB3Checkpoint else "the checkpoint directory"
+            raise CheckpointError(f"{str(path)!r}: {path.name} is the run record; pass {holder} or the run directory")
+    if path.suffix == ".json" and path.with_suffix(".zip").is_file():
+        raise CheckpointError(
+            f"{str(path)!r} is the run record; pass {path.with_suffix('.zip').name} or the run directory"
+        )
+    raise CheckpointError(f"checkpoint not found: {str(path)!r} (expected {ACCEPTED})")
+
+
+def latest_checkpoint(spec: str | os.PathLike) -> Checkpoint:
+    """What a resumed run continues: a checkpoint as given, or the newest checkpoint of a run
+    directory (its final one or a periodic one in ``checkpoints/``, by timesteps; the final one on
+    a tie), so a run killed before its end resumes from its last periodic checkpoint."""
+    path = Path(spec)
+    given = find_checkpoint(path)
+    if not path.is_dir() or (given is not None and given.path == path):  # a file, or a checkpoint directory
+        return open_checkpoint(path)
+    found = [c for fmt in FORMATS for c in fmt.in_run(path)]
+    if not found:
+        return open_checkpoint(path)  # the run directory's own error: not found, with every form
+    return max(reversed(found), key=lambda c: c.timesteps)
+
+
+# --------------------------------------------------------------------------- checks
 def config_path(checkpoint: str | os.PathLike) -> Path:
-    """The JSON file beside a checkpoint (``model.zip`` -> ``model.json``)."""
+    """The run record beside an SB3 zip (``model.zip`` -> ``model.json``)."""
     p = Path(checkpoint)
     return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
-
-
-def jsonable(x: Any) -> Any:
-    """Nested copy for strict JSON: dataclasses as dicts, numpy scalars and arrays as Python
-    numbers and lists, NaN and inf as ``None``, paths as strings."""
-    if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return jsonable(dataclasses.asdict(x))
-    if isinstance(x, Mapping):
-        return {str(k): jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return jsonable(x.tolist())
-    if isinstance(x, (bool, np.bool_)):
-        return bool(x)
-    if isinstance(x, (int, np.integer)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, os.PathLike):
-        return os.fspath(x)
-    return x
-
-
-def save_model(
-    model,
-    path: str | os.PathLike,
-    kind: str,
-    config: Any,
-    scenario: Scenario,
-    family: list[str] | None = None,
-    **extra: Any,
-) -> Path:
-    """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its metadata JSON beside it.
-
-    The JSON also holds ``command``: the ``vcs-env`` line that rebuilds ``config``.
-
-    Args:
-        kind: what produced it (``"ppo"`` from ``vcs-env train``, ``"bc"`` from ``vcs-env bc``).
-        config: the run's config dataclass (saved field by field).
-        scenario: the scenario the policy observes (defines the observation config); for a
-            mixture, its first scenario (all share one observation config).
-        family: the layout kinds it was trained on (default: ``[scenario.kind]``).
-        extra: more JSON-able entries (timesteps, evaluation results, wall time ...).
-
-    Returns:
-        The ``.zip`` path.
-    """
-    path = Path(path)
-    if path.suffix != ".zip":
-        path = path.with_name(path.name + ".zip")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    model.save(str(path))
-    meta = {
-        "kind": kind,
-        "observation_dim": int(observation_space(scenario).shape[0]),
-        "observation": observation_config(scenario),
-        "scenario_family": list(family) if family is not None else scenario_family(scenario),
-        "num_timesteps": int(getattr(model, "num_timesteps", 0)),
-        "config": jsonable(config),
-        "command": config_command({"ppo": "train"}.get(kind, kind), config),
-        "scenario": jsonable(scenario),
-        **jsonable(extra),
-    }
-    config_path(path).write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
-    return path
-
-
-def read_metadata(checkpoint: str | os.PathLike) -> dict[str, Any]:
-    """The JSON beside a checkpoint; ``{}`` if there is none (a plain SB3 zip is still loadable)."""
-    p = config_path(resolve(checkpoint))
-    if not p.exists():
-        return {}
-    try:
-        return json.loads(p.read_text())
-    except (OSError, json.JSONDecodeError) as e:
-        raise CheckpointError(f"checkpoint metadata {p} is not valid JSON: {e}") from None
-
-
-def resolve(checkpoint: str | os.PathLike) -> Path:
-    """The existing ``.zip`` path of a checkpoint (the suffix may be left out)."""
-    p = Path(checkpoint)
-    if p.is_file():
-        return p
-    if p.suffix != ".zip" and p.with_name(p.name + ".zip").is_file():
-        return p.with_name(p.name + ".zip")
-    if p.is_dir() and (p / "model.zip").is_file():
-        return p / "model.zip"
-    raise CheckpointError(
-        f"checkpoint not found: {str(p)!r} (expected an SB3 .zip file, or a run directory with model.zip)"
-    )
 
 
 def _describe(space) -> str:
@@ -251,64 +402,57 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
         )
 
 
-def load_model(checkpoint: str | os.PathLike, scenario: Scenario | None = None, env=None, device: str = "cpu"):
-    """Load an SB3 PPO checkpoint, checking it first.
+# --------------------------------------------------------------------------- SB3 and RLlib
+def save_model(
+    model,
+    path: str | os.PathLike,
+    kind: str,
+    config: Any,
+    scenario: Scenario,
+    family: list[str] | None = None,
+    **extra: Any,
+) -> Path:
+    """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its run record beside it
+    (:func:`agents.runs.run_record`; ``extra``: more JSON-able entries). Returns the ``.zip`` path."""
+    path = Path(path)
+    if path.suffix != ".zip":
+        path = path.with_name(path.name + ".zip")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    model.save(str(path))
+    meta = run_record(kind, config, scenario, family, getattr(model, "num_timesteps", 0), **extra)
+    config_path(path).write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
+    return path
+
+
+def load_model(checkpoint: str | os.PathLike | Checkpoint, scenario: Scenario | None = None, env=None, device="cpu"):
+    """Load a checkpoint of any format (:func:`open_checkpoint`), checking it first.
 
     Args:
-        checkpoint: path to the ``.zip`` (suffix optional) or a run directory holding ``model.zip``;
-            an RLlib checkpoint directory of ``vcs-env train --backend rllib`` gives an
-            :class:`agents.rllib_train.RLlibPolicy` (``predict`` only).
+        checkpoint: an SB3 ``.zip`` (suffix optional), a run directory, or an RLlib checkpoint
+            (gives an :class:`RLlibPolicy`, ``predict`` only).
         scenario: if given, the policy must fit this scenario (:func:`check_checkpoint_fits`:
             same observation config, else :class:`CheckpointError`; another scenario family
-            gives a :class:`FamilyWarning`; an RLlib policy: the same observation size).
-        env: optional VecEnv to attach (for continuing training).
+            gives a :class:`FamilyWarning`).
+        env: optional VecEnv to attach (for continuing SB3 training).
         device: torch device.
 
     Raises:
         CheckpointError: missing, corrupt, saved by another SB3 algorithm than PPO, made for
             observation v0, or for another observation config.
     """
-    from .rllib_train import is_rllib_checkpoint, load_policy
-
-    if is_rllib_checkpoint(checkpoint):  # an RLlib run: a predictor, not an SB3 model
-        if env is not None:
-            raise CheckpointError(f"{str(checkpoint)!r} is an RLlib checkpoint; SB3 training cannot continue it")
-        return load_policy(checkpoint, scenario)
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.save_util import load_from_zip_file
-
-    path = resolve(checkpoint)
-    if not zipfile.is_zipfile(path):
-        raise CheckpointError(f"checkpoint {str(path)!r} is corrupt: not a zip archive (an SB3 .zip is expected)")
-    try:
-        data, params, _ = load_from_zip_file(path, device=device, print_system_info=False)
-    except Exception as e:  # truncated members, bad pickles, bad tensors ...
-        raise CheckpointError(f"checkpoint {str(path)!r} is corrupt or unreadable: {type(e).__name__}: {e}") from None
-    if not data or "observation_space" not in data or not params or "policy" not in params:
-        raise CheckpointError(
-            f"checkpoint {str(path)!r} is not an SB3 policy checkpoint (no observation space or policy weights)"
-        )
-    if "clip_range" not in data:  # A2C shares PPO's policy class; SAC, TD3, DQN have their own
-        cls = getattr(data.get("policy_class"), "__name__", "unknown")
-        raise CheckpointError(
-            f"checkpoint {str(path)!r} was saved by another SB3 algorithm than PPO (policy class {cls}, no "
-            "clip_range): vcs-env loads the PPO checkpoints of `vcs-env train` and `vcs-env bc`"
-        )
-    if scenario is not None:
-        check_checkpoint_fits(read_metadata(path), data["observation_space"], scenario, f"checkpoint {str(path)!r}")
-    try:
-        return PPO.load(str(path), env=env, device=device)
-    except Exception as e:
-        raise CheckpointError(f"checkpoint {str(path)!r} could not be loaded: {type(e).__name__}: {e}") from None
+    return open_checkpoint(checkpoint).load(scenario, env, device)
 
 
 def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario) -> dict[str, Any]:
     """Copy the policy weights of ``checkpoint`` into ``model.policy`` (``train --init``).
 
     The architecture must match (same ``net_arch``); a mismatch raises :class:`CheckpointError`
-    naming the differing tensors. Returns the checkpoint's metadata.
+    naming the differing tensors. Returns the checkpoint's run record.
     """
-    src = load_model(checkpoint, scenario)
+    ckpt = open_checkpoint(checkpoint)
+    src = ckpt.load(scenario)
+    if not hasattr(src, "policy"):
+        raise CheckpointError(f"{ckpt.describe()} holds no SB3 policy to copy weights from (--init takes SB3 ones)")
     theirs, ours = src.policy.state_dict(), model.policy.state_dict()
     diff = sorted(
         k for k in set(theirs) | set(ours) if k not in theirs or k not in ours or theirs[k].shape != ours[k].shape
@@ -324,4 +468,29 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
             f"(checkpoint vs run: {detail}); use the same --net-arch and --features"
         )
     model.policy.load_state_dict(theirs)
-    return read_metadata(checkpoint)
+    return ckpt.record
+
+
+class RLlibPolicy:
+    """An RLlib RLModule as an SB3-style ``PolicyPredictor`` for :mod:`agents.evaluate`.
+
+    ``predict(obs (N, D)) -> (actions (N, 2) in [-1, 1], None)``: the Gaussian's mean with
+    ``deterministic=True``, else a sample drawn from ``rng``.
+    """
+
+    def __init__(self, module, name: str = "rllib", rng: np.random.Generator | None = None):
+        self.module = module
+        self.name = name
+        self.observation_space = module.observation_space
+        self.action_space = module.action_space
+        self.rng = rng if rng is not None else np.random.default_rng(0)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
+        import torch
+
+        obs = torch.as_tensor(np.asarray(observation, dtype=np.float32)).reshape(-1, self.observation_space.shape[0])
+        with torch.no_grad():
+            out = self.module.forward_inference({"obs": obs})["action_dist_inputs"].numpy()
+        mean, log_std = np.split(out.astype(np.float64), 2, axis=-1)
+        actions = mean if deterministic else mean + np.exp(log_std) * self.rng.standard_normal(mean.shape)
+        return np.clip(actions, -1.0, 1.0).astype(np.float32), state

@@ -18,13 +18,20 @@ import ast
 import dataclasses
 import functools
 import inspect
+import itertools
 import shlex
 import textwrap
 import types
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
+
+from vcs_env.layouts import KINDS
+from vcs_env.observations import observation_config
+from vcs_env.scenario import MAPS, SCENARIOS, RewardWeights, make_scenario
+from vcs_env.suites import SUITES
 
 SHAPING = ("none", "vcs_imitation", "vcs_potential")
 DEFAULT_SHAPING_WEIGHT = {"vcs_imitation": 0.1, "vcs_potential": 1.0}
@@ -80,8 +87,6 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
     that does not read it, an obstacle setting without obstacles) is a ``ValueError``; ``check``
     limits that test to the fields named (mixtures: an entry's own fields, not the common flags).
     """
-    from vcs_env.scenario import make_scenario
-
     if cfg.shaping not in SHAPING:
         raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
     over: dict[str, Any] = {}
@@ -100,8 +105,6 @@ def _check_applies(scenario, given: dict[str, Any]):
     """``scenario``, or a ``ValueError`` if a field in ``given`` (set by a flag or a mixture entry)
     cannot change its episodes: a layout field its kind does not read
     (:attr:`vcs_env.layouts.ScenarioKind.reads`) or an obstacle setting without obstacles."""
-    from vcs_env.layouts import KINDS
-
     reads = KINDS[scenario.kind].reads
     for name in ("jitter", "layout_radius"):
         if name in given and name not in reads:
@@ -124,9 +127,6 @@ def scenario_base(name: str):
     (:data:`vcs_env.SCENARIOS`, :data:`vcs_env.MAPS`) or, for a suite name such as
     ``crowd-20-v0``, that suite's scenario with all its conventions (jitter,
     ``on_collision="continue"``, spacing, time limit); flags and entry fields then change it."""
-    from vcs_env.scenario import MAPS, SCENARIOS
-    from vcs_env.suites import SUITES
-
     if name in SCENARIOS or name in MAPS:
         return SCENARIOS.get(name) or MAPS[name]
     if name in SUITES:
@@ -156,8 +156,6 @@ def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:
 def family_suite(kind: str):
     """The full evaluation suite of a layout kind (``circle`` -> ``circle-8-v0``, ``crowd`` ->
     ``crowd-5-v0``: the first one defined), or None if no suite uses that kind."""
-    from vcs_env.suites import SUITES
-
     return next((s for s in SUITES.values() if not s.is_smoke and s.scenario.kind == kind), None)
 
 
@@ -166,9 +164,6 @@ def probe_scenario(cfg: ScenarioConfig):
     (:func:`family_suite`: its jitter, ``on_collision="continue"``, spacing, limits ...) with the
     flags given in ``cfg`` applied; presets without a suite (random, custom) start from the preset.
     Reward flags are ignored (they do not change the metrics)."""
-    from vcs_env.scenario import make_scenario
-    from vcs_env.suites import SUITES
-
     base = scenario_base(cfg.scenario)
     suite = SUITES[cfg.scenario] if cfg.scenario in SUITES else family_suite(base.kind)
     base = base if suite is None else suite.scenario
@@ -195,8 +190,6 @@ def suite_differences(scenario) -> tuple[str | None, list[str]]:
         The suite name (None if the kind has no suite) and one ``"field: ours (suite: theirs)"``
         line per differing field.
     """
-    from vcs_env.suites import SUITES
-
     show = lambda v: round(v, 6) if isinstance(v, float) else v  # noqa: E731 (7.199999999999999 -> 7.2)
     best: tuple[str | None, list[str]] = (None, [])
     for suite in SUITES.values():
@@ -237,8 +230,6 @@ def check_out_file(path: str | None, flag: str, suffixes: tuple[str, ...] = ()) 
     directory or lacks one of ``suffixes``; its parent directory is made."""
     if path is None:
         return
-    from pathlib import Path
-
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{flag} {path!r} is a directory; give a file name")
@@ -265,8 +256,6 @@ def parse_seeds(text: str) -> tuple[int, ...]:
 
 def parse_weights(text: str | None) -> dict[str, float]:
     """``"time=2,collision=20"`` -> ``{"time": 2.0, "collision": 20.0}`` (names checked)."""
-    from vcs_env.scenario import RewardWeights
-
     if not text:
         return {}
     names = [f.name for f in dataclasses.fields(RewardWeights)]
@@ -456,10 +445,15 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
 def mixture_split(scenarios: Sequence, seeds: Sequence[int]) -> list[tuple[Any, list[int]]]:
     """Episode ``j`` of a mixture plays ``scenarios[j % S]`` with ``seeds[j]``: the pairs
     ``(scenario, its seeds)`` in scenario order, scenarios without an episode left out. The one
-    rule behind mixture data (:func:`agents.expert_data.play_mixture`) and scoring
+    rule behind mixture data (:func:`agents.imitation.data.play_mixture`) and scoring
     (:func:`agents.evaluate.score_scenarios`)."""
     seeds = [int(s) for s in seeds]
     return [(sc, seeds[g :: len(scenarios)]) for g, sc in enumerate(scenarios) if seeds[g :: len(scenarios)]]
+
+
+def scenarios_of(cfg: ScenarioConfig, mixture: tuple[str, ...] = ()) -> list:
+    """The scenario of a config, or every scenario of its mixture (:func:`mixture_scenarios`)."""
+    return mixture_scenarios(cfg, tuple(mixture)) if mixture else [build_scenario(cfg)]
 
 
 def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
@@ -468,9 +462,6 @@ def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
     ``on_collision``, ``obstacle_motion``, ``rewards``, shaping). The per-scenario flags of ``cfg`` (``scenario``,
     ``n_robots``, ``n_obstacles``, ``jitter``, ``layout_radius``, ``obstacle_speed``) must be
     unset: entries set those. All scenarios must share one observation config."""
-    import itertools
-
-    from vcs_env.observations import observation_config
 
     per_entry = ("n_robots", "n_obstacles", "jitter", "layout_radius", "obstacle_speed")
     clash = [f for f in per_entry if getattr(cfg, f) is not None]

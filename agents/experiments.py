@@ -26,7 +26,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
-from .checkpoint import jsonable
+from .evaluate import evaluate
+from .runs import jsonable
 
 RUN_NAME = re.compile(r"(?:.*_)?(?P<method>[^_]+)_s(?P<seed>\d+)$")
 """``<anything>_<method>_s<seed>``: the method is the last name part without underscores."""
@@ -69,7 +70,6 @@ def score_runs(suite: str, runs: list[str], expert: str = "vcs", model: str = "m
     import torch
 
     torch.set_num_threads(1)
-    from .evaluate import evaluate
 
     def stats(res) -> dict[str, float]:
         s = res.summary

@@ -9,11 +9,12 @@ Accepted (:func:`resolve_policy`):
   it sees per-robot observations; each step it is called once with the observations of all
   robots of all worlds stacked, ``(B * n, D)``, and returns ``(B * n, 2)`` actions (rows of robots
   that are not active are ignored);
-* the path of a stable-baselines3 PPO checkpoint (``.zip``), loaded on the CPU; a checkpoint
-  whose run record names a shield (:mod:`agents.shield`) runs with it unless ``shield=False``.
+* a checkpoint of any format (:func:`agents.checkpoint.open_checkpoint`: an SB3 ``.zip`` or run
+  directory, an RLlib checkpoint or run directory), loaded on the CPU; a checkpoint whose run record
+  names a shield (:mod:`agents.shield`) runs with it unless ``shield=False``.
 
 No torch or stable-baselines3 import at import time; loading a checkpoint does, inside
-:func:`load_checkpoint` (through :func:`agents.checkpoint.load_model`).
+:func:`load_checkpoint` (through :meth:`agents.checkpoint.Checkpoint.load`).
 """
 
 from __future__ import annotations
@@ -26,12 +27,12 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.planning import Planner, make_planner
+from vcs_env.planning import PLANNERS, Planner, make_planner
 from vcs_env.rollout import Controller, planner_controller
 from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 
-from .checkpoint import check_observation_space, config_path, load_model, read_metadata, resolve
+from .checkpoint import Checkpoint, check_observation_space, find_checkpoint, open_checkpoint
 from .shield import ShieldedPredictor, shield_from_record
 
 
@@ -59,22 +60,17 @@ def policy_label(spec: str) -> str:
 
 
 def is_checkpoint_spec(spec: Any) -> bool:
-    """True if ``spec`` names a file rather than a registered planner: a path object, a string
-    ending in ``.zip`` or holding a path separator, or any other string that is not a
-    registered planner name but an existing file (with or without ``.zip``) or a run directory
-    holding ``model.zip``."""
-    if isinstance(spec, os.PathLike):
+    """True if ``spec`` names a checkpoint rather than a registered planner: a path or
+    :class:`~agents.checkpoint.Checkpoint` object, a string ending in ``.zip`` or holding a path
+    separator, or any other string that is not a registered planner name but a checkpoint of some
+    format (:func:`agents.checkpoint.find_checkpoint`)."""
+    if isinstance(spec, (os.PathLike, Checkpoint)):
         return True
     if not isinstance(spec, str):
         return False
     if spec.endswith(".zip") or "/" in spec or os.sep in spec:
         return True
-    from baselines import PLANNERS  # lazy, like vcs_env.planning.make_planner
-
-    from .rllib_train import is_rllib_checkpoint
-
-    exists = os.path.isfile(spec) or os.path.isfile(spec + ".zip") or os.path.isfile(os.path.join(spec, "model.zip"))
-    return spec not in PLANNERS and (exists or is_rllib_checkpoint(spec))
+    return spec not in PLANNERS and find_checkpoint(spec) is not None
 
 
 def _check_action_space(space: Any, what: str) -> None:
@@ -83,37 +79,34 @@ def _check_action_space(space: Any, what: str) -> None:
         raise ValueError(f"{what} produces actions of shape {tuple(shape)}, the env needs (2,)")
 
 
-def load_checkpoint(path: str | os.PathLike, scenario: Scenario, shield: bool = True):
-    """Load a stable-baselines3 PPO checkpoint on the CPU and check it fits ``scenario``.
+def load_checkpoint(path: str | os.PathLike | Checkpoint, scenario: Scenario, shield: bool = True):
+    """Load a checkpoint of any format on the CPU and check it fits ``scenario``.
 
     Args:
-        path: the ``.zip`` file (the suffix may be left out) or a run directory with ``model.zip``.
+        path: the checkpoint (:func:`agents.checkpoint.open_checkpoint`: an SB3 ``.zip``, the suffix
+            may be left out, or a run directory; an RLlib checkpoint or run directory).
         scenario: the scenario whose observation space the model must take.
         shield: apply the safety shield the checkpoint's run record names, if any (:mod:`agents.shield`).
 
     Returns:
-        The loaded ``stable_baselines3.PPO`` model (a ``PolicyPredictor``), inside an
-        :class:`agents.shield.ShieldedPredictor` when its record names a shield and ``shield`` is true.
+        The loaded model (a ``PolicyPredictor``: ``stable_baselines3.PPO`` or
+        :class:`agents.checkpoint.RLlibPolicy`), inside an :class:`agents.shield.ShieldedPredictor`
+        when its record names a shield and ``shield`` is true.
 
     Raises:
         agents.checkpoint.CheckpointError: (a ``ValueError``) the file is missing, corrupt or not
             a PPO checkpoint, or its spaces do not fit.
-        ImportError: stable-baselines3 is not installed.
+        ImportError: stable-baselines3 (or Ray RLlib, for an RLlib checkpoint) is not installed.
     """
+    ckpt = open_checkpoint(path)
     try:
-        import stable_baselines3  # noqa: F401
-    except ImportError as e:
+        model = ckpt.load(scenario)
+    except ModuleNotFoundError as e:
         raise ImportError(
-            f"loading the checkpoint {str(path)!r} needs stable-baselines3; install it with: "
-            f"pip install 'vcs-env[train]' ({e})"
+            f"loading the {ckpt.describe()} needs {e.name}; install it with: pip install 'vcs-env[train]' ({e})"
         ) from None
-    from .rllib_train import is_rllib_checkpoint
-
-    model = load_model(path, scenario)
-    _check_action_space(model.action_space, f"checkpoint {str(path)!r}")
-    guard = None
-    if shield and not is_rllib_checkpoint(path):
-        guard = shield_from_record(read_metadata(path), str(config_path(resolve(path))))
+    _check_action_space(model.action_space, ckpt.describe())
+    guard = shield_from_record(ckpt.record, str(ckpt.record_path)) if shield else None
     return model if guard is None else ShieldedPredictor(model, guard, scenario)
 
 
@@ -167,17 +160,13 @@ def resolve_policy(
     if isinstance(policy, Planner):
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
     if is_checkpoint_spec(policy):
-        if action_mode != "delta":
-            from .rllib_train import METADATA, is_rllib_checkpoint
-
-            rllib = is_rllib_checkpoint(policy)
-            record = Path(METADATA) if rllib else config_path(resolve(policy))
-            if rllib or record.is_file():  # vcs-env train, bc and rllib act in delta mode
-                raise ValueError(
-                    f"{str(policy)!r} was trained by vcs-env (run record {record.name}), whose policies act in "
-                    f"delta mode; --action-mode {action_mode} would read its actions in other units"
-                )
-        model = load_checkpoint(policy, scenario, shield)
+        ckpt = open_checkpoint(policy)
+        if action_mode != "delta" and ckpt.record:  # vcs-env train, bc and rllib act in delta mode
+            raise ValueError(
+                f"{str(policy)!r} was trained by vcs-env (run record {ckpt.record_path.name}), whose policies act in "
+                f"delta mode; --action-mode {action_mode} would read its actions in other units"
+            )
+        model = load_checkpoint(ckpt, scenario, shield)
         label = name or policy_label(str(policy))
         guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
         return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint", guard)

@@ -47,6 +47,8 @@ import numpy as np
 from vcs_env.observations import DT_REF, EGO_DIM, NEIGHBOR_DIM, SENSE_REF
 from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 
+from .checkpoint import open_checkpoint
+
 LEVELS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 GRID = np.array([(a, w) for a in LEVELS for w in LEVELS])
 """The alternative actions ``(25, 2)`` (acceleration, turn) in delta action units."""
@@ -248,42 +250,17 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
 
 def attach(checkpoint: str | os.PathLike, shield: Shield | None) -> dict[str, Any]:
     """Write ``shield`` into the run record of ``checkpoint`` (None removes it); return the record."""
-    from .checkpoint import config_path, read_metadata, resolve
-    from .rllib_train import is_rllib_checkpoint
-
-    if is_rllib_checkpoint(checkpoint):
+    ckpt = open_checkpoint(checkpoint)
+    if ckpt.format != "sb3":
         raise ValueError(f"{str(checkpoint)!r} is an RLlib checkpoint; shields are kept in the run records of SB3 ones")
-    path = resolve(checkpoint)
-    record = read_metadata(path)
+    record = ckpt.record
     if not isinstance(record, dict) or not record:
         raise ValueError(
-            f"{str(path)!r} has no run record to keep the shield in ({config_path(path).name} is missing, empty "
+            f"{str(ckpt.path)!r} has no run record to keep the shield in ({ckpt.record_path.name} is missing, empty "
             "or not a JSON object)"
         )
     record.pop("shield", None)
     if shield is not None:
         record["shield"] = asdict(shield)
-    config_path(path).write_text(json.dumps(record, indent=2) + "\n")
+    ckpt.record_path.write_text(json.dumps(record, indent=2) + "\n")
     return record
-
-
-def cmd_shield(args) -> int:
-    shield = None if args.remove else Shield(args.horizon, args.margin, args.robot_speed)
-    attach(args.checkpoint, shield)
-    said = "removed the shield from" if shield is None else f"wrote {asdict(shield)} into"
-    print(f"{said} the run record of {args.checkpoint}")
-    return 0
-
-
-def add_commands(sub) -> None:
-    p = sub.add_parser(
-        "shield",
-        help="give a checkpoint a safety shield (kept in its run record, applied wherever it is evaluated)",
-        description=__doc__.split("\n\n")[0],
-    )
-    p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
-    p.add_argument("--horizon", type=float, default=Shield.horizon, help="prediction horizon [s]")
-    p.add_argument("--margin", type=float, default=Shield.margin, help="smallest predicted gap to keep [m]")
-    p.add_argument("--robot-speed", type=float, default=Shield.robot_speed, help="robots at most this fast count [m/s]")
-    p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
-    p.set_defaults(func=cmd_shield)

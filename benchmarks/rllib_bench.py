@@ -8,7 +8,7 @@ torch on one thread everywhere. Contestants:
   collection, of the update, and of the whole (:func:`benchmarks.train_bench.run`, split by its
   collection share of the CPU time);
 * ``rllib-<adapter>-<K>`` - RLlib PPO with ``K`` env runners (separate processes, one CPU each
-  on a local Ray instance) and each env adapter of :mod:`agents.rllib_env`: robot steps sampled
+  on a local Ray instance) and each env adapter of :mod:`agents.train.rllib_env`: robot steps sampled
   per wall second of ``EnvRunnerGroup.sample`` (RLlib's ``env_runner_sampling_timer``, which
   waits for all runners), per wall second of the rest of the iteration (the learner's update and
   the weight sync: the ceiling that more runners cannot lift), and of the whole iteration.
@@ -42,7 +42,8 @@ def rllib_rates(adapter: str, runners: int, iterations: int, warmup: int = 1) ->
     weight sync); the update's own rate follows from the two (the iteration is synchronous)."""
     import torch
 
-    from agents.rllib_train import RLlibConfig, init_ray, ppo_config, set_log_std
+    from agents.runs import RLlibConfig
+    from agents.train.rllib import init_ray, ppo_config, set_log_std
 
     torch.set_num_threads(1)
     cfg = RLlibConfig(**SCENARIO, **PPO, num_env_runners=runners, env_adapter=adapter, timesteps=10**9)

@@ -23,12 +23,15 @@ from agents.checkpoint import (  # noqa: E402
     UncheckedWarning,
     load_model,
     load_policy_weights,
-    read_metadata,
+    open_checkpoint,
     save_model,
 )
-from agents.evaluate import evaluate, score_seeds  # noqa: E402
+from agents.evaluate import (  # noqa: E402
+    evaluate,
+    scalar_results,  # noqa: E402
+    score_seeds,
+)
 from agents.policies import predictor_controller  # noqa: E402
-from agents.train import scalar_results  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_env import CustomLayout, NavEngine, make_scenario  # noqa: E402
 from vcs_env.rollout import planner_controller  # noqa: E402
@@ -181,8 +184,8 @@ def vcs_env_planner():
 def test_bc_lowers_held_out_action_error():
     from stable_baselines3 import PPO
 
-    from agents.expert_data import discounted_returns, play
     from agents.imitation import action_error, bc_fit
+    from agents.imitation.data import discounted_returns, play
 
     s = make_scenario("crowd")
     train = play(s, range(0, 48), n_worlds=24)
@@ -200,7 +203,7 @@ def test_bc_lowers_held_out_action_error():
 
 
 def test_dataset_layout_groups_robot_trajectories():
-    from agents.expert_data import play
+    from agents.imitation.data import play
 
     s = make_scenario("circle", n_robots=3, max_steps=40)
     d = play(s, [3, 4], n_worlds=2)
@@ -410,7 +413,7 @@ def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
     circle = make_scenario("circle", n_robots=2)
     model = PPO("MlpPolicy", NavVecEnv(circle, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
     path = save_model(model, tmp_path / "m", "ppo", TrainConfig(), circle)
-    meta = read_metadata(path)
+    meta = open_checkpoint(path).record
     assert meta["scenario_family"] == ["circle"] and meta["observation"]["version"] == 1
     load_model(path, make_scenario("circle", n_robots=12, jitter=0.3))  # same family and config: silent
     with pytest.warns(FamilyWarning, match=r"trained on scenario family \['circle'\], but runs on kind='crowd'"):

@@ -141,7 +141,7 @@ def test_aggregate_takes_time_over_the_solved_mask_only():
 def test_a_new_metric_is_one_object(monkeypatch, capsys, tmp_path):
     """Adding a Metric to METRICS puts it in the rows, the aggregate, the comparison table, the
     plots and the evaluate summary; its flags decide how each treats it."""
-    from agents.report import table_lines, write_plots
+    from agents.evaluate.report import table_lines, write_plots
 
     final_speed = metrics.Metric("final_speed", "final speed [m/s]", lambda f: float(f.ep.speed[-1].mean()))
     quick = metrics.Metric("quick", "quick", lambda f: float(f.ep.steps < 100), rate=True, plot=False)
@@ -311,6 +311,47 @@ def test_bad_checkpoint_paths_give_clear_errors(tmp_path):
     bad.write_bytes(b"not a zip file")
     with pytest.raises(ValueError, match="corrupt"):
         evaluate(str(bad), "swap-v0-smoke", progress=False)
+
+
+def test_checkpoint_formats_detect_themselves_and_a_run_resumes_from_its_newest(tmp_path):
+    """Each format finds itself once (the checkpoint, or its run directory); latest_checkpoint takes
+    a run directory's newest checkpoint by timesteps, the final one on a tie."""
+    from agents.checkpoint import RLlibCheckpoint, SB3Checkpoint, latest_checkpoint, open_checkpoint
+
+    run = tmp_path / "rllib"
+    for name, steps in (
+        ("checkpoints/checkpoint_128", 128),
+        ("checkpoints/checkpoint_1024", 1024),
+        ("checkpoint", 1024),
+    ):
+        (run / name).mkdir(parents=True)
+        (run / name / "vcs_env.json").write_text(json.dumps({"num_timesteps": steps}))
+    assert open_checkpoint(run).path == run / "checkpoint" and open_checkpoint(run).format == "rllib"
+    assert latest_checkpoint(run).path == run / "checkpoint"
+    shutil.rmtree(run / "checkpoint")  # killed before its end
+    assert latest_checkpoint(run).path == run / "checkpoints" / "checkpoint_1024"
+    assert [c.timesteps for c in RLlibCheckpoint.in_run(run)] == [128, 1024]
+    sb3 = tmp_path / "sb3"
+    (sb3 / "checkpoints").mkdir(parents=True)
+    (sb3 / "checkpoints" / "model_2048.zip").write_bytes(b"")
+    ckpt = latest_checkpoint(sb3)
+    assert isinstance(ckpt, SB3Checkpoint) and ckpt.timesteps == 2048 and ckpt.run_dir == sb3
+    with pytest.raises(ValueError, match="checkpoint not found"):
+        open_checkpoint(sb3)  # a run directory is evaluated by its final model.zip only
+
+
+def test_a_missing_checkpoint_names_every_accepted_form_and_a_run_record_is_not_one(tmp_path, capsys):
+    from agents.checkpoint import CheckpointError, open_checkpoint
+
+    with pytest.raises(CheckpointError) as err:
+        open_checkpoint(tmp_path / "missing")
+    for form in ("SB3 .zip", "run directory with model.zip", "RLlib checkpoint directory", "RLlib run directory"):
+        assert form in str(err.value)
+    # A run's model.json is its record, not a checkpoint: said in one line, not called corrupt.
+    base = ["evaluate", "--suite", "swap-v0-smoke", "--no-progress", "--policy", "policies/circle8/model.json"]
+    assert cli.main(base) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "model.json is the run record; pass model.zip or the run directory" in err, err
 
 
 def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):

@@ -152,7 +152,8 @@ def test_features_travel_through_bc_init_and_evaluation(tmp_path, features):
 
 
 def test_rllib_backend_refuses_contact_features():
-    from agents.rllib_train import RLlibConfig, train
+    from agents.runs import RLlibConfig
+    from agents.train.rllib import train
 
     with pytest.raises(ValueError, match="SB3 only"):
         train(RLlibConfig(features="contact", out="unused"))

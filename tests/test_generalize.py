@@ -264,7 +264,7 @@ def test_reproduction_command_of_a_toy_mixture_run_gives_the_same_metrics(tmp_pa
     import shlex
 
     pytest.importorskip("stable_baselines3")
-    from agents.checkpoint import read_metadata
+    from agents.checkpoint import open_checkpoint
     from agents.train import TrainConfig, train
 
     cfg = TrainConfig(
@@ -286,14 +286,14 @@ def test_reproduction_command_of_a_toy_mixture_run_gives_the_same_metrics(tmp_pa
     first = train(cfg)
     printed = capsys.readouterr().out
     assert "settings unlike its suite circle-8-v0: jitter: 0.0 (suite: 0.1)" in printed
-    meta = read_metadata(first["model"])
+    meta = open_checkpoint(first["model"]).record
     assert meta["scenario_family"] == ["circle", "crowd"]
     command = shlex.split(meta["command"])
     assert command[:2] == ["vcs-env", "train"] and "--mixture" in command
     out_at = command.index("--out")
     command[out_at + 1] = str(tmp_path / "b")
     assert cli.main([*command[1:], "--no-progress-bar", "--no-tensorboard"]) == 0
-    second = read_metadata(tmp_path / "b" / "model.zip")["evaluation"]
+    second = open_checkpoint(tmp_path / "b" / "model.zip").record["evaluation"]
     timing = ("wall_time", "eval_seconds")
     metrics = {k: v for k, v in meta["evaluation"].items() if k not in timing}
     assert metrics["return"] != 0.0 and metrics["episodes"] == 3  # the return depends on every weight
@@ -305,8 +305,8 @@ def test_collect_and_dagger_on_a_mixture_play_every_scenario(tmp_path, capsys):
     j % S), and ``vcs-env bc`` clones on them, plays its DAgger rounds on the same mixture and
     saves the mixture's family."""
     pytest.importorskip("stable_baselines3")
-    from agents.checkpoint import read_metadata
-    from agents.expert_data import load_dataset
+    from agents.checkpoint import open_checkpoint
+    from agents.imitation.data import load_dataset
 
     data_path = tmp_path / "mix.npz"
     args = ["collect", "--mixture", "circle:n_robots=2-3", "crowd:n_obstacles=2", "--max-steps", "30"]
@@ -321,7 +321,7 @@ def test_collect_and_dagger_on_a_mixture_play_every_scenario(tmp_path, capsys):
     out = tmp_path / "bc"
     args = ["bc", "--data", str(data_path), "--epochs", "1", "--net-arch", "16", "--dagger-iters", "1"]
     assert cli.main([*args, "--dagger-episodes", "3", "--eval-episodes", "3", "--out", str(out)]) == 0
-    meta = read_metadata(out / "model.zip")
+    meta = open_checkpoint(out / "model.zip").record
     assert meta["scenario_family"] == ["circle", "crowd"]
     assert meta["report"]["dagger_env_steps"] > 0
     assert meta["report"]["rows"] + meta["report"]["held_out_rows"] == len(data["actions"])

@@ -31,7 +31,7 @@ def test_bc_takes_paths_and_dagger_labels_with_the_datasets_planner(tmp_path, mo
 
 def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on(tmp_path):
     import agents.imitation as imitation
-    from agents.expert_data import load_dataset
+    from agents.imitation.data import load_dataset
 
     path = imitation.collect(
         imitation.CollectConfig(scenario="swap", n_robots=2, episodes=2, out=str(tmp_path / "d.npz"))

@@ -111,3 +111,121 @@ def test_an_env_runs_without_loading_upper_layers():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.strip() == "[]"
+
+
+# --------------------------------------------------------------------------- inside agents/
+PROJECT = {"vcs_env", "baselines", "agents", "benchmarks", "vcs_cli"}
+MAX_LAZY_PROJECT_IMPORTS = 10
+"""Project imports inside functions in ``agents/``: only those of modules that import torch,
+stable-baselines3 or Ray at their top (the SB3 env and features, the RLlib env and learner),
+where building the ``vcs-env`` parser must not load them."""
+
+
+def _agents_modules() -> dict[str, pathlib.Path]:
+    """``{dotted name: path}`` of every module of ``agents`` (a package by its ``__init__``)."""
+    out = {}
+    for path in sorted((ROOT / "agents").rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        out[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return out
+
+
+def module_imports(name: str, source: str, is_package: bool, known: set[str]) -> list[tuple[str, bool]]:
+    """``(module, inside a function)`` of every import of ``known`` modules in a module's source:
+    relative imports resolved against ``name``, ``from X import y`` naming module ``X.y`` when it
+    is one, and an import of ``a.b.c`` also importing ``a`` and ``a.b`` unless they hold ``name``
+    (Python loads a module's own packages before it, whatever they import)."""
+    here = name if is_package else name.rpartition(".")[0]
+    out = []
+
+    def visit(node, in_function: bool) -> None:
+        in_function = in_function or isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+        targets = []
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                base = ".".join(here.split(".")[: len(here.split(".")) - node.level + 1] + ([base] if base else []))
+            targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names]
+        for target in targets:
+            parts = target.split(".")
+            outer = [".".join(parts[:k]) for k in range(1, len(parts))]
+            out.extend((m, in_function) for m in [*outer, target] if m == target or not name.startswith(m + "."))
+        for child in ast.iter_child_nodes(node):
+            visit(child, in_function)
+
+    visit(ast.parse(source), False)
+    return [(m, f) for m, f in out if m in known and m != name]
+
+
+def _agents_graph() -> dict[str, set[str]]:
+    modules = _agents_modules()
+    graph = {}
+    for name, path in modules.items():
+        found = module_imports(name, path.read_text(), path.name == "__init__.py", set(modules))
+        graph[name] = {m for m, _ in found}
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    """A cycle of ``graph`` (``[a, b, ..., a]``), or None."""
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                return stack[stack.index(nxt) :] + [nxt]
+            if nxt not in state and (cycle := visit(nxt)):
+                return cycle
+        stack.pop()
+        state[node] = 2
+        return None
+
+    return next((c for node in sorted(graph) if node not in state and (c := visit(node))), None)
+
+
+def test_the_graph_checker_sees_relative_imports_and_cycles():
+    known = {"agents", "agents.a", "agents.p", "agents.p.b"}
+    src = "from .. import a\nfrom .b import x\ndef f():\n    from ..a import y\n    import numpy\n"
+    assert module_imports("agents.p", src, True, known) == [
+        ("agents.a", False),
+        ("agents.p.b", False),
+        ("agents.a", True),
+    ]
+    assert module_imports("agents.p.b", "from . import x\nimport agents.a", False, known) == [
+        ("agents.p", False),
+        ("agents.a", False),
+    ]
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": set()}) is None
+
+
+def test_agents_has_no_import_cycle():
+    graph = _agents_graph()
+    assert len(graph) > 20 and "agents.checkpoint" in graph["agents.policies"]  # the scan sees the package
+    assert find_cycle(graph) is None, f"import cycle in agents/: {' -> '.join(find_cycle(graph))}"
+
+
+def test_agents_imports_its_project_modules_at_the_top():
+    modules = _agents_modules()
+    lazy = []
+    for name, path in modules.items():
+        source = path.read_text()
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                for inner in ast.walk(node):
+                    if isinstance(inner, ast.ImportFrom) and (inner.level or inner.module.split(".")[0] in PROJECT):
+                        lazy.append(f"{name}:{inner.lineno}")
+                    elif isinstance(inner, ast.Import) and any(a.name.split(".")[0] in PROJECT for a in inner.names):
+                        lazy.append(f"{name}:{inner.lineno}")
+    assert len(set(lazy)) <= MAX_LAZY_PROJECT_IMPORTS, f"{len(set(lazy))} project imports inside functions: {lazy}"
+
+
+def test_agents_does_not_import_the_layers_above_it():
+    for path in _agents_modules().values():
+        bad = imported_names(path.read_text(), "agents") & {"benchmarks", "vcs_cli"}
+        assert not bad, f"{path.relative_to(ROOT)} imports {sorted(bad)}: agents/ is below them"

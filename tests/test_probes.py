@@ -8,7 +8,7 @@ import pytest
 import vcs_cli as cli
 from agents.config import family_suite
 from agents.evaluate import evaluate
-from agents.probes import PROBE_SEED_BASE, PROBES, Probe, gaps, policy_labels, select_probes
+from agents.evaluate.probes import PROBE_SEED_BASE, PROBES, Probe, gaps, policy_labels, select_probes
 from vcs_env.scenario import SCENARIOS
 from vcs_env.suites import SUITES
 

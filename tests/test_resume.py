@@ -49,6 +49,30 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     assert "a bc checkpoint, not a PPO run's" in capsys.readouterr().err
 
 
+def test_a_run_killed_before_its_end_resumes_from_its_newest_checkpoint(tmp_path, capsys):
+    """No model.zip (killed mid-way): --resume RUN_DIR takes checkpoints/model_<newest>.zip and says so."""
+    run = tmp_path / "run"
+    args = ["train", *TINY, "--timesteps", "4096", "--eval-freq", "0", "--checkpoint-freq", "2048"]
+    assert cli.main([*args, "--out", str(run)]) == 0
+    for name in ("model.zip", "model.json", "best_model.zip", "best_model.json"):
+        (run / name).unlink()
+    capsys.readouterr()
+    assert cli.main(["train", "--resume", str(run), "--timesteps", "6144", "--no-progress-bar"]) == 0
+    out = capsys.readouterr().out
+    newest = run / "checkpoints" / "model_2048.zip"
+    assert f"its newest checkpoint is {newest} (2048 timesteps)" in out and f"resumed {newest} at 2048" in out
+    assert json.loads((run / "model.json").read_text())["num_timesteps"] == 6144
+
+
+@pytest.mark.parametrize("backend", ["sb3", "rllib"])
+def test_a_run_of_zero_timesteps_is_refused(backend, tmp_path, capsys):
+    out = tmp_path / "x"
+    assert cli.main(["train", *TINY, "--backend", backend, "--timesteps", "0", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--timesteps must be >= 1" in err, err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize(
     "flags, message",
     [

@@ -3,6 +3,7 @@ few PPO iterations on a two-node Ray cluster (two raylets on loopback) scored by
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import secrets
@@ -22,8 +23,10 @@ from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM
 
 pytest.importorskip("ray.rllib", reason="the rllib extra (pip install 'vcs-env[rllib]')")
 
-from agents.rllib_env import NavMultiAgentEnv, PettingZooNavEnv, world_seeds  # noqa: E402
-from agents.rllib_train import LOCAL_NODE_IP, RLlibConfig, RLlibPolicy, rebuild_command  # noqa: E402
+from agents.checkpoint import RLlibPolicy  # noqa: E402
+from agents.runs import RLlibConfig, run_command  # noqa: E402
+from agents.train.rllib_cluster import LOCAL_NODE_IP  # noqa: E402
+from agents.train.rllib_env import NavMultiAgentEnv, PettingZooNavEnv, world_seeds  # noqa: E402
 from vcs_env.parallel import parallel_env  # noqa: E402
 from vcs_env.scenario import make_scenario  # noqa: E402
 
@@ -133,19 +136,19 @@ def test_policy_predicts_the_clipped_mean_or_samples():
     assert np.all(np.abs(noisy) <= 1) and not np.allclose(noisy, act)
 
 
-def test_rebuild_command_and_flags():
+def test_run_command_and_flags():
     from vcs_cli import build_parser
 
     cfg = RLlibConfig(n_robots=4, num_env_runners=2, address="127.0.0.1:6379")
-    cmd = rebuild_command(cfg)
+    cmd = run_command("rllib_ppo", cfg)
     assert cmd.startswith("vcs-env train --backend rllib ") and "--num-env-runners 2" in cmd
     args = build_parser().parse_args(shlex.split(cmd)[1:])
     assert args.backend == "rllib" and args.num_env_runners == 2 and args.address == "127.0.0.1:6379"
 
 
-def _run(*argv: str, timeout: float = 120, code: str | None = None) -> subprocess.CompletedProcess:
+def _run(*argv: str, timeout: float = 120, code: str | None = None, env=None) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-c", code, *argv] if code else [VCS_ENV, *argv]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=ENV)
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env or ENV)
 
 
 def test_bad_input_gets_one_line_errors(tmp_path, capsys):
@@ -158,7 +161,6 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     for flags, name in (
         (["--mixture", "crowd:n_obstacles=3"], "--mixture"),
         (["--target-kl", "0.02"], "--target-kl"),
-        (["--checkpoint-freq", "1000"], "--checkpoint-freq"),
     ):
         assert main(["train", "--backend", "rllib", *flags, "--out", str(tmp_path / "m")]) == 2
         assert name in capsys.readouterr().err
@@ -229,7 +231,11 @@ class Cluster:
             f"sys.exit(0 if sum(n['Alive'] for n in ray.nodes()) == {n} else 1)"
         )
         res = _run(self.address, code=wait, timeout=120)
-        assert res.returncode == 0, f"the cluster did not reach {n} nodes: " + res.stderr[-2000:]
+        assert res.returncode == 0, f"the cluster did not reach {n} nodes: " + res.stderr[-2000:] + self.log_text()
+
+    def log_text(self) -> str:
+        self.log.flush()
+        return (Path(self.temp) / "ray_start.log").read_text()[-3000:]
 
     def stop(self) -> None:
         """Stop the raylets (Ray stops what it started), kill their process groups, then any
@@ -251,35 +257,36 @@ class Cluster:
         self.log.close()
         subprocess.run(["rm", "-rf", self.temp], check=False)
 
+    def up(self, env: dict[str, str] = ENV) -> Cluster:
+        """Start a head and a second raylet (1 CPU each) and wait until both are alive."""
+        self.start(head=True, env=env)
+        deadline = time.time() + 60
+        while True:
+            try:
+                socket.create_connection((LOOPBACK, self.port), timeout=1).close()
+                break
+            except OSError:
+                if time.time() > deadline or self.procs[0].poll() is not None:
+                    raise RuntimeError("no Ray head: " + (Path(self.temp) / "ray_start.log").read_text()) from None
+                time.sleep(0.5)
+        self.start(head=False, env=env)
+        self.wait_for_nodes(2)
+        return self
+
 
 @pytest.fixture(scope="module")
 def ray_cluster():
     """Two raylets (1 CPU each) on a loopback address with their own temp dir and token."""
     cluster = Cluster()
     try:
-        cluster.start(head=True)
-        deadline = time.time() + 60
-        while True:
-            try:
-                socket.create_connection((LOOPBACK, cluster.port), timeout=1).close()
-                break
-            except OSError:
-                if time.time() > deadline or cluster.procs[0].poll() is not None:
-                    raise RuntimeError("no Ray head: " + (Path(cluster.temp) / "ray_start.log").read_text()) from None
-                time.sleep(0.5)
-        cluster.start(head=False)
-        cluster.wait_for_nodes(2)
-        yield cluster
+        yield cluster.up()
     finally:
         cluster.stop()
 
 
 def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tmp_path):
-    import json
-
-    from agents.checkpoint import CheckpointError
+    from agents.checkpoint import CheckpointError, load_model
     from agents.evaluate import evaluate
-    from agents.rllib_train import load_policy
 
     out = tmp_path / "run"
     args = ["train", "--backend", "rllib", "--address", ray_cluster.address, "--num-env-runners", "2"]
@@ -308,7 +315,7 @@ def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tm
     # Another observation layout: a one-line error naming the sizes.
     size = EGO_DIM + NEIGHBOR_DIM * make_scenario("circle").n_neighbors
     with pytest.raises(CheckpointError, match=f"observations of size {size}") as err:
-        load_policy(ckpt, make_scenario("circle", n_robots=4, n_neighbors=2))
+        load_model(ckpt, make_scenario("circle", n_robots=4, n_neighbors=2))
     assert "\n" not in str(err.value)
 
 
@@ -327,3 +334,49 @@ def test_a_node_without_the_package_is_named(ray_cluster, tmp_path):
     assert res.returncode == 2 and len(errors) == 1 and errors[0].startswith("vcs-env train: error:"), res.stderr
     assert "lacks vcs-env" in errors[0] and ray_cluster.address.split(":")[0] in errors[0], errors[0]
     assert not (tmp_path / "run").exists()
+
+
+def test_ray_auth_mode_of_a_run(tmp_path, monkeypatch):
+    from agents.train.rllib_cluster import auth_mode
+
+    monkeypatch.setenv("HOME", str(tmp_path))
+    for name in ("RAY_AUTH_MODE", "RAY_AUTH_TOKEN", "RAY_AUTH_TOKEN_PATH"):
+        monkeypatch.delenv(name, raising=False)
+    assert auth_mode(joining=False) == "disabled" and auth_mode(joining=True) == "disabled"
+    (tmp_path / ".ray").mkdir()
+    (tmp_path / ".ray" / "auth_token").write_text("x" * 64)
+    assert auth_mode(joining=False) == "disabled" and auth_mode(joining=True) == "token"
+    monkeypatch.setenv("RAY_AUTH_MODE", "token")
+    assert auth_mode(joining=False) == "token"
+
+
+def test_a_laptop_run_leaves_no_token_and_a_two_raylet_cluster_resumes_it(tmp_path):
+    """Ray 2.60 wrote ~/.ray/auth_token on the first local run; every `ray start --head` then
+    required it, and the second raylet and the driver (no RAY_AUTH_* set) failed to authenticate.
+    Now the local run leaves no token, and README's cluster path works after it: a head, a second
+    raylet and ``--address`` continue the local run, killed mid-way, from its newest checkpoint."""
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {k: v for k, v in ENV.items() if not k.startswith("RAY_AUTH")} | {"HOME": str(home)}
+    out = tmp_path / "run"
+    small = ["--scenario", "circle", "--n-robots", "4", "--n-worlds", "2", "--n-steps", "16", "--batch-size", "64"]
+    small += ["--n-epochs", "1", "--eval-freq", "0", "--eval-episodes", "2", "--checkpoint-freq", "128"]
+    res = _run("train", "--backend", "rllib", "--num-env-runners", "0", *small, "--timesteps", "256", "--out", str(out),
+               env=env, timeout=300)  # fmt: skip
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert not (home / ".ray" / "auth_token").exists()
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["checkpoint_128"]
+    subprocess.run(["rm", "-rf", str(out / "checkpoint")], check=True)  # killed before its end
+    cluster = Cluster()
+    try:
+        cluster.up(env)
+        res = _run("train", "--resume", str(out), "--address", cluster.address, "--timesteps", "384", env=env,
+                   timeout=300)  # fmt: skip
+    finally:
+        cluster.stop()
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    newest = out / "checkpoints" / "checkpoint_128"
+    assert f"its newest checkpoint is {newest} (128 timesteps)" in res.stdout, res.stdout
+    assert "ray cluster: 2 nodes, 2 CPUs" in res.stdout, res.stdout
+    meta = json.loads((out / "checkpoint" / "vcs_env.json").read_text())
+    assert meta["num_timesteps"] >= 384 and f"--address {cluster.address}" in meta["command"]

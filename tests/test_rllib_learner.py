@@ -1,4 +1,4 @@
-"""The PPO update of ``--backend rllib`` (:mod:`agents.rllib_learner`): SB3's advantage
+"""The PPO update of ``--backend rllib`` (:mod:`agents.train.rllib_learner`): SB3's advantage
 normalization, a train batch shuffled before the first epoch, and a toy run that repeats bit for
 bit (sampling in the driver)."""
 
@@ -11,8 +11,8 @@ pytest.importorskip("ray.rllib", reason="the rllib extra (pip install 'vcs-env[r
 
 import torch  # noqa: E402
 
-from agents import rllib_learner  # noqa: E402
-from agents.rllib_learner import normalized_advantages  # noqa: E402
+from agents.train import rllib_learner  # noqa: E402
+from agents.train.rllib_learner import normalized_advantages  # noqa: E402
 
 
 def test_advantages_are_normalized_over_the_real_steps_of_the_minibatch():
@@ -35,7 +35,8 @@ def test_first_epoch_minibatches_are_shuffled_and_a_toy_run_repeats(monkeypatch)
     (sampling in the driver) end with identical weights."""
     from ray.rllib.core.columns import Columns
 
-    from agents.rllib_train import RLlibConfig, init_ray, learner_module, ppo_config, set_log_std
+    from agents.runs import RLlibConfig
+    from agents.train.rllib import init_ray, learner_module, ppo_config, set_log_std
 
     torch.set_num_threads(1)
     first_minibatches: list[np.ndarray] = []

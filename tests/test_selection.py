@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from agents.evaluate import evaluate
-from agents.selection import candidates_of, select_checkpoint, validation_suite
+from agents.evaluate.selection import candidates_of, select_checkpoint, validation_suite
 from vcs_cli import main
 
 # Each policy also plays the other family (that is the point); its family warning is expected.

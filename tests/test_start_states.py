@@ -1,4 +1,4 @@
-"""Start-state pools (vcs_env.start_states, agents.start_states): a restored world continues exactly
+"""Start-state pools (vcs_env.start_states, agents.train.collect_states): a restored world continues exactly
 as the world it was taken from; reset worlds start from a pool with the given probability, drawn
 from their own generators; files round-trip; bad pools and files give clear errors; collected
 states precede the policy's contacts; training runs from them."""
@@ -143,7 +143,7 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
 def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_path, capsys):
     from agents.checkpoint import load_model
     from agents.policies import predictor_controller
-    from agents.start_states import obstacle_contact_time
+    from agents.train.collect_states import obstacle_contact_time
     from vcs_cli import main
     from vcs_env.observations import observe
 

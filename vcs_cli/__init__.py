@@ -16,12 +16,8 @@ import sys
 
 COMMAND_MODULES = (
     "vcs_cli.rollout",
-    "agents.evaluate_cli",
-    "agents.train",
-    "agents.imitation",
-    "agents.start_states",
-    "agents.selection",
-    "agents.shield",
+    "vcs_cli.evaluate",
+    "vcs_cli.train",
     "benchmarks.run",
 )
 """Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers

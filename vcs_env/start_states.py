@@ -10,7 +10,7 @@ continues exactly as the world it was taken from, and its clock and step count g
 snapshot, so it ends at the original time limit.
 
 Training uses this to make rare situations frequent, e.g. the moments before a policy's contacts
-(:mod:`agents.start_states`, ``vcs-env collect-states`` and ``vcs-env train --start-states``).
+(:mod:`agents.train.collect_states`, ``vcs-env collect-states`` and ``vcs-env train --start-states``).
 Evaluation never does.
 
 Pools are keyed by :func:`scenario_key` (the scenario without its reward weights), so one file can

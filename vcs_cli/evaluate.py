@@ -1,5 +1,7 @@
-"""``vcs-env evaluate`` and ``vcs-env compare``: the harness (:mod:`agents.evaluate`) and its
-report (:mod:`agents.report`) on the command line.
+"""``vcs-env evaluate``, ``compare``, ``probe``, ``select`` and ``shield``: the evaluation layer of
+``agents`` (the harness :mod:`agents.evaluate`, its report :mod:`agents.evaluate.report`, the probe
+table :mod:`agents.evaluate.probes`, checkpoint selection :mod:`agents.evaluate.selection` and the
+safety shield :mod:`agents.shield`) on the command line.
 
 Episodes come from a named suite (``--suite circle-8-v0``) or, to probe a policy off its training
 distribution, from scenario flags and a seed range::
@@ -13,11 +15,12 @@ the suites' jitter, ``on_collision="continue"``, spacing and limits), so only wh
 from __future__ import annotations
 
 import json
+import shlex
+from dataclasses import asdict
 from pathlib import Path
 
-from vcs_env.suites import Suite, get_suite, suite_names
-
-from .config import (
+from agents import shield
+from agents.config import (
     _SCENARIO_FLAGS,
     ScenarioConfig,
     add_config_args,
@@ -26,8 +29,12 @@ from .config import (
     parse_seeds,
     probe_scenario,
 )
-from .evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate
-from .report import describe_shield, fmt, table_lines, table_metrics, write_report
+from agents.evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate, selection
+from agents.evaluate import probes as probe_table
+from agents.evaluate.report import describe_shield, fmt, table_lines, table_metrics, write_report
+from agents.policies import is_checkpoint_spec
+from benchmarks.timing import machine_info
+from vcs_env.suites import Suite, get_suite, suite_names
 
 
 def _print_summary(res: EvalResult) -> None:
@@ -85,9 +92,7 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from .probes import policy_labels
-
-    policies = policy_labels([p.strip() for p in args.policies.split(",") if p.strip()], expert=None)
+    policies = probe_table.policy_labels([p.strip() for p in args.policies.split(",") if p.strip()], expert=None)
     suite = episodes_of(args)
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
@@ -109,15 +114,10 @@ def cmd_compare(args) -> int:
 
 
 def cmd_probe(args) -> int:
-    import shlex
-
-    from .policies import is_checkpoint_spec
-    from .probes import policy_labels, run_probes, select_probes, table_lines, write_probes
-
     specs = [p.strip() for p in args.policies.split(",") if p.strip()]
-    policies = policy_labels(specs)
-    probes = select_probes(args.families)
-    table = run_probes(
+    policies = probe_table.policy_labels(specs)
+    probes = probe_table.select_probes(args.families)
+    table = probe_table.run_probes(
         policies,
         probes,
         args.episodes,
@@ -135,8 +135,8 @@ def cmd_probe(args) -> int:
         command += f" --batch-size {args.batch_size}"
     if args.no_shield:
         command += " --no-shield"
-    print("\n".join(table_lines(table, planners)))
-    files = write_probes(table, args.out, planners, command)
+    print("\n".join(probe_table.table_lines(table, planners)))
+    files = probe_table.write_probes(table, args.out, planners, command, machine_info())
     print(f"wrote {', '.join(str(f) for f in files)}")
     return 0
 
@@ -174,11 +174,67 @@ def _shield_arg(p) -> None:
     )
 
 
+def cmd_select(args) -> int:
+    validation = [selection.validation_suite(v) for v in args.validation]
+    selection.select_checkpoint(
+        selection.candidates_of(args.candidates, args.from_step),
+        validation,
+        args.out,
+        batch_size=args.batch_size,
+        progress=False if args.no_progress else None,
+    )
+    return 0
+
+
+def _add_select(sub) -> None:
+    p = sub.add_parser(
+        "select",
+        help="keep the checkpoint of a run that solves most validation episodes",
+        description=selection.__doc__.split("\n\n")[0],
+    )
+    p.add_argument("candidates", nargs="+", help="checkpoint .zip files and/or run directories (their checkpoints)")
+    p.add_argument(
+        "--validation",
+        nargs="+",
+        required=True,
+        help="validation sets SCENARIO:START:STOP, e.g. dynamic-v0:7000:7300 (seeds no suite or probe uses)",
+    )
+    p.add_argument("--from-step", type=int, default=0, help="leave out periodic checkpoints before this step")
+    p.add_argument("--out", required=True, help="directory for model.zip, model.json and selection.json")
+    p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_select)
+
+
+def cmd_shield(args) -> int:
+    guard = None if args.remove else shield.Shield(args.horizon, args.margin, args.robot_speed)
+    shield.attach(args.checkpoint, guard)
+    said = "removed the shield from" if guard is None else f"wrote {asdict(guard)} into"
+    print(f"{said} the run record of {args.checkpoint}")
+    return 0
+
+
+def _add_shield(sub) -> None:
+    p = sub.add_parser(
+        "shield",
+        help="give a checkpoint a safety shield (kept in its run record, applied wherever it is evaluated)",
+        description=shield.__doc__.split("\n\n")[0],
+    )
+    p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
+    p.add_argument("--horizon", type=float, default=shield.Shield.horizon, help="prediction horizon [s]")
+    p.add_argument("--margin", type=float, default=shield.Shield.margin, help="smallest predicted gap to keep [m]")
+    p.add_argument(
+        "--robot-speed", type=float, default=shield.Shield.robot_speed, help="robots at most this fast count [m/s]"
+    )
+    p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
+    p.set_defaults(func=cmd_shield)
+
+
 def add_commands(sub) -> None:
-    """Add ``evaluate`` and ``compare`` to the ``vcs-env`` subcommands."""
+    """Add ``evaluate``, ``compare``, ``probe``, ``select`` and ``shield`` to the ``vcs-env`` subcommands."""
     p = sub.add_parser("evaluate", help="score one planner or policy on a named suite")
     _common_args(p)
-    p.add_argument("--policy", required=True, help="planner name (see baselines.PLANNERS) or SB3 checkpoint .zip")
+    p.add_argument("--policy", required=True, help="planner name (baselines.PLANNERS) or checkpoint (.zip, run dir)")
     p.add_argument("--json", default=None, help="write the summary and per-episode metrics to this JSON file")
     p.set_defaults(func=cmd_evaluate)
 
@@ -210,3 +266,6 @@ def add_commands(sub) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     _shield_arg(p)
     p.set_defaults(func=cmd_probe)
+
+    _add_select(sub)
+    _add_shield(sub)

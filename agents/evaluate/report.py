@@ -15,7 +15,7 @@ import numpy as np
 from vcs_env import metrics
 from vcs_env.metrics import OUTCOMES, Metric
 
-from .evaluate import EXTRA_TIME_PERCENTILES, Comparison
+from . import EXTRA_TIME_PERCENTILES, Comparison
 
 
 def table_metrics() -> list[Metric]:

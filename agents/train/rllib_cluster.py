@@ -1,28 +1,40 @@
-"""Where an RLlib run executes: importing Ray with a clear error, checking a cluster address and
-that every node can import vcs-env, and starting or joining Ray (:func:`init_ray`)."""
+"""Where an RLlib run executes: checking a cluster address and that every node can import vcs-env,
+and starting or joining Ray (:func:`init_ray`) with the authentication the cluster uses.
+
+Ray 2.60 turns on token authentication for a new local instance and writes a token to
+``~/.ray/auth_token`` when there is none; from then on every ``ray start --head`` on that machine
+picks the file up and requires the token, which a second ``ray start --address`` and a driver
+joining with ``--address`` do not send (they fail with an authentication error). So a local run
+here starts its loopback-only instance without authentication and leaves no token behind, and a
+run joining a cluster sends the token of ``~/.ray/auth_token`` (or ``RAY_AUTH_TOKEN_PATH``) when
+there is one, which a cluster without authentication ignores. ``RAY_AUTH_MODE`` set by the user
+wins in both cases.
+"""
 
 from __future__ import annotations
 
+import os
 import socket
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
-if TYPE_CHECKING:
-    from .rllib_train import RLlibConfig
+from ..checkpoint import import_ray
+from ..runs import RLlibConfig
 
 LOCAL_NODE_IP = "127.0.0.2"
 """Node address of a local Ray instance: loopback. Ray replaces 127.0.0.1 and localhost by the
 machine's network address (to be reachable from other nodes), but not other 127.x addresses."""
-INSTALL_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
 
 
-def import_ray():
-    """``ray`` with RLlib, or a one-line ImportError naming the extra."""
-    try:
-        import ray
-        import ray.rllib  # noqa: F401
-    except ImportError as e:
-        raise ImportError(f"--backend rllib needs Ray RLlib; install it with: {INSTALL_HINT} ({e})") from None
-    return ray
+def auth_mode(joining: bool) -> str:
+    """``RAY_AUTH_MODE`` for this driver: the user's if set; else ``token`` when joining a cluster
+    with a token at hand (``RAY_AUTH_TOKEN``, ``RAY_AUTH_TOKEN_PATH`` or ``~/.ray/auth_token``),
+    ``disabled`` otherwise (a local instance on loopback: no token is written)."""
+    if os.environ.get("RAY_AUTH_MODE"):
+        return os.environ["RAY_AUTH_MODE"]
+    token_file = Path(os.environ.get("RAY_AUTH_TOKEN_PATH") or Path.home() / ".ray" / "auth_token")
+    has_token = bool(os.environ.get("RAY_AUTH_TOKEN")) or token_file.is_file()
+    return "token" if joining and has_token else "disabled"
 
 
 def check_address(address: str, timeout: float = 3.0) -> None:
@@ -54,7 +66,7 @@ def _package_probe():
         import socket
 
         out: dict[str, Any] = {"node": socket.gethostname(), "missing": []}
-        for dist, module in (("vcs-env", "agents.rllib_env"), ("torch", "torch"), ("ray", "ray.rllib")):
+        for dist, module in (("vcs-env", "agents.train.rllib_env"), ("torch", "torch"), ("ray", "ray.rllib")):
             try:
                 out[dist] = md.version(dist)
                 importlib.import_module(module)
@@ -105,6 +117,7 @@ def init_ray(cfg: RLlibConfig):
     if cfg.address:
         check_address(cfg.address)
     ray = import_ray()
+    os.environ["RAY_AUTH_MODE"] = auth_mode(joining=bool(cfg.address))  # read by ray.init and the processes it starts
     # PYTHONHASHSEED: RLlib iterates over sets of agent ids, whose order (and so which robot gets
     # which exploration noise) otherwise changes with every runner process (measured).
     env = {"OMP_NUM_THREADS": "1", "RAY_DEDUP_LOGS": "0", "PYTHONHASHSEED": "0"}
@@ -120,7 +133,7 @@ def init_ray(cfg: RLlibConfig):
         except ConnectionError as e:
             raise RuntimeError(
                 f"could not join the Ray cluster at {cfg.address} ({str(e).splitlines()[0]}); a cluster with token "
-                f"authentication needs RAY_AUTH_MODE=token and its token (RAY_AUTH_TOKEN) here too"
+                f"authentication needs its token here too (~/.ray/auth_token, or RAY_AUTH_TOKEN)"
             ) from None
     else:
         ray.init(num_cpus=max(1, cfg.num_env_runners), _node_ip_address=LOCAL_NODE_IP, **kw)
@@ -128,6 +141,3 @@ def init_ray(cfg: RLlibConfig):
     cpus = int(ray.cluster_resources().get("CPU", 0))
     print(f"ray cluster: {len(nodes)} node{'s' * (len(nodes) != 1)}, {cpus} CPUs", flush=True)
     return ray
-
-
-# --------------------------------------------------------------------------- config

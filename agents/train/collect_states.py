@@ -23,17 +23,18 @@ Example (the states before the released generalist's contacts on the dynamic sce
 
 from __future__ import annotations
 
-import argparse
-import sys
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from vcs_env.rollout import Hook, Step
-from vcs_env.start_states import StartStates, StatePool
+from vcs_env.rewards import contact_times
+from vcs_env.rollout import Hook, Step, play
+from vcs_env.start_states import StartStates, StatePool, scenario_key
 
-from .config import ScenarioConfig, add_config_args, config_command, config_from_args
+from ..checkpoint import load_model
+from ..config import ScenarioConfig, scenarios_of
+from ..policies import predictor_controller
 
 DANGER_THIN = 20
 """One in this many danger steps is kept (neighbouring steps are near duplicates)."""
@@ -67,8 +68,6 @@ class StatesConfig(ScenarioConfig):
 
 def obstacle_contact_time(world) -> np.ndarray:
     """``(B, n)`` time [s] until each robot touches an obstacle at current velocities (inf: never)."""
-    from vcs_env.rewards import contact_times
-
     return contact_times(world)[:, :, world.n_robots :].min(axis=-1, initial=np.inf)
 
 
@@ -105,13 +104,6 @@ def collect_states(cfg: StatesConfig) -> StartStates:
     import torch
 
     torch.set_num_threads(1)
-    from vcs_env.rollout import play
-    from vcs_env.start_states import scenario_key
-
-    from .checkpoint import load_model
-    from .imitation import scenarios_of
-    from .policies import predictor_controller
-
     if not 1 <= cfg.episodes <= SEED_STRIDE:
         raise ValueError(f"episodes must be in [1, {SEED_STRIDE}], got {cfg.episodes}")
     if not cfg.before or min(cfg.before) <= 0:
@@ -145,29 +137,3 @@ def collect_states(cfg: StatesConfig) -> StartStates:
             flush=True,
         )
     return StartStates({k: StatePool.concat(v) for k, v in pools.items()})
-
-
-def cmd_collect_states(args: argparse.Namespace) -> int:
-    cfg = config_from_args(StatesConfig, args)
-    states = collect_states(cfg)
-    path = states.save(cfg.out)
-    total = sum(len(p) for p in states.pools.values())
-    print(f"saved {total} states of {len(states.pools)} scenarios -> {path}")
-    if not total:
-        print(
-            "warning: no states: the policy touched nothing and no obstacle came close in these episodes "
-            "(more --episodes, or a harder mixture); vcs-env train refuses a file without states",
-            file=sys.stderr,
-        )
-    print(f"reproduce: {config_command('collect-states', cfg)}")
-    return 0
-
-
-def add_commands(sub) -> None:
-    p = sub.add_parser(
-        "collect-states",
-        help="pools of a policy's pre-contact and danger states, for train --start-states",
-        description=__doc__.split("\n\n")[0],
-    )
-    add_config_args(p, StatesConfig)
-    p.set_defaults(func=cmd_collect_states)

@@ -33,6 +33,9 @@ from vcs_env.engine import NavEngine
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import action_space, observation_space
 
+from ..config import build_scenario, config_from_dict
+from ..runs import ADAPTERS, RLlibConfig
+
 
 def world_seeds(seed: int, worker_index: int, n_worlds: int) -> list[int]:
     """Distinct reset seeds of ``n_worlds`` worlds from RLlib's runner seed and ``worker_index``."""
@@ -142,9 +145,6 @@ class PettingZooNavEnv(ParallelPettingZooEnv):
 
 def make_env(env_config) -> MultiAgentEnv:
     """The env of one RLlib runner from ``env_config = {"config": <RLlibConfig as dict>}``."""
-    from .config import build_scenario, config_from_dict
-    from .rllib_train import ADAPTERS, RLlibConfig
-
     cfg = config_from_dict(RLlibConfig, env_config["config"])
     worker = int(getattr(env_config, "worker_index", 0))
     scenario = build_scenario(cfg)

@@ -12,6 +12,7 @@ in at least :data:`EXPERT_BAR` of the episodes (issue 13's generalisation bar: w
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 from dataclasses import dataclass, field
@@ -20,7 +21,10 @@ from typing import Any
 
 from vcs_env.suites import Suite
 
-from .config import ScenarioConfig, probe_scenario
+from ..config import ScenarioConfig, probe_scenario
+from ..policies import policy_label
+from . import compare
+from .report import shield_lines
 
 PROBE_SEED_BASE = 5000
 """First seed of every probe; the suites use seeds 1000..1099."""
@@ -90,8 +94,6 @@ def policy_labels(specs: list[str], expert: str | None = "vcs") -> dict[str, str
     its label, planners by name, a checkpoint by its run directory (``policies/circle8/model.zip``
     -> ``circle8``) or its file stem (:func:`agents.policies.policy_label`); two policies with one
     label are an error."""
-    from .policies import policy_label
-
     out = {} if expert is None else {expert: expert}
     for spec in specs:
         if spec == expert:
@@ -117,8 +119,6 @@ def run_probes(policies: dict[str, str], probes: tuple[Probe, ...], n_episodes: 
         {"success", "collision"}}}], "shields": {label: parameters}}`` (rates in [0, 1]; the safety
         shields checkpoints ran with, :mod:`agents.shield`).
     """
-    from .evaluate import compare
-
     rows, shields = [], {}
     for probe in probes:
         comp = compare(policies, probe.suite(n_episodes), **kwargs)
@@ -168,19 +168,17 @@ def table_lines(table: dict, planners: set[str]) -> list[str]:
     return lines
 
 
-def write_probes(table: dict, out: str | Path, planners: set[str], command: str) -> list[Path]:
-    """Write ``probes.md`` (with the command, machine and date) and ``probes.json`` under ``out``."""
-    import datetime
+def write_probes(table: dict, out: str | Path, planners: set[str], command: str, machine: dict) -> list[Path]:
+    """Write ``probes.md`` (with the command, ``machine`` and date) and ``probes.json`` under ``out``.
 
-    from benchmarks.timing import machine_info
-
+    ``machine``: ``cpu``, ``usable_cores`` and ``load_average`` of the machine that ran the probes
+    (:func:`benchmarks.timing.machine_info`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    info = machine_info()
-    load = ", ".join(f"{x:.1f}" for x in info["load_average"] or ())
-    stamp = f"{datetime.date.today().isoformat()}, {info['cpu']}, {info['usable_cores']} cores, load average {load}"
-    from .report import shield_lines
-
+    load = ", ".join(f"{x:.1f}" for x in machine["load_average"] or ())
+    stamp = (
+        f"{datetime.date.today().isoformat()}, {machine['cpu']}, {machine['usable_cores']} cores, load average {load}"
+    )
     notes = shield_lines(table.get("shields", {}))
     md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), *notes, ""]
     (out / "probes.md").write_text("\n".join(md))

@@ -9,8 +9,10 @@ does, takes time and path statistics only over the episodes *every* policy solve
 policy that fails the hard cases is not rewarded with a short mean time. :func:`score_seeds` is
 the quick closed-loop check that training and behaviour cloning run periodically.
 
-The report (markdown table, plots) is :mod:`agents.report`; the ``evaluate`` and ``compare``
-commands are :mod:`agents.evaluate_cli`::
+This package is the evaluation layer: the harness (here), the report (markdown table, plots;
+:mod:`agents.evaluate.report`), the probe table (:mod:`agents.evaluate.probes`) and checkpoint
+selection (:mod:`agents.evaluate.selection`); the ``evaluate``, ``compare``, ``probe`` and
+``select`` commands are :mod:`vcs_cli.evaluate`::
 
     vcs-env evaluate --suite circle-16-v0 --policy vcs --json out.json
     vcs-env compare --suite crowd-5-v0 --policies vcs,straight,runs/ppo/model.zip --out runs/compare
@@ -37,9 +39,9 @@ from vcs_env.rollout import Controller, Episode, Hook, run_episodes, warm_up
 from vcs_env.scenario import Scenario
 from vcs_env.suites import Suite, get_suite
 
-from .checkpoint import jsonable
-from .config import mixture_split
-from .policies import policy_label, resolve_policy
+from ..config import mixture_split
+from ..policies import policy_label, resolve_policy
+from ..runs import jsonable
 
 DEFAULT_BATCH = 25
 """Worlds stepped together. Smaller batches waste less time on worlds that already ended
@@ -298,6 +300,11 @@ def compare(policies: Sequence[Any] | Mapping[str, Any], suite: str | Suite, **k
 
 
 # --------------------------------------------------------------------------- training-time check
+def scalar_results(res: dict[str, Any]) -> dict[str, float]:
+    """The numbers of a :func:`score_seeds` result (without its per-robot arrays)."""
+    return {k: v for k, v in res.items() if isinstance(v, (int, float))}
+
+
 def score_seeds(
     controller: Controller, scenario: Scenario, seeds: Sequence[int], action_mode: str = "delta"
 ) -> dict[str, Any]:

@@ -19,7 +19,6 @@ holds every candidate's scores.
 from __future__ import annotations
 
 import json
-import re
 import shutil
 import warnings
 from collections.abc import Sequence
@@ -28,11 +27,12 @@ from typing import Any
 
 from vcs_env.suites import Suite
 
-from .checkpoint import config_path, resolve
-from .config import ScenarioConfig, parse_seeds, probe_scenario
-from .evaluate import DEFAULT_BATCH, evaluate
+from ..checkpoint import SB3Checkpoint, open_checkpoint
+from ..config import ScenarioConfig, parse_seeds, probe_scenario
+from ..policies import load_checkpoint
+from . import DEFAULT_BATCH, evaluate
 
-_STEP = re.compile(r"model_(\d+)\.zip$")
+_STEP = SB3Checkpoint.periodic
 
 
 def validation_suite(spec: str) -> Suite:
@@ -55,14 +55,12 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            steps = [c for c in (p / "checkpoints").glob("model_*.zip") if _STEP.search(c.name)]
-            found = sorted(steps, key=lambda c: int(_STEP.search(c.name)[1]))
-            found += [p / "model.zip"] if (p / "model.zip").exists() else []
+            found = [c.path for c in SB3Checkpoint.in_run(p)]
             if not found:
                 raise ValueError(f"run directory {str(p)!r} holds no model.zip and no checkpoints/model_<steps>.zip")
         else:
-            found = [resolve(p)]
-        out += [c for c in found if not (m := _STEP.search(c.name)) or int(m[1]) >= from_step]
+            found = [open_checkpoint(p).path]
+        out += [c for c in found if not (m := _STEP.fullmatch(c.name)) or int(m[1]) >= from_step]
     if not out:
         raise ValueError(f"no candidate checkpoint from step {from_step} on in {', '.join(map(str, paths))}")
     seen: set[Path] = set()  # a file named twice is scored once, at its first place
@@ -88,8 +86,6 @@ def select_checkpoint(
     inside = [c for c in candidates if Path(c).resolve().is_relative_to(out.resolve())]
     if inside:
         raise ValueError(f"--out {str(out)!r} holds candidate {str(inside[0])!r}: writing there would overwrite it")
-    from .policies import load_checkpoint
-
     with warnings.catch_warnings():  # errors only: evaluate warns once per candidate below
         warnings.simplefilter("ignore")
         for c in candidates:  # every candidate fits every set before the first is scored
@@ -113,42 +109,11 @@ def select_checkpoint(
     best = max(range(len(scores)), key=lambda i: (scores[i]["success"], -scores[i]["collision"], i))
     chosen = Path(candidates[best])
     out.mkdir(parents=True, exist_ok=True)
+    record = open_checkpoint(chosen).record_path
     shutil.copy(chosen, out / "model.zip")
-    if config_path(chosen).exists():
-        shutil.copy(config_path(chosen), out / "model.json")
+    if record.exists():
+        shutil.copy(record, out / "model.json")
     result = {"chosen": str(chosen), "candidates": scores}
     (out / "selection.json").write_text(json.dumps(result, indent=1))
     print(f"kept {chosen} as {out / 'model.zip'}")
     return result
-
-
-def cmd_select(args) -> int:
-    validation = [validation_suite(v) for v in args.validation]
-    select_checkpoint(
-        candidates_of(args.candidates, args.from_step),
-        validation,
-        args.out,
-        batch_size=args.batch_size,
-        progress=False if args.no_progress else None,
-    )
-    return 0
-
-
-def add_commands(sub) -> None:
-    p = sub.add_parser(
-        "select",
-        help="keep the checkpoint of a run that solves most validation episodes",
-        description=__doc__.split("\n\n")[0],
-    )
-    p.add_argument("candidates", nargs="+", help="checkpoint .zip files and/or run directories (their checkpoints)")
-    p.add_argument(
-        "--validation",
-        nargs="+",
-        required=True,
-        help="validation sets SCENARIO:START:STOP, e.g. dynamic-v0:7000:7300 (seeds no suite or probe uses)",
-    )
-    p.add_argument("--from-step", type=int, default=0, help="leave out periodic checkpoints before this step")
-    p.add_argument("--out", required=True, help="directory for model.zip, model.json and selection.json")
-    p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(func=cmd_select)

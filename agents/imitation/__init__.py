@@ -1,7 +1,7 @@
 """Imitation of the VCS expert: expert datasets, behaviour cloning and DAgger (``vcs-env collect``,
 ``vcs-env bc``), into the same SB3 PPO actor-critic that ``vcs-env train --init`` fine-tunes.
 
-The dataset format and the episodes that fill it are :mod:`agents.expert_data`.
+The dataset format and the episodes that fill it are :mod:`agents.imitation.data`.
 
 **Behaviour cloning** (:func:`bc_fit`) maximises the Gaussian log-likelihood of the expert
 actions under the PPO policy (``loss="nll"``, default). The policy's std is state independent,
@@ -31,7 +31,6 @@ Example::
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import time
@@ -42,17 +41,14 @@ from typing import Any
 import numpy as np
 
 from vcs_env.checks import check_choice, check_int, check_range
+from vcs_env.observations import observation_config, observation_dim
 
-from .config import (
-    ScenarioConfig,
-    add_config_args,
-    build_scenario,
-    config_command,
-    config_from_args,
-    config_from_dict,
-    mixture_scenarios,
-)
-from .expert_data import (
+from ..checkpoint import load_policy_weights, save_model
+from ..config import ScenarioConfig, config_command, config_from_dict, print_suite_differences, scenarios_of
+from ..evaluate import scalar_results, score_scenarios
+from ..policies import predictor_controller
+from ..runs import PolicyConfig, policy_kwargs, scenario_family
+from .data import (
     DATASET_FORMAT,
     check_rows,
     concat_datasets,
@@ -86,17 +82,8 @@ class CollectConfig(ScenarioConfig):
     plays grid point j % S; vcs-env bc then clones on it and plays its DAgger rounds on it."""
 
 
-def scenarios_of(cfg: ScenarioConfig, mixture: tuple[str, ...] = ()) -> list:
-    """The scenario of a config, or every scenario of its mixture (:func:`agents.config.mixture_scenarios`)."""
-    return mixture_scenarios(cfg, tuple(mixture)) if mixture else [build_scenario(cfg)]
-
-
 def collect(cfg: CollectConfig) -> Path:
     """Run the expert on ``cfg.episodes`` seeds and save the dataset; returns its path."""
-    from vcs_env.observations import observation_config, observation_dim
-
-    from .config import print_suite_differences
-
     if cfg.episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
     scenarios = scenarios_of(cfg, cfg.mixture)
@@ -283,11 +270,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     torch.set_num_threads(1)
     from stable_baselines3 import PPO
 
-    from .checkpoint import save_model, scenario_family
-    from .evaluate import score_scenarios
-    from .policies import predictor_controller
-    from .train import PolicyConfig, policy_kwargs, scalar_results
-    from .vec_env import NavVecEnv
+    from ..vec_env import NavVecEnv
 
     t_start = time.time()
     data, meta = load_dataset(cfg.data)
@@ -297,8 +280,6 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     scenario = scenarios[0]
     if meta.get("observation_dim") != data["observations"].shape[1]:
         raise ValueError(f"dataset {cfg.data!r}: observation_dim in meta does not match the arrays")
-    from vcs_env.observations import observation_config
-
     if meta.get("observation") != observation_config(scenario):
         raise ValueError(
             f"dataset {cfg.data!r} was collected with observation config {meta.get('observation')} (None: "
@@ -310,8 +291,6 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=kwargs)
     policy = model.policy
     if cfg.init:
-        from .checkpoint import load_policy_weights
-
         init_meta = load_policy_weights(model, cfg.init, scenario)
         print(f"initialised the policy from {cfg.init} ({init_meta.get('kind', 'unknown')} checkpoint)")
     train_rows, val_rows = _split(data, cfg.val_fraction, cfg.seed)
@@ -405,23 +384,3 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     print(f"saved {path} ({wall:.0f} s)")
     print(f"reproduce: {config_command('bc', cfg)} (with the dataset of: {meta.get('command', 'vcs-env collect')})")
     return {"model": str(path), **report, "wall_time": wall}
-
-
-# ------------------------------------------------------------------------------ CLI
-def cmd_collect(args: argparse.Namespace) -> int:
-    collect(config_from_args(CollectConfig, args))
-    return 0
-
-
-def cmd_bc(args: argparse.Namespace) -> int:
-    behaviour_clone(config_from_args(BCConfig, args))
-    return 0
-
-
-def add_commands(sub) -> None:
-    p = sub.add_parser("collect", help="record VCS expert rollouts into a dataset (.npz)")
-    add_config_args(p, CollectConfig)
-    p.set_defaults(func=cmd_collect)
-    p = sub.add_parser("bc", help="behaviour cloning (and DAgger) of the expert into a PPO policy")
-    add_config_args(p, BCConfig)
-    p.set_defaults(func=cmd_bc)

@@ -1,0 +1,234 @@
+"""What a run is: the typed configs of ``vcs-env train`` (SB3 and RLlib backends) and the run
+record written beside every checkpoint.
+
+:class:`PolicyConfig` is the actor-critic shared by ``train`` and ``bc`` (so a BC checkpoint can
+seed PPO), :class:`TrainConfig` a whole ``vcs-env train`` run, :class:`RLlibConfig` the same plus
+where an RLlib run executes. :func:`run_record` is the one JSON record of a checkpoint of any
+backend: what kind of run wrote it, the observation it reads (:func:`vcs_env.observations.observation_config`),
+the scenario family, the config and the command that rebuilds it. No torch import here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vcs_env.observations import observation_config
+from vcs_env.scenario import Scenario
+from vcs_env.spaces import observation_space
+
+from .config import ScenarioConfig, config_command
+
+
+@dataclass
+class PolicyConfig:
+    """The PPO actor-critic shared by ``train`` and ``bc`` (so a BC checkpoint can seed PPO)."""
+
+    net_arch: tuple[int, ...] = (128, 128)
+    """Hidden layer sizes of the (separate) policy and value MLPs."""
+    log_std_init: float = -0.5
+    """Initial log standard deviation of the Gaussian policy (state independent); actions are
+    in [-1, 1], so std 0.6 explores without saturating most actions."""
+    features: str = "flat"
+    """What the MLPs read: flat (the observation), contact (the observation plus per-neighbour
+    contact-time and nearness features computed from it) or slots (a learned encoder shared by the
+    neighbour slots, pooled); agents.features. SB3 only."""
+
+
+def policy_kwargs(cfg: PolicyConfig, n_neighbors: int) -> dict[str, Any]:
+    """Keyword arguments of SB3's ``MlpPolicy`` for ``cfg``, on observations with ``n_neighbors`` slots."""
+    from .features import extractor_kwargs  # torch
+
+    return dict(
+        net_arch=dict(pi=list(cfg.net_arch), vf=list(cfg.net_arch)),
+        log_std_init=cfg.log_std_init,
+        **extractor_kwargs(cfg.features, n_neighbors),
+    )
+
+
+@dataclass
+class TrainConfig(PolicyConfig, ScenarioConfig):
+    """Everything a ``vcs-env train`` run depends on; saved as JSON beside every checkpoint."""
+
+    timesteps: int = 1_000_000
+    """Total environment steps, counted per robot (one slot step = one timestep); PPO learns in
+    whole rollouts (n_steps x slots), so a run stops at the next multiple (a note says so)."""
+    seed: int = 0
+    """Seed of PPO (torch, numpy, action space) and of the training worlds (world b: seed + b)."""
+    n_worlds: int = 16
+    """Worlds stepped together; the VecEnv has n_worlds * n_robots slots."""
+    n_steps: int = 128
+    """Rollout length per slot between PPO updates (buffer = n_steps * n_worlds * n_robots)."""
+    batch_size: int = 2048
+    """PPO minibatch size."""
+    n_epochs: int = 10
+    """PPO epochs per update."""
+    learning_rate: float = 3e-4
+    """Adam learning rate (at the start, see lr_schedule)."""
+    lr_schedule: str = "constant"
+    """constant, or linear: decays to 0 at the end of the run (of this learn() call when resuming)."""
+    gamma: float = 0.99
+    """Discount factor of PPO and of vcs_potential shaping (Ng et al.'s policy-invariant form)."""
+    gae_lambda: float = 0.95
+    """GAE lambda."""
+    clip_range: float = 0.2
+    """PPO clipping parameter."""
+    ent_coef: float = 0.0
+    """Entropy bonus coefficient."""
+    vf_coef: float = 0.5
+    """Value loss coefficient."""
+    max_grad_norm: float = 0.5
+    """Gradient norm clip."""
+    target_kl: float | None = None
+    """Stop an update's epochs early when the approximate KL exceeds this (None: never)."""
+    init: str | None = None
+    """Checkpoint (e.g. from vcs-env bc) whose policy weights start the run (same net_arch)."""
+    out: str = "runs/ppo"
+    """Run directory (model.zip, model.json, checkpoints/, eval.jsonl, tb/)."""
+    eval_freq: int = 100_000
+    """Evaluate every this many timesteps (0: only at the end)."""
+    eval_episodes: int = 20
+    """Episodes (worlds) per periodic evaluation."""
+    eval_seed: int = 100_000
+    """First seed of the fixed evaluation list (disjoint from the suites' 1000..)."""
+    eval_suite: str | None = None
+    """Also score the policy on this named suite (e.g. crowd-5-v0-smoke) with the evaluation
+    harness at every periodic evaluation (logged as suite/*; not used to pick best_model)."""
+    mixture: tuple[str, ...] = ()
+    """Train on a mixture instead of one scenario: entries PRESET[:FIELD=VALUE|LO-HI[/STEP],...] with
+    FIELD in n_robots, n_obstacles, jitter, layout_radius, obstacle_speed, e.g. circle:n_robots=4-16/4,jitter=0-0.4
+    crowd:n_obstacles=3-19/8,obstacle_speed=0.5-1.5 (agents.config.parse_mixture_entry). Every grid point
+    is one scenario with a fixed share of the worlds (agents.vec_env.MixtureVecEnv); the other scenario
+    flags (max_steps, on_collision, rewards, shaping) apply to all."""
+    mixture_balance: str = "worlds"
+    """How a mixture's worlds are shared: ``worlds`` (the same number per scenario) or ``robots``
+    (worlds in proportion to 1 / robot count, so every scenario steps about the same number of
+    robots; agents.vec_env.mixture_world_counts)."""
+    start_states: str | None = None
+    """Start-state file (vcs-env collect-states): a training world of a scenario with a pool there
+    starts, with probability start_prob, from one of its states (vcs_env.start_states); periodic
+    evaluation always starts fresh."""
+    start_prob: float = 0.5
+    """Probability that a training world with a start-state pool starts from it."""
+    checkpoint_freq: int = 500_000
+    """Save a resumable checkpoint every this many timesteps (0: never)."""
+    progress_bar: bool = True
+    """Show SB3's progress bar (needs tqdm and rich, the train extra)."""
+    tensorboard: bool = True
+    """Write TensorBoard logs under <out>/tb."""
+
+
+ADAPTERS = ("batched", "pettingzoo")
+"""Env adapters of :mod:`agents.train.rllib_env`."""
+
+
+@dataclass
+class RLlibConfig(TrainConfig):
+    """A ``vcs-env train --backend rllib`` run: :class:`TrainConfig` plus where it runs."""
+
+    num_env_runners: int = 1
+    """RLlib env runners (sampling processes) for --backend rllib; each owns n_worlds worlds and
+    takes one CPU of the cluster (0: sample in the driver)."""
+    address: str | None = None
+    """Ray cluster to join for --backend rllib (host:port of a `ray start --head`, or auto);
+    None: start a local Ray instance for this run."""
+    out: str = "runs/rllib"
+    """Run directory (config.json, eval.jsonl, checkpoint/, checkpoints/)."""
+    env_adapter: str = "pettingzoo"
+    """Env adapter for --backend rllib: pettingzoo (RLlib's ParallelPettingZooEnv over
+    vcs_env.parallel_env, n_worlds of them per runner, each restarting on its own as in the SB3
+    path) or batched (n_worlds worlds in one numpy call per runner, restarting together). batched
+    samples 1.2x faster (benchmarks/RESULTS.md) but learns later and less steadily: its finished
+    worlds wait for the slowest one, so a few slow worlds fill the train batch. On circle-8 from
+    scratch pettingzoo learns like SB3, batched gets there by 1 M steps (results/rllib-circle8)."""
+
+
+RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not in TrainConfig.__dataclass_fields__)
+"""Fields (flags) of an RLlib run only."""
+
+FIXED_ON_RESUME = (
+    "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",
+    "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl",
+)  # fmt: skip
+"""Fields a resumed run keeps from its checkpoint (the network and the PPO settings in the model)."""
+
+
+def check_run(cfg: TrainConfig) -> None:
+    """A one-line ``ValueError`` for a run that would train nothing or evaluate on no episode."""
+    if isinstance(cfg.timesteps, bool) or not isinstance(cfg.timesteps, int) or cfg.timesteps < 1:
+        raise ValueError(
+            f"--timesteps must be >= 1 (a run of 0 steps would save an untrained model), got {cfg.timesteps}"
+        )
+    if cfg.n_worlds < 1 or cfg.eval_episodes < 1:
+        raise ValueError(f"n_worlds and eval_episodes must be >= 1, got {cfg.n_worlds} and {cfg.eval_episodes}")
+
+
+def run_command(kind: str, cfg: Any) -> str:
+    """The ``vcs-env`` line that rebuilds ``cfg`` for a run of ``kind`` (``ppo``, ``rllib_ppo``, ``bc``)."""
+    if kind == "rllib_ppo":
+        head, _, rest = config_command("train", cfg).partition(" train")
+        return f"{head} train --backend rllib{rest}"
+    return config_command({"ppo": "train"}.get(kind, kind), cfg)
+
+
+def scenario_family(scenarios: Scenario | list[Scenario] | tuple[Scenario, ...]) -> list[str]:
+    """The scenario family of a run: the sorted layout kinds it trains on (``["circle", "crowd"]``)."""
+    if isinstance(scenarios, Scenario):
+        scenarios = [scenarios]
+    return sorted({s.kind for s in scenarios})
+
+
+def jsonable(x: Any) -> Any:
+    """Nested copy for strict JSON: dataclasses as dicts, numpy scalars and arrays as Python
+    numbers and lists, NaN and inf as ``None``, paths as strings."""
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return jsonable(dataclasses.asdict(x))
+    if isinstance(x, Mapping):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return jsonable(x.tolist())
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, os.PathLike):
+        return os.fspath(x)
+    return x
+
+
+def run_record(
+    kind: str, config: Any, scenario: Scenario, family: list[str] | None, timesteps: int, **extra: Any
+) -> dict[str, Any]:
+    """The run record of a checkpoint (``model.json`` of an SB3 zip, ``vcs_env.json`` of an RLlib run).
+
+    Args:
+        kind: what produced it (``"ppo"`` from ``vcs-env train``, ``"rllib_ppo"`` from ``--backend
+            rllib``, ``"bc"`` from ``vcs-env bc``).
+        config: the run's config dataclass (saved field by field, with the command that rebuilds it).
+        scenario: the scenario the policy observes (defines the observation config); for a
+            mixture, its first scenario (all share one observation config).
+        family: the layout kinds it was trained on (default: ``[scenario.kind]``).
+        timesteps: environment steps trained so far (slot steps).
+        extra: more JSON-able entries (evaluation results, wall time, history ...).
+    """
+    return {
+        "kind": kind,
+        "observation_dim": int(observation_space(scenario).shape[0]),
+        "observation": jsonable(observation_config(scenario)),
+        "scenario_family": list(family) if family is not None else scenario_family(scenario),
+        "num_timesteps": int(timesteps),
+        "config": jsonable(config),
+        "command": run_command(kind, config),
+        "scenario": jsonable(scenario),
+        **jsonable(extra),
+    }

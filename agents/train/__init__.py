@@ -1,0 +1,263 @@
+"""PPO with one policy shared by all robots (``vcs-env train``), cleanrl style.
+
+The training package: the SB3 backend (here) and the RLlib one (:mod:`agents.train.rllib`), both on
+one typed :class:`~agents.runs.TrainConfig` (a docstring per field = the ``--help`` of its flag),
+one periodic evaluation (:mod:`agents.train.periodic`) and the checkpoint formats of
+:mod:`agents.checkpoint`. :func:`train` is one flat function. A run directory holds::
+
+    <out>/model.zip, model.json           final policy + config/scenario/results (JSON)
+    <out>/best_model.zip, best_model.json policy of the best periodic evaluation
+    <out>/checkpoints/model_<steps>.zip   periodic checkpoints (+ JSON), resumable (--resume)
+    <out>/eval.jsonl                      one line per periodic evaluation
+    <out>/tb/                             TensorBoard logs (rollout/*, train/*, eval/*)
+
+Periodic evaluation (:class:`agents.train.periodic.PeriodicEval`) logs episode and robot
+success and collision rates and the mean time to goal on fixed seeds, and with ``--eval-suite``
+the scores on a named suite. With ``--mixture`` the run trains on several scenarios at once
+(:class:`agents.vec_env.MixtureVecEnv`). Before training, the
+run prints how its scenario differs from the evaluation suite of its family (jitter, collision
+handling, spacing ...).
+
+Example::
+
+    vcs-env train --scenario circle --n-robots 8 --jitter 0.1 --timesteps 2000000 --seed 0
+    vcs-env train --scenario crowd --timesteps 1000000 --shaping vcs_potential
+    vcs-env train --scenario crowd --init runs/bc_crowd/model.zip   # warm start from behaviour cloning
+    vcs-env train --mixture circle:n_robots=4-16/4,jitter=0-0.4 crowd:n_obstacles=3-19/8 --n-worlds 64
+    vcs-env train --resume runs/ppo_circle/checkpoints/model_500000.zip --timesteps 3000000
+    vcs-env train --resume runs/ppo_circle --timesteps 3000000   # its newest checkpoint
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from vcs_env.checks import check_int, check_positive, check_range
+from vcs_env.start_states import StartStates
+from vcs_env.suites import get_suite
+
+from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_model
+from ..config import build_scenario, config_command, mixture_scenarios, print_suite_differences
+from ..runs import TrainConfig, check_run, jsonable, policy_kwargs, scenario_family
+from .periodic import PeriodicEval
+
+
+def ppo_kwargs(cfg: TrainConfig, n_neighbors: int) -> dict[str, Any]:
+    """Keyword arguments of ``stable_baselines3.PPO`` from a config (``n_neighbors``: the
+    observation's neighbour slots, read by ``cfg.features``)."""
+    return dict(
+        n_steps=cfg.n_steps,
+        batch_size=cfg.batch_size,
+        n_epochs=cfg.n_epochs,
+        learning_rate=learning_rate(cfg),
+        gamma=cfg.gamma,
+        gae_lambda=cfg.gae_lambda,
+        clip_range=cfg.clip_range,
+        ent_coef=cfg.ent_coef,
+        vf_coef=cfg.vf_coef,
+        max_grad_norm=cfg.max_grad_norm,
+        target_kl=cfg.target_kl,
+        policy_kwargs=policy_kwargs(cfg, n_neighbors),
+    )
+
+
+def learning_rate(cfg: TrainConfig):
+    """SB3 learning rate: a number, or a function of the remaining progress (1 -> 0)."""
+    if cfg.lr_schedule == "constant":
+        return cfg.learning_rate
+    if cfg.lr_schedule == "linear":
+        lr0 = cfg.learning_rate
+        return lambda progress_remaining: lr0 * progress_remaining
+    raise ValueError(f"lr_schedule must be constant or linear, got {cfg.lr_schedule!r}")
+
+
+def check_ppo_settings(cfg: TrainConfig) -> None:
+    """Raise ``ValueError`` naming the field for PPO settings SB3 would crash on or silently misuse."""
+    for name in ("n_steps", "batch_size", "n_epochs"):
+        check_int(name, getattr(cfg, name), 1, 10**9)
+    if not cfg.net_arch or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in cfg.net_arch):
+        raise ValueError(f"net_arch must be one or more layer sizes >= 1, got {cfg.net_arch!r}")
+    for name in ("learning_rate", "clip_range"):
+        check_positive(name, getattr(cfg, name))
+    for name in ("ent_coef", "vf_coef", "max_grad_norm"):
+        check_positive(name, getattr(cfg, name), allow_zero=True)
+    check_range("gae_lambda", cfg.gae_lambda, 0.0, 1.0)
+    check_range("log_std_init", cfg.log_std_init, -20.0, 2.0)
+    if cfg.target_kl is not None:
+        check_positive("target_kl", cfg.target_kl)
+    for name in ("eval_freq", "checkpoint_freq"):
+        check_int(name, getattr(cfg, name), 0, 10**12)
+
+
+def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: PeriodicEval):
+    """SB3's callback of a run: robot-level rates of the training episodes, periodic evaluation
+    (``periodic``, and ``best_model.zip`` when it improves), periodic checkpoints."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    scenario, family = scenarios[0], scenario_family(scenarios)
+
+    class RunCallback(BaseCallback):
+        def __init__(self):
+            super().__init__()
+            self.last_eval = self.last_ckpt = None
+
+        def _on_training_start(self) -> None:
+            self.last_eval = self.last_ckpt = self.num_timesteps
+
+        def _on_rollout_end(self) -> None:
+            buf = [e for e in self.model.ep_info_buffer if "success" in e]
+            if buf:
+                n = len(buf)
+                self.logger.record("rollout/robot_success_rate", sum(e["success"] for e in buf) / n)
+                self.logger.record("rollout/robot_collision_rate", sum(e["collision"] for e in buf) / n)
+
+        def evaluate(self) -> dict[str, Any]:
+            res = periodic(self.model, self.num_timesteps, self.logger.record)
+            if periodic.improved:
+                save_model(self.model, out / "best_model.zip", "ppo", cfg, scenario, family, evaluation=res)
+            return res
+
+        def _on_rollout_start(self) -> None:
+            # Called after the previous update, so the evaluated policy includes it.
+            self.num_timesteps = self.model.num_timesteps
+            if cfg.eval_freq > 0 and self.num_timesteps - self.last_eval >= cfg.eval_freq:
+                self.last_eval = self.num_timesteps
+                self.evaluate()
+            if cfg.checkpoint_freq > 0 and self.num_timesteps - self.last_ckpt >= cfg.checkpoint_freq:
+                self.last_ckpt = self.num_timesteps
+                save_model(
+                    self.model,
+                    out / "checkpoints" / f"model_{self.num_timesteps}.zip",
+                    "ppo",
+                    cfg,
+                    scenario,
+                    family,
+                    wall_time=round(time.time() - t_start, 1),
+                )
+
+        def _on_step(self) -> bool:
+            return True
+
+    return RunCallback()
+
+
+def start_states(cfg: TrainConfig, scenarios) -> StartStates | None:
+    """The start-state pools of a run (None without ``--start-states``); a ``ValueError`` when
+    none fits a training scenario (pools are keyed by the whole scenario but its rewards)."""
+    if cfg.start_states is None:
+        return None
+    starts = StartStates.load(cfg.start_states, cfg.start_prob)
+    hit = starts.matching(scenarios)
+    if not any(len(pool) for pool in starts.pools.values()):
+        raise ValueError(f"{cfg.start_states!r} holds no start states (vcs-env collect-states found none)")
+    if not hit:
+        raise ValueError(
+            f"no start-state pool of {cfg.start_states!r} fits a training scenario ({len(starts.pools)} pools; collect "
+            "them with the training's scenario flags and mixture, e.g. the same --on-collision and --max-steps)"
+        )
+    states = sum(len(starts.pool(s)) for s in hit)
+    print(
+        f"start states: {len(hit)} of {len(scenarios)} scenarios start from {cfg.start_states} with "
+        f"p={cfg.start_prob} ({states} states)"
+    )
+    return starts
+
+
+def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str, Any]:
+    """Train (or resume from the checkpoint ``resume``) a shared PPO policy; returns the final
+    evaluation and paths."""
+    check_run(cfg)
+    scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
+    scenario = scenarios[0]
+    print_suite_differences(scenarios)
+    check_ppo_settings(cfg)
+    if cfg.mixture_balance not in ("worlds", "robots"):
+        raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
+    starts = start_states(cfg, scenarios)
+    init, resume = (open_checkpoint(p) if p else None for p in (cfg.init, resume))  # fail fast, before torch
+    if cfg.eval_suite:
+        get_suite(cfg.eval_suite)  # an unknown name raises here, not after the first rollouts
+
+    import torch
+
+    torch.set_num_threads(1)
+    from stable_baselines3 import PPO
+
+    from ..vec_env import MixtureVecEnv, NavVecEnv
+
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t_start = time.time()
+    if len(scenarios) == 1:
+        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma, start_states=starts)
+    else:
+        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance, start_states=starts)
+    tb = str(out / "tb") if cfg.tensorboard else None
+    if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
+        model = resume.load(scenario, env=venv)
+        model.tensorboard_log = tb
+        model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
+        print(f"resumed {resume} at {model.num_timesteps} timesteps")
+    else:
+        kwargs = ppo_kwargs(cfg, scenario.n_neighbors)
+        model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
+        if init:
+            meta = load_policy_weights(model, init, scenario)
+            print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
+    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
+    remaining = cfg.timesteps - model.num_timesteps
+    periodic = PeriodicEval(cfg, scenarios, out, t_start)
+    if resume:
+        periodic.restore(model.num_timesteps)
+    callback = _callback(cfg, scenarios, out, t_start, periodic)
+    what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
+    what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
+    print(
+        f"training {what} shaping={cfg.shaping}: {venv.num_envs} slots, {remaining} timesteps -> {out}",
+        flush=True,
+    )
+    rollout = model.n_steps * venv.num_envs
+    if remaining > 0 and remaining % rollout:
+        print(
+            f"note: PPO learns in whole rollouts of {rollout} timesteps (n_steps x slots): this run stops at "
+            f"{model.num_timesteps + -(-remaining // rollout) * rollout} timesteps, not {cfg.timesteps}",
+            flush=True,
+        )
+    if remaining > 0:
+        model.learn(
+            total_timesteps=remaining,
+            callback=callback,
+            progress_bar=cfg.progress_bar,
+            tb_log_name="ppo",
+            reset_num_timesteps=not resume,
+        )
+    if getattr(callback, "model", None) is None:  # learn() did not run (budget already reached)
+        if not hasattr(model, "_logger"):
+            from stable_baselines3.common.logger import configure
+
+            model.set_logger(configure(None, []))
+        callback.init_callback(model)
+    callback.num_timesteps = model.num_timesteps
+    if starts is not None:
+        fresh, pooled = sum(g.engine.sim.start_counts for g in getattr(venv, "groups", [venv]))
+        print(f"start states: {pooled} of {fresh + pooled} training world resets started from a pool")
+    final = callback.evaluate()
+    model.logger.dump(model.num_timesteps)
+    wall = round(time.time() - t_start, 1)
+    path = save_model(
+        model,
+        out / "model.zip",
+        "ppo",
+        cfg,
+        scenario,
+        scenario_family(scenarios),
+        evaluation=final,
+        wall_time=wall,
+        history=periodic.history,
+    )
+    print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
+    print(f"reproduce: {config_command('train', cfg)}")
+    return {"model": str(path), "evaluation": final, "wall_time": wall}

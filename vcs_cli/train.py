@@ -1,0 +1,143 @@
+"""``vcs-env train``, ``collect``, ``bc`` and ``collect-states``: the training and imitation layers
+of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
+:mod:`agents.train.collect_states`) on the command line.
+
+The flags are the fields of the run configs (:mod:`agents.runs`, :func:`agents.config.add_config_args`).
+``train --resume`` continues a checkpoint of either backend, or the newest checkpoint of a run
+directory (:func:`agents.checkpoint.latest_checkpoint`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+import agents.train
+import agents.train.rllib
+from agents import imitation
+from agents.checkpoint import Checkpoint, latest_checkpoint
+from agents.config import add_config_args, config_command, config_from_args, config_from_dict
+from agents.runs import FIXED_ON_RESUME, RLLIB_ONLY, RLlibConfig, TrainConfig
+from agents.train import collect_states
+
+KINDS = {"ppo": TrainConfig, "rllib_ppo": RLlibConfig}
+"""Run kinds ``--resume`` continues, with their config."""
+
+
+def resume_base(args: argparse.Namespace) -> tuple[TrainConfig, Checkpoint]:
+    """The checkpoint ``args.resume`` names (the newest one of a run directory) and the saved config
+    of its run, with ``out`` its run directory unless ``--out`` is given; ``ValueError`` for a
+    checkpoint that is not a PPO run's, for ``--init``, and for flags that would change what the
+    checkpoint fixes (:data:`agents.runs.FIXED_ON_RESUME`)."""
+    if args.init is not None:
+        raise ValueError("--init and --resume exclude each other (resume continues a PPO run)")
+    ckpt = latest_checkpoint(args.resume)
+    if Path(args.resume).is_dir() and Path(args.resume).resolve() != ckpt.path.resolve():
+        print(f"resuming {args.resume}: its newest checkpoint is {ckpt.path} ({ckpt.timesteps} timesteps)")
+    meta = ckpt.record
+    saved = meta.get("config")
+    if saved is None:
+        raise ValueError(f"cannot resume {args.resume!r}: no run record beside it (expected a vcs-env checkpoint)")
+    if meta.get("kind") not in KINDS:
+        raise ValueError(
+            f"cannot resume {args.resume!r}: a {meta.get('kind', 'unknown')} checkpoint, not a PPO run's "
+            "(--init starts a PPO run from its weights)"
+        )
+    base = config_from_dict(KINDS[meta["kind"]], saved)
+    changed = []
+    for name in FIXED_ON_RESUME:
+        given = getattr(args, name, None)
+        given = tuple(given) if isinstance(given, list) else given
+        if given is not None and given != getattr(base, name):
+            changed.append(f"--{name.replace('_', '-')} (run: {getattr(base, name)!r}, given: {given!r})")
+    if changed:
+        raise ValueError(
+            f"a resumed run keeps its network and PPO settings; {', '.join(changed)} would not apply. "
+            "Start a new run from the checkpoint's weights with --init to change them"
+        )
+    if getattr(args, "out", None) is None:
+        base = dataclasses.replace(base, out=str(ckpt.run_dir))
+    return base, ckpt
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    base, ckpt = resume_base(args) if args.resume else (None, None)
+    rllib = args.backend == "rllib" or isinstance(base, RLlibConfig)
+    if ckpt is not None and rllib != isinstance(base, RLlibConfig):
+        raise ValueError(f"cannot resume {args.resume!r} with --backend rllib: it is an SB3 run's checkpoint")
+    given = [f"--{name.replace('_', '-')}" for name in RLLIB_ONLY if getattr(args, name, None) is not None]
+    if given and not rllib:
+        raise ValueError(f"{', '.join(given)} only apply to --backend rllib")
+    if not rllib:
+        agents.train.train(config_from_args(TrainConfig, args, base), resume=ckpt)
+        return 0
+    try:
+        agents.train.rllib.train(config_from_args(RLlibConfig, args, base), resume=ckpt)
+    except (RuntimeError, ConnectionError) as e:  # a cluster that cannot run it: one line
+        print(f"vcs-env train: error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def cmd_collect(args: argparse.Namespace) -> int:
+    imitation.collect(config_from_args(imitation.CollectConfig, args))
+    return 0
+
+
+def cmd_bc(args: argparse.Namespace) -> int:
+    imitation.behaviour_clone(config_from_args(imitation.BCConfig, args))
+    return 0
+
+
+def cmd_collect_states(args: argparse.Namespace) -> int:
+    cfg = config_from_args(collect_states.StatesConfig, args)
+    states = collect_states.collect_states(cfg)
+    path = states.save(cfg.out)
+    total = sum(len(p) for p in states.pools.values())
+    print(f"saved {total} states of {len(states.pools)} scenarios -> {path}")
+    if not total:
+        print(
+            "warning: no states: the policy touched nothing and no obstacle came close in these episodes "
+            "(more --episodes, or a harder mixture); vcs-env train refuses a file without states",
+            file=sys.stderr,
+        )
+    print(f"reproduce: {config_command('collect-states', cfg)}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    """Add ``train``, ``collect``, ``bc`` and ``collect-states`` to the ``vcs-env`` subcommands."""
+    p = sub.add_parser(
+        "train",
+        help="train a PPO policy shared by all robots",
+        description=agents.train.__doc__.split("\n\n")[0],
+    )
+    add_config_args(p, TrainConfig)
+    p.add_argument("--backend", choices=["sb3", "rllib"], default="sb3", help="sb3 (one process) or rllib (Ray)")
+    add_config_args(p, RLlibConfig, skip=tuple(TrainConfig.__dataclass_fields__))
+    p.add_argument(
+        "--resume",
+        default=None,
+        help="continue a PPO run (either backend) from this checkpoint, or from the newest checkpoint of this run "
+        "directory, in its run directory unless --out is given (its config JSON is reused: --timesteps sets the new "
+        "total, evaluation, checkpoint and scenario flags may change; the network and PPO settings stay the "
+        "checkpoint's)",
+    )
+    p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("collect", help="record VCS expert rollouts into a dataset (.npz)")
+    add_config_args(p, imitation.CollectConfig)
+    p.set_defaults(func=cmd_collect)
+    p = sub.add_parser("bc", help="behaviour cloning (and DAgger) of the expert into a PPO policy")
+    add_config_args(p, imitation.BCConfig)
+    p.set_defaults(func=cmd_bc)
+
+    p = sub.add_parser(
+        "collect-states",
+        help="pools of a policy's pre-contact and danger states, for train --start-states",
+        description=collect_states.__doc__.split("\n\n")[0],
+    )
+    add_config_args(p, collect_states.StatesConfig)
+    p.set_defaults(func=cmd_collect_states)
