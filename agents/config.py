@@ -30,7 +30,7 @@ from typing import Any
 
 from vcs_env.layouts import KINDS
 from vcs_env.observations import observation_config
-from vcs_env.scenario import MAPS, SCENARIOS, RewardWeights, make_scenario
+from vcs_env.scenario import MAPS, SCENARIOS, RewardWeights, fit_time_limit, make_scenario, short_time_limit
 from vcs_env.suites import SUITES
 
 SHAPING = ("none", "vcs_imitation", "vcs_potential")
@@ -86,11 +86,11 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
     A field the config sets that cannot change the scenario's episodes (``jitter`` on a kind
     that does not read it, an obstacle setting without obstacles) is a ``ValueError``; ``check``
     limits that test to the fields named (mixtures: an entry's own fields, not the common flags).
+    Without ``max_steps``, the time limit grows with a layout grown past its preset's; notes say so.
     """
     if cfg.shaping not in SHAPING:
         raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
-    over: dict[str, Any] = {}
-    over.update(_overrides(cfg))
+    over: dict[str, Any] = _overrides(cfg)
     weights = parse_weights(cfg.rewards)
     if cfg.shaping != "none":
         weight = DEFAULT_SHAPING_WEIGHT[cfg.shaping] if cfg.shaping_weight is None else cfg.shaping_weight
@@ -98,7 +98,14 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
     if weights:
         over["rewards"] = weights
     given = over if check is None else {k: v for k, v in over.items() if k in check}
-    return _check_applies(make_scenario(scenario_base(cfg.scenario), **over), given)
+    scenario = _check_applies(make_scenario(scenario_base(cfg.scenario), **over), given)
+    if cfg.max_steps is None:  # a grown layout, a grown limit
+        scenario, note = fit_time_limit(scenario, scenario_base(cfg.scenario))
+    else:
+        note = short_time_limit(scenario)
+    if note:
+        print(f"note: {note} (--max-steps sets it)", flush=True)
+    return scenario
 
 
 def _check_applies(scenario, given: dict[str, Any]):
@@ -127,6 +134,8 @@ def scenario_base(name: str):
     (:data:`vcs_env.SCENARIOS`, :data:`vcs_env.MAPS`) or, for a suite name such as
     ``crowd-20-v0``, that suite's scenario with all its conventions (jitter,
     ``on_collision="continue"``, spacing, time limit); flags and entry fields then change it."""
+    if name == "custom":
+        raise ValueError("--scenario custom has no layout here: build a Scenario(kind='custom', ...) in Python")
     if name in SCENARIOS or name in MAPS:
         return SCENARIOS.get(name) or MAPS[name]
     if name in SUITES:

@@ -16,7 +16,7 @@ from agents.config import (
     probe_scenario,
     suite_differences,
 )
-from vcs_env.scenario import MAPS, SCENARIOS
+from vcs_env.scenario import MAPS, SCENARIOS, TIME_MARGIN, fit_time_limit
 from vcs_env.suites import get_suite
 
 
@@ -36,7 +36,9 @@ def test_probe_scenario_starts_from_the_family_suite():
     assert s.circle_radius == 5.0 and probe_scenario(ScenarioConfig(n_robots=24)).circle_radius == pytest.approx(7.2)
     crowd = probe_scenario(ScenarioConfig(scenario="crowd", n_obstacles=3, obstacle_speed=(1.0, 1.5)))
     assert (crowd.n_obstacles, crowd.obstacle_speed, crowd.min_separation) == (3, (1.0, 1.5), 0.2)
-    assert probe_scenario(ScenarioConfig(scenario="custom")) == build_scenario(ScenarioConfig(scenario="custom"))
+    for build in (probe_scenario, build_scenario):  # the custom preset's example layout is no user's choice
+        with pytest.raises(ValueError, match="--scenario custom has no layout here"):
+            build(ScenarioConfig(scenario="custom"))
     straight = probe_scenario(ScenarioConfig(scenario="dynamic", obstacle_motion="constant"))
     assert straight == dataclasses.replace(get_suite("dynamic-v0").scenario, obstacle_motion="constant")
 
@@ -46,7 +48,24 @@ def test_training_differences_from_the_suite_are_listed():
     assert suite == "crowd-5-v0"
     assert diffs == ["on_collision: terminate (suite: continue)", "min_separation: 0.3 (suite: 0.2)"]
     assert suite_differences(get_suite("swap-v0").scenario) == ("swap-v0", [])
-    assert suite_differences(build_scenario(ScenarioConfig(scenario="custom"))) == (None, [])  # no custom suite
+    assert suite_differences(SCENARIOS["custom"]) == (None, [])  # no custom suite
+
+
+def test_the_time_limit_grows_with_the_layout_or_refuses_a_hopeless_one(capsys):
+    big = build_scenario(ScenarioConfig(scenario="circle", n_robots=256))
+    assert big.circle_radius == pytest.approx(76.8) and big.max_time >= TIME_MARGIN * big.least_time_to_goal
+    assert big.max_steps == 9304  # the preset's 600 steps for its 10 m trip, for 153.5 m
+    assert "note: max_steps 600 -> 9304" in capsys.readouterr().out
+    # An explicit limit is kept, with a note when nobody can arrive in it.
+    assert build_scenario(ScenarioConfig(scenario="circle", n_robots=256, max_steps=100)).max_steps == 100
+    assert "note: max_steps=100 (10 s at dt=0.1 s) leaves no robot the time to arrive" in capsys.readouterr().out
+    # Layouts the preset's limit fits keep it, with no note: the suites' and the generalist mixture's sizes.
+    for n in (8, 24, 28, 40):
+        assert build_scenario(ScenarioConfig(scenario="circle", n_robots=n)).max_steps == 600
+    assert build_scenario(ScenarioConfig(scenario="circle-40-v0")) == get_suite("circle-40-v0").scenario
+    assert capsys.readouterr().out == ""
+    # A kind with no bound on the trip (random starts and goals) is left alone.
+    assert fit_time_limit(SCENARIOS["random"], SCENARIOS["random"]) == (SCENARIOS["random"], None)
 
 
 def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):

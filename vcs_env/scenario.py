@@ -426,3 +426,41 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
     if base.kind == "custom" and overrides.get("kind", "custom") != "custom":
         overrides.setdefault("custom", None)
     return dataclasses.replace(base, **overrides)
+
+
+TIME_MARGIN = 2.0
+"""A time limit under this many times :attr:`Scenario.least_time_to_goal` is too short for robots
+that must also avoid each other (:func:`fit_time_limit`)."""
+
+
+def short_time_limit(scenario: Scenario) -> str | None:
+    """A note when ``scenario.max_steps`` leaves no robot the time to reach its goal even on a straight
+    run at top speed (:attr:`Scenario.least_time_to_goal`), else None."""
+    need = scenario.least_time_to_goal
+    if need <= scenario.max_time:
+        return None
+    return (
+        f"max_steps={scenario.max_steps} ({scenario.max_time:g} s at dt={scenario.dt:g} s) leaves no robot the time "
+        f"to arrive: each must travel at least {need * scenario.robot.v_max:.1f} m ({need:.1f} s at v_max)"
+    )
+
+
+def fit_time_limit(scenario: Scenario, base: Scenario) -> tuple[Scenario, str | None]:
+    """``scenario`` with ``max_steps`` grown for a layout that outgrew ``base``'s, and a note saying so.
+
+    Circles, swaps, crossings and crowds grow with ``n_robots`` or ``layout_radius``, while a preset's
+    ``max_steps`` is sized for its own layout (``n_robots=256`` makes a 76.8 m circle that nobody
+    crosses in the circle preset's 60 s). A limit under :data:`TIME_MARGIN` times the least time to
+    the goal grows in proportion to the least trip from ``base`` (the preset or suite the scenario was
+    made from, same kind), and to at least :data:`TIME_MARGIN` times that time; otherwise, or for
+    kinds without a bound on the trip, ``(scenario, None)``.
+    """
+    need, base_need = scenario.least_time_to_goal, base.least_time_to_goal  # [s]
+    if TIME_MARGIN * need <= scenario.max_time or base.kind != scenario.kind or base_need <= 0.0:
+        return scenario, None
+    steps = max(math.ceil(base.max_steps * need / base_need), math.ceil(TIME_MARGIN * need / scenario.dt))
+    note = (
+        f"max_steps {scenario.max_steps} -> {steps} ({steps * scenario.dt:g} s): on this {scenario.kind} layout "
+        f"every robot must travel at least {need * scenario.robot.v_max:.1f} m, and the time limit grows with it"
+    )
+    return dataclasses.replace(scenario, max_steps=steps), note
