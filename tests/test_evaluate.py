@@ -204,6 +204,9 @@ FINGERPRINTS = {
     "room-v0": "9f5ae9c5afce0901",
     "intersection-v0": "46883bb5cd2a1772",
     "walls-v0": "3f7a5c20f7158643",
+    "corridor-narrow-v0": "dd00fae24219b275",
+    "dynamic-fast-v0": "139d93f7a08503f1",
+    "random-dense-holonomic-v0": "f24882e3b7712cd2",
 }
 
 

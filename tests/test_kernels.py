@@ -204,6 +204,19 @@ def reference_step(sim, actions):
     obs_vel = reference_obstacle_velocity(sim)
     new_obs = w.obs_pos + obs_vel * s.dt
     robot_hits, obstacle_hits, collided, reached, min_sep, before, after = reference_events(w, new_pos, new_obs)
+    if s.on_collision == "terminate" and collided.any():  # crashed robots stop where they touched (test_stop.py)
+        redo = collided.any(axis=1)
+        stop, hits, crashed, sep = kernels.stop_at_contact(
+            w.pos, new_pos, w.radius, w.present, acted, w.obs_pos, new_obs, w.obs_radius, w.seg_a, w.seg_b,
+            w.seg_present, redo,
+        )  # fmt: skip
+        n = s.n_robots
+        robot_hits[redo], obstacle_hits[redo] = hits[redo, :, :n], hits[redo, :, n:]
+        collided[redo], min_sep[redo] = crashed[redo], sep[redo]
+        short = stop < 1.0
+        new_pos = np.where(short[..., None], w.pos + stop[..., None] * (new_pos - w.pos), new_pos)
+        reached = np.where(short, point_segment_distance(w.goal, w.pos, new_pos) <= w.r_goal, reached)
+        after = np.linalg.norm(w.goal - new_pos, axis=-1)
     w.pos, w.speed, w.heading, w.obs_pos, w.obs_vel = new_pos, speed, heading, new_obs, obs_vel
     w.reached |= reached
     w.collided |= collided

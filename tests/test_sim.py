@@ -22,7 +22,11 @@ def test_discs_passing_through_each_other_within_one_step_collide():
     # Two fast robots 0.6 m apart head-on at 3 m/s each, dt = 0.2: they swap sides within one
     # step, and their end positions are 0.6 m apart again (no overlap at either end).
     fast = vcs_env.RobotSpec(v_max=3.0, radius=0.2)
-    s = custom(((-0.3, 0.0), (0.3, 0.0)), ((10.0, 0.0), (-10.0, 0.0)), speeds=(3.0, 3.0), dt=0.2, robot=fast)
+    # (With on_collision="terminate" they would stop touching: tests/test_stop.py.)
+    s = custom(
+        ((-0.3, 0.0), (0.3, 0.0)), ((10.0, 0.0), (-10.0, 0.0)), speeds=(3.0, 3.0), dt=0.2, robot=fast,
+        on_collision="continue",
+    )  # fmt: skip
     sim = Simulator(s)
     sim.reset([0])
     ev = sim.step(np.zeros((1, 2, 2)))

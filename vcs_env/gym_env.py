@@ -44,8 +44,8 @@ class VcsNavEnv(RenderMixin, gym.Env):
 
     ## Episode End
     Terminated when ``robot_0`` reaches its goal or (``on_collision="terminate"``) touches
-    anything; truncated after ``scenario.max_steps`` steps (or the ``max_episode_steps`` of
-    ``gym.make``).
+    anything (it stops where it first touched); truncated after ``scenario.max_steps`` steps
+    (or the ``max_episode_steps`` of ``gym.make``).
 
     ## Arguments
     ``scenario`` (name or Scenario), ``others`` (planner for the other robots), ``render_mode``
@@ -58,6 +58,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
+    * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
+      at the point of first contact on its swept motion, instead of where its step would have
+      ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps
+      with a contact under ``terminate`` change; the suites (``continue``) do not.
     * v1: observations in fixed physical units (goal distance / 20 m, relative positions and
       gaps / 10 m instead of scales built from the world size and ``r_ca``) plus the sensing
       radius, arrival radius and step as features (``11 + 8 K`` floats); policies trained on v0

@@ -376,8 +376,9 @@ def commit(active, present, reached_ever, collided_ever, speed, reached, collide
                 speed[b, i] = 0.0
 
 
-# The wall contact kernels live in wall_kernels.py, which builds on the helpers above (hence the
-# import here); they are part of this module's interface.
+# The wall contact kernels (wall_kernels.py) and terminate's stop at first contact (stop_kernels.py)
+# build on the helpers above (hence the import here); they are part of this module's interface.
+from .stop_kernels import stop_at_contact  # noqa: E402, F401
 from .wall_kernels import WALL_REACH, wall_cache, wall_events, wall_events_cached  # noqa: E402, F401
 
 

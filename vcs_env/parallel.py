@@ -52,7 +52,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
 
     ## Episode End
     A robot terminates when its centre passes within ``r_goal`` of its goal or, with
-    ``on_collision="terminate"`` (default), when it touches a robot or obstacle (swept check).
+    ``on_collision="terminate"`` (default), when it touches a robot, obstacle or wall (swept
+    check); it then stops where it first touched.
     Robots still driving after ``max_cycles`` steps are truncated. Finished robots stay in the
     world, parked, as obstacles (``park_finished``).
 
@@ -70,6 +71,10 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
+      at the point of first contact on its swept motion, instead of where its step would have
+      ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps
+      with a contact under ``terminate`` change; the suites (``continue``) do not.
     * v1: observations in fixed physical units (goal distance / 20 m, relative positions and
       gaps / 10 m instead of scales built from the world size and ``r_ca``) plus the sensing
       radius, arrival radius and step as features (``11 + 8 K`` floats); policies trained on v0

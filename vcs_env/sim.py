@@ -6,7 +6,9 @@ everything random at reset, so one seed gives one trajectory, bit for bit, and s
 worlds together equals stepping them one by one.
 
 A step has two phases: every robot's command comes from one frozen snapshot (the actions),
-then all robots and obstacles move. Collisions are checked on the swept motion of the step.
+then all robots and obstacles move. Collisions are checked on the swept motion of the step;
+with ``on_collision="terminate"`` a robot that touches anything stops at the point of first
+contact (:mod:`vcs_env.stop_kernels`).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 
 from . import kernels
 from .dynamics import ACTION_MODES, check_actions
+from .geometry import closest_approach
 from .layouts import generate, segment_capacity
 from .obstacles import ObstacleMotion, make_motion
 from .scenario import Scenario
@@ -282,6 +285,22 @@ class Simulator:
             )  # fmt: skip
         else:
             wall_hits = np.zeros((B, n, 0), dtype=bool)
+
+        if s.on_collision == "terminate" and collided.any():
+            # Crashed robots stop where they first touched, not where their step would have ended.
+            redo = collided.any(axis=1)
+            stop, hits, crashed, sep = kernels.stop_at_contact(
+                old_pos, new_pos, w.radius, w.present, acted, w.obs_pos, new_obs, w.obs_radius,
+                w.seg_a, w.seg_b, w.seg_present, redo,
+            )  # fmt: skip
+            m = w.obs_radius.shape[1]
+            robot_hits[redo], obstacle_hits[redo] = hits[redo, :, :n], hits[redo, :, n : n + m]
+            wall_hits[redo], collided[redo], min_sep[redo] = hits[redo, :, n + m :], crashed[redo], sep[redo]
+            short = stop < 1.0
+            new_pos = np.where(short[..., None], old_pos + stop[..., None] * (new_pos - old_pos), new_pos)
+            passed = closest_approach(old_pos - w.goal, new_pos - w.goal) <= s.r_goal
+            reached = np.where(short, passed, reached)
+            goal_after = np.where(short, np.linalg.norm(w.goal - new_pos, axis=-1), goal_after)
 
         # Commit.
         w.pos, w.speed, w.heading = new_pos, speed, heading

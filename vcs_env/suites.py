@@ -4,34 +4,40 @@ A number reported for ``circle-16-v0`` can be reproduced by anyone with one comm
 
     vcs-env evaluate --suite circle-16-v0 --policy vcs
 
-========================== ======== =============================================================
-suite                      episodes content
-========================== ======== =============================================================
-``circle-8-v0``            100      8 robots to the antipodes of a circle of radius 5 m
-``circle-16-v0``           100      16 robots, circle radius 6 m
-``circle-24-v0``           50       24 robots, circle radius 7 m
-``circle-40-v0``           10       40 robots, circle radius 11 m, 90 s
-``circle-40-symmetric-v0`` 10       the same from perfectly symmetric starts (no jitter)
-``random-dense-v0``        100      12 robots, random starts and goals in an 8 m square (robots
-                                    park inside the traffic)
-``swap-v0``                100      6 robots = 3 head-on pairs on lanes 1.2 m apart, 10 m long
-``crossing-v0``            100      two groups of 4 crossing at 90 degrees, 10 m long
-``crowd-5-v0``             100      1 robot among 5 non-reactive obstacles (CrowdNav circle
-                                    crossing, radius 4 m, constant velocity 0.5-1 m/s)
-``crowd-10-v0``            100      1 robot among 10 non-reactive obstacles, radius 5 m
-``crowd-20-v0``            100      1 robot among 20 non-reactive obstacles, radius 6 m
-``dynamic-v0``             100      4 robots, random starts and goals, among 6 obstacles on
-                                    arbitrary (random-turning, wall-bouncing) trajectories
-``corridor-v0``            100      6 robots, two-way traffic in a corridor 2.5 m wide
-``doorway-v0``             100      6 robots, two groups swap sides through a 1.2 m door
-``door-headon-v0``         20       2 robots head-on through a door 0.7 m wide (one robot
-                                    diameter + 0.2 m), perfectly symmetric
-``room-v0``                100      8 robots leave a 6 m room with a 1.2 m door on each side
-``intersection-v0``        100      8 robots, two groups cross where two 2.5 m corridors meet
-``walls-v0``               100      6 robots, random starts and goals among 12 random walls
-========================== ======== =============================================================
+=============================== ======== =============================================================
+suite                           episodes content
+=============================== ======== =============================================================
+``circle-8-v0``                 100      8 robots to the antipodes of a circle of radius 5 m
+``circle-16-v0``                100      16 robots, circle radius 6 m
+``circle-24-v0``                50       24 robots, circle radius 7 m
+``circle-40-v0``                10       40 robots, circle radius 11 m, 90 s
+``circle-40-symmetric-v0``      10       the same from perfectly symmetric starts (no jitter)
+``random-dense-v0``             100      12 robots, random starts and goals in an 8 m square (robots
+                                         park inside the traffic)
+``swap-v0``                     100      6 robots = 3 head-on pairs on lanes 1.2 m apart, 10 m long
+``crossing-v0``                 100      two groups of 4 crossing at 90 degrees, 10 m long
+``crowd-5-v0``                  100      1 robot among 5 non-reactive obstacles (CrowdNav circle
+                                         crossing, radius 4 m, constant velocity 0.5-1 m/s)
+``crowd-10-v0``                 100      1 robot among 10 non-reactive obstacles, radius 5 m
+``crowd-20-v0``                 100      1 robot among 20 non-reactive obstacles, radius 6 m
+``dynamic-v0``                  100      4 robots, random starts and goals, among 6 obstacles on
+                                         arbitrary (random-turning, wall-bouncing) trajectories
+``corridor-v0``                 100      6 robots, two-way traffic in a corridor 2.5 m wide
+``doorway-v0``                  100      6 robots, two groups swap sides through a 1.2 m door
+``door-headon-v0``              20       2 robots head-on through a door 0.7 m wide (one robot
+                                         diameter + 0.2 m), perfectly symmetric
+``room-v0``                     100      8 robots leave a 6 m room with a 1.2 m door on each side
+``intersection-v0``             100      8 robots, two groups cross where two 2.5 m corridors meet
+``walls-v0``                    100      6 robots, random starts and goals among 12 random walls
+``corridor-narrow-v0``          100      6 robots, two-way traffic in a corridor 1.7 m wide (two
+                                         robot diameters + 0.7 m)
+``dynamic-fast-v0``             100      ``dynamic-v0`` with obstacles at 1.2-1.8 m/s, faster than
+                                         the robots (1.2-1.8 v_max)
+``random-dense-holonomic-v0``   100      ``random-dense-v0`` with holonomic robots
+=============================== ======== =============================================================
 
-The map suites (the last six) have static walls (:mod:`vcs_env.walls`); every planner aims at
+The map suites (``corridor``, ``doorway``, ``door-headon``, ``room``, ``intersection``, ``walls``,
+``corridor-narrow``) have static walls (:mod:`vcs_env.walls`); every planner aims at
 the route layer's waypoints (:mod:`vcs_env.routes`).
 
 Every suite has a ``-smoke`` variant (``circle-16-v0-smoke``, ...) for CI: its first 3 seeds,
@@ -216,6 +222,28 @@ def _maps() -> list[Suite]:
     ]
 
 
+def _hard() -> list[Suite]:
+    """Tight spaces, fast movers and the holonomic robot kind (issue 42)."""
+    narrow = Scenario(
+        kind="corridor", n_robots=6, corridor_width=1.7, layout_radius=4.0, lane_spacing=1.2, jitter=0.1,
+        max_steps=600, **_COMMON,
+    )  # fmt: skip
+    fast = Scenario(
+        kind="dynamic", n_robots=4, n_obstacles=6, arena_half_size=6.0, obstacle_motion="arbitrary", bounce=True,
+        obstacle_radius=(0.2, 0.4), obstacle_speed=(1.2, 1.8), turn_rate=0.6, turn_period=2.0, max_steps=600,
+        **_COMMON,
+    )  # fmt: skip
+    holonomic = Scenario(
+        kind="random", n_robots=12, arena_half_size=4.0, max_steps=600,
+        **{**_COMMON, "robot": dataclasses.replace(_ROBOT, holonomic=True)},
+    )  # fmt: skip
+    return [
+        Suite("corridor-narrow-v0", narrow, _seeds(100), "two-way traffic of 6 robots in a 1.7 m corridor"),
+        Suite("dynamic-fast-v0", fast, _seeds(100), "4 robots among 6 obstacles at 1.2-1.8 m/s (1.2-1.8 v_max)"),
+        Suite("random-dense-holonomic-v0", holonomic, _seeds(100), "random-dense-v0 with holonomic robots"),
+    ]
+
+
 def _build() -> dict[str, Suite]:
     full = [
         Suite("circle-8-v0", _circle(8, 5.0), _seeds(100), "8 robots swap to the antipodes of a 5 m circle"),
@@ -279,6 +307,7 @@ def _build() -> dict[str, Suite]:
         ),
     ]
     full += _maps()
+    full += _hard()
     smoke_robots = {"circle-24-v0": 12, "circle-40-v0": 16, "circle-40-symmetric-v0": 16}
     out: dict[str, Suite] = {}
     for s in full:
