@@ -135,6 +135,7 @@ def _small_ppo(seed, timesteps=256):
     return model
 
 
+@pytest.mark.slow
 def test_ppo_same_seed_identical_weights_and_episode_infos():
     a, b, c = _small_ppo(0), _small_ppo(0), _small_ppo(1)
     pa, pb, pc = (m.policy.state_dict() for m in (a, b, c))
@@ -181,6 +182,7 @@ def vcs_env_planner():
     return make_planner("vcs")
 
 
+@pytest.mark.slow
 def test_bc_lowers_held_out_action_error():
     from stable_baselines3 import PPO
 
@@ -243,6 +245,7 @@ def test_checkpoint_errors_are_clear(tmp_path):
         load_policy_weights(other, tmp_path / "k2.zip", small)
 
 
+@pytest.mark.slow
 def test_cli_modules_do_not_import_torch():
     code = (
         "import sys, vcs_cli as c; c.build_parser(); "
@@ -258,6 +261,7 @@ def vcs_env_cli(command: str, cwd, expect: int = 0) -> subprocess.CompletedProce
     return proc
 
 
+@pytest.mark.slow
 def test_smoke_collect_bc_train_resume(tmp_path):
     """Tiny budgets end to end: expert data -> BC + 1 DAgger round -> PPO from BC -> resume."""
     out = vcs_env_cli("collect --scenario crowd --episodes 6 --out d.npz", tmp_path).stdout

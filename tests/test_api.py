@@ -202,6 +202,7 @@ def test_gymnasium_check_env(env_id):
     env.close()
 
 
+@pytest.mark.slow
 def test_gym_make_overrides_and_vector_envs():
     env = gym.make("vcs_env/Navigation-v1", scenario="crowd", n_obstacles=2, others="straight")
     obs, info = env.reset(seed=0)

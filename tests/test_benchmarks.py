@@ -48,6 +48,7 @@ def _contestants(data):
         yield from r["results"].items()
 
 
+@pytest.mark.slow
 def test_quick_run_writes_report_and_json(quick):
     out, data = quick
     text = out.read_text()
@@ -67,6 +68,7 @@ def test_quick_run_writes_report_and_json(quick):
     assert data["targets"] and all(t["met"] for t in data["targets"])
 
 
+@pytest.mark.slow
 def test_ours_measured_peers_measured_or_missing(quick):
     _, data = quick
     status = data["peers"]
@@ -93,6 +95,7 @@ def test_gym_vector_rows_and_issue14_targets(quick):
     assert sum("make_vec" in t["target"] for t in data["targets"]) == 2
 
 
+@pytest.mark.slow
 def test_merge_keeps_the_sections_not_run(quick, tmp_path):
     out, data = quick
     merged = tmp_path / "RESULTS.md"

@@ -162,6 +162,7 @@ def test_docs_cli_commands_parse(page, cmd):
     assert callable(args.func)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page,code", DOC_PYTHON, ids=[f"{p}:{i}" for i, (p, _) in enumerate(DOC_PYTHON)])
 def test_docs_python_blocks_run(page, code, tmp_path):
     import subprocess

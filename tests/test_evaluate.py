@@ -138,6 +138,7 @@ def test_aggregate_takes_time_over_the_solved_mask_only():
     assert agg["jerk"]["mean"] == pytest.approx(2.0)
 
 
+@pytest.mark.slow
 def test_a_new_metric_is_one_object(monkeypatch, capsys, tmp_path):
     """Adding a Metric to METRICS puts it in the rows, the aggregate, the comparison table, the
     plots and the evaluate summary; its flags decide how each treats it."""
@@ -231,6 +232,7 @@ def test_suites_are_fixed_and_versioned():
         Suite("x", SUITES["swap-v0"].scenario, (1, 1))
 
 
+@pytest.mark.slow
 def test_every_seed_of_every_suite_can_be_placed():
     from vcs_env.engine import NavEngine
 
@@ -240,6 +242,7 @@ def test_every_seed_of_every_suite_can_be_placed():
 
 
 # --------------------------------------------------------------------------- planners x smoke suites
+@pytest.mark.slow
 @pytest.mark.parametrize("planner", sorted(PLANNERS))
 def test_every_planner_runs_every_smoke_suite(planner):
     if planner == "orca":
@@ -429,6 +432,7 @@ def test_cli_evaluate_writes_json(tmp_path, capsys):
     assert len(data["episodes"]) == SMOKE_SEEDS and data["summary"]["success"]["mean"] == 1.0
 
 
+@pytest.mark.slow
 def test_cli_compare_writes_report(tmp_path):
     out = tmp_path / "report"
     args = ["compare", "--suite", "dynamic-v0-smoke", "--policies", "vcs,straight", "--out", str(out)]

@@ -83,6 +83,7 @@ def test_time_to_collision_hand_cases():
     assert time_to_collision(np.array([0.2, 0.0]), np.array([-1.0, 0.0]), 0.5) == 0.0
 
 
+@pytest.mark.slow
 def test_time_to_collision_matches_brute_force(rng):
     """Spec U1: tau agrees with a brute-force search within 2e-3 s, or both are inf."""
     p = rng.uniform(-4, 4, size=(120, 2))

@@ -9,6 +9,8 @@ NOTEBOOKS = Path(__file__).resolve().parent.parent / "notebooks"
 sys.path.insert(0, str(NOTEBOOKS))
 from execute import execute, notebooks  # noqa: E402
 
+pytestmark = pytest.mark.slow  # notebooks / Ray clusters / training: minutes, not seconds
+
 
 @pytest.mark.parametrize("path", notebooks(), ids=lambda p: p.name)
 def test_notebook_runs(path):

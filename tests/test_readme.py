@@ -55,6 +55,7 @@ def test_cli_commands_parse(cmd):
     assert callable(args.func)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cmd", [c for c in CLI if c.startswith(SHORT)])
 def test_short_cli_commands_run(cmd, tmp_path):
     import os
@@ -70,6 +71,7 @@ def test_short_cli_commands_run(cmd, tmp_path):
     assert any(tmp_path.iterdir())  # the command wrote its file
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("code", PYTHON, ids=[f"snippet{i}" for i in range(len(PYTHON))])
 def test_python_snippets_run(code, tmp_path):
     # Snippets that use the released policies run where the README's commands do: the repository root.

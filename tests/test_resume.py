@@ -15,6 +15,7 @@ def _timesteps(path):
     return [r["timesteps"] for r in map(json.loads, path.read_text().splitlines())]
 
 
+@pytest.mark.slow
 def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path, monkeypatch, capsys):
     run = tmp_path / "run"
     args = ["train", *TINY, "--timesteps", "6144", "--eval-freq", "2048", "--checkpoint-freq", "2048"]
@@ -49,6 +50,7 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     assert "a bc checkpoint, not a PPO run's" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_run_killed_before_its_end_resumes_from_its_newest_checkpoint(tmp_path, capsys):
     """No model.zip (killed mid-way): --resume RUN_DIR takes checkpoints/model_<newest>.zip and says so."""
     run = tmp_path / "run"

@@ -30,6 +30,8 @@ from agents.train.rllib_env import NavMultiAgentEnv, PettingZooNavEnv, world_see
 from vcs_env.parallel import parallel_env  # noqa: E402
 from vcs_env.scenario import make_scenario  # noqa: E402
 
+pytestmark = pytest.mark.slow  # notebooks / Ray clusters / training: minutes, not seconds
+
 RAY = str(Path(sys.executable).with_name("ray"))
 RAY_LOG_LINE = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+\s+(ERROR|WARNING|INFO) \S+\.py:\d+ -- ")
 VCS_ENV = str(Path(sys.executable).with_name("vcs-env"))

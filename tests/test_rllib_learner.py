@@ -14,6 +14,8 @@ import torch  # noqa: E402
 from agents.train import rllib_learner  # noqa: E402
 from agents.train.rllib_learner import normalized_advantages  # noqa: E402
 
+pytestmark = pytest.mark.slow  # notebooks / Ray clusters / training: minutes, not seconds
+
 
 def test_advantages_are_normalized_over_the_real_steps_of_the_minibatch():
     adv = torch.tensor([1.0, 2.0, 3.0, 100.0, 6.0])

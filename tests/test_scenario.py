@@ -135,6 +135,7 @@ def test_custom_validation():
         CustomLayout(start=((0, 0),), goal=((1, 0),), heading=(0.0, 1.0))
 
 
+@pytest.mark.slow
 def test_crowd_layouts_are_refused_when_built_or_placed_on_every_seed():
     # 20 obstacles whose starts AND antipodal goals must keep clear of each other do not fit on a
     # 5 m circle: refused when the scenario is built, not at some reset of a long run.

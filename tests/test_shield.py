@@ -202,6 +202,7 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
         ShieldedPredictor(None, Shield(), holonomic)
 
 
+@pytest.mark.slow
 def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     """The ablation: the released network with and without its shield on the same fresh dynamic episodes
     (seeds no suite, probe or validation set uses)."""

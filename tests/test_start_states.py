@@ -140,6 +140,7 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
         StatePool({"pos": np.zeros((3, 2, 2))}, {"speed": np.zeros(2)})
 
 
+@pytest.mark.slow
 def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_path, capsys):
     from agents.checkpoint import load_model
     from agents.policies import predictor_controller

@@ -144,6 +144,7 @@ def sampled_stops(pos, new_pos, radius, obs_pos, new_obs, obs_radius, walls, sam
     return stop
 
 
+@pytest.mark.slow
 def test_stop_kernel_matches_sampled_twin():
     rng = np.random.default_rng(0)
     compared = stopped = 0

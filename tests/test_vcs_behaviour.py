@@ -48,12 +48,14 @@ def cf2():
 
 
 # ---------------------------------------------------------------- collision-free
+@pytest.mark.slow
 def test_cf1_straight_movers_collision_free(cf1):
     for r in cf1["vcs"]:
         assert not r.collided and r.min_sep >= 0.0
         assert r.arrived.all() and r.time[0] <= 60.0
 
 
+@pytest.mark.slow
 def test_cf2_arbitrary_trajectories_collision_free(cf2):
     assert not any(r.collided for r in cf2["vcs"])
     assert all(r.arrived.all() for r in cf2["vcs"])
@@ -94,6 +96,7 @@ def test_in2_head_on_swap_shares_the_avoidance(offset):
         assert np.count_nonzero(s[1:] != s[:-1]) <= 2
 
 
+@pytest.mark.slow
 def test_in3_dense_circle_hrvo_vs_robots_as_passive_movers():
     """HRVO between robots shares the avoidance: on the 24-robot circle both rules are
     collision-free (the safety rules keep robots-as-passive-movers clean too), but treating the
@@ -122,6 +125,7 @@ def test_uc2_phantom_threat_is_ignored():
     assert np.abs(vo_inf.pos[:, 0, 1]).max() >= 0.3
 
 
+@pytest.mark.slow
 def test_uc3_arbitrary_trajectories_smaller_detours_than_classic_vo(cf2):
     lat = lambda r: np.abs(r.pos[:, 0, 1]).mean()  # noqa: E731
     # Spec: <= 0.7x. Measured here: 0.73x (0.76x with crowd_reach=False, 0.43x without the crowd
@@ -133,6 +137,7 @@ def test_uc3_arbitrary_trajectories_smaller_detours_than_classic_vo(cf2):
 
 
 # --------------------------------------------------------------------- foresighted
+@pytest.mark.slow
 def test_fs1_multi_step_window_never_runs_out_of_options(cf1):
     assert sum(r.fallbacks for r in cf1["vcs"]) == 0
     assert sum(r.fallbacks for r in cf1["one_step"]) > 0
@@ -154,6 +159,7 @@ def test_fs2_fs3_big_obstacle_with_weak_dynamics():
 
 
 # ---------------------------------------------------------------- multi-objective
+@pytest.mark.slow
 def test_mo1_full_cost_is_smoother_than_goal_only(cf1):
     full, goal = cf1["vcs"][: len(SEEDS)], cf1["goal_only"]
     # Prototype: heading change <= 0.7x, sign flips <= 0.6x. Measured here on these seeds: 0.59x and
@@ -166,6 +172,7 @@ def test_mo1_full_cost_is_smoother_than_goal_only(cf1):
     assert not any(r.collided for r in full + goal)
 
 
+@pytest.mark.slow
 def test_mo3_point_search_finds_the_grid_optimum():
     """On 100+ states: p* is admissible and is the exact argmin of J over the planner's own
     candidates (its window grid plus G, the origin and the one-step G). Against a 4x denser

@@ -157,6 +157,7 @@ def test_progress_stall_detects_creeping_without_a_slow_speed():
         assert detoured == expect, window
 
 
+@pytest.mark.slow
 def test_stopping_obstacles_keep_the_robot_from_following_closer_than_it_brakes():
     """Obstacles that stop and go (``obstacle_motion="stop_and_go"``): a robot following one closer
     than its braking distance runs into it when it stops. With ``stopping_obstacles`` every moving

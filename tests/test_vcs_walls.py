@@ -85,6 +85,7 @@ def test_wall_between_robot_and_goal_is_passed_by_the_route():
     assert np.abs(e.pos[:, 0, 1]).max() > 1.5  # around an end, not through the wall
 
 
+@pytest.mark.slow
 def test_walls_hidden_from_the_kernel_collide():
     """The ablation: the same doorway episodes with the walls hidden from the kernel touch walls;
     with them seen, none does."""
@@ -139,6 +140,7 @@ def test_wall_brake_keeps_a_turning_robot_off_the_wall():
     assert not contact_events(e) and (e.reached_step >= 0).all()
 
 
+@pytest.mark.slow
 def test_detour_keeps_off_the_wall():
     """A robot stopped facing a wall, its route along it: a detour that keeps right turned it
     into the wall on every try (door-headon-v0 seed 1007, robot 1, alone after the other passed;

@@ -31,6 +31,7 @@ def scalar_segment_distance(p, q, a, b):
     return min(to_ab(p), to_ab(q), to_ab(p + lo * (q - p)))
 
 
+@pytest.mark.slow
 def test_segment_distance_matches_scalar_twin():
     rng = np.random.default_rng(0)
     p, q, a, b = (rng.uniform(-2, 2, (400, 2)) for _ in range(4))
