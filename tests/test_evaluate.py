@@ -204,6 +204,11 @@ FINGERPRINTS = {
     "room-v0": "9f5ae9c5afce0901",
     "intersection-v0": "46883bb5cd2a1772",
     "walls-v0": "3f7a5c20f7158643",
+    "crowdnav-circle-v0": "b11c1b9f3866818b",
+    "crowdnav-square-v0": "9d9b21bc19cb3553",
+    "crowdnav-circle-unicycle-v0": "577ceb207b3654ae",
+    "crowdnav-circle-10-v0": "bd3aec6a094ec143",
+    "crowdnav-circle-20-v0": "8108e8f48190c860",
 }
 
 
