@@ -2,13 +2,14 @@
 (:class:`Pedestrians`, :mod:`vcs_env.pedestrians`) walk to goals and avoid each other and, if they
 see them, the robots.
 
-A model draws everything random once, per world, in :meth:`ObstacleMotion.init` (from the
-world's generator), so stepping is deterministic and stepping B worlds together equals
-stepping them one by one. Parameters are a dict of arrays with leading shape ``(m, ...)`` per
-world, stacked to ``(B, m, ...)`` by the simulator.
+A model draws everything random once, per world, in :meth:`ObstacleMotion.place` and
+:meth:`ObstacleMotion.init` at reset (from the world's generator), so stepping is deterministic
+and stepping B worlds together equals stepping them one by one. Parameters are a dict of arrays
+with leading shape ``(m, ...)`` per world, stacked to ``(B, m, ...)`` by the simulator.
 
-Each step the simulator asks :meth:`ObstacleMotion.velocity` for the velocity over the coming
-step; obstacles then move on a straight line for ``dt`` (so swept collision checks are exact).
+Each step the simulator asks :meth:`ObstacleMotion.world_velocity` (by default
+:meth:`ObstacleMotion.velocity`, which sees only time and obstacle positions) for the velocity
+over the coming step; obstacles then move on a straight line for ``dt`` (so swept collision checks are exact).
 Write your own model by subclassing :class:`ObstacleMotion` and passing an instance as
 ``obstacle_motion=`` to the simulator or the envs.
 """
