@@ -169,3 +169,36 @@ def test_bad_input_names_the_field():
     )  # fmt: skip
     with pytest.raises(ValueError, match="pedestrians: obstacle 0 at \\[3.0, 0.1\\] is inside a wall"):
         Pedestrians().place(np.random.default_rng(0), crowd(), lay)
+
+
+# --------------------------------------------------------------------------- conformance
+def test_pettingzoo_and_gymnasium_conformance_with_pedestrians():
+    import pickle
+
+    from gymnasium.utils.env_checker import check_env
+    from pettingzoo.test import parallel_api_test, parallel_seed_test
+
+    import vcs_env
+    from vcs_env.gym_env import VcsNavEnv
+
+    s = crowd(sees_robots=True, n_robots=2, n_obstacles=4)
+    parallel_api_test(vcs_env.parallel_env(scenario=s, max_cycles=40), num_cycles=60)
+    parallel_seed_test(lambda: vcs_env.parallel_env(scenario=s), num_cycles=30)
+    check_env(VcsNavEnv(scenario=crowd(goal_policy="wander")))
+    env = vcs_env.parallel_env(scenario=s)
+    env.reset(seed=0)
+    assert pickle.loads(pickle.dumps(env)).scenario == s
+
+
+def test_preferred_velocity_equals_scalar_twin():
+    from vcs_env.pedestrians import ARRIVAL_TIME, preferred_velocity
+
+    rng = np.random.default_rng(2)
+    pos, goal, v_pref = rng.uniform(-3, 3, (50, 2)), rng.uniform(-3, 3, (50, 2)), rng.uniform(0, 2, 50)
+    goal[:5] = pos[:5]  # at the goal
+    goal[5:10] = pos[5:10] + 0.1  # slowing down
+    for i, v in enumerate(preferred_velocity(pos, goal, v_pref)):
+        d = goal[i] - pos[i]
+        dist = math.hypot(*d)
+        speed = min(v_pref[i], dist / ARRIVAL_TIME)
+        np.testing.assert_allclose(v, d / dist * speed if dist > 0 else (0.0, 0.0), rtol=1e-12, atol=1e-15)
