@@ -261,7 +261,8 @@ class Pedestrians(ObstacleMotion):
         m, spec = len(pos), self.spec
         goals = target[:, None, :].copy()
         if spec.goal_policy == "wander":  # the layout's point, then random points in the arena
-            legs = 2 + int(math.ceil(scenario.max_time * spec.v_pref / 0.5))
+            # Enough legs of 0.5 m or more for the whole episode (at most 256; then they repeat).
+            legs = min(256, 2 + int(math.ceil(scenario.max_time * spec.v_pref / 0.5)))
             lo = -scenario.arena_half_size + scenario.obstacle_radius[1]
             more = rng.uniform(lo, -lo, size=(m, legs, 2))
             goals = np.concatenate((goals, more), axis=1)
