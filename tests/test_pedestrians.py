@@ -2,6 +2,7 @@
 library, the social force against a hand computation and a scalar twin, batching, determinism,
 visibility and bad input."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -202,3 +203,15 @@ def test_preferred_velocity_equals_scalar_twin():
         dist = math.hypot(*d)
         speed = min(v_pref[i], dist / ARRIVAL_TIME)
         np.testing.assert_allclose(v, d / dist * speed if dist > 0 else (0.0, 0.0), rtol=1e-12, atol=1e-15)
+
+
+def test_wanderers_take_new_goals_and_the_others_stay():
+    for policy, moves_on in (("wander", True), ("circle", False)):
+        engine = NavEngine(dataclasses.replace(crowd(goal_policy=policy), max_steps=200), 2)
+        engine.reset([0, 1])
+        for _ in range(200):
+            engine.step(np.zeros((2, engine.scenario.n_robots, 2)))
+        params = engine.sim.motion_params
+        assert (params["goal_idx"] > 0).any() == moves_on, policy
+        if not moves_on:  # arrived and standing at the antipode
+            np.testing.assert_allclose(engine.world.obs_pos, params["goals"][:, :, 0], atol=0.05)
