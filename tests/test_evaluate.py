@@ -208,6 +208,11 @@ FINGERPRINTS = {
     "corridor-narrow-v0": "dd00fae24219b275",
     "dynamic-fast-v0": "139d93f7a08503f1",
     "random-dense-holonomic-v0": "f24882e3b7712cd2",
+    "crowdnav-circle-v0": "b11c1b9f3866818b",
+    "crowdnav-square-v0": "9d9b21bc19cb3553",
+    "crowdnav-circle-unicycle-v0": "577ceb207b3654ae",
+    "crowdnav-circle-10-v0": "bd3aec6a094ec143",
+    "crowdnav-circle-20-v0": "8108e8f48190c860",
 }
 
 

@@ -142,7 +142,7 @@ def run_obstacles(scenario, steps, seed=0):
 
 
 def test_motion_models_are_registered():
-    assert set(MOTION_MODELS) == {"static", "constant", "patrol", "arbitrary", "stop_and_go"}
+    assert set(MOTION_MODELS) == {"static", "constant", "patrol", "arbitrary", "stop_and_go", "pedestrians"}
 
 
 def test_static_and_constant_velocity_obstacles():

@@ -11,7 +11,9 @@ was); ``parked_collision``: some robot touched a parked one (:mod:`vcs_env.conta
 Per-robot quantities are averaged over the robots of the episode: arrival time, extra time
 over the straight-line time at ``v_max``, path length and its ratio to the straight line,
 total heading change, speed-change reversals and mean absolute jerk. Time and path metrics
-are NaN for robots that did not arrive.
+are NaN for robots that did not arrive. Social metrics (:mod:`vcs_env.social_metrics`,
+``docs/social-metrics.md``): intrusions into intimate and personal space, the smallest gap to a
+person (an obstacle) and time to collision with one, path irregularity and SPL.
 
 Each metric is one :class:`Metric` in :data:`METRICS`: its name, label, how it is computed from
 an episode and how the evaluation harness, its report and plots treat it (rate or mean,
@@ -29,6 +31,15 @@ import numpy as np
 
 from .contacts import contact_events
 from .rollout import Episode
+from .social_metrics import (
+    INTIMATE_ZONE,
+    PERSONAL_ZONE,
+    intrusion_share,
+    min_human_gap,
+    min_time_to_collision,
+    path_irregularity,
+    spl,
+)
 
 DEADLOCK_WINDOW = 10.0
 """[s] see module docstring."""
@@ -109,6 +120,12 @@ def robots_succeeded(arrived: np.ndarray, touched: np.ndarray) -> np.ndarray:
     return arrived & ~touched
 
 
+def _min(x) -> float:
+    """Minimum over the finite entries; NaN if there is none."""
+    x = np.asarray(x, dtype=np.float64)
+    return float(np.min(x[np.isfinite(x)])) if np.isfinite(x).any() else math.nan
+
+
 def _mean(x) -> float:
     """Mean over the finite entries; NaN if there is none."""
     x = np.asarray(x, dtype=np.float64)
@@ -155,8 +172,13 @@ class EpisodeFacts:
         return math.nan if self.contacts is None else float(any(pick(c) for c in self.contacts))
 
     @functools.cached_property
+    def robot_success(self) -> np.ndarray:
+        """``(n,)`` bool: the robot arrived and touched nothing (:func:`robots_succeeded`)."""
+        return robots_succeeded(self.arrived, self.robot_hit | self.obstacle_hit)
+
+    @functools.cached_property
     def success(self) -> bool:
-        return bool(robots_succeeded(self.arrived, self.robot_hit | self.obstacle_hit).all())
+        return bool(self.robot_success.all())
 
     @functools.cached_property
     def deadlock(self) -> bool:
@@ -249,6 +271,16 @@ METRICS: tuple[Metric, ...] = (
     Metric("heading_change", "heading change [rad]", lambda f: float(heading_change(f.ep).mean())),
     Metric("speed_reversals", "speed reversals", lambda f: float(speed_reversals(f.ep).mean())),
     Metric("jerk", "jerk [m/s^3]", lambda f: float(mean_jerk(f.ep).mean())),
+    Metric(
+        "intimate_intrusion", "intimate intrusion", lambda f: _mean(intrusion_share(f.ep, INTIMATE_ZONE)), plot=False
+    ),
+    Metric("personal_intrusion", "personal intrusion", lambda f: _mean(intrusion_share(f.ep, PERSONAL_ZONE))),
+    Metric("min_human_distance", "min person gap [m]", lambda f: _min(min_human_gap(f.ep)), plot=False),
+    Metric("min_ttc", "min TTC [s]", lambda f: _min(min_time_to_collision(f.ep))),
+    Metric(
+        "path_irregularity", "path irregularity [rad/m]", lambda f: _mean(path_irregularity(f.ep, f.paths)), plot=False
+    ),
+    Metric("spl", "SPL", lambda f: _mean(spl(f.ep, f.robot_success, f.paths))),
     Metric(
         "compute_per_decision",
         "compute per decision [s]",

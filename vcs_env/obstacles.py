@@ -1,12 +1,15 @@
-"""Obstacle motion models: how passive obstacles move. They never react to robots.
+"""Obstacle motion models: how obstacles move. Passive ones never react to robots; pedestrians
+(:class:`Pedestrians`, :mod:`vcs_env.pedestrians`) walk to goals and avoid each other and, if they
+see them, the robots.
 
-A model draws everything random once, per world, in :meth:`ObstacleMotion.init` (from the
-world's generator), so stepping is deterministic and stepping B worlds together equals
-stepping them one by one. Parameters are a dict of arrays with leading shape ``(m, ...)`` per
-world, stacked to ``(B, m, ...)`` by the simulator.
+A model draws everything random once, per world, in :meth:`ObstacleMotion.place` and
+:meth:`ObstacleMotion.init` at reset (from the world's generator), so stepping is deterministic
+and stepping B worlds together equals stepping them one by one. Parameters are a dict of arrays
+with leading shape ``(m, ...)`` per world, stacked to ``(B, m, ...)`` by the simulator.
 
-Each step the simulator asks :meth:`ObstacleMotion.velocity` for the velocity over the coming
-step; obstacles then move on a straight line for ``dt`` (so swept collision checks are exact).
+Each step the simulator asks :meth:`ObstacleMotion.world_velocity` (by default
+:meth:`ObstacleMotion.velocity`, which sees only time and obstacle positions) for the velocity
+over the coming step; obstacles then move on a straight line for ``dt`` (so swept collision checks are exact).
 Write your own model by subclassing :class:`ObstacleMotion` and passing an instance as
 ``obstacle_motion=`` to the simulator or the envs.
 """
@@ -18,7 +21,12 @@ import math
 import numpy as np
 
 from . import kernels
+from .orca_kernel import orca_velocities
+from .pedestrians import SF_MAX_SPEED, PedestrianSpec, preferred_velocity, social_force
+from .placement import MAX_TRIES, Layout
 from .scenario import ObstacleTrajectory, Scenario
+from .state import WorldState
+from .walls import clearance
 
 Params = dict[str, np.ndarray]
 
@@ -51,6 +59,17 @@ class ObstacleMotion:
 
     def reflect(self, params: Params, flip: np.ndarray) -> None:
         """The arena wall flipped the velocity components marked in ``flip`` ``(B, m, 2)``."""
+
+    def place(self, rng: np.random.Generator, scenario: Scenario, layout: Layout) -> None:
+        """Change one world's generated ``layout`` in place before :meth:`init` (default: keep it).
+        Pedestrians crossing a square are placed here."""
+
+    def world_velocity(self, params: Params, world: WorldState, dt: float) -> np.ndarray:
+        """:meth:`velocity` for models that see the whole world (robots, walls): ``(B, m, 2)`` [m/s].
+
+        The simulator calls this; the default passes the time and obstacle positions to
+        :meth:`velocity`. Models that react to robots override it."""
+        return self.velocity(params, world.time, world.obs_pos, dt)
 
 
 def _draw_speed(rng: np.random.Generator, scenario: Scenario, m: int) -> np.ndarray:
@@ -212,12 +231,115 @@ class Trajectory(ObstacleMotion):
         return (self.position(params, t + dt) - pos) / dt
 
 
+class Pedestrians(ObstacleMotion):
+    """Pedestrians with a preferred speed and goals, avoiding each other by ORCA or the social force
+    model and the robots if they see them (:mod:`vcs_env.pedestrians`; holonomic).
+
+    Parameters per world: ``vel`` ``(m, 2)`` [m/s] the current velocity, ``goals`` ``(m, K, 2)``
+    [m] the goals in order, ``goal_idx`` ``(m,)`` the current one, ``v_pref`` ``(m,)`` [m/s]."""
+
+    name = "pedestrians"
+
+    def __init__(self, spec: PedestrianSpec | None = None):
+        if spec is not None and not isinstance(spec, PedestrianSpec):
+            raise ValueError(f"pedestrians must be a vcs_env.pedestrians.PedestrianSpec, got {type(spec).__name__}")
+        self.spec = spec if spec is not None else PedestrianSpec()
+
+    def place(self, rng, scenario, layout):
+        if self.spec.goal_policy == "square":
+            layout.obs_pos, layout.obs_target = _square_crossing(rng, scenario, layout)
+        if len(layout.segments) and len(layout.obs_pos):
+            gap = clearance(layout.obs_pos, layout.segments) - layout.obs_radius
+            if np.any(gap < 0.0):
+                k = int(np.argmin(gap))
+                raise ValueError(
+                    f"pedestrians: obstacle {k} at {np.round(layout.obs_pos[k], 3).tolist()} is inside a wall "
+                    f"(its edge is {-gap[k]:.3f} m into it); the layout must keep pedestrians out of walls"
+                )
+
+    def init(self, rng, scenario, pos, target):
+        m, spec = len(pos), self.spec
+        goals = target[:, None, :].copy()
+        if spec.goal_policy == "wander":  # the layout's point, then random points in the arena
+            # Enough legs of 0.5 m or more for the whole episode (at most 256; then they repeat).
+            legs = min(256, 2 + int(math.ceil(scenario.max_time * spec.v_pref / 0.5)))
+            lo = -scenario.arena_half_size + scenario.obstacle_radius[1]
+            more = rng.uniform(lo, -lo, size=(m, legs, 2))
+            goals = np.concatenate((goals, more), axis=1)
+        return {
+            "vel": np.zeros((m, 2)),
+            "goals": goals,
+            "goal_idx": np.zeros(m, dtype=np.int64),
+            "v_pref": np.full(m, spec.v_pref),
+        }
+
+    def world_velocity(self, params, world, dt):
+        spec, pos = self.spec, world.obs_pos
+        B, m = pos.shape[:2]
+        goals, idx = params["goals"], params["goal_idx"]
+        if goals.shape[-2] > 1:  # wander: on arrival (centre within the radius) head for the next goal
+            goal = np.take_along_axis(goals, idx[..., None, None], axis=-2)[..., 0, :]
+            arrived = np.linalg.norm(goal - pos, axis=-1) < world.obs_radius
+            idx = np.where(arrived, (idx + 1) % goals.shape[-2], idx)
+            params["goal_idx"] = idx
+        goal = np.take_along_axis(goals, idx[..., None, None], axis=-2)[..., 0, :]
+        pref = preferred_velocity(pos, goal, params["v_pref"])
+        # The agents a pedestrian sees: the pedestrians, then the present robots if it sees them.
+        agents = [(pos, params["vel"], world.obs_radius, np.ones((B, m), dtype=bool))]
+        if spec.sees_robots:
+            agents.append((world.pos, world.vel, world.radius, world.present))
+        a_pos, a_vel, a_radius, present = (np.concatenate(x, axis=1) for x in zip(*agents))
+        if spec.model == "orca":
+            max_speed = np.concatenate((params["v_pref"], world.v_max), axis=1)[:, : a_pos.shape[1]]
+            vel = orca_velocities(
+                a_pos, a_vel, a_radius + spec.radius_margin, max_speed, pref, present, m,
+                spec.time_horizon, dt, spec.neighbor_dist, spec.max_neighbors,
+            )  # fmt: skip
+        else:  # social force: one Euler step of the acceleration, speed capped
+            vel = params["vel"] + social_force(a_pos, a_vel, pref, present, m) * dt
+            top = SF_MAX_SPEED * params["v_pref"]
+            speed = np.linalg.norm(vel, axis=-1)
+            vel = vel * np.minimum(1.0, top / np.maximum(speed, 1e-12))[..., None]
+        params["vel"] = vel
+        return vel.copy()
+
+    def reflect(self, params, flip):
+        params["vel"] = np.where(flip, -params["vel"], params["vel"])
+
+
+def _square_crossing(rng: np.random.Generator, s: Scenario, lay: Layout) -> tuple[np.ndarray, np.ndarray]:
+    """CrowdNav's square crossing: each pedestrian starts on a random half (x < 0 or x > 0) of the
+    square ``[-h, h]^2`` (``h = arena_half_size``) and walks to a point on the other half; starts keep
+    ``min_separation`` from the robots' starts and earlier starts, goals from the robots' goals and
+    earlier goals. Returns ``(start, goal)``, ``(m, 2)`` each [m]."""
+    h, radius = s.arena_half_size, lay.obs_radius
+    starts = [(p, s.robot.radius) for p in lay.start]
+    goals = [(p, s.robot.radius) for p in lay.goal]
+
+    def draw(side: float, taken: list, k: int, what: str) -> np.ndarray:
+        for _ in range(MAX_TRIES):
+            p = np.array([rng.random() * h * side, (rng.random() - 0.5) * 2.0 * h])
+            if all(np.linalg.norm(p - c) >= r + radius[k] + s.min_separation for c, r in taken):
+                return p
+        raise ValueError(f"could not place the {what} of pedestrian {k} in the square; increase arena_half_size")
+
+    start, goal = np.zeros((len(radius), 2)), np.zeros((len(radius), 2))
+    for k in range(len(radius)):
+        side = -1.0 if rng.random() > 0.5 else 1.0
+        start[k] = draw(side, starts, k, "start")
+        goal[k] = draw(-side, goals, k, "goal")
+        starts.append((start[k], radius[k]))
+        goals.append((goal[k], radius[k]))
+    return start, goal
+
+
 MOTION_MODELS: dict[str, type[ObstacleMotion]] = {
     "static": ObstacleMotion,
     "constant": ConstantVelocity,
     "patrol": Patrol,
     "arbitrary": Arbitrary,
     "stop_and_go": StopAndGo,
+    "pedestrians": Pedestrians,
 }
 
 
@@ -225,4 +347,6 @@ def make_motion(scenario: Scenario) -> ObstacleMotion:
     """The motion model a scenario asks for."""
     if scenario.kind == "custom":
         return Trajectory(scenario.custom.obstacles)
+    if scenario.obstacle_motion == "pedestrians":
+        return Pedestrians(scenario.pedestrians)
     return MOTION_MODELS[scenario.obstacle_motion]()

@@ -25,8 +25,9 @@ import numpy as np
 
 from .checks import check_choice, check_int, check_interval, check_range
 from .lidar import LidarSpec
+from .pedestrians import PedestrianSpec
 
-MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go")
+MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go", "pedestrians")
 COLLISION_MODES = ("terminate", "continue")
 
 # Reference scales used to normalize observations into [-1, 1]; limits are validated against them.
@@ -224,7 +225,7 @@ class Scenario:
     robot: RobotSpec = field(default_factory=RobotSpec)
     """Robot body and limits."""
     obstacle_motion: str = "static"
-    """Motion of generated obstacles: static, constant, patrol, arbitrary, stop_and_go."""
+    """Motion of generated obstacles: static, constant, patrol, arbitrary, stop_and_go, pedestrians."""
     obstacle_radius: tuple[float, float] = (0.2, 0.4)
     """Obstacle radius range [m], drawn uniformly."""
     obstacle_speed: tuple[float, float] = (0.2, 0.7)
@@ -271,6 +272,9 @@ class Scenario:
     n_wall_points: int = 0
     """Optional block of the ``n_wall_points`` nearest points on walls appended to every robot's
     observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
+    pedestrians: PedestrianSpec | None = None
+    """How the obstacles walk with ``obstacle_motion="pedestrians"`` (:mod:`vcs_env.pedestrians`);
+    None: ``PedestrianSpec()``. Only allowed with that motion."""
 
     def __post_init__(self) -> None:
         check_choice("kind", self.kind, list(_kinds()))
@@ -310,6 +314,11 @@ class Scenario:
         check_int("n_wall_points", self.n_wall_points, 0, 64)
         if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
             raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
+        if self.pedestrians is not None:
+            if not isinstance(self.pedestrians, PedestrianSpec):
+                raise ValueError(f"pedestrians must be a PedestrianSpec or None, got {type(self.pedestrians).__name__}")
+            if self.obstacle_motion != "pedestrians":
+                raise ValueError(f"pedestrians needs obstacle_motion='pedestrians', got {self.obstacle_motion!r}")
         _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.

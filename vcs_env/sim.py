@@ -13,6 +13,7 @@ contact (:mod:`vcs_env.stop_kernels`).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -166,6 +167,7 @@ class Simulator:
                 self.rngs[b] = np.random.default_rng(seed)
             rng = self.rngs[b]
             lay = generate(self.scenario, rng)
+            self.motion.place(rng, self.scenario, lay)
             params = self.motion.init(rng, self.scenario, lay.obs_pos, lay.obs_target)
             w.time[b] = 0.0
             w.steps[b] = 0
@@ -242,7 +244,8 @@ class Simulator:
         if self.scenario.n_obstacles == 0 or not idx:
             return
         params = {k: v[idx].copy() for k, v in self.motion_params.items()}
-        vel = self.motion.velocity(params, self.world.time[idx], self.world.obs_pos[idx], self.scenario.dt)
+        worlds = dataclasses.replace(self.world, **{f: v[idx] for f, v in self.world.arrays().items()})
+        vel = self.motion.world_velocity(params, worlds, self.scenario.dt)
         self.world.obs_vel[idx] = vel
 
     # ------------------------------------------------------------------- step
@@ -339,7 +342,7 @@ class Simulator:
         s, w = self.scenario, self.world
         if s.n_obstacles == 0:
             return np.zeros_like(w.obs_pos)
-        vel = self.motion.velocity(self.motion_params, w.time, w.obs_pos, s.dt)
+        vel = self.motion.world_velocity(self.motion_params, w, s.dt)
         if s.bounce:
             # Reverse a component that would carry the disc through a wall during the step.
             vel, flip = kernels.bounce(w.obs_pos, vel, w.obs_radius, s.arena_half_size, s.dt)

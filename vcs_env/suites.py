@@ -60,6 +60,15 @@ Conventions:
 * Scenarios are written out field by field (not derived from :data:`~vcs_env.scenario.SCENARIOS`,
   whose presets may be retuned).
 
+**The CrowdNav protocol** (Chen et al., ICRA 2019; ``vita-epfl/CrowdNav``
+``crowd_nav/configs/env.config``, ``crowd_sim/envs/crowd_sim.py``): ``crowdnav-circle-v0`` and
+``crowdnav-square-v0``, 500 episodes each like the paper's test set: one holonomic robot of
+radius 0.3 m and preferred speed 1 m/s from (0, -4) to (0, 4) among 5 ORCA pedestrians of radius
+0.3 m and preferred speed 1 m/s that do not see it, crossing a circle of radius 4 m or a square
+10 m wide; dt 0.25 s, 25 s. ``crowdnav-circle-unicycle-v0`` drives our default unicycle limits
+instead; ``crowdnav-circle-10-v0`` and ``crowdnav-circle-20-v0`` are denser. What differs from
+CrowdNav is in ``docs/people.md``.
+
 **Versioning.** A suite's content (scenario, seeds) and the simulator semantics it relies on
 never change under the same name. Any change that can alter an episode means a new version
 (``circle-16-v1``), and the old one stays for old numbers. :attr:`Suite.fingerprint` hashes the
@@ -74,14 +83,16 @@ import json
 import math
 from dataclasses import dataclass
 
+from .pedestrians import PedestrianSpec
 from .scenario import RobotSpec, Scenario
 
 LATER_FIELDS = {
     f.name: f.default
     for f in dataclasses.fields(Scenario)
-    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar", "n_wall_points")
+    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar", "n_wall_points", "pedestrians")
 }
-"""Scenario fields (with their defaults) added after the first suites were pinned: the maps and lidar."""
+"""Scenario fields (with their defaults) added after the first suites were pinned: the maps, lidar and
+pedestrians."""
 LATER_REWARDS = {"danger": 0.0, "arrival_speed": 0.0}
 """Reward weights (with their defaults) added after the first suites were pinned."""
 SMOKE_SEEDS = 3
@@ -244,6 +255,61 @@ def _hard() -> list[Suite]:
     ]
 
 
+CROWDNAV_ROBOT = RobotSpec(radius=0.3, v_max=1.0, a_max=10.0, omega_max=2 * math.pi, holonomic=True)
+"""CrowdNav's robot: holonomic, radius 0.3 m, v_pref 1 m/s, any velocity in the disc every step. The
+largest a_max allowed, 10 m/s^2, changes the velocity by up to 2.5 m/s in a 0.25 s step: more than
+the 2 m/s between any two velocities of the 1 m/s disc, so no step is limited."""
+
+
+def _crowdnav_scenario(m: int = 5, radius: float = 4.0, goal_policy: str = "circle", robot=CROWDNAV_ROBOT) -> Scenario:
+    """CrowdNav's test protocol (module docstring): ``m`` ORCA pedestrians that ignore the robot."""
+    return Scenario(
+        kind="crowd",
+        n_robots=1,
+        n_obstacles=m,
+        layout_radius=radius,
+        arena_half_size=5.0,  # the square crossing's square: 10 m wide
+        obstacle_motion="pedestrians",
+        pedestrians=PedestrianSpec(model="orca", v_pref=1.0, goal_policy=goal_policy, sees_robots=False),
+        obstacle_radius=(0.3, 0.3),
+        robot=robot,
+        dt=0.25,
+        max_steps=100,  # 25 s
+        r_goal=0.3,  # CrowdNav: arrived when the centre is within a robot radius of the goal
+        r_ca=12.0,  # CrowdNav's robot observes every human
+        n_neighbors=8,
+        min_separation=0.2,  # CrowdNav's discomfort distance, kept between spawned bodies
+        on_collision="continue",
+        park_finished=True,
+    )
+
+
+def _crowdnav() -> list[Suite]:
+    unicycle = dataclasses.replace(_ROBOT, radius=0.3)
+    return [
+        Suite("crowdnav-circle-v0", _crowdnav_scenario(), _seeds(500), "CrowdNav circle crossing, 5 ORCA humans"),
+        Suite(
+            "crowdnav-square-v0",
+            _crowdnav_scenario(goal_policy="square"),
+            _seeds(500),
+            "CrowdNav square crossing, 5 ORCA humans",
+        ),
+        Suite(
+            "crowdnav-circle-unicycle-v0",
+            _crowdnav_scenario(robot=unicycle),
+            _seeds(500),
+            "CrowdNav circle crossing with our default unicycle robot limits",
+        ),
+        Suite("crowdnav-circle-10-v0", _crowdnav_scenario(10), _seeds(500), "CrowdNav circle crossing, 10 humans"),
+        Suite(
+            "crowdnav-circle-20-v0",
+            _crowdnav_scenario(20, radius=6.0),
+            _seeds(500),
+            "CrowdNav-style circle crossing, 20 humans on a 6 m circle",
+        ),
+    ]
+
+
 def _build() -> dict[str, Suite]:
     full = [
         Suite("circle-8-v0", _circle(8, 5.0), _seeds(100), "8 robots swap to the antipodes of a 5 m circle"),
@@ -308,6 +374,7 @@ def _build() -> dict[str, Suite]:
     ]
     full += _maps()
     full += _hard()
+    full += _crowdnav()
     smoke_robots = {"circle-24-v0": 12, "circle-40-v0": 16, "circle-40-symmetric-v0": 16}
     out: dict[str, Suite] = {}
     for s in full:
