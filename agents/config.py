@@ -68,8 +68,8 @@ class ScenarioConfig:
     obstacle_speed: tuple[float, ...] | None = None
     """Obstacle speed range LOW HIGH [m/s], drawn per obstacle and episode (None: the preset's)."""
     obstacle_motion: str | None = None
-    """How obstacles move: static, constant, patrol, arbitrary or stop_and_go (None: the preset's;
-    vcs_env.obstacles)."""
+    """How obstacles move: static, constant, patrol, arbitrary, stop_and_go or pedestrians (None: the
+    preset's; vcs_env.obstacles)."""
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential, danger,
