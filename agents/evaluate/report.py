@@ -193,8 +193,39 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     md, js = out / "results.md", out / "results.json"
     md.write_text(markdown_table(comparison))
-    js.write_text(json.dumps(comparison.to_dict(), indent=1, allow_nan=False))
+    js.write_text(results_json(comparison.to_dict()))
     written = [md, js]
     if plots:
         written += write_plots(comparison, out, episode)
     return written
+
+
+def _rounded(x, digits: int = 6):
+    """``x`` with every float rounded to ``digits`` significant digits (metrics, not state: 1e-6 relative
+    is far below any difference a table shows), recursively through dicts and lists."""
+    if isinstance(x, float):
+        return float(f"{x:.{digits}g}")
+    if isinstance(x, dict):
+        return {k: _rounded(v, digits) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_rounded(v, digits) for v in x]
+    return x
+
+
+def results_json(data: dict) -> str:
+    """``results.json`` text: indented, floats to 6 significant digits, and each policy's episodes as a
+    table, ``{"columns": [metric, ...], "rows": [[value, ...], ...]}`` with one line per episode (a
+    500-episode suite of three policies stays a few hundred kB)."""
+    data = _rounded(data)
+    tables = {}
+    for name, result in data.get("policies", {}).items():
+        episodes = result.get("episodes", [])
+        columns = list(episodes[0]) if episodes else []
+        key = f"@episodes:{name}@"
+        rows = ",\n".join("    " + json.dumps([ep.get(c) for c in columns], allow_nan=False) for ep in episodes)
+        tables[key] = f'{{\n   "columns": {json.dumps(columns)},\n   "rows": [\n{rows}\n   ]\n  }}'
+        result["episodes"] = key
+    text = json.dumps(data, indent=1, allow_nan=False)
+    for key, table in tables.items():
+        text = text.replace(json.dumps(key), table)
+    return text + "\n"
