@@ -85,7 +85,8 @@ def point_to_segment(p, a, b):
 def test_no_robot_ever_parks_in_a_wall_or_another_robot(kind, dt):
     """The oracle, in plain loops: after every step of fast robots driven at random, no present
     robot is closer than its radius to a wall, crossed one during the step, or overlaps another
-    robot; a robot that crashed touches what it hit (robot or wall)."""
+    robot; a robot that crashed touches what it hit (robot or wall). Obstacles never stop, so one
+    may drive on through a parked robot; the contact with it is checked by the sampled twin."""
     s = Scenario(
         kind=kind, n_robots=8, n_obstacles=4 if kind == "random" else 0, dt=dt, on_collision="terminate",
         robot=RobotSpec(v_max=3.0, a_max=6.0), obstacle_motion="constant" if kind == "random" else "static",

@@ -164,3 +164,15 @@ def test_detour_jitter_breaks_the_door_head_on():
     (jittered,) = _episodes("door-headon-v0", [1011])
     assert (same.reached_step < 0).any()
     assert (jittered.reached_step >= 0).all() and not contact_events(jittered)
+
+
+def test_fitted_buffers_pass_a_robot_parked_in_a_narrow_corridor():
+    """corridor-narrow-v0 seed 1000: the first robot of each column parks at its goal in the middle
+    of the 1.7 m corridor, 0.6 m from each wall, which lets a robot through with 0.05 m on each
+    side. Under the buffers of vcs-method §2.6 (``fit_clearance=None``) the robot behind it
+    stalls there for good (two robots never arrive); with buffers fitted to the gap it slows
+    down and passes, and nothing touches anything."""
+    (blocked,) = _episodes("corridor-narrow-v0", [1000], fit_clearance=None)
+    (fitted,) = _episodes("corridor-narrow-v0", [1000], fit_clearance=0.01)
+    assert (blocked.reached_step < 0).sum() == 2 and not contact_events(blocked)
+    assert (fitted.reached_step >= 0).all() and not contact_events(fitted)

@@ -28,6 +28,16 @@ class VCSParams:
     """Always-on safety buffer added to the combined radius [m]."""
     delta_s: float = 0.15
     """Extra buffer at full collision-time or collision-distance factor [m]."""
+    fit_clearance: float | None = None
+    """Buffers fit the free space (vcs-method §2.6), off by default (``0.01`` [m] turns it on;
+    vcs-calibration §7: ``corridor-narrow-v0`` 0.12 -> 1.00, ``intersection-v0`` -3 points): where
+    the surface gap ``g`` between a static disc (a parked robot, a standing obstacle) and a wall
+    lets the robot's disc (radius ``r``) through with ``c`` on both sides (``g >= 2 (r + c)``),
+    the buffer of each of the two beyond its physical radius (``r_eff - r_0``: regulated, or
+    ``delta_min`` for the wall) is at most ``max(c, (g - 2 r) / 4)``: half the spare room
+    ``g - 2 r`` is buffer, half a lane to drive in. ``c`` is this clearance [m] or the robot's
+    braking distance ``v^2 / (2 a_max)`` if larger, so a buffer only shrinks for a robot slow
+    enough to stop within it. None: the buffers of vcs-method §2.6 and vcs-method §2.18 alone [ours]."""
     eps_overlap: float = 1e-3
     """Cone kept defined when the buffered disc already contains the robot: r_eff = d - eps [m]."""
     t_max: float = 5.0
@@ -227,6 +237,8 @@ class VCSParams:
         check_range("VCSParams.detour_angle [rad]", self.detour_angle, -math.pi, math.pi)
         if self.r_ca is not None:
             check_positive("VCSParams.r_ca", self.r_ca)
+        if self.fit_clearance is not None:
+            check_positive("VCSParams.fit_clearance", self.fit_clearance)
         if self.fallback_clearance is not None:
             check_positive("VCSParams.fallback_clearance", self.fallback_clearance, allow_zero=True)
 

@@ -242,20 +242,59 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
             nb = nbs[count]
             fill_record(nb, o.px, o.py, o.d, o.r, vjx, vjy, j, is_robot, mover, vrx, vry, a_max_i, p, r_ca, detour)
             nb.twin = twin
-            rpx = 0.0
-            rpy = 0.0
-            if is_robot:
-                rpx = pref_comm[b, i, 0] - pref_comm[b, j, 0]
-                rpy = pref_comm[b, i, 1] - pref_comm[b, j, 1]
-            set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy)
-            key[count] = nb.d - nb.reff  # nearest surface first: inadmissible candidates fail early
             count += 1
     first = count  # then the walls (vcs-method §2.18): static, full responsibility
     count = sensed_walls(b, i, world, p, r_ca, vrx, vry, nbs, key, count, 2 * n + world.obs_pos.shape[1])
-    for q in range(first, count):
-        set_cone(nbs[q], False, vrx, vry, dt, p.reciprocity, 0.0, 0.0)
+    if p.fit_clearance >= 0.0:
+        brake = 0.5 * v_r * v_r / a_max_i  # the robot's braking distance [m]
+        fit_buffers(nbs, first, count, world.radius[b, i], max(p.fit_clearance, brake))
+    for q in range(count):
+        nb = nbs[q]
+        is_robot = nb.kind == K_RECIPROCAL
+        rpx = 0.0
+        rpy = 0.0
+        if is_robot:
+            rpx = pref_comm[b, i, 0] - pref_comm[b, nb.idx, 0]
+            rpy = pref_comm[b, i, 1] - pref_comm[b, nb.idx, 1]
+        set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy)
+        key[q] = nb.d - nb.reff  # nearest surface first: inadmissible candidates fail early
     sort_nearest(wk.order, key, count)
     return count
+
+
+@njit(cache=True)
+def _gap_to_wall(a, c, r_i):
+    """Surface gap [m] between the disc of record ``a`` and the wall of record ``c``, for a robot
+    of radius ``r_i`` [m] (records hold combined radii)."""
+    ux, uy = c.bx - c.ax, c.by - c.ay
+    length2 = ux * ux + uy * uy
+    s = min(max(((a.px - c.ax) * ux + (a.py - c.ay) * uy) / length2, 0.0), 1.0) if length2 > 0.0 else 0.0
+    gx, gy = c.ax + s * ux - a.px, c.ay + s * uy - a.py
+    return math.sqrt(gx * gx + gy * gy) - (a.r0 - r_i)
+
+
+@njit(cache=True)
+def fit_buffers(nbs, discs, count, r_i, clearance):
+    """Fit the buffers to the free space (``VCSParams.fit_clearance``, vcs-method §2.6) among the
+    records ``nbs[:count]`` of a robot of radius ``r_i`` [m], discs first and walls from
+    ``discs``: for every static disc ``j`` (a parked robot, a standing obstacle) and wall ``k``
+    whose surface gap ``g`` lets the robot through with ``clearance`` [m] (the larger of
+    ``fit_clearance`` and the robot's braking distance) on both sides, the buffers of both
+    beyond their physical radius are at most ``max(clearance, (g - 2 r_i) / 4)``. Gaps the
+    robot does not fit through stay as they are."""
+    for j in range(discs):
+        a = nbs[j]
+        if a.kind != K_STATIC or a.reff <= a.r0 + clearance or a.d <= a.r0:  # nothing to shrink, or an overlap
+            continue
+        for q in range(discs, count):
+            c = nbs[q]
+            gap = _gap_to_wall(a, c, r_i)
+            if gap < 2.0 * (r_i + clearance):
+                continue
+            room = max(clearance, 0.25 * (gap - 2.0 * r_i))
+            a.reff = max(min(a.reff, a.r0 + room), a.r0)
+            if c.reff > c.r0 + room and c.d > c.r0:
+                c.reff = c.r0 + room
 
 
 @njit(cache=True)
