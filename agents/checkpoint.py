@@ -17,9 +17,10 @@ another observation config (e.g. another ``n_neighbors``). Using a policy on a s
 was not trained on is allowed, with a :class:`FamilyWarning` naming both. :func:`latest_checkpoint`
 is what ``vcs-env train --resume RUN_DIR`` continues: the newest checkpoint of a run directory.
 
-Whether a checkpoint fits a scenario is checked by :mod:`agents.fits`.
+Each format also exports its deterministic actor to ONNX (:meth:`~Checkpoint.export_onnx`, built by
+:mod:`agents.export`). Whether a checkpoint fits a scenario is checked by :mod:`agents.fits`.
 
-stable-baselines3, torch and Ray are imported when a checkpoint is loaded, not before.
+stable-baselines3, torch and Ray are imported when a checkpoint is loaded or exported, not before.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import numpy as np
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
+from .export import OPSET, export_onnx, rllib_actor, sb3_actor
 from .fits import SIZE_HINT as SIZE_HINT
 from .fits import CheckpointError as CheckpointError
 from .fits import FamilyWarning as FamilyWarning
@@ -138,6 +140,15 @@ class Checkpoint:
         """
         raise NotImplementedError
 
+    def actor(self):
+        """``(module, observation_space)``: the deterministic actor as a ``torch.nn.Module``, observations
+        ``(N, D)`` float32 to actions ``(N, 2)`` in ``[-1, 1]``, as ``load().predict(obs, deterministic=True)``."""
+        raise NotImplementedError
+
+    def export_onnx(self, out: str | os.PathLike, opset: int = OPSET) -> tuple[Path, Path]:
+        """Write :meth:`actor` to ``out`` (``.onnx``) and its layout beside it (:func:`agents.export.export_onnx`)."""
+        return export_onnx(self, out, opset)
+
 
 class SB3Checkpoint(Checkpoint):
     """An SB3 PPO ``.zip`` of ``vcs-env train`` or ``vcs-env bc``, its record beside it (``model.json``)."""
@@ -163,6 +174,9 @@ class SB3Checkpoint(Checkpoint):
         from stable_baselines3.common.save_util import load_from_zip_file
 
         path = str(self.path)
+        if not zipfile.is_zipfile(self.path) and self.path.suffix != ".zip":
+            known = ", ".join(f.format for f in FORMATS)
+            raise CheckpointError(f"{path!r} is not a checkpoint of a known format ({known}): expected {ACCEPTED}")
         if not zipfile.is_zipfile(self.path):
             raise CheckpointError(f"checkpoint {path!r} is corrupt: not a zip archive (an SB3 .zip is expected)")
         try:
@@ -185,6 +199,10 @@ class SB3Checkpoint(Checkpoint):
             return PPO.load(path, env=env, device=device)
         except Exception as e:
             raise CheckpointError(f"checkpoint {path!r} could not be loaded: {type(e).__name__}: {e}") from None
+
+    def actor(self):
+        model = self.load()
+        return sb3_actor(model), model.observation_space
 
 
 class RLlibCheckpoint(Checkpoint):
@@ -243,6 +261,10 @@ class RLlibCheckpoint(Checkpoint):
             check_checkpoint_fits(meta, module.observation_space, scenario, self.describe())
         module.eval()
         return RLlibPolicy(module, name=Path(meta.get("config", {}).get("out", self.path.parent.name)).name)
+
+    def actor(self):
+        policy = self.load()
+        return rllib_actor(policy.module), policy.observation_space
 
 
 FORMATS: tuple[type[Checkpoint], ...] = (SB3Checkpoint, RLlibCheckpoint)
