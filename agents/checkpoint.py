@@ -17,7 +17,10 @@ another observation config (e.g. another ``n_neighbors``). Using a policy on a s
 was not trained on is allowed, with a :class:`FamilyWarning` naming both. :func:`latest_checkpoint`
 is what ``vcs-env train --resume RUN_DIR`` continues: the newest checkpoint of a run directory.
 
-stable-baselines3, torch and Ray are imported when a checkpoint is loaded, not before.
+Each format also exports its deterministic actor to ONNX (:meth:`~Checkpoint.export_onnx`, built by
+:mod:`agents.export`). Whether a checkpoint fits a scenario is checked by :mod:`agents.fits`.
+
+stable-baselines3, torch and Ray are imported when a checkpoint is loaded or exported, not before.
 """
 
 from __future__ import annotations
@@ -25,7 +28,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import warnings
 import zipfile
 from functools import cached_property
 from pathlib import Path
@@ -33,38 +35,25 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, observation_config, observation_dim
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
-from .runs import jsonable, run_record
+from .export import OPSET, export_onnx, rllib_actor, sb3_actor
+from .fits import SIZE_HINT as SIZE_HINT
+from .fits import CheckpointError as CheckpointError
+from .fits import FamilyWarning as FamilyWarning
+from .fits import UncheckedWarning as UncheckedWarning
+from .fits import check_checkpoint_fits as check_checkpoint_fits
+from .fits import check_observation_space as check_observation_space
+from .runs import run_record
 
-SIZE_HINT = (
-    f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors, then the lidar and wall-point blocks if the "
-    "scenario has them)"
-)
-"""How an observation's size follows from the scenario, for error messages."""
 RAY_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
 """How to install Ray RLlib, for error messages."""
-V0_EGO_DIM = 8
-"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
 ACCEPTED = (
     "an SB3 .zip file (the suffix may be left out), a run directory with model.zip, an RLlib checkpoint "
     "directory (with vcs_env.json) or an RLlib run directory (with checkpoint/)"
 )
 """Every form a checkpoint may be given in, for error messages."""
-
-
-class CheckpointError(ValueError):
-    """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
-
-
-class FamilyWarning(UserWarning):
-    """A policy runs on a scenario family (layout kind) it was not trained on."""
-
-
-class UncheckedWarning(UserWarning):
-    """A checkpoint without observation config: only its observation size could be checked."""
 
 
 def import_ray():
@@ -151,6 +140,15 @@ class Checkpoint:
         """
         raise NotImplementedError
 
+    def actor(self):
+        """``(module, observation_space)``: the deterministic actor as a ``torch.nn.Module``, observations
+        ``(N, D)`` float32 to actions ``(N, 2)`` in ``[-1, 1]``, as ``load().predict(obs, deterministic=True)``."""
+        raise NotImplementedError
+
+    def export_onnx(self, out: str | os.PathLike, opset: int = OPSET) -> tuple[Path, Path]:
+        """Write :meth:`actor` to ``out`` (``.onnx``) and its layout beside it (:func:`agents.export.export_onnx`)."""
+        return export_onnx(self, out, opset)
+
 
 class SB3Checkpoint(Checkpoint):
     """An SB3 PPO ``.zip`` of ``vcs-env train`` or ``vcs-env bc``, its record beside it (``model.json``)."""
@@ -176,6 +174,9 @@ class SB3Checkpoint(Checkpoint):
         from stable_baselines3.common.save_util import load_from_zip_file
 
         path = str(self.path)
+        if not zipfile.is_zipfile(self.path) and self.path.suffix != ".zip":
+            known = ", ".join(f.format for f in FORMATS)
+            raise CheckpointError(f"{path!r} is not a checkpoint of a known format ({known}): expected {ACCEPTED}")
         if not zipfile.is_zipfile(self.path):
             raise CheckpointError(f"checkpoint {path!r} is corrupt: not a zip archive (an SB3 .zip is expected)")
         try:
@@ -198,6 +199,10 @@ class SB3Checkpoint(Checkpoint):
             return PPO.load(path, env=env, device=device)
         except Exception as e:
             raise CheckpointError(f"checkpoint {path!r} could not be loaded: {type(e).__name__}: {e}") from None
+
+    def actor(self):
+        model = self.load()
+        return sb3_actor(model), model.observation_space
 
 
 class RLlibCheckpoint(Checkpoint):
@@ -257,6 +262,10 @@ class RLlibCheckpoint(Checkpoint):
         module.eval()
         return RLlibPolicy(module, name=Path(meta.get("config", {}).get("out", self.path.parent.name)).name)
 
+    def actor(self):
+        policy = self.load()
+        return rllib_actor(policy.module), policy.observation_space
+
 
 FORMATS: tuple[type[Checkpoint], ...] = (SB3Checkpoint, RLlibCheckpoint)
 """Every checkpoint format, in the order they are tried."""
@@ -308,98 +317,6 @@ def config_path(checkpoint: str | os.PathLike) -> Path:
     """The run record beside an SB3 zip (``model.zip`` -> ``model.json``)."""
     p = Path(checkpoint)
     return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
-
-
-def _describe(space) -> str:
-    shape = getattr(space, "shape", None)
-    return f"{type(space).__name__}{tuple(shape) if shape is not None else ''}"
-
-
-def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
-    """Raise :class:`CheckpointError` unless ``space`` is the per-robot observation Box of ``scenario``.
-
-    Args:
-        space: a Gymnasium space (a checkpoint's or a policy object's ``observation_space``).
-        scenario: the scenario the policy will observe.
-        what: how to name the policy in the message (``"checkpoint 'runs/x/model.zip'"``).
-    """
-    expected = observation_space(scenario)
-    shape = getattr(space, "shape", None)
-    low, high = getattr(space, "low", None), getattr(space, "high", None)
-    same_shape = shape is not None and tuple(shape) == expected.shape
-    same_bounds = (
-        not same_shape
-        or low is None
-        or high is None
-        or (np.allclose(low, expected.low) and np.allclose(high, expected.high))
-    )
-    if not (same_shape and same_bounds):
-        bounds = "" if not same_shape else " with other bounds"
-        raise CheckpointError(
-            f"{what} was made for observation space {_describe(space)}{bounds}, but scenario "
-            f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {_describe(expected)} "
-            f"{SIZE_HINT}; use a policy trained for this observation layout"
-        )
-
-
-def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, what: str) -> None:
-    """Raise :class:`CheckpointError` unless a checkpoint (its metadata ``meta`` and observation
-    ``space``) may observe ``scenario``; warn (:class:`FamilyWarning`) if it was trained on
-    another scenario family.
-
-    A checkpoint without observation config in its metadata (or without metadata) whose size
-    has the v0 form ``8 + 8 K`` and is not the size ``scenario`` observes is a v0 checkpoint:
-    refused with the reason (one of the scenario's size, e.g. with lidar, goes on to the size check).
-    """
-    saved = meta.get("observation")
-    dim = getattr(space, "shape", (None,))[0]
-    v0_form = dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % NEIGHBOR_DIM == 0
-    if saved is None and v0_form and dim != observation_dim(scenario):
-        command = meta.get("command")
-        raise CheckpointError(
-            f"{what} was made for observation v0 (vcs_nav_v0: {dim} = {V0_EGO_DIM} + {NEIGHBOR_DIM} K floats, "
-            f"scaled by the world size); observations changed in v1 (vcs_nav_v1: fixed physical scales and "
-            f"scenario features, {EGO_DIM} + {NEIGHBOR_DIM} K floats), so its inputs would mean something else. "
-            "Retrain it on v1" + (f" with its command: {command}" if command else "")
-        )
-    if saved is not None:
-        expected = jsonable(observation_config(scenario))
-        if saved != expected:
-            version = saved.get("version") if isinstance(saved, dict) else None
-            hint = (
-                f"observation version {version}, this vcs-env has {OBSERVATION_VERSION}; retrain it"
-                if version != OBSERVATION_VERSION
-                else "use a policy trained with this observation config"
-            )
-            if isinstance(saved, dict):
-                keys = sorted(set(saved) | set(expected), key=str)
-                diff = "; ".join(
-                    f"{k}: {json.dumps(saved.get(k))} (scenario: {json.dumps(expected.get(k))})"
-                    for k in keys
-                    if saved.get(k) != expected.get(k)
-                )
-            else:
-                diff = f"{json.dumps(saved)} (scenario: {json.dumps(expected, sort_keys=True)})"
-            raise CheckpointError(
-                f"{what} was trained with another observation config than scenario kind={scenario.kind!r} gives: "
-                f"{diff} ({hint})"
-            )
-    check_observation_space(space, scenario, what)
-    if saved is None:
-        warnings.warn(
-            f"{what} has no observation config in its run record (no model.json beside it?): only its "
-            "observation size was checked, not what the numbers mean",
-            UncheckedWarning,
-            stacklevel=3,
-        )
-    family = meta.get("scenario_family")
-    if family and scenario.kind not in family:
-        warnings.warn(
-            f"{what} was trained on scenario family {family}, but runs on kind={scenario.kind!r}: "
-            "expect it to do worse than on its own family",
-            FamilyWarning,
-            stacklevel=3,
-        )
 
 
 # --------------------------------------------------------------------------- SB3 and RLlib

@@ -18,6 +18,7 @@ COMMAND_MODULES = (
     "vcs_cli.rollout",
     "vcs_cli.evaluate",
     "vcs_cli.train",
+    "vcs_cli.export",
     "benchmarks.run",
 )
 """Modules that add subcommands: each has ``add_commands(subparsers)``, which adds its parsers

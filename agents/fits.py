@@ -1,0 +1,134 @@
+"""Whether a checkpoint fits a scenario: its observation config, size and family.
+
+:func:`check_checkpoint_fits` is what every checkpoint format (:mod:`agents.checkpoint`) asks before it
+loads a policy for a scenario; :func:`check_observation_space` checks any policy object's space. A
+misfit is a one-line :class:`CheckpointError` naming the checkpoint, what it was made for and what the
+scenario gives; another scenario family is a :class:`FamilyWarning`, a checkpoint without observation
+config an :class:`UncheckedWarning`.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from typing import Any
+
+import numpy as np
+
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, observation_config, observation_dim
+from vcs_env.scenario import Scenario
+from vcs_env.spaces import observation_space
+
+from .runs import jsonable
+
+SIZE_HINT = (
+    f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors, then the lidar and wall-point blocks if the "
+    "scenario has them)"
+)
+"""How an observation's size follows from the scenario, for error messages."""
+V0_EGO_DIM = 8
+"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
+
+
+class CheckpointError(ValueError):
+    """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
+
+
+class FamilyWarning(UserWarning):
+    """A policy runs on a scenario family (layout kind) it was not trained on."""
+
+
+class UncheckedWarning(UserWarning):
+    """A checkpoint without observation config: only its observation size could be checked."""
+
+
+def _describe(space) -> str:
+    shape = getattr(space, "shape", None)
+    return f"{type(space).__name__}{tuple(shape) if shape is not None else ''}"
+
+
+def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
+    """Raise :class:`CheckpointError` unless ``space`` is the per-robot observation Box of ``scenario``.
+
+    Args:
+        space: a Gymnasium space (a checkpoint's or a policy object's ``observation_space``).
+        scenario: the scenario the policy will observe.
+        what: how to name the policy in the message (``"checkpoint 'runs/x/model.zip'"``).
+    """
+    expected = observation_space(scenario)
+    shape = getattr(space, "shape", None)
+    low, high = getattr(space, "low", None), getattr(space, "high", None)
+    same_shape = shape is not None and tuple(shape) == expected.shape
+    same_bounds = (
+        not same_shape
+        or low is None
+        or high is None
+        or (np.allclose(low, expected.low) and np.allclose(high, expected.high))
+    )
+    if not (same_shape and same_bounds):
+        bounds = "" if not same_shape else " with other bounds"
+        raise CheckpointError(
+            f"{what} was made for observation space {_describe(space)}{bounds}, but scenario "
+            f"kind={scenario.kind!r} with n_neighbors={scenario.n_neighbors} gives {_describe(expected)} "
+            f"{SIZE_HINT}; use a policy trained for this observation layout"
+        )
+
+
+def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, what: str) -> None:
+    """Raise :class:`CheckpointError` unless a checkpoint (its metadata ``meta`` and observation
+    ``space``) may observe ``scenario``; warn (:class:`FamilyWarning`) if it was trained on
+    another scenario family.
+
+    A checkpoint without observation config in its metadata (or without metadata) whose size
+    has the v0 form ``8 + 8 K`` and is not the size ``scenario`` observes is a v0 checkpoint:
+    refused with the reason (one of the scenario's size, e.g. with lidar, goes on to the size check).
+    """
+    saved = meta.get("observation")
+    dim = getattr(space, "shape", (None,))[0]
+    v0_form = dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % NEIGHBOR_DIM == 0
+    if saved is None and v0_form and dim != observation_dim(scenario):
+        command = meta.get("command")
+        raise CheckpointError(
+            f"{what} was made for observation v0 (vcs_nav_v0: {dim} = {V0_EGO_DIM} + {NEIGHBOR_DIM} K floats, "
+            f"scaled by the world size); observations changed in v1 (vcs_nav_v1: fixed physical scales and "
+            f"scenario features, {EGO_DIM} + {NEIGHBOR_DIM} K floats), so its inputs would mean something else. "
+            "Retrain it on v1" + (f" with its command: {command}" if command else "")
+        )
+    if saved is not None:
+        expected = jsonable(observation_config(scenario))
+        if saved != expected:
+            version = saved.get("version") if isinstance(saved, dict) else None
+            hint = (
+                f"observation version {version}, this vcs-env has {OBSERVATION_VERSION}; retrain it"
+                if version != OBSERVATION_VERSION
+                else "use a policy trained with this observation config"
+            )
+            if isinstance(saved, dict):
+                keys = sorted(set(saved) | set(expected), key=str)
+                diff = "; ".join(
+                    f"{k}: {json.dumps(saved.get(k))} (scenario: {json.dumps(expected.get(k))})"
+                    for k in keys
+                    if saved.get(k) != expected.get(k)
+                )
+            else:
+                diff = f"{json.dumps(saved)} (scenario: {json.dumps(expected, sort_keys=True)})"
+            raise CheckpointError(
+                f"{what} was trained with another observation config than scenario kind={scenario.kind!r} gives: "
+                f"{diff} ({hint})"
+            )
+    check_observation_space(space, scenario, what)
+    if saved is None:
+        warnings.warn(
+            f"{what} has no observation config in its run record (no model.json beside it?): only its "
+            "observation size was checked, not what the numbers mean",
+            UncheckedWarning,
+            stacklevel=3,
+        )
+    family = meta.get("scenario_family")
+    if family and scenario.kind not in family:
+        warnings.warn(
+            f"{what} was trained on scenario family {family}, but runs on kind={scenario.kind!r}: "
+            "expect it to do worse than on its own family",
+            FamilyWarning,
+            stacklevel=3,
+        )
