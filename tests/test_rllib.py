@@ -127,6 +127,17 @@ class _Module:
         return {"action_dist_inputs": torch.cat([3 * obs[:, :2], torch.full_like(obs[:, :2], -1.0)], dim=1)}
 
 
+@pytest.mark.parametrize("adapter", ["pettingzoo", "batched"])
+def test_adapters_pass_rllibs_own_env_check(adapter):
+    # RLlib's pre-check of multi-agent envs (the one ParallelPettingZooEnv failed in some versions, ray #39453),
+    # on a map with obstacles so that every observation block is present.
+    from ray.rllib.utils.pre_checks.env import check_multiagent_environments
+
+    scenario = make_scenario("corridor", n_robots=4, n_obstacles=2, obstacle_motion="constant")
+    env = PettingZooNavEnv(scenario, 0.99, 0) if adapter == "pettingzoo" else NavMultiAgentEnv(scenario, 2, 0.99, 0)
+    check_multiagent_environments(env)  # raises on any mismatch of spaces, ids, dones or infos
+
+
 def test_policy_predicts_the_clipped_mean_or_samples():
     scenario = make_scenario("circle", n_robots=2)
     pol = RLlibPolicy(_Module(scenario), rng=np.random.default_rng(0))
