@@ -87,6 +87,7 @@ def test_ours_measured_peers_measured_or_missing(quick):
         assert "rows" in p or "orca" in name or "MPE" in name, (name, p)
 
 
+@pytest.mark.slow
 def test_gym_vector_rows_and_issue14_targets(quick):
     out, data = quick
     assert [e["others"] for e in data["gym_vector"]] == ["vcs", "straight"]
