@@ -22,11 +22,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import noise
 from .checks import check_int, check_range
 from .state import WorldState
+from .threads import twin_kernel
 
 _ROBOT_STRIDE = np.uint64(0x9FB21C651E98DF25)  # odd: robot i draws with key + (i + 1) * stride
 _STREAM = 13
@@ -97,7 +98,7 @@ def _ray_segment(ox, oy, dx, dy, ax, ay, bx, by):
     return t
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def cast(pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range):
     """Ranges ``(B, n, k)`` [m] of the beams at ``offsets`` ``(k,)`` [rad] from every robot (module
     docstring), without noise; robots not in the world read ``max_range``."""
@@ -106,7 +107,7 @@ def cast(pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_p
     s = seg_present.shape[1]
     k = offsets.shape[0]
     out = np.full((B, n, k), max_range)
-    for b in range(B):
+    for b in prange(B):
         for i in range(n):
             if not present[b, i]:
                 continue
