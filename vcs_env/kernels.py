@@ -248,95 +248,78 @@ def observe(
         order = np.empty(total, dtype=np.int64)
         cos_h, sin_h, vel = np.empty(n), np.empty(n), np.empty((n, 2))
         for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
-            _observe_world(
-                b, out, pos, heading, speed, radius, goal, v_max, a_max, omega_max, present, obs_pos, obs_vel,
-                obs_radius, r_ca, r_goal, dt, k, ego_dim, goal_ref, sense_ref, dt_ref, v_ref, a_ref, omega_ref, r_ref,
-                gaps, order, cos_h, sin_h, vel,
-            )  # fmt: skip
+            for i in range(n):  # every robot's frame and velocity, once per world
+                cos_h[i] = math.cos(heading[b, i])
+                sin_h[i] = math.sin(heading[b, i])
+                vel[i, 0] = speed[b, i] * cos_h[i]
+                vel[i, 1] = speed[b, i] * sin_h[i]
+            for i in range(n):
+                c, s = cos_h[i], sin_h[i]
+                vx, vy = vel[i, 0], vel[i, 1]
+                px, py = pos[b, i, 0], pos[b, i, 1]
+                gx, gy = goal[b, i, 0] - px, goal[b, i, 1] - py
+                d_goal = math.sqrt(gx * gx + gy * gy)
+                o = out[b, i]
+                o[0] = _clip(speed[b, i] / v_max[b, i], -1.0, 1.0)
+                o[1] = _clip(min(d_goal / goal_ref, 1.0), -1.0, 1.0)
+                if d_goal > 1e-12:
+                    o[2] = _clip((c * gx + s * gy) / d_goal, -1.0, 1.0)
+                    o[3] = _clip((-s * gx + c * gy) / d_goal, -1.0, 1.0)
+                else:
+                    o[2] = 1.0
+                    o[3] = 0.0
+                o[4] = _clip(v_max[b, i] / v_ref, -1.0, 1.0)
+                o[5] = _clip(a_max[b, i] / a_ref, -1.0, 1.0)
+                o[6] = _clip(omega_max[b, i] / omega_ref, -1.0, 1.0)
+                o[7] = _clip(radius[b, i] / r_ref, -1.0, 1.0)
+                o[8] = _clip(r_ca / sense_ref, -1.0, 1.0)
+                o[9] = _clip(r_goal / r_ref, -1.0, 1.0)
+                o[10] = _clip(dt / dt_ref, -1.0, 1.0)
+                # Sensed objects and their gaps [m], kept sorted by (gap, index): insertion sort,
+                # cheap for the few objects within r_ca.
+                count = 0
+                for j in range(total):
+                    if j < n:
+                        if j == i or not present[b, j]:
+                            continue
+                        rx, ry, rj = pos[b, j, 0] - px, pos[b, j, 1] - py, radius[b, j]
+                    else:
+                        q = j - n
+                        rx, ry, rj = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py, obs_radius[b, q]
+                    dist = math.sqrt(rx * rx + ry * ry)
+                    if not dist <= r_ca:
+                        continue
+                    gap = dist - rj - radius[b, i]
+                    t = count
+                    while t > 0 and gaps[t - 1] > gap:
+                        gaps[t] = gaps[t - 1]
+                        order[t] = order[t - 1]
+                        t -= 1
+                    gaps[t] = gap
+                    order[t] = j
+                    count += 1
+                for t in range(min(k, count)):
+                    j = order[t]
+                    if j < n:
+                        rx, ry = pos[b, j, 0] - px, pos[b, j, 1] - py
+                        ux, uy = vel[j, 0], vel[j, 1]
+                        rj = radius[b, j]
+                    else:
+                        q = j - n
+                        rx, ry = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py
+                        ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
+                        rj = obs_radius[b, q]
+                    wx, wy = ux - vx, uy - vy
+                    base = ego_dim + 8 * t
+                    o[base] = 1.0
+                    o[base + 1] = _clip((c * rx + s * ry) / sense_ref, -1.0, 1.0)
+                    o[base + 2] = _clip((-s * rx + c * ry) / sense_ref, -1.0, 1.0)
+                    o[base + 3] = _clip((c * wx + s * wy) / (2.0 * v_ref), -1.0, 1.0)
+                    o[base + 4] = _clip((-s * wx + c * wy) / (2.0 * v_ref), -1.0, 1.0)
+                    o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
+                    o[base + 6] = _clip(gaps[t] / sense_ref, -1.0, 1.0)
+                    o[base + 7] = 1.0 if j < n else 0.0
     return out
-
-
-@njit(cache=True)
-def _observe_world(
-    b, out, pos, heading, speed, radius, goal, v_max, a_max, omega_max, present, obs_pos, obs_vel, obs_radius,
-    r_ca, r_goal, dt, k, ego_dim, goal_ref, sense_ref, dt_ref, v_ref, a_ref, omega_ref, r_ref,
-    gaps, order, cos_h, sin_h, vel,
-):  # fmt: skip
-    """World ``b`` of :func:`observe`, written into ``out[b]``, with the scratch arrays ``gaps``,
-    ``order`` ``(n + m,)``, ``cos_h``, ``sin_h`` ``(n,)`` and ``vel`` ``(n, 2)``."""
-    n = speed.shape[1]
-    total = n + obs_radius.shape[1]
-    for i in range(n):  # every robot's frame and velocity, once per world
-        cos_h[i] = math.cos(heading[b, i])
-        sin_h[i] = math.sin(heading[b, i])
-        vel[i, 0] = speed[b, i] * cos_h[i]
-        vel[i, 1] = speed[b, i] * sin_h[i]
-    for i in range(n):
-        c, s = cos_h[i], sin_h[i]
-        vx, vy = vel[i, 0], vel[i, 1]
-        px, py = pos[b, i, 0], pos[b, i, 1]
-        gx, gy = goal[b, i, 0] - px, goal[b, i, 1] - py
-        d_goal = math.sqrt(gx * gx + gy * gy)
-        o = out[b, i]
-        o[0] = _clip(speed[b, i] / v_max[b, i], -1.0, 1.0)
-        o[1] = _clip(min(d_goal / goal_ref, 1.0), -1.0, 1.0)
-        if d_goal > 1e-12:
-            o[2] = _clip((c * gx + s * gy) / d_goal, -1.0, 1.0)
-            o[3] = _clip((-s * gx + c * gy) / d_goal, -1.0, 1.0)
-        else:
-            o[2] = 1.0
-            o[3] = 0.0
-        o[4] = _clip(v_max[b, i] / v_ref, -1.0, 1.0)
-        o[5] = _clip(a_max[b, i] / a_ref, -1.0, 1.0)
-        o[6] = _clip(omega_max[b, i] / omega_ref, -1.0, 1.0)
-        o[7] = _clip(radius[b, i] / r_ref, -1.0, 1.0)
-        o[8] = _clip(r_ca / sense_ref, -1.0, 1.0)
-        o[9] = _clip(r_goal / r_ref, -1.0, 1.0)
-        o[10] = _clip(dt / dt_ref, -1.0, 1.0)
-        # Sensed objects and their gaps [m], kept sorted by (gap, index): insertion sort,
-        # cheap for the few objects within r_ca.
-        count = 0
-        for j in range(total):
-            if j < n:
-                if j == i or not present[b, j]:
-                    continue
-                rx, ry, rj = pos[b, j, 0] - px, pos[b, j, 1] - py, radius[b, j]
-            else:
-                q = j - n
-                rx, ry, rj = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py, obs_radius[b, q]
-            dist = math.sqrt(rx * rx + ry * ry)
-            if not dist <= r_ca:
-                continue
-            gap = dist - rj - radius[b, i]
-            t = count
-            while t > 0 and gaps[t - 1] > gap:
-                gaps[t] = gaps[t - 1]
-                order[t] = order[t - 1]
-                t -= 1
-            gaps[t] = gap
-            order[t] = j
-            count += 1
-        for t in range(min(k, count)):
-            j = order[t]
-            if j < n:
-                rx, ry = pos[b, j, 0] - px, pos[b, j, 1] - py
-                ux, uy = vel[j, 0], vel[j, 1]
-                rj = radius[b, j]
-            else:
-                q = j - n
-                rx, ry = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py
-                ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
-                rj = obs_radius[b, q]
-            wx, wy = ux - vx, uy - vy
-            base = ego_dim + 8 * t
-            o[base] = 1.0
-            o[base + 1] = _clip((c * rx + s * ry) / sense_ref, -1.0, 1.0)
-            o[base + 2] = _clip((-s * rx + c * ry) / sense_ref, -1.0, 1.0)
-            o[base + 3] = _clip((c * wx + s * wy) / (2.0 * v_ref), -1.0, 1.0)
-            o[base + 4] = _clip((-s * wx + c * wy) / (2.0 * v_ref), -1.0, 1.0)
-            o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
-            o[base + 6] = _clip(gaps[t] / sense_ref, -1.0, 1.0)
-            o[base + 7] = 1.0 if j < n else 0.0
 
 
 @twin_kernel(cache=True)
