@@ -8,7 +8,7 @@ import pytest
 from numba import njit
 
 import vcs_env
-from vcs_env.lidar import LidarSpec, _ray_disc, _ray_segment, cast, scan
+from vcs_env.lidar import LidarSpec, _ray_disc, _ray_segment, cast, cast_into, scan
 from vcs_env.observations import observation_bounds, observation_dim
 from vcs_env.scenario import CustomLayout, Scenario
 from vcs_env.sim import Simulator
@@ -204,5 +204,8 @@ def test_pruned_cast_equals_the_brute_force_bit_for_bit(max_range):
     )  # fmt: skip
     want = brute_cast(*args)
     assert 0 < (want < max_range).mean() < 1
-    for kernel in (cast.serial, cast.parallel, cast):
-        np.testing.assert_array_equal(kernel(*args), want)
+    for kernel in (cast_into.serial, cast_into.parallel):
+        got = np.empty_like(want)
+        kernel(*args, got, 1.0)
+        np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(cast(*args), want)

@@ -33,7 +33,13 @@ def test_set_threads_default_is_the_usable_cores():
 def test_twins_have_their_own_cache_files():
     """Numba keys its disk cache on the qualified name and line, not on ``parallel``: the parallel
     twin must carry another name or the two would load each other's machine code."""
-    for kernel in (kernels.integrate, kernels.observe, kernels.wall_events_cached, kernels.stop_at_contact, lidar.cast):
+    for kernel in (
+        kernels.integrate,
+        kernels.observe,
+        kernels.wall_events_cached,
+        kernels.stop_at_contact,
+        lidar.cast_into,
+    ):
         assert kernel.parallel.py_func.__qualname__ == kernel.serial.py_func.__qualname__ + "_parallel"
         assert kernel.parallel.targetoptions.get("parallel") and not kernel.serial.targetoptions.get("parallel")
 
@@ -96,7 +102,7 @@ def test_twins_agree_on_random_worlds(B):
     w = eng.world
     args = (w.pos, w.heading, w.present, w.radius, w.obs_pos, w.obs_radius, w.seg_a, w.seg_b, w.seg_present)
     args = (*args, s.lidar.offsets, 4.0)
-    np.testing.assert_array_equal(lidar.cast.serial(*args), lidar.cast.parallel(*args))
+    np.testing.assert_array_equal(lidar.cast(*args), _cast_parallel(*args))
     rng = np.random.default_rng(B)
     new_pos = w.pos + rng.normal(0, 0.3, w.pos.shape)
     sep, col = np.full(w.radius.shape, np.inf), np.zeros(w.radius.shape, bool)
@@ -107,3 +113,9 @@ def test_twins_agree_on_random_worlds(B):
         got.append(kernel(*motion, *cache, 0.5) + cache)
     for a, b in zip(*got):
         np.testing.assert_array_equal(a, b)
+
+
+def _cast_parallel(*args):
+    out = np.empty((*args[3].shape, args[9].shape[0]))
+    lidar.cast_into.parallel(*args, out, 1.0)
+    return out

@@ -232,8 +232,11 @@ def observe(
     a_ref,
     omega_ref,
     r_ref,
+    width,
 ):
-    """Observations ``(B, n, ego_dim + 8 k)`` float32 as documented in :mod:`vcs_env.observations`.
+    """Observations ``(B, n, width)`` float32 as documented in :mod:`vcs_env.observations`: the
+    first ``ego_dim + 8 k`` features of every robot, zeros after them (room for the optional
+    blocks, filled by the caller without a copy of the whole array).
 
     The neighbour slots hold the ``k`` sensed objects (robots still in the world, then
     obstacles, whose centres lie within ``r_ca``) with the smallest gap, ties by index (robots
@@ -242,7 +245,7 @@ def observe(
     B, n = speed.shape
     m = obs_radius.shape[1]
     total = n + m
-    out = np.zeros((B, n, ego_dim + 8 * k), dtype=np.float32)
+    out = np.zeros((B, n, width), dtype=np.float32)
     for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):  # scratch arrays per block of worlds
         gaps = np.empty(total)
         order = np.empty(total, dtype=np.int64)
