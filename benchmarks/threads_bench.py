@@ -104,6 +104,10 @@ def run(steps: int, repeats: int, batches=BATCHES, beams=BEAMS, crossover=CROSSO
         threads.MIN_PARALLEL_BATCH = old
     threads.set_threads()
     info["load_average_end"] = list(os.getloadavg())
+    import numba
+
+    info["threading_layer"] = numba.threading_layer()
+    info["omp_wait_policy"] = os.environ.get("OMP_WAIT_POLICY", "unset")
     return {"machine": info, "threads": counts, "rows": rows, "crossover": cross, "steps": steps, "repeats": repeats}
 
 
@@ -119,7 +123,8 @@ def render(res: dict) -> str:
         "",
         f"Machine: {m['cpu']}, {m['logical_cores']} logical cores, {m['usable_cores']} usable, "
         f"NUMBA_NUM_THREADS={m['numba_threads']}, {m['platform']}, Python {m['python']}, "
-        f"numba {m['packages'].get('numba')}, numpy {m['packages'].get('numpy')}. Load average (1, 5, 15 min) "
+        f"numba {m['packages'].get('numba')} (threading layer {m['threading_layer']}, OMP_WAIT_POLICY "
+        f"{m['omp_wait_policy']}), numpy {m['packages'].get('numpy')}. Load average (1, 5, 15 min) "
         f"at start {', '.join(f'{x:.2f}' for x in m['load_average'])}, at end "
         f"{', '.join(f'{x:.2f}' for x in m['load_average_end'])}: other jobs on the machine take cores from the "
         "runs at 2+ threads.",

@@ -25,9 +25,10 @@ import types
 import numba
 from numba import njit
 
-MIN_PARALLEL_BATCH = int(os.environ.get("VCS_ENV_MIN_PARALLEL_BATCH", "64"))
+MIN_PARALLEL_BATCH = int(os.environ.get("VCS_ENV_MIN_PARALLEL_BATCH", "128"))
 """Smallest batch ``B`` [worlds] stepped by the parallel twins; below it the serial ones run
-(thread start-up costs more than it saves; measured crossover, ``benchmarks/threads_bench.py``).
+(thread start-up costs more than it saves: at ``n = 3``, 2 threads break even near ``B = 128``,
+``benchmarks/THREADS.md``).
 The environment variable ``VCS_ENV_MIN_PARALLEL_BATCH`` sets it at import (1: the parallel twins
 at every ``B``, e.g. to run the determinism tests through them)."""
 
