@@ -119,3 +119,44 @@ def _cast_parallel(*args):
     out = np.empty((*args[3].shape, args[9].shape[0]))
     lidar.cast_into.parallel(*args, out, 1.0)
     return out
+
+
+FORK = """
+import multiprocessing as mp
+import numpy as np
+from vcs_env import threads
+from vcs_env.engine import NavEngine
+from vcs_env.scenario import make_scenario
+
+def work(_):
+    eng = NavEngine(make_scenario("dynamic", n_robots=3, n_obstacles=4), batch_size=8)
+    eng.reset(seeds=0)
+    for _ in range(3):
+        eng.step(np.zeros((8, 3, 2)))
+    return float(eng.world.pos.sum())
+
+if __name__ == "__main__":
+    threads.MIN_PARALLEL_BATCH = 1
+    threads.set_threads(2)
+    parent = work(0)
+    with mp.get_context("fork").Pool(2) as pool:
+        assert pool.map_async(work, range(2)).get(timeout=120) == [parent, parent]
+    import numba
+    print(numba.threading_layer())
+"""
+
+
+@TWO
+def test_forked_children_step_after_the_parent_ran_parallel_kernels(tmp_path):
+    """With numba's default layer (GNU OpenMP) a fork() child of a process that ran a parallel
+    kernel aborts and the pool hangs; vcs_env picks the fork-safe workqueue layer."""
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "fork.py"
+    script.write_text(FORK)
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600, env=env)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "workqueue"
