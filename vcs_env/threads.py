@@ -11,13 +11,14 @@ keys a dispatcher on the function's qualified name and first source line, not on
 two dispatchers of one function share (and load each other's) cache entries; the parallel twin
 is therefore a copy of the function under the name ``<name>_parallel`` (its own cache files).
 
-Threading layer: numba's ``workqueue`` unless ``NUMBA_THREADING_LAYER`` names one (set when this
-module is imported, before numba starts its pool). Numba's default would pick GNU OpenMP when
-present, which aborts every ``fork()`` child of a process that has run a parallel kernel
-("fork() called from a process already using GNU OpenMP": a multiprocessing pool or a forked
-vector env hangs) and stalls badly when other jobs share the cores. ``workqueue`` forks safely but
-must not be entered by two threads at once, so the parallel calls hold a lock (each one uses
-every thread anyway).
+Threading layer: numba's choice (GNU OpenMP, ``omp``, where present; ``NUMBA_THREADING_LAYER``
+picks another). Known hazard, not worked around: with ``omp`` every ``fork()`` child of a process
+that has already run a parallel kernel aborts ("fork() called from a process already using GNU
+OpenMP, this is unsafe"; a forked multiprocessing pool then hangs). Fork before the first batched
+step, use the ``spawn``/``forkserver`` start methods, keep the parent on :func:`set_threads` ``(1)``
+from the start (its kernels then never start OpenMP), or set ``NUMBA_THREADING_LAYER=workqueue``
+(fork-safe, but on the 2-core test machine it ran no faster on 2 threads than on 1) or ``tbb``
+(``pip install tbb``; fork- and thread-safe, not measured).
 
 The thread count is process-wide (numba's thread pool is): :func:`set_threads` (default: the
 cores this process may use, capped by ``NUMBA_NUM_THREADS``, which numba reads at import). A
@@ -28,7 +29,6 @@ call runs the serial twin when the count is 1 or the batch has fewer than
 from __future__ import annotations
 
 import os
-import threading
 import types
 
 import numba
@@ -40,11 +40,6 @@ MIN_PARALLEL_BATCH = int(os.environ.get("VCS_ENV_MIN_PARALLEL_BATCH", "128"))
 ``benchmarks/THREADS.md``).
 The environment variable ``VCS_ENV_MIN_PARALLEL_BATCH`` sets it at import (1: the parallel twins
 at every ``B``, e.g. to run the determinism tests through them)."""
-
-
-if "NUMBA_THREADING_LAYER" not in os.environ and numba.config.THREADING_LAYER == "default":
-    numba.config.THREADING_LAYER = "workqueue"  # fork-safe (module docstring)
-_lock = threading.Lock()  # workqueue is not thread-safe: one parallel kernel at a time
 
 
 def available_cores() -> int:
@@ -98,10 +93,9 @@ class TwinKernel:
     def __call__(self, *args):
         n = _threads[0]
         if n > 1 and args[0].shape[0] >= MIN_PARALLEL_BATCH:
-            with _lock:
-                if numba.get_num_threads() != n:
-                    numba.set_num_threads(n)
-                return self.parallel(*args)
+            if numba.get_num_threads() != n:
+                numba.set_num_threads(n)
+            return self.parallel(*args)
         return self.serial(*args)
 
 
