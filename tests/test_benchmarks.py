@@ -176,3 +176,15 @@ def test_rllib_section_is_rendered_from_its_json_and_replaced_in_place(tmp_path)
     rllib_bench.write_section(str(report), text)
     rllib_bench.write_section(str(report), text)
     assert report.read_text().count(rllib_bench.SECTION) == 1 and report.read_text().startswith("# R\n\n## 1. Env")
+
+
+def test_threads_bench_quick_writes_its_table(tmp_path):
+    """``python -m benchmarks.threads_bench --quick`` (issue 45) runs in a subprocess (numba's pool
+    size is fixed at import) and writes the table with the machine and the load."""
+    out = tmp_path / "THREADS.md"
+    cmd = [sys.executable, "-m", "benchmarks.threads_bench", "--quick", "--out", str(out)]
+    subprocess.run(cmd, check=True, capture_output=True, cwd=Path(__file__).resolve().parents[1])
+    text = out.read_text()
+    assert "| B | lidar beams | 1 thread [M/s]" in text and "Load average" in text and "Machine:" in text
+    res = json.loads(out.with_suffix(".json").read_text())
+    assert res["threads"][0] == 1 and res["rows"] and res["crossover"]

@@ -24,6 +24,7 @@ from .scenario import (
 )
 from .sim import Simulator, StepEvents
 from .state import WorldState
+from .threads import get_threads, set_threads
 
 __version__ = "0.2.0"
 
@@ -75,9 +76,11 @@ __all__ = [
     "VcsNavParallelEnv",
     "WorldState",
     "env",
+    "get_threads",
     "make_planner",
     "make_scenario",
     "parallel_env",
     "raw_env",
     "register_planner",
+    "set_threads",
 ]

@@ -11,7 +11,8 @@ bits except for ``atan2`` (holonomic robots' heading): numba calls the C library
 vectorized ``arctan2``, which differ by at most one unit in the last place.
 
 Kernels are compiled on first use and cached on disk (``cache=True``; ``NUMBA_CACHE_DIR`` moves
-the cache).
+the cache). The world loop is a ``prange``: each kernel is compiled serial and parallel over worlds
+(:mod:`vcs_env.threads`; results do not depend on the thread count).
 """
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+from .threads import WORLD_BLOCK, twin_kernel
 
 _PI = np.pi
 _TWO_PI = 2.0 * np.pi
@@ -58,7 +61,7 @@ def _closest_approach(sx, sy, ex, ey):
     return math.sqrt(cx * cx + cy * cy)
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def integrate(pos, heading, speed, v_max, a_max, omega_max, acted, actions, dt, holonomic, absolute):
     """New speed ``(B, n)`` [m/s], heading ``(B, n)`` [rad] and position ``(B, n, 2)`` [m] after
     one step of ``actions`` ``(B, n, 2)`` (checked finite), as :func:`vcs_env.dynamics.integrate`
@@ -68,7 +71,7 @@ def integrate(pos, heading, speed, v_max, a_max, omega_max, acted, actions, dt, 
     new_speed = np.empty((B, n))
     new_heading = np.empty((B, n))
     new_pos = np.empty((B, n, 2))
-    for b in range(B):
+    for b in prange(B):
         for i in range(n):
             if not acted[b, i]:
                 new_speed[b, i] = 0.0
@@ -123,7 +126,7 @@ def integrate(pos, heading, speed, v_max, a_max, omega_max, acted, actions, dt, 
     return new_speed, new_heading, new_pos
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def swept_events(pos, new_pos, radius, present, acted, goal, obs_pos, new_obs, obs_radius, r_goal):
     """Swept collision and goal tests of one step (straight motions from ``pos`` to ``new_pos``
     ``(B, n, 2)`` and ``obs_pos`` to ``new_obs`` ``(B, m, 2)`` [m]).
@@ -141,7 +144,7 @@ def swept_events(pos, new_pos, radius, present, acted, goal, obs_pos, new_obs, o
     min_sep = np.empty((B, n))
     before = np.empty((B, n))
     after = np.empty((B, n))
-    for b in range(B):
+    for b in prange(B):
         for i in range(n):
             px, py = pos[b, i, 0], pos[b, i, 1]
             qx, qy = new_pos[b, i, 0], new_pos[b, i, 1]
@@ -203,7 +206,7 @@ def _segment_distance(px, py, qx, qy, ax, ay, bx, by):
     return min(min(e1, e2), min(e3, e4))
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def observe(
     pos,
     heading,
@@ -229,8 +232,11 @@ def observe(
     a_ref,
     omega_ref,
     r_ref,
+    width,
 ):
-    """Observations ``(B, n, ego_dim + 8 k)`` float32 as documented in :mod:`vcs_env.observations`.
+    """Observations ``(B, n, width)`` float32 as documented in :mod:`vcs_env.observations`: the
+    first ``ego_dim + 8 k`` features of every robot, zeros after them (room for the optional
+    blocks, filled by the caller without a copy of the whole array).
 
     The neighbour slots hold the ``k`` sensed objects (robots still in the world, then
     obstacles, whose centres lie within ``r_ca``) with the smallest gap, ties by index (robots
@@ -239,86 +245,87 @@ def observe(
     B, n = speed.shape
     m = obs_radius.shape[1]
     total = n + m
-    out = np.zeros((B, n, ego_dim + 8 * k), dtype=np.float32)
-    gaps = np.empty(total)
-    order = np.empty(total, dtype=np.int64)
-    cos_h, sin_h, vel = np.empty(n), np.empty(n), np.empty((n, 2))
-    for b in range(B):
-        for i in range(n):  # every robot's frame and velocity, once per world
-            cos_h[i] = math.cos(heading[b, i])
-            sin_h[i] = math.sin(heading[b, i])
-            vel[i, 0] = speed[b, i] * cos_h[i]
-            vel[i, 1] = speed[b, i] * sin_h[i]
-        for i in range(n):
-            c, s = cos_h[i], sin_h[i]
-            vx, vy = vel[i, 0], vel[i, 1]
-            px, py = pos[b, i, 0], pos[b, i, 1]
-            gx, gy = goal[b, i, 0] - px, goal[b, i, 1] - py
-            d_goal = math.sqrt(gx * gx + gy * gy)
-            o = out[b, i]
-            o[0] = _clip(speed[b, i] / v_max[b, i], -1.0, 1.0)
-            o[1] = _clip(min(d_goal / goal_ref, 1.0), -1.0, 1.0)
-            if d_goal > 1e-12:
-                o[2] = _clip((c * gx + s * gy) / d_goal, -1.0, 1.0)
-                o[3] = _clip((-s * gx + c * gy) / d_goal, -1.0, 1.0)
-            else:
-                o[2] = 1.0
-                o[3] = 0.0
-            o[4] = _clip(v_max[b, i] / v_ref, -1.0, 1.0)
-            o[5] = _clip(a_max[b, i] / a_ref, -1.0, 1.0)
-            o[6] = _clip(omega_max[b, i] / omega_ref, -1.0, 1.0)
-            o[7] = _clip(radius[b, i] / r_ref, -1.0, 1.0)
-            o[8] = _clip(r_ca / sense_ref, -1.0, 1.0)
-            o[9] = _clip(r_goal / r_ref, -1.0, 1.0)
-            o[10] = _clip(dt / dt_ref, -1.0, 1.0)
-            # Sensed objects and their gaps [m], kept sorted by (gap, index): insertion sort,
-            # cheap for the few objects within r_ca.
-            count = 0
-            for j in range(total):
-                if j < n:
-                    if j == i or not present[b, j]:
+    out = np.zeros((B, n, width), dtype=np.float32)
+    for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):  # scratch arrays per block of worlds
+        gaps = np.empty(total)
+        order = np.empty(total, dtype=np.int64)
+        cos_h, sin_h, vel = np.empty(n), np.empty(n), np.empty((n, 2))
+        for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
+            for i in range(n):  # every robot's frame and velocity, once per world
+                cos_h[i] = math.cos(heading[b, i])
+                sin_h[i] = math.sin(heading[b, i])
+                vel[i, 0] = speed[b, i] * cos_h[i]
+                vel[i, 1] = speed[b, i] * sin_h[i]
+            for i in range(n):
+                c, s = cos_h[i], sin_h[i]
+                vx, vy = vel[i, 0], vel[i, 1]
+                px, py = pos[b, i, 0], pos[b, i, 1]
+                gx, gy = goal[b, i, 0] - px, goal[b, i, 1] - py
+                d_goal = math.sqrt(gx * gx + gy * gy)
+                o = out[b, i]
+                o[0] = _clip(speed[b, i] / v_max[b, i], -1.0, 1.0)
+                o[1] = _clip(min(d_goal / goal_ref, 1.0), -1.0, 1.0)
+                if d_goal > 1e-12:
+                    o[2] = _clip((c * gx + s * gy) / d_goal, -1.0, 1.0)
+                    o[3] = _clip((-s * gx + c * gy) / d_goal, -1.0, 1.0)
+                else:
+                    o[2] = 1.0
+                    o[3] = 0.0
+                o[4] = _clip(v_max[b, i] / v_ref, -1.0, 1.0)
+                o[5] = _clip(a_max[b, i] / a_ref, -1.0, 1.0)
+                o[6] = _clip(omega_max[b, i] / omega_ref, -1.0, 1.0)
+                o[7] = _clip(radius[b, i] / r_ref, -1.0, 1.0)
+                o[8] = _clip(r_ca / sense_ref, -1.0, 1.0)
+                o[9] = _clip(r_goal / r_ref, -1.0, 1.0)
+                o[10] = _clip(dt / dt_ref, -1.0, 1.0)
+                # Sensed objects and their gaps [m], kept sorted by (gap, index): insertion sort,
+                # cheap for the few objects within r_ca.
+                count = 0
+                for j in range(total):
+                    if j < n:
+                        if j == i or not present[b, j]:
+                            continue
+                        rx, ry, rj = pos[b, j, 0] - px, pos[b, j, 1] - py, radius[b, j]
+                    else:
+                        q = j - n
+                        rx, ry, rj = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py, obs_radius[b, q]
+                    dist = math.sqrt(rx * rx + ry * ry)
+                    if not dist <= r_ca:
                         continue
-                    rx, ry, rj = pos[b, j, 0] - px, pos[b, j, 1] - py, radius[b, j]
-                else:
-                    q = j - n
-                    rx, ry, rj = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py, obs_radius[b, q]
-                dist = math.sqrt(rx * rx + ry * ry)
-                if not dist <= r_ca:
-                    continue
-                gap = dist - rj - radius[b, i]
-                t = count
-                while t > 0 and gaps[t - 1] > gap:
-                    gaps[t] = gaps[t - 1]
-                    order[t] = order[t - 1]
-                    t -= 1
-                gaps[t] = gap
-                order[t] = j
-                count += 1
-            for t in range(min(k, count)):
-                j = order[t]
-                if j < n:
-                    rx, ry = pos[b, j, 0] - px, pos[b, j, 1] - py
-                    ux, uy = vel[j, 0], vel[j, 1]
-                    rj = radius[b, j]
-                else:
-                    q = j - n
-                    rx, ry = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py
-                    ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
-                    rj = obs_radius[b, q]
-                wx, wy = ux - vx, uy - vy
-                base = ego_dim + 8 * t
-                o[base] = 1.0
-                o[base + 1] = _clip((c * rx + s * ry) / sense_ref, -1.0, 1.0)
-                o[base + 2] = _clip((-s * rx + c * ry) / sense_ref, -1.0, 1.0)
-                o[base + 3] = _clip((c * wx + s * wy) / (2.0 * v_ref), -1.0, 1.0)
-                o[base + 4] = _clip((-s * wx + c * wy) / (2.0 * v_ref), -1.0, 1.0)
-                o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
-                o[base + 6] = _clip(gaps[t] / sense_ref, -1.0, 1.0)
-                o[base + 7] = 1.0 if j < n else 0.0
+                    gap = dist - rj - radius[b, i]
+                    t = count
+                    while t > 0 and gaps[t - 1] > gap:
+                        gaps[t] = gaps[t - 1]
+                        order[t] = order[t - 1]
+                        t -= 1
+                    gaps[t] = gap
+                    order[t] = j
+                    count += 1
+                for t in range(min(k, count)):
+                    j = order[t]
+                    if j < n:
+                        rx, ry = pos[b, j, 0] - px, pos[b, j, 1] - py
+                        ux, uy = vel[j, 0], vel[j, 1]
+                        rj = radius[b, j]
+                    else:
+                        q = j - n
+                        rx, ry = obs_pos[b, q, 0] - px, obs_pos[b, q, 1] - py
+                        ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
+                        rj = obs_radius[b, q]
+                    wx, wy = ux - vx, uy - vy
+                    base = ego_dim + 8 * t
+                    o[base] = 1.0
+                    o[base + 1] = _clip((c * rx + s * ry) / sense_ref, -1.0, 1.0)
+                    o[base + 2] = _clip((-s * rx + c * ry) / sense_ref, -1.0, 1.0)
+                    o[base + 3] = _clip((c * wx + s * wy) / (2.0 * v_ref), -1.0, 1.0)
+                    o[base + 4] = _clip((-s * wx + c * wy) / (2.0 * v_ref), -1.0, 1.0)
+                    o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
+                    o[base + 6] = _clip(gaps[t] / sense_ref, -1.0, 1.0)
+                    o[base + 7] = 1.0 if j < n else 0.0
     return out
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def arbitrary_velocity(heading, speed, rates, period, t, dt):
     """:class:`vcs_env.obstacles.Arbitrary` motion: turn every obstacle's ``heading`` ``(B, m)``
     [rad] (updated in place) at the rate ``rates`` ``(B, m, P)`` [rad/s] of the period that
@@ -327,7 +334,7 @@ def arbitrary_velocity(heading, speed, rates, period, t, dt):
     B, m = heading.shape
     last = rates.shape[2] - 1
     vel = np.empty((B, m, 2))
-    for b in range(B):
+    for b in prange(B):
         for q in range(m):
             k = min(max(np.int64(math.floor(t[b] / period[b, q] + 1e-9)), 0), last)
             h = heading[b, q] + rates[b, q, k] * dt
@@ -337,7 +344,7 @@ def arbitrary_velocity(heading, speed, rates, period, t, dt):
     return vel
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def bounce(obs_pos, vel, obs_radius, half, dt):
     """Arena walls at ``+-half`` [m]: reverse each velocity component ``(B, m, 2)`` [m/s] that
     would carry its disc through a wall during the step. Returns the new velocities and the
@@ -345,7 +352,7 @@ def bounce(obs_pos, vel, obs_radius, half, dt):
     B, m = obs_radius.shape
     out = np.empty((B, m, 2))
     flip = np.zeros((B, m, 2), dtype=np.bool_)
-    for b in range(B):
+    for b in prange(B):
         for q in range(m):
             r = obs_radius[b, q]
             for d in range(2):
@@ -357,13 +364,13 @@ def bounce(obs_pos, vel, obs_radius, half, dt):
     return out, flip
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def commit(active, present, reached_ever, collided_ever, speed, reached, collided, terminate, park):
     """End of a step, in place on the world's ``(B, n)`` arrays: record the step's ``reached``
     and ``collided`` events; robots that arrived (or crashed, with ``terminate``) stop being
     active and get speed 0 [m/s]; without ``park`` they also leave the world (``present``)."""
     B, n = active.shape
-    for b in range(B):
+    for b in prange(B):
         for i in range(n):
             reached_ever[b, i] |= reached[b, i]
             collided_ever[b, i] |= collided[b, i]
@@ -390,6 +397,7 @@ def on_disk(*kernels) -> bool:
     import os
 
     for kernel in kernels:
+        kernel = getattr(kernel, "serial", kernel)  # a TwinKernel: its serial twin (the B = 1 envs')
         index = getattr(getattr(getattr(kernel, "_cache", None), "_cache_file", None), "_index_path", None)
         if index is None or not os.path.exists(index):
             return False

@@ -22,11 +22,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from . import noise
 from .checks import check_int, check_range
 from .state import WorldState
+from .threads import WORLD_BLOCK, twin_kernel
 
 _ROBOT_STRIDE = np.uint64(0x9FB21C651E98DF25)  # odd: robot i draws with key + (i + 1) * stride
 _STREAM = 13
@@ -97,39 +98,101 @@ def _ray_segment(ox, oy, dx, dy, ax, ay, bx, by):
     return t
 
 
-@njit(cache=True)
 def cast(pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range):
     """Ranges ``(B, n, k)`` [m] of the beams at ``offsets`` ``(k,)`` [rad] from every robot (module
-    docstring), without noise; robots not in the world read ``max_range``."""
+    docstring), without noise; robots not in the world read ``max_range``: :func:`cast_into`."""
+    out = np.empty((*radius.shape, offsets.shape[0]))
+    cast_into(
+        pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range, out, 1.0
+    )
+    return out
+
+
+@twin_kernel(cache=True)
+def cast_into(
+    pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range, out, scale
+):
+    """:func:`cast`'s ranges divided by ``scale`` [m] written into ``out`` ``(B, n, k)`` (any float
+    dtype, e.g. float32 columns of the observation: no temporary array).
+
+    Pruned, exact: per robot, only the discs and wall segments that come within ``max_range``
+    (plus a slack over rounding: 1e-6 relative, 1e-9 m) of its centre are tested beam by beam
+    (:func:`_cast_robot`); the others can only give ranges above ``max_range``, which the ``min``
+    with ``max_range`` drops. Every range equals the brute force's (every beam against every
+    body, ``tests/test_lidar.py``) bit for bit."""
     B, n = radius.shape
     m = obs_radius.shape[1]
     s = seg_present.shape[1]
-    k = offsets.shape[0]
-    out = np.full((B, n, k), max_range)
-    for b in range(B):
-        for i in range(n):
-            if not present[b, i]:
+    for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):  # scratch arrays per block of worlds
+        disc = np.empty((n + m, 3))  # candidate discs: centre relative to the robot [m], |c|^2 - rho^2 [m^2]
+        segs = np.empty(s, dtype=np.int64)  # candidate segments
+        for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
+            for i in range(n):
+                if present[b, i]:
+                    _cast_robot(
+                        b, i, pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present,
+                        offsets, max_range, out, scale, disc, segs,
+                    )  # fmt: skip
+                else:
+                    out[b, i, :] = max_range / scale
+
+
+@njit(cache=True)
+def _cast_robot(
+    b, i, pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range, out,
+    scale, disc, segs,
+):  # fmt: skip
+    """Beams of robot ``i`` of world ``b`` into ``out[b, i]`` (:func:`cast_into`), with the scratch
+    arrays ``disc`` ``(n + m, 3)`` and ``segs`` ``(s,)``. The per-beam arithmetic is
+    :func:`_ray_disc`'s and :func:`_ray_segment`'s, operation for operation."""
+    n, m, s = radius.shape[1], obs_radius.shape[1], seg_present.shape[1]
+    ox, oy = pos[b, i, 0], pos[b, i, 1]
+    # A body farther than this is met beyond max_range: the slack covers the rounding of the ranges
+    # but for a beam within 1e-10 rad of a wall's direction, whose range has relative error > 1e-6.
+    reach = max_range * (1.0 + 1e-6) + 1e-9
+    nd = 0
+    for j in range(n + m):
+        if j < n:
+            if j == i or not present[b, j]:
                 continue
-            ox, oy = pos[b, i, 0], pos[b, i, 1]
-            for q in range(k):
-                a = heading[b, i] + offsets[q]
-                dx, dy = math.cos(a), math.sin(a)
-                best = max_range
-                for j in range(n):
-                    if j != i and present[b, j]:
-                        best = min(best, _ray_disc(ox, oy, dx, dy, pos[b, j, 0], pos[b, j, 1], radius[b, j]))
-                for j in range(m):
-                    best = min(best, _ray_disc(ox, oy, dx, dy, obs_pos[b, j, 0], obs_pos[b, j, 1], obs_radius[b, j]))
-                for j in range(s):
-                    if seg_present[b, j]:
-                        best = min(
-                            best,
-                            _ray_segment(
-                                ox, oy, dx, dy, seg_a[b, j, 0], seg_a[b, j, 1], seg_b[b, j, 0], seg_b[b, j, 1]
-                            ),
-                        )
-                out[b, i, q] = best
-    return out
+            cx, cy, rho = pos[b, j, 0], pos[b, j, 1], radius[b, j]
+        else:
+            cx, cy, rho = obs_pos[b, j - n, 0], obs_pos[b, j - n, 1], obs_radius[b, j - n]
+        px, py = cx - ox, cy - oy
+        c = px * px + py * py - rho * rho
+        if c <= 0.0:  # inside a disc: every beam reads 0
+            out[b, i, :] = 0.0 / scale
+            return
+        if math.sqrt(px * px + py * py) - rho > reach:
+            continue
+        disc[nd, 0], disc[nd, 1], disc[nd, 2] = px, py, c
+        nd += 1
+    ns = 0
+    for j in range(s):
+        if seg_present[b, j]:
+            ax, ay = seg_a[b, j, 0] - ox, seg_a[b, j, 1] - oy
+            ex, ey = seg_b[b, j, 0] - seg_a[b, j, 0], seg_b[b, j, 1] - seg_a[b, j, 1]
+            dd = ex * ex + ey * ey
+            t = min(max(-(ax * ex + ay * ey) / dd if dd > 0.0 else 0.0, 0.0), 1.0)
+            qx, qy = ax + t * ex, ay + t * ey
+            if qx * qx + qy * qy <= reach * reach:  # the segment's nearest point is in range
+                segs[ns] = j
+                ns += 1
+    for q in range(offsets.shape[0]):
+        a = heading[b, i] + offsets[q]
+        dx, dy = math.cos(a), math.sin(a)
+        best = max_range
+        for j in range(nd):  # without branches (a beam's hits are unpredictable): selects
+            bb = disc[j, 0] * dx + disc[j, 1] * dy
+            dsc = bb * bb - disc[j, 2]
+            t = bb - math.sqrt(max(dsc, 0.0))
+            best = min(best, t if (bb > 0.0) & (dsc >= 0.0) else np.inf)
+        for j in range(ns):
+            k = segs[j]
+            best = min(
+                best, _ray_segment(ox, oy, dx, dy, seg_a[b, k, 0], seg_a[b, k, 1], seg_b[b, k, 0], seg_b[b, k, 1])
+            )
+        out[b, i, q] = best / scale
 
 
 def scan(world: WorldState, spec: LidarSpec) -> np.ndarray:
@@ -148,6 +211,19 @@ def scan(world: WorldState, spec: LidarSpec) -> np.ndarray:
     return ranges
 
 
+def write_observation(out: np.ndarray, world: WorldState, spec: LidarSpec) -> None:
+    """:func:`observation_block` written into ``out`` ``(B, n, n_beams)`` (e.g. the observation's
+    lidar columns); without noise straight from the kernel (:func:`cast_into`)."""
+    if spec.noise > 0.0:
+        out[...] = observation_block(world, spec)
+        return
+    cast_into(
+        world.pos, world.heading, world.present, world.radius, world.obs_pos, world.obs_radius,
+        world.seg_a, world.seg_b, world.seg_present, spec.offsets, float(spec.max_range), out, float(spec.max_range),
+    )  # fmt: skip
+
+
 def observation_block(world: WorldState, spec: LidarSpec) -> np.ndarray:
     """The scan as observed: ``range / max_range`` ``(B, n, n_beams)`` float32 in ``[0, 1]``."""
-    return (scan(world, spec) / spec.max_range).astype(np.float32)
+    ranges = scan(world, spec)
+    return np.divide(ranges, spec.max_range, out=ranges).astype(np.float32)  # no temporary

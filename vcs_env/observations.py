@@ -188,9 +188,15 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
         world.pos, world.heading, world.speed, world.radius, world.goal, world.v_max, world.a_max,
         world.omega_max, world.present, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
         world.r_goal, world.dt, scenario.n_neighbors, EGO_DIM, GOAL_REF, SENSE_REF, DT_REF, V_REF, A_REF,
-        OMEGA_REF, R_REF,
+        OMEGA_REF, R_REF, observation_dim(scenario),
     )  # fmt: skip
-    return _optional_blocks(obs, world, scenario)
+    at = EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM  # the optional blocks, written in place
+    if scenario.lidar is not None:
+        lidar.write_observation(obs[..., at : at + scenario.lidar.n_beams], world, scenario.lidar)
+        at += scenario.lidar.n_beams
+    if scenario.n_wall_points:
+        obs[..., at:] = wall_points_block(world, scenario.n_wall_points)
+    return obs
 
 
 def wall_points_block(world: WorldState, k: int) -> np.ndarray:

@@ -21,9 +21,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .kernels import _closest_approach, _segment_distance
+from .threads import WORLD_BLOCK, twin_kernel
 
 
 @njit(cache=True, inline="always")
@@ -142,7 +143,7 @@ TOUCH = 1e-9
 """[m] a crashed robot touches every body it is within this gap of over its (stopped) motion."""
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def stop_at_contact(
     pos, new_pos, radius, present, acted, obs_pos, new_obs, obs_radius, seg_a, seg_b, seg_present, redo
 ):
@@ -161,34 +162,48 @@ def stop_at_contact(
     hits = np.zeros((B, n, total), dtype=np.bool_)
     collided = np.zeros((B, n), dtype=np.bool_)
     min_sep = np.full((B, n), np.inf)
-    none = np.zeros(0, dtype=np.bool_)
-    times, partner = np.empty(n), np.empty(n, dtype=np.int64)
-    for b in range(B):
-        if not redo[b]:
-            continue
-        for i in range(n):
-            if not (acted[b, i] and present[b, i]):
-                d[b, i, 0] = d[b, i, 1] = 0.0  # stands
-        for _ in range(n):  # each round stops at least one robot
-            best = np.inf
-            for i in range(n):
-                times[i] = np.inf
-                if acted[b, i] and present[b, i] and not collided[b, i]:
-                    times[i], partner[i], _ = _first_contact(
-                        b, i, pos, d, stop, radius, present, obs_pos, obs_d, obs_radius, seg_a, seg_b, seg_present, none
-                    )
-                    best = min(best, times[i])
-            if not best <= 1.0:
-                break
-            for i in range(n):
-                if times[i] == best:  # the earliest contacts: stop there (and the moving robot touched)
-                    for k in (i, partner[i]):
-                        if k >= 0 and acted[b, k] and present[b, k] and not collided[b, k]:
-                            stop[b, k], collided[b, k] = best, True
-        for i in range(n):
-            if acted[b, i] and present[b, i]:
-                row = hits[b, i] if collided[b, i] else none
-                min_sep[b, i] = _first_contact(
-                    b, i, pos, d, stop, radius, present, obs_pos, obs_d, obs_radius, seg_a, seg_b, seg_present, row
-                )[2]
+    for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):  # scratch arrays per block of worlds
+        times, partner = np.empty(n), np.empty(n, dtype=np.int64)
+        for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
+            if redo[b]:
+                _stop_world(
+                    b, pos, d, acted, present, radius, obs_pos, obs_d, obs_radius, seg_a, seg_b, seg_present,
+                    stop, hits, collided, min_sep, times, partner,
+                )  # fmt: skip
     return stop, hits, collided, min_sep
+
+
+@njit(cache=True)
+def _stop_world(
+    b, pos, d, acted, present, radius, obs_pos, obs_d, obs_radius, seg_a, seg_b, seg_present,
+    stop, hits, collided, min_sep, times, partner,
+):  # fmt: skip
+    """World ``b`` of :func:`stop_at_contact`, written into its outputs (and ``d``: robots that
+    stand get motion 0), with the scratch arrays ``times``, ``partner`` ``(n,)``."""
+    n = radius.shape[1]
+    none = np.zeros(0, dtype=np.bool_)
+    for i in range(n):
+        if not (acted[b, i] and present[b, i]):
+            d[b, i, 0] = d[b, i, 1] = 0.0  # stands
+    for _ in range(n):  # each round stops at least one robot
+        best = np.inf
+        for i in range(n):
+            times[i] = np.inf
+            if acted[b, i] and present[b, i] and not collided[b, i]:
+                times[i], partner[i], _ = _first_contact(
+                    b, i, pos, d, stop, radius, present, obs_pos, obs_d, obs_radius, seg_a, seg_b, seg_present, none
+                )
+                best = min(best, times[i])
+        if not best <= 1.0:
+            break
+        for i in range(n):
+            if times[i] == best:  # the earliest contacts: stop there (and the moving robot touched)
+                for k in (i, partner[i]):
+                    if k >= 0 and acted[b, k] and present[b, k] and not collided[b, k]:
+                        stop[b, k], collided[b, k] = best, True
+    for i in range(n):
+        if acted[b, i] and present[b, i]:
+            row = hits[b, i] if collided[b, i] else none
+            min_sep[b, i] = _first_contact(
+                b, i, pos, d, stop, radius, present, obs_pos, obs_d, obs_radius, seg_a, seg_b, seg_present, row
+            )[2]

@@ -9,9 +9,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .kernels import _clip, _closest_approach, _det
+from .threads import WORLD_BLOCK, twin_kernel
 
 
 @njit(cache=True, inline="always")
@@ -66,7 +67,7 @@ def wall_events(pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present,
     )
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def wall_events_cached(
     pos, new_pos, radius, present, acted, seg_a, seg_b, seg_present, sep, collided, ball, order, dist, count, reach
 ):
@@ -99,66 +100,67 @@ def wall_events_cached(
     hits = np.zeros((B, n, s), dtype=np.bool_)
     out = sep.copy()
     hit_any = collided.copy()
-    d2 = np.empty(s)
-    for b in range(B):
-        for i in range(n):
-            if not (acted[b, i] and present[b, i]):
-                continue
-            px, py, qx, qy = pos[b, i, 0], pos[b, i, 1], new_pos[b, i, 0], new_pos[b, i, 1]
-            r = radius[b, i]
-            cx, cy, R = ball[b, i, 0], ball[b, i, 1], ball[b, i, 2]
-            dp = (px - cx) * (px - cx) + (py - cy) * (py - cy)
-            dq = (qx - cx) * (qx - cx) + (qy - cy) * (qy - cy)
-            if R >= 0.0 and r <= ball[b, i, 3] and dp <= R * R and dq <= R * R:
-                moved = math.sqrt(max(dp, dq))  # the motion lies in the ball of this radius around c
-            else:  # a new ball at the motion's midpoint: scan every segment
-                cx, cy = 0.5 * (px + qx), 0.5 * (py + qy)
-                moved = 0.5 * math.sqrt((qx - px) * (qx - px) + (qy - py) * (qy - py))
-                R = max(reach, moved)
-                d2min = np.inf
-                for k in range(s):
-                    d2[k] = np.inf
-                    if seg_present[b, k]:
-                        sx, sy = seg_a[b, k, 0] - cx, seg_a[b, k, 1] - cy
-                        dx, dy = seg_b[b, k, 0] - seg_a[b, k, 0], seg_b[b, k, 1] - seg_a[b, k, 1]
-                        dd = dx * dx + dy * dy
-                        t = _clip(-(sx * dx + sy * dy) / dd if dd > 0.0 else 0.0, 0.0, 1.0)
-                        ex, ey = sx + t * dx, sy + t * dy
-                        d2[k] = ex * ex + ey * ey
-                        d2min = min(d2min, d2[k])
-                keep = max(math.sqrt(d2min) + 2.0 * R, r + R) + 1e-9
-                c = 0
-                for k in range(s):
-                    if seg_present[b, k] and d2[k] <= keep * keep:  # insert k, sorted by distance
-                        d = math.sqrt(d2[k])
-                        j = c
-                        while j > 0 and dist[b, i, j - 1] > d:
-                            dist[b, i, j], order[b, i, j] = dist[b, i, j - 1], order[b, i, j - 1]
-                            j -= 1
-                        dist[b, i, j], order[b, i, j] = d, k
-                        c += 1
-                count[b, i] = c
-                ball[b, i, 0], ball[b, i, 1], ball[b, i, 2], ball[b, i, 3] = cx, cy, R, r
-            best = out[b, i]
-            mx, my = 0.5 * (px + qx), 0.5 * (py + qy)
-            h = 0.5 * math.sqrt((qx - px) * (qx - px) + (qy - py) * (qy - py))
-            for j in range(count[b, i]):
-                if dist[b, i, j] > max(best, 0.0) + 1e-9 + moved + r:
-                    break  # this one and the farther ones cannot touch nor lower best
-                k = order[b, i, j]
-                sx, sy = seg_a[b, k, 0] - mx, seg_a[b, k, 1] - my
-                dx, dy = seg_b[b, k, 0] - seg_a[b, k, 0], seg_b[b, k, 1] - seg_a[b, k, 1]
-                dd = dx * dx + dy * dy
-                t = _clip(-(sx * dx + sy * dy) / dd if dd > 0.0 else 0.0, 0.0, 1.0)
-                ex, ey = sx + t * dx, sy + t * dy
-                reach_k = max(best, 0.0) + 1e-9 + h + r
-                if ex * ex + ey * ey > reach_k * reach_k:
-                    continue  # by the distance from the motion's midpoint, as above
-                ax, ay, bx, by = seg_a[b, k, 0], seg_a[b, k, 1], seg_b[b, k, 0], seg_b[b, k, 1]
-                gap = _swept_wall_distance(px, py, qx, qy, ax, ay, bx, by, mx, my, h) - r
-                best = min(best, gap)
-                if gap < 0.0:
-                    hits[b, i, k] = True
-                    hit_any[b, i] = True
-            out[b, i] = best
+    for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):  # a scratch array per block of worlds
+        d2 = np.empty(s)
+        for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
+            for i in range(n):
+                if not (acted[b, i] and present[b, i]):
+                    continue
+                px, py, qx, qy = pos[b, i, 0], pos[b, i, 1], new_pos[b, i, 0], new_pos[b, i, 1]
+                r = radius[b, i]
+                cx, cy, R = ball[b, i, 0], ball[b, i, 1], ball[b, i, 2]
+                dp = (px - cx) * (px - cx) + (py - cy) * (py - cy)
+                dq = (qx - cx) * (qx - cx) + (qy - cy) * (qy - cy)
+                if R >= 0.0 and r <= ball[b, i, 3] and dp <= R * R and dq <= R * R:
+                    moved = math.sqrt(max(dp, dq))  # the motion lies in the ball of this radius around c
+                else:  # a new ball at the motion's midpoint: scan every segment
+                    cx, cy = 0.5 * (px + qx), 0.5 * (py + qy)
+                    moved = 0.5 * math.sqrt((qx - px) * (qx - px) + (qy - py) * (qy - py))
+                    R = max(reach, moved)
+                    d2min = np.inf
+                    for k in range(s):
+                        d2[k] = np.inf
+                        if seg_present[b, k]:
+                            sx, sy = seg_a[b, k, 0] - cx, seg_a[b, k, 1] - cy
+                            dx, dy = seg_b[b, k, 0] - seg_a[b, k, 0], seg_b[b, k, 1] - seg_a[b, k, 1]
+                            dd = dx * dx + dy * dy
+                            t = _clip(-(sx * dx + sy * dy) / dd if dd > 0.0 else 0.0, 0.0, 1.0)
+                            ex, ey = sx + t * dx, sy + t * dy
+                            d2[k] = ex * ex + ey * ey
+                            d2min = min(d2min, d2[k])
+                    keep = max(math.sqrt(d2min) + 2.0 * R, r + R) + 1e-9
+                    c = 0
+                    for k in range(s):
+                        if seg_present[b, k] and d2[k] <= keep * keep:  # insert k, sorted by distance
+                            d = math.sqrt(d2[k])
+                            j = c
+                            while j > 0 and dist[b, i, j - 1] > d:
+                                dist[b, i, j], order[b, i, j] = dist[b, i, j - 1], order[b, i, j - 1]
+                                j -= 1
+                            dist[b, i, j], order[b, i, j] = d, k
+                            c += 1
+                    count[b, i] = c
+                    ball[b, i, 0], ball[b, i, 1], ball[b, i, 2], ball[b, i, 3] = cx, cy, R, r
+                best = out[b, i]
+                mx, my = 0.5 * (px + qx), 0.5 * (py + qy)
+                h = 0.5 * math.sqrt((qx - px) * (qx - px) + (qy - py) * (qy - py))
+                for j in range(count[b, i]):
+                    if dist[b, i, j] > max(best, 0.0) + 1e-9 + moved + r:
+                        break  # this one and the farther ones cannot touch nor lower best
+                    k = order[b, i, j]
+                    sx, sy = seg_a[b, k, 0] - mx, seg_a[b, k, 1] - my
+                    dx, dy = seg_b[b, k, 0] - seg_a[b, k, 0], seg_b[b, k, 1] - seg_a[b, k, 1]
+                    dd = dx * dx + dy * dy
+                    t = _clip(-(sx * dx + sy * dy) / dd if dd > 0.0 else 0.0, 0.0, 1.0)
+                    ex, ey = sx + t * dx, sy + t * dy
+                    reach_k = max(best, 0.0) + 1e-9 + h + r
+                    if ex * ex + ey * ey > reach_k * reach_k:
+                        continue  # by the distance from the motion's midpoint, as above
+                    ax, ay, bx, by = seg_a[b, k, 0], seg_a[b, k, 1], seg_b[b, k, 0], seg_b[b, k, 1]
+                    gap = _swept_wall_distance(px, py, qx, qy, ax, ay, bx, by, mx, my, h) - r
+                    best = min(best, gap)
+                    if gap < 0.0:
+                        hits[b, i, k] = True
+                        hit_any[b, i] = True
+                out[b, i] = best
     return hits, out, hit_any
