@@ -86,8 +86,7 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
     A field the config sets that cannot change the scenario's episodes (``jitter`` on a kind
     that does not read it, an obstacle setting without obstacles) is a ``ValueError``; ``check``
     limits that test to the fields named (mixtures: an entry's own fields, not the common flags).
-    Without ``max_steps``, the time limit grows with a layout grown past its preset's; notes say so.
-    """
+    Without ``max_steps``, the time limit grows with a layout grown past its preset's; notes say so."""
     if cfg.shaping not in SHAPING:
         raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
     over: dict[str, Any] = _overrides(cfg)
@@ -98,9 +97,10 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
     if weights:
         over["rewards"] = weights
     given = over if check is None else {k: v for k, v in over.items() if k in check}
-    scenario = _check_applies(make_scenario(scenario_base(cfg.scenario), **over), given)
+    base = scenario_base(cfg.scenario)
+    scenario = _check_applies(make_scenario(base, **over), given)
     if cfg.max_steps is None:  # a grown layout, a grown limit
-        scenario, note = fit_time_limit(scenario, scenario_base(cfg.scenario))
+        scenario, note = fit_time_limit(scenario, base)
     else:
         note = short_time_limit(scenario)
     if note:

@@ -18,6 +18,7 @@ the cache). The world loop is a ``prange``: each kernel is compiled serial and p
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from numba import njit, prange
@@ -394,8 +395,6 @@ def on_disk(*kernels) -> bool:
     already, so that the first call loads it instead of compiling it (which takes tens of
     seconds for the whole simulator and planner). An index file written for older sources counts
     as present: the first call then still recompiles."""
-    import os
-
     for kernel in kernels:
         kernel = getattr(kernel, "serial", kernel)  # a TwinKernel: its serial twin (the B = 1 envs')
         index = getattr(getattr(getattr(kernel, "_cache", None), "_cache_file", None), "_index_path", None)

@@ -250,8 +250,8 @@ class Scenario:
     """Episode length limit in steps (truncation)."""
     on_collision: str = "terminate"
     """``terminate``: a robot that touches anything stops where it first touched (swept) and its
-    episode ends; ``continue``: it
-    keeps driving (for evaluating planners), every contact step is still reported."""
+    episode ends; ``continue``: it keeps driving (for evaluating planners), every contact step is
+    still reported."""
     park_finished: bool = True
     """Robots that arrived (or crashed) stay in the world as static obstacles; if False they
     leave the world (no collisions, not observed)."""
