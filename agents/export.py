@@ -15,8 +15,10 @@ exactly what its ``predict(obs, deterministic=True)`` returns:
 :func:`export_onnx` traces it into ``OUT.onnx`` at opset :data:`OPSET` (one input ``observation``
 ``(batch, D)``, one output ``action`` ``(batch, 2)``, the batch size free) and writes ``OUT.json`` beside
 it (:func:`layout`): the observation config (version, sizes, scales), the action's meaning, the opset and
-the checkpoint's run record, scenario included. A safety shield named by the record (:mod:`agents.shield`)
-is not in the ONNX file: the file holds the network alone, the JSON says so and a note is printed.
+the checkpoint's run record, scenario included. A residual policy's file holds the network's correction
+and the JSON its rule (``residual``: planner, scale, how the two add up, :mod:`agents.residual`). A safety
+shield named by the record (:mod:`agents.shield`) is not in the ONNX file: the file holds the network
+alone, the JSON says so and a note is printed.
 
 torch, onnx and onnxruntime are imported when a checkpoint is exported, not before.
 """
@@ -33,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from .fits import CheckpointError
+from .residual import RULE, Residual
 
 OPSET = 17
 """The ONNX opset every export uses (recorded in the JSON beside the file)."""
@@ -141,6 +144,7 @@ def layout(checkpoint, dim: int, opset: int, note: str | None) -> dict[str, Any]
     import torch
 
     record = checkpoint.record
+    residual = Residual.of(record.get("config", {}))
     return {
         "format": LAYOUT_FORMAT,
         "version": LAYOUT_VERSION,
@@ -158,6 +162,9 @@ def layout(checkpoint, dim: int, opset: int, note: str | None) -> dict[str, Any]
         "observation_dim": dim,
         "shield": record.get("shield"),
         "shield_note": note,
+        "residual": None
+        if residual is None
+        else {"planner": residual.planner, "scale": residual.scale, "action": RULE, "network_action": OUTPUT},
         "checkpoint": {"format": checkpoint.format, "path": str(checkpoint.path)},
         "exported_with": {"torch": torch.__version__, "onnx": onnx.__version__},
         "record": record,
@@ -200,6 +207,13 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
             "the network only: apply the shield (agents.shield) yourself to get the shielded policy"
         )
         print(f"note: {note}", file=sys.stderr)
+    residual = Residual.of(checkpoint.record.get("config", {}))
+    if residual is not None:
+        print(
+            f"note: a residual policy: the ONNX file's action corrects the {residual.planner} planner's; the robot's "
+            f"action is {RULE} with scale {residual.scale} (the JSON's 'residual')",
+            file=sys.stderr,
+        )
     path.parent.mkdir(parents=True, exist_ok=True)
     example = torch.zeros(2, dim, dtype=torch.float32)  # not 1: no size-1 broadcast baked into the graph
     obs = np.random.default_rng(0).uniform(space.low, space.high, size=(CHECK_ROWS, dim)).astype(np.float32)

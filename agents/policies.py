@@ -11,7 +11,10 @@ Accepted (:func:`resolve_policy`):
   that are not active are ignored);
 * a checkpoint of any format (:func:`agents.checkpoint.open_checkpoint`: an SB3 ``.zip`` or run
   directory, an RLlib checkpoint or run directory), loaded on the CPU; a checkpoint whose run record
-  names a shield (:mod:`agents.shield`) runs with it unless ``shield=False``.
+  names a shield (:mod:`agents.shield`) runs with it unless ``shield=False``; one trained with
+  ``--residual PLANNER`` runs as a :class:`ResidualPolicy` (the planner's action plus the network's
+  bounded correction);
+* a :class:`ResidualPolicy` (a predictor and the planner it corrects).
 
 No torch or stable-baselines3 import at import time; loading a checkpoint does, inside
 :func:`load_checkpoint` (through :meth:`agents.checkpoint.Checkpoint.load`).
@@ -33,6 +36,7 @@ from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 
 from .checkpoint import Checkpoint, check_observation_space, find_checkpoint, open_checkpoint
+from .residual import Residual, ResidualPolicy
 from .shield import ShieldedPredictor, shield_from_record
 
 
@@ -48,6 +52,8 @@ class ResolvedPolicy:
     """``planner``, ``predictor`` or ``checkpoint``."""
     shield: dict[str, float] | None = None
     """Parameters of the safety shield a checkpoint runs with (:mod:`agents.shield`), or None."""
+    residual: Residual | None = None
+    """The planner a residual policy corrects and the correction's bound, or None."""
 
 
 def policy_label(spec: str) -> str:
@@ -159,6 +165,9 @@ def resolve_policy(
     """
     if isinstance(policy, Planner):
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
+    if isinstance(policy, ResidualPolicy):
+        inner = resolve_policy(policy.predictor, scenario, action_mode, deterministic, name, shield)
+        return _residual(inner, policy.residual, action_mode)
     if is_checkpoint_spec(policy):
         ckpt = open_checkpoint(policy)
         if action_mode != "delta" and ckpt.record:  # vcs-env train, bc and rllib act in delta mode
@@ -166,10 +175,12 @@ def resolve_policy(
                 f"{str(policy)!r} was trained by vcs-env (run record {ckpt.record_path.name}), whose policies act in "
                 f"delta mode; --action-mode {action_mode} would read its actions in other units"
             )
-        model = load_checkpoint(ckpt, scenario, shield)
+        residual = Residual.of(ckpt.record.get("config", {}))
+        model = load_checkpoint(ckpt, scenario, shield and residual is None)
         label = name or policy_label(str(policy))
         guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
-        return ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint", guard)
+        resolved = ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint", guard)
+        return resolved if residual is None else _residual(resolved, residual, action_mode)
     if isinstance(policy, str):
         planner = make_planner(policy)
         return ResolvedPolicy(name or policy, planner_controller(planner, action_mode), "planner")
@@ -179,7 +190,14 @@ def resolve_policy(
             check_observation_space(policy.observation_space, scenario, f"policy {label!r}")
         return ResolvedPolicy(str(label), predictor_controller(policy, deterministic, str(label)), "predictor")
     raise ValueError(
-        "a policy must be a planner name, a vcs_env.planning.Planner, an object with an SB3-style "
+        "a policy must be a planner name, a vcs_env.planning.Planner, a ResidualPolicy, an object with an SB3-style "
         f"predict(observation, state, episode_start, deterministic) method, or a checkpoint path; got "
         f"{type(policy).__name__}"
     )
+
+
+def _residual(network: ResolvedPolicy, residual: Residual, action_mode: str) -> ResolvedPolicy:
+    """``network`` (its controller gives the correction) as the residual policy over its planner."""
+    if action_mode != "delta":
+        raise ValueError(f"a residual policy corrects delta-mode actions; --action-mode {action_mode} is not one")
+    return dataclasses.replace(network, controller=residual.controller(network.controller), residual=residual)

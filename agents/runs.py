@@ -89,6 +89,16 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """Stop an update's epochs early when the approximate KL exceeds this (None: never)."""
     init: str | None = None
     """Checkpoint (e.g. from vcs-env bc) whose policy weights start the run (same net_arch)."""
+    residual: str | None = None
+    """A residual policy: the network's action is a bounded correction added to this planner's
+    (vcs, or another registered planner): clip(planner + residual_scale * network, -1, 1). Its action
+    head starts at zero, so the untrained policy is the planner; evaluate, compare and export run the
+    two together (agents.residual.Residual). SB3 only."""
+    residual_scale: float = 0.5
+    """Largest correction of a residual policy per action component (units of the action range)."""
+    shaping_anneal: int = 0
+    """Anneal the --shaping term: its weight falls linearly from its value at step 0 to 0 at this many
+    timesteps and stays 0 after (set before each rollout); 0 keeps it constant."""
     out: str = "runs/ppo"
     """Run directory (model.zip, model.json, checkpoints/, eval.jsonl, tb/)."""
     eval_freq: int = 100_000
@@ -154,9 +164,11 @@ RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not
 
 FIXED_ON_RESUME = (
     "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",
-    "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl",
+    "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl", "residual",
+    "residual_scale",
 )  # fmt: skip
-"""Fields a resumed run keeps from its checkpoint (the network and the PPO settings in the model)."""
+"""Fields a resumed run keeps from its checkpoint (the network, the PPO settings in the model and what
+its actions mean)."""
 
 
 def check_run(cfg: TrainConfig) -> None:

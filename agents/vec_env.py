@@ -61,6 +61,8 @@ from vcs_env.scenario import Scenario
 from vcs_env.spaces import action_space, observation_space
 from vcs_env.start_states import StartStates
 
+from .residual import Residual
+
 
 class SharedSlots(VecEnv):
     """SB3 ``VecEnv`` plumbing for a VecEnv whose slots are all one object: attribute access and
@@ -110,6 +112,8 @@ class NavVecEnv(SharedSlots):
         max_steps: overrides ``scenario.max_steps``.
         start_states: pools of saved states; a world of a scenario with a pool starts, with the
             pools' probability, from one of them (:mod:`vcs_env.start_states`).
+        residual: the slots' actions correct the actions of ``residual.planner`` (then the expert,
+            which ``expert`` may only name again); delta mode only.
     """
 
     def __init__(
@@ -121,9 +125,18 @@ class NavVecEnv(SharedSlots):
         gamma: float = 0.99,
         max_steps: int | None = None,
         start_states: StartStates | None = None,
+        residual: Residual | None = None,
     ):
         if isinstance(n_worlds, bool) or not isinstance(n_worlds, (int, np.integer)) or n_worlds < 1:
             raise ValueError(f"n_worlds must be an integer >= 1, got {n_worlds!r}")
+        if residual is not None:
+            if action_mode != "delta":
+                raise ValueError(f"a residual policy corrects delta-mode actions, not action_mode={action_mode!r}")
+            named = getattr(expert, "name", expert)
+            if named not in (None, residual.planner):
+                raise ValueError(f"the expert of a residual policy is its planner {residual.planner!r}, not {named!r}")
+            expert = expert or residual.planner
+        self.residual = residual
         self.scenario = scenario
         self.engine = NavEngine(
             scenario, int(n_worlds), action_mode, expert, gamma=gamma, max_steps=max_steps, start_states=start_states
@@ -206,6 +219,8 @@ class NavVecEnv(SharedSlots):
         live_before = self._live.copy()
         # Padding rows: the engine ignores inactive robots, but NaN from a policy must not reach it.
         actions = np.where(live_before[..., None], self._actions, 0.0)
+        if self.residual is not None:
+            actions = self.residual.actions(self.engine.expert_action, actions)
         self._actions = None
         res = self.engine.step(actions, autoreset=True)
         ended = res.ended  # (B,) worlds reset this step
@@ -312,7 +327,7 @@ class MixtureVecEnv(SharedSlots):
         balance: ``"worlds"`` (each scenario the same number of worlds, up to one) or ``"robots"``
             (each about the same number of robots, so a one-robot crowd world is not outweighed
             24 to 1 by a 24-robot circle in every rollout).
-        action_mode, expert, gamma, max_steps, start_states: as :class:`NavVecEnv`.
+        action_mode, expert, gamma, max_steps, start_states, residual: as :class:`NavVecEnv`.
     """
 
     def __init__(
@@ -325,6 +340,7 @@ class MixtureVecEnv(SharedSlots):
         max_steps: int | None = None,
         balance: str = "worlds",
         start_states: StartStates | None = None,
+        residual: Residual | None = None,
     ):
         scenarios = list(scenarios)
         if not scenarios:
@@ -332,7 +348,7 @@ class MixtureVecEnv(SharedSlots):
         counts = mixture_world_counts([s.n_robots for s in scenarios], n_worlds, balance)
         self.scenarios = scenarios
         self.groups = [
-            NavVecEnv(s, c, action_mode, expert=expert, gamma=gamma, max_steps=max_steps, start_states=start_states)
+            NavVecEnv(s, c, action_mode, expert, gamma, max_steps, start_states, residual)
             for s, c in zip(scenarios, counts)
         ]
         configs = [observation_config(g.engine.scenario) for g in self.groups]

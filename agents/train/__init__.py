@@ -41,6 +41,7 @@ from vcs_env.suites import get_suite
 
 from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_model
 from ..config import build_scenario, config_command, mixture_scenarios, print_suite_differences
+from ..residual import Residual
 from ..runs import TrainConfig, check_run, jsonable, policy_kwargs, scenario_family
 from .periodic import PeriodicEval
 
@@ -92,9 +93,10 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
         check_int(name, getattr(cfg, name), 0, 10**12)
 
 
-def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: PeriodicEval):
+def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: PeriodicEval, anneal=None):
     """SB3's callback of a run: robot-level rates of the training episodes, periodic evaluation
-    (``periodic``, and ``best_model.zip`` when it improves), periodic checkpoints."""
+    (``periodic``, and ``best_model.zip`` when it improves), periodic checkpoints, and the annealed
+    shaping weight (``anneal``, :func:`shaping_schedule`) set before each rollout."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     scenario, family = scenarios[0], scenario_family(scenarios)
@@ -123,6 +125,8 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
         def _on_rollout_start(self) -> None:
             # Called after the previous update, so the evaluated policy includes it.
             self.num_timesteps = self.model.num_timesteps
+            if anneal is not None:
+                self.logger.record("train/shaping_weight", anneal(self.training_env, self.num_timesteps))
             if cfg.eval_freq > 0 and self.num_timesteps - self.last_eval >= cfg.eval_freq:
                 self.last_eval = self.num_timesteps
                 self.evaluate()
@@ -142,6 +146,55 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
             return True
 
     return RunCallback()
+
+
+def residual_of(cfg: TrainConfig) -> Residual | None:
+    """The residual a run trains (``--residual``), or None; a one-line ``ValueError`` when its
+    planner cannot give what the run's shaping needs (the VCS expert)."""
+    residual = Residual.of(cfg)
+    if residual is not None and cfg.shaping != "none" and residual.planner != "vcs":
+        raise ValueError(
+            f"--shaping {cfg.shaping} needs the VCS expert, and a residual's expert is its planner: "
+            f"--residual {residual.planner} would attach {residual.planner}"
+        )
+    return residual
+
+
+def shaping_weight_at(weight: float, anneal: int, timesteps: int) -> float:
+    """The weight of an annealed shaping term after ``timesteps`` steps: ``weight`` falling linearly to 0
+    at ``anneal`` timesteps, 0 after; ``weight`` itself when ``anneal`` is 0 (no annealing)."""
+    return weight if anneal <= 0 else weight * max(0.0, 1.0 - timesteps / anneal)
+
+
+def shaping_schedule(cfg: TrainConfig, scenario):
+    """``set(venv, timesteps) -> weight`` that sets the annealed shaping weight in every engine of
+    ``venv``, or None when the run does not anneal; a one-line ``ValueError`` for an anneal without
+    shaping."""
+    check_int("shaping_anneal", cfg.shaping_anneal, 0, 10**12)
+    if cfg.shaping_anneal == 0:
+        return None
+    if cfg.shaping == "none":
+        raise ValueError("--shaping-anneal anneals the --shaping term; give one (vcs_imitation or vcs_potential)")
+    name, weight = cfg.shaping, scenario.rewards.as_dict()[cfg.shaping]
+
+    def set_weight(venv, timesteps: int) -> float:
+        w = shaping_weight_at(weight, cfg.shaping_anneal, timesteps)
+        for group in getattr(venv, "groups", [venv]):
+            group.engine.weights[name] = w
+        return w
+
+    return set_weight
+
+
+def zero_action_head(model) -> None:
+    """Zero the weights and bias of an SB3 policy's action head: its mean action is then exactly 0
+    for every observation (an untrained residual is its planner, bit for bit); the gradients still
+    flow (they scale with the features)."""
+    import torch
+
+    with torch.no_grad():
+        model.policy.action_net.weight.zero_()
+        model.policy.action_net.bias.zero_()
 
 
 def start_states(cfg: TrainConfig, scenarios) -> StartStates | None:
@@ -174,6 +227,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     scenario = scenarios[0]
     print_suite_differences(scenarios)
     check_ppo_settings(cfg)
+    residual, anneal = residual_of(cfg), shaping_schedule(cfg, scenario)
     if cfg.mixture_balance not in ("worlds", "robots"):
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
@@ -192,9 +246,12 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.time()
     if len(scenarios) == 1:
-        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma, start_states=starts)
+        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma, start_states=starts, residual=residual)
     else:
-        venv = MixtureVecEnv(scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance, start_states=starts)
+        venv = MixtureVecEnv(
+            scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance, start_states=starts,
+            residual=residual,
+        )  # fmt: skip
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
         model = resume.load(scenario, env=venv)
@@ -204,6 +261,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     else:
         kwargs = ppo_kwargs(cfg, scenario.n_neighbors)
         model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
+        if residual is not None:
+            zero_action_head(model)
         if init:
             meta = load_policy_weights(model, init, scenario)
             print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
@@ -212,11 +271,13 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     periodic = PeriodicEval(cfg, scenarios, out, t_start)
     if resume:
         periodic.restore(model.num_timesteps)
-    callback = _callback(cfg, scenarios, out, t_start, periodic)
+    callback = _callback(cfg, scenarios, out, t_start, periodic, anneal)
     what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
     what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
     print(
-        f"training {what} shaping={cfg.shaping}: {venv.num_envs} slots, {remaining} timesteps -> {out}",
+        f"training {what} shaping={cfg.shaping}"
+        + (f" residual={residual.planner} (scale {residual.scale})" if residual else "")
+        + f": {venv.num_envs} slots, {remaining} timesteps -> {out}",
         flush=True,
     )
     rollout = model.n_steps * venv.num_envs

@@ -21,6 +21,7 @@ from vcs_env.scenario import Scenario
 
 from ..evaluate import evaluate, scalar_results, score_scenarios
 from ..policies import predictor_controller
+from ..residual import Residual, ResidualPolicy
 from ..runs import TrainConfig, jsonable
 
 BEST_KEY = ((1, "episode_success"), (1, "robot_success"), (-1, "robot_collision"), (-1, "time_to_goal"))
@@ -48,6 +49,8 @@ class PeriodicEval:
         self.seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
         self.history: list[dict[str, Any]] = []
         self.best: tuple[float, ...] | None = None
+        self.residual = Residual.of(cfg)
+        """The planner a residual policy corrects (``--residual``), evaluated together with it."""
         self.improved = False
         """Whether the last evaluation was the best so far."""
 
@@ -68,7 +71,11 @@ class PeriodicEval:
         """Evaluate ``predictor`` (an SB3-style ``PolicyPredictor``) after ``timesteps`` steps of
         training; ``log(name, value)`` records ``eval/*`` and ``suite/*`` (e.g. SB3's logger)."""
         cfg, t0 = self.cfg, time.time()
-        res = scalar_results(score_scenarios(predictor_controller(predictor), self.scenarios, self.seeds))
+        controller = predictor_controller(predictor)
+        if self.residual is not None:
+            controller = self.residual.controller(controller)
+            predictor = ResidualPolicy(predictor, self.residual)
+        res = scalar_results(score_scenarios(controller, self.scenarios, self.seeds))
         suite = ""
         if cfg.eval_suite:
             summary = evaluate(predictor, cfg.eval_suite, progress=False).summary

@@ -1,0 +1,172 @@
+"""The expert as a guide.
+
+Residual policies (``vcs-env train --residual PLANNER``, :mod:`agents.residual`): the training VecEnv
+drives the planner's action plus the network's bounded correction, an untrained residual is its
+planner bit for bit in the harness, and the rule travels with the checkpoint (evaluate, export).
+Annealed shaping (``--shaping-anneal``): the weight reaches zero at its step."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3", reason="the train extra (pip install 'vcs-env[train]')")
+
+from agents.checkpoint import save_model  # noqa: E402
+from agents.config import build_scenario  # noqa: E402
+from agents.evaluate import evaluate, scalar_results, score_scenarios  # noqa: E402
+from agents.policies import resolve_policy  # noqa: E402
+from agents.residual import Residual, ResidualPolicy  # noqa: E402
+from agents.runs import RLlibConfig, TrainConfig, policy_kwargs  # noqa: E402
+from agents.train import residual_of, train, zero_action_head  # noqa: E402
+from agents.vec_env import NavVecEnv  # noqa: E402
+from vcs_env.scenario import make_scenario  # noqa: E402
+
+SUITE = "circle-8-v0-smoke"
+
+
+def same(a, b) -> bool:
+    """Bit-for-bit equal episode rows but their timing (NaN equal to NaN)."""
+    try:
+        np.testing.assert_equal(
+            *([{k: v for k, v in r.items() if k != "compute_per_decision"} for r in x] for x in (a, b))
+        )
+    except AssertionError:
+        return False
+    return True
+
+
+def _model(scenario, residual, zero: bool):
+    import torch
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)
+    env = NavVecEnv(scenario, 1, residual=residual)
+    model = PPO(
+        "MlpPolicy", env, device="cpu", seed=0, policy_kwargs=policy_kwargs(TrainConfig(), scenario.n_neighbors)
+    )
+    if zero:
+        zero_action_head(model)
+    return model
+
+
+def test_the_training_env_drives_the_planners_action_plus_the_bounded_correction():
+    scenario = make_scenario("circle", n_robots=4)
+    scale = 0.3
+    residual_env = NavVecEnv(scenario, 2, residual=Residual("vcs", scale))
+    plain_env = NavVecEnv(scenario, 2, expert="vcs")  # the oracle: the rule written out by hand
+    for env in (residual_env, plain_env):
+        env.seed(7)
+    obs_r, obs_p = residual_env.reset(), plain_env.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        a = rng.uniform(-1.5, 1.5, size=(plain_env.num_envs, 2))  # beyond the action range: clipped first
+        expert = plain_env.engine.expert_action.reshape(-1, 2)
+        by_hand = np.clip(expert + scale * np.clip(a, -1, 1), -1, 1)
+        residual_env.step_async(a)
+        plain_env.step_async(by_hand)
+        (obs_r, rew_r, done_r, _), (obs_p, rew_p, done_p, _) = residual_env.step_wait(), plain_env.step_wait()
+        np.testing.assert_array_equal(obs_r, obs_p)
+        np.testing.assert_array_equal(rew_r, rew_p)
+        np.testing.assert_array_equal(done_r, done_p)
+    # ... and a correction does move the robots: zero and non-zero corrections differ.
+    zero_env = NavVecEnv(scenario, 2, residual=Residual("vcs", scale))
+    zero_env.seed(7)
+    zero_env.reset()
+    residual_env.seed(7)
+    residual_env.reset()
+    for env, a in ((zero_env, 0.0), (residual_env, 1.0)):
+        env.step_async(np.full((env.num_envs, 2), a))
+    assert not np.array_equal(zero_env.step_wait()[0], residual_env.step_wait()[0])
+
+
+def test_an_untrained_residual_is_its_planner_bit_for_bit(tmp_path):
+    scenario = make_scenario("circle", n_robots=8)
+    cfg = TrainConfig(residual="vcs")
+    path = save_model(_model(scenario, Residual.of(cfg), zero=True), tmp_path / "res" / "model", "ppo", cfg, scenario)
+    expert = evaluate("vcs", SUITE, progress=False)
+    untrained = evaluate(str(path), SUITE, progress=False)
+    assert same(untrained.rows, expert.rows) and untrained.summary["success"]["mean"] > 0.5
+    assert resolve_policy(str(path), scenario).residual == Residual("vcs", 0.5)
+    # The ablation: SB3's own initial action head (small, not zero) is not the planner.
+    cfg_raw = TrainConfig(residual="vcs")
+    raw = save_model(_model(scenario, Residual.of(cfg_raw), zero=False), tmp_path / "raw" / "model", "ppo", cfg_raw,
+                     scenario)  # fmt: skip
+    assert not same(evaluate(str(raw), SUITE, progress=False).rows, expert.rows)
+    # The network alone (no residual in its record) is not the planner either.
+    alone = save_model(_model(scenario, None, zero=True), tmp_path / "alone" / "model", "ppo", TrainConfig(), scenario)
+    assert not same(evaluate(str(alone), SUITE, progress=False).rows, expert.rows)
+    # A ResidualPolicy object runs the same pair.
+    model = _model(scenario, Residual("vcs"), zero=True)
+    assert same(evaluate(ResidualPolicy(model, Residual("vcs")), SUITE, progress=False).rows, expert.rows)
+
+
+def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, capsys):
+    cfg = TrainConfig(
+        scenario="circle", n_robots=4, residual="vcs", residual_scale=0.25, n_worlds=2, n_steps=32, batch_size=64,
+        n_epochs=1, timesteps=256, eval_freq=0, eval_episodes=2, checkpoint_freq=0, progress_bar=False,
+        tensorboard=False, out=str(tmp_path / "run"),
+    )  # fmt: skip
+    res = train(cfg)
+    assert "residual=vcs (scale 0.25)" in capsys.readouterr().out
+    record = json.loads((tmp_path / "run" / "model.json").read_text())
+    assert record["config"]["residual"] == "vcs" and record["config"]["residual_scale"] == 0.25
+    # The final periodic evaluation ran the pair: the harness gives the checkpoint the same score.
+    resolved = resolve_policy(res["model"], make_scenario("circle", n_robots=4))
+    assert resolved.residual == Residual("vcs", 0.25)
+    seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
+    again = scalar_results(score_scenarios(resolved.controller, [make_scenario("circle", n_robots=4)], seeds))
+    assert same([again], [{k: res["evaluation"][k] for k in again}])
+    pytest.importorskip("onnxruntime", reason="the export extra")
+    from agents.checkpoint import open_checkpoint
+
+    _, side = open_checkpoint(res["model"]).export_onnx(tmp_path / "res.onnx")
+    rule = json.loads(side.read_text())["residual"]
+    assert rule["planner"] == "vcs" and rule["scale"] == 0.25 and "planner_action" in rule["action"]
+    assert "a residual policy" in capsys.readouterr().err
+
+
+def test_bad_residual_input_gets_one_line_errors():
+    with pytest.raises(ValueError, match="--residual 'nope': a residual corrects the actions of a planner, one of"):
+        Residual.of(TrainConfig(residual="nope"))
+    with pytest.raises(ValueError, match=r"--residual-scale must be in \(0, 2\]"):
+        Residual("vcs", 0.0)
+    with pytest.raises(ValueError, match="--shaping vcs_imitation needs the VCS expert.*--residual orca"):
+        residual_of(TrainConfig(residual="orca", shaping="vcs_imitation"))
+    assert residual_of(TrainConfig(residual="orca")) == Residual("orca", 0.5)
+    with pytest.raises(ValueError, match="the expert of a residual policy is its planner 'vcs', not 'orca'"):
+        NavVecEnv(make_scenario("circle", n_robots=2), 1, expert="orca", residual=Residual("vcs"))
+    with pytest.raises(ValueError, match="corrects delta-mode actions"):
+        NavVecEnv(make_scenario("circle", n_robots=2), 1, action_mode="absolute", residual=Residual("vcs"))
+    pytest.importorskip("ray.rllib", reason="the rllib extra")
+    from agents.train.rllib import check_config
+
+    with pytest.raises(ValueError, match="--residual vcs applies to the SB3 backend only"):
+        check_config(RLlibConfig(residual="vcs"))
+
+
+def test_an_annealed_shaping_weight_reaches_zero_at_its_step():
+    from agents.train import shaping_schedule, shaping_weight_at
+
+    assert [shaping_weight_at(0.2, 1000, t) for t in (0, 500, 1000, 5000)] == [0.2, 0.1, 0.0, 0.0]
+    assert shaping_weight_at(0.2, 0, 10**9) == 0.2  # no annealing
+    cfg = TrainConfig(scenario="circle", n_robots=4, shaping="vcs_imitation", shaping_anneal=1000)
+    scenario = build_scenario(cfg)
+    anneal = shaping_schedule(cfg, scenario)
+    # In the env: at its step the shaped reward is the unshaped one; before it, it is not.
+    unshaped = NavVecEnv(build_scenario(TrainConfig(scenario="circle", n_robots=4)), 2)
+    for t, equal in ((999, False), (1000, True)):
+        shaped = NavVecEnv(scenario, 2)
+        assert anneal(shaped, t) == shaping_weight_at(0.1, 1000, t)
+        rewards = []
+        for env in (shaped, unshaped):
+            env.seed(3)
+            env.reset()
+            env.step_async(np.full((env.num_envs, 2), 0.7))  # not the expert's action: imitation costs
+            rewards.append(env.step_wait()[1])
+        assert np.array_equal(*rewards) == equal
+    assert shaping_schedule(TrainConfig(shaping="vcs_imitation"), scenario) is None
+    with pytest.raises(ValueError, match="--shaping-anneal anneals the --shaping term; give one"):
+        shaping_schedule(TrainConfig(shaping_anneal=1000), scenario)
