@@ -35,7 +35,7 @@ pytestmark = pytest.mark.slow  # notebooks / Ray clusters / training: minutes, n
 RAY = str(Path(sys.executable).with_name("ray"))
 RAY_LOG_LINE = re.compile(r"^\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+\s+(ERROR|WARNING|INFO) \S+\.py:\d+ -- ")
 VCS_ENV = str(Path(sys.executable).with_name("vcs-env"))
-# The test cluster's own token (not ~/.ray/auth_token): every process of it and its driver share it.
+# Drivers outside the cluster fixture: a token of their own, never a ~/.ray/auth_token of the machine.
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "RAY_USAGE_STATS_ENABLED": "0", "PYTHONUNBUFFERED": "1"}
 ENV.update(RAY_AUTH_MODE="token", RAY_AUTH_TOKEN=secrets.token_hex(32))
 LOOPBACK = LOCAL_NODE_IP  # Ray would swap 127.0.0.1 for the machine's network address
@@ -218,14 +218,16 @@ def _kill_leftovers(marker: str) -> None:
 class Cluster:
     """Raylets of one Ray cluster on a loopback address, each a ``ray start --block`` process."""
 
-    def __init__(self):
+    def __init__(self, env: dict[str, str] = ENV):
+        self.env = env
+        """The environment of its raylets and of every driver that joins it (one auth mode)."""
         self.temp = tempfile.mkdtemp(prefix="vr", dir="/tmp")  # short: Ray's socket paths have a length limit
         self.port = free_port()
         self.address = f"{LOOPBACK}:{self.port}"
         self.procs: list[subprocess.Popen] = []
         self.log = open(Path(self.temp) / "ray_start.log", "w")
 
-    def start(self, head: bool, env: dict[str, str] = ENV) -> None:
+    def start(self, head: bool, env: dict[str, str] | None = None) -> None:
         cmd = [RAY, "start", f"--node-ip-address={LOOPBACK}", "--num-cpus=1", "--block", "--disable-usage-stats"]
         cmd += [f"--temp-dir={self.temp}", f"--dashboard-agent-listen-port={free_port()}"]
         cmd += [f"--metrics-export-port={free_port()}", f"--runtime-env-agent-port={free_port()}"]
@@ -234,7 +236,9 @@ class Cluster:
             cmd += [f"--ray-client-server-port={free_port()}"]
         else:
             cmd += [f"--address={self.address}"]
-        self.procs.append(subprocess.Popen(cmd, stdout=self.log, stderr=self.log, start_new_session=True, env=env))
+        self.procs.append(
+            subprocess.Popen(cmd, stdout=self.log, stderr=self.log, start_new_session=True, env=env or self.env)
+        )
 
     def wait_for_nodes(self, n: int) -> None:
         wait = (
@@ -243,7 +247,7 @@ class Cluster:
             f"while sum(n['Alive'] for n in ray.nodes()) < {n} and time.time() - t < 60: time.sleep(0.5)\n"
             f"sys.exit(0 if sum(n['Alive'] for n in ray.nodes()) == {n} else 1)"
         )
-        res = _run(self.address, code=wait, timeout=120)
+        res = _run(self.address, code=wait, timeout=120, env=self.env)
         assert res.returncode == 0, f"the cluster did not reach {n} nodes: " + res.stderr[-2000:] + self.log_text()
 
     def log_text(self) -> str:
@@ -270,9 +274,9 @@ class Cluster:
         self.log.close()
         subprocess.run(["rm", "-rf", self.temp], check=False)
 
-    def up(self, env: dict[str, str] = ENV) -> Cluster:
+    def up(self) -> Cluster:
         """Start a head and a second raylet (1 CPU each) and wait until both are alive."""
-        self.start(head=True, env=env)
+        self.start(head=True)
         deadline = time.time() + 60
         while True:
             try:
@@ -282,43 +286,63 @@ class Cluster:
                 if time.time() > deadline or self.procs[0].poll() is not None:
                     raise RuntimeError("no Ray head: " + (Path(self.temp) / "ray_start.log").read_text()) from None
                 time.sleep(0.5)
-        self.start(head=False, env=env)
+        self.start(head=False)
         self.wait_for_nodes(2)
         return self
 
 
+def laptop_env(home: Path) -> dict[str, str]:
+    """A user's environment: no RAY_AUTH_* set, and ``home`` as HOME (where Ray 2.60 wrote its token)."""
+    return {k: v for k, v in ENV.items() if not k.startswith("RAY_AUTH")} | {"HOME": str(home)}
+
+
 @pytest.fixture(scope="module")
-def ray_cluster():
-    """Two raylets (1 CPU each) on a loopback address with their own temp dir and token."""
-    cluster = Cluster()
+def ray_cluster(tmp_path_factory):
+    """Two raylets (1 CPU each) on a loopback address with their own temp dir, started as README's
+    cluster path does on a user's machine (:func:`laptop_env`, a HOME of its own)."""
+    cluster = Cluster(laptop_env(tmp_path_factory.mktemp("home")))
     try:
         yield cluster.up()
     finally:
         cluster.stop()
 
 
-def test_train_on_a_two_node_cluster_and_evaluate_the_checkpoint(ray_cluster, tmp_path):
+def test_a_laptop_run_leaves_no_token_and_a_two_node_cluster_resumes_it(ray_cluster, tmp_path):
+    """Ray 2.60 wrote ~/.ray/auth_token on the first local run; every `ray start --head` then
+    required it, and the second raylet and the driver (no RAY_AUTH_* set) failed to authenticate.
+    Now the local run leaves no token, and README's cluster path works after it: ``--address``
+    continues the local run, killed mid-way, from its newest checkpoint on two raylets with two env
+    runners, evaluates periodically, and the harness loads the checkpoint."""
     from agents.checkpoint import CheckpointError, load_model
     from agents.evaluate import evaluate
 
+    env, home = ray_cluster.env, Path(ray_cluster.env["HOME"])
     out = tmp_path / "run"
-    args = ["train", "--backend", "rllib", "--address", ray_cluster.address, "--num-env-runners", "2"]
-    args += ["--scenario", "circle", "--n-robots", "4", "--n-worlds", "2", "--n-steps", "16", "--batch-size", "64"]
-    args += ["--n-epochs", "2", "--timesteps", "600", "--eval-freq", "200", "--eval-episodes", "2"]
-    args += ["--eval-suite", "circle-8-v0-smoke", "--out", str(out)]
-    res = _run(*args, timeout=240)
+    small = ["--scenario", "circle", "--n-robots", "4", "--n-worlds", "2", "--n-steps", "16", "--batch-size", "64"]
+    small += ["--n-epochs", "2", "--eval-freq", "0", "--eval-episodes", "2", "--checkpoint-freq", "128"]
+    res = _run("train", "--backend", "rllib", "--num-env-runners", "0", *small, "--timesteps", "256", "--out", str(out),
+               env=env, timeout=300)  # fmt: skip
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
+    assert not (home / ".ray" / "auth_token").exists()
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["checkpoint_128"]
+    subprocess.run(["rm", "-rf", str(out / "checkpoint")], check=True)  # killed before its end
+
+    more = ["--address", ray_cluster.address, "--num-env-runners", "2", "--timesteps", "600", "--eval-freq", "200"]
+    more += ["--eval-suite", "circle-8-v0-smoke"]
+    res = _run("train", "--resume", str(out), *more, env=env, timeout=300)
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    newest = out / "checkpoints" / "checkpoint_128"
+    assert f"its newest checkpoint is {newest} (128 timesteps)" in res.stdout, res.stdout
     assert "ray cluster: 2 nodes, 2 CPUs" in res.stdout, res.stdout
     ckpt = out / "checkpoint"
     meta = json.loads((ckpt / "vcs_env.json").read_text())
     assert meta["kind"] == "rllib_ppo" and meta["num_timesteps"] >= 600
-    assert (
-        meta["command"].startswith("vcs-env train --backend rllib")
-        and f"--address {ray_cluster.address}" in meta["command"]
-    )
+    assert meta["command"].startswith("vcs-env train --backend rllib")
+    assert f"--address {ray_cluster.address}" in meta["command"]
     assert json.loads((out / "config.json").read_text())["num_env_runners"] == 2
     evals = [json.loads(line) for line in (out / "eval.jsonl").read_text().splitlines()]
     assert len(evals) >= 2 and evals[-1]["timesteps"] == meta["num_timesteps"]
+    assert all(e["timesteps"] > 128 for e in evals)  # the abandoned branch's evaluation at 256 is gone
     assert all(0 <= e["suite"]["success"] <= 1 and 0 <= e["episode_collision"] <= 1 for e in evals)
 
     # The harness loads it like an SB3 checkpoint, on another robot count (same observation layout).
@@ -338,9 +362,10 @@ def test_a_node_without_the_package_is_named(ray_cluster, tmp_path):
     blocker = tmp_path / "site"
     blocker.mkdir()
     (blocker / "sitecustomize.py").write_text("import sys\nsys.modules['vcs_env'] = None\n")
-    ray_cluster.start(head=False, env={**ENV, "PYTHONPATH": str(blocker)})
+    ray_cluster.start(head=False, env={**ray_cluster.env, "PYTHONPATH": str(blocker)})
     ray_cluster.wait_for_nodes(3)
-    res = _run("train", "--backend", "rllib", "--address", ray_cluster.address, "--out", str(tmp_path / "run"))
+    res = _run("train", "--backend", "rllib", "--address", ray_cluster.address, "--out", str(tmp_path / "run"),
+               env=ray_cluster.env)  # fmt: skip
     # Ray's own logger may add timestamped lines (a worker torn down at exit); ours is the one other.
     ours = [line for line in res.stderr.splitlines() if not RAY_LOG_LINE.match(line)]
     errors = [line for line in ours if "error" in line.lower()]
@@ -361,35 +386,3 @@ def test_ray_auth_mode_of_a_run(tmp_path, monkeypatch):
     assert auth_mode(joining=False) == "disabled" and auth_mode(joining=True) == "token"
     monkeypatch.setenv("RAY_AUTH_MODE", "token")
     assert auth_mode(joining=False) == "token"
-
-
-def test_a_laptop_run_leaves_no_token_and_a_two_raylet_cluster_resumes_it(tmp_path):
-    """Ray 2.60 wrote ~/.ray/auth_token on the first local run; every `ray start --head` then
-    required it, and the second raylet and the driver (no RAY_AUTH_* set) failed to authenticate.
-    Now the local run leaves no token, and README's cluster path works after it: a head, a second
-    raylet and ``--address`` continue the local run, killed mid-way, from its newest checkpoint."""
-    home = tmp_path / "home"
-    home.mkdir()
-    env = {k: v for k, v in ENV.items() if not k.startswith("RAY_AUTH")} | {"HOME": str(home)}
-    out = tmp_path / "run"
-    small = ["--scenario", "circle", "--n-robots", "4", "--n-worlds", "2", "--n-steps", "16", "--batch-size", "64"]
-    small += ["--n-epochs", "1", "--eval-freq", "0", "--eval-episodes", "2", "--checkpoint-freq", "128"]
-    res = _run("train", "--backend", "rllib", "--num-env-runners", "0", *small, "--timesteps", "256", "--out", str(out),
-               env=env, timeout=300)  # fmt: skip
-    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    assert not (home / ".ray" / "auth_token").exists()
-    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == ["checkpoint_128"]
-    subprocess.run(["rm", "-rf", str(out / "checkpoint")], check=True)  # killed before its end
-    cluster = Cluster()
-    try:
-        cluster.up(env)
-        res = _run("train", "--resume", str(out), "--address", cluster.address, "--timesteps", "384", env=env,
-                   timeout=300)  # fmt: skip
-    finally:
-        cluster.stop()
-    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-2000:]
-    newest = out / "checkpoints" / "checkpoint_128"
-    assert f"its newest checkpoint is {newest} (128 timesteps)" in res.stdout, res.stdout
-    assert "ray cluster: 2 nodes, 2 CPUs" in res.stdout, res.stdout
-    meta = json.loads((out / "checkpoint" / "vcs_env.json").read_text())
-    assert meta["num_timesteps"] >= 384 and f"--address {cluster.address}" in meta["command"]
