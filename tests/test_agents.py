@@ -254,16 +254,21 @@ def test_cli_modules_do_not_import_torch():
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
 
-def vcs_env_cli(command: str, cwd, expect: int = 0) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "vcs_cli", *command.split()]
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, timeout=120)
-    assert proc.returncode == expect, proc.stdout + proc.stderr
-    return proc
-
-
 @pytest.mark.slow
-def test_smoke_collect_bc_train_resume(tmp_path):
-    """Tiny budgets end to end: expert data -> BC + 1 DAgger round -> PPO from BC -> resume."""
+def test_smoke_collect_bc_train_resume(tmp_path, monkeypatch, capsys):
+    """Tiny budgets end to end: expert data -> BC + 1 DAgger round -> PPO from BC -> resume
+    (``vcs-env`` commands run through ``vcs_cli.main`` in this process: the console script's path
+    without a Python start-up per command)."""
+    from vcs_cli import main
+
+    monkeypatch.chdir(tmp_path)
+
+    def vcs_env_cli(command: str, cwd, expect: int = 0) -> subprocess.CompletedProcess:
+        code = main(command.split())
+        out = capsys.readouterr()
+        assert code == expect, out.out + out.err
+        return subprocess.CompletedProcess(command, code, out.out, out.err)
+
     out = vcs_env_cli("collect --scenario crowd --episodes 6 --out d.npz", tmp_path).stdout
     assert "collected" in out
     vcs_env_cli("bc --data d.npz --epochs 2 --dagger-iters 1 --dagger-episodes 2 --eval-episodes 2 --out bc", tmp_path)
@@ -273,7 +278,7 @@ def test_smoke_collect_bc_train_resume(tmp_path):
     )
     out = vcs_env_cli(
         f"train {common} --eval-freq 128 --checkpoint-freq 128 --timesteps 256 --init bc/model.zip --out ppo "
-        "--eval-suite crowd-5-v0-smoke",
+        "--eval-suite crowd-5-v0-smoke --no-progress-bar",
         tmp_path,
     ).stdout
     assert "initialised the policy" in out and "[eval @" in out and "reproduce: vcs-env train --scenario crowd" in out
