@@ -96,9 +96,16 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     two together (agents.residual.Residual). SB3 only."""
     residual_scale: float = 0.5
     """Largest correction of a residual policy per action component (units of the action range)."""
-    shaping_anneal: int = 0
-    """Anneal the --shaping term: its weight falls linearly from its value at step 0 to 0 at this many
-    timesteps and stays 0 after (set before each rollout); 0 keeps it constant."""
+    guide: str = "none"
+    """Guidance from the VCS expert beside --shaping: none, or imitation_loss (after every rollout, one
+    epoch of steps on guide_weight x |policy mean - expert action|^2 over the rollout's states, the
+    DAPG-style auxiliary loss; agents.train.guide)."""
+    guide_weight: float = 1.0
+    """Weight of the --guide loss at step 0."""
+    guide_anneal: int = 0
+    """Anneal the expert's guidance: the --guide loss's weight and the --shaping term's fall linearly from
+    their values at step 0 to 0 at this many timesteps and stay 0 after (set before each rollout); 0
+    keeps them constant."""
     out: str = "runs/ppo"
     """Run directory (model.zip, model.json, checkpoints/, eval.jsonl, tb/)."""
     eval_freq: int = 100_000

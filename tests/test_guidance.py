@@ -3,7 +3,8 @@
 Residual policies (``vcs-env train --residual PLANNER``, :mod:`agents.residual`): the training VecEnv
 drives the planner's action plus the network's bounded correction, an untrained residual is its
 planner bit for bit in the harness, and the rule travels with the checkpoint (evaluate, export).
-Annealed shaping (``--shaping-anneal``): the weight reaches zero at its step."""
+The auxiliary imitation loss (``--guide imitation_loss``) pulls the policy to the expert, and annealed
+guidance (``--guide-anneal``) reaches zero at its step."""
 
 from __future__ import annotations
 
@@ -148,18 +149,19 @@ def test_bad_residual_input_gets_one_line_errors():
 
 
 def test_an_annealed_shaping_weight_reaches_zero_at_its_step():
-    from agents.train import shaping_schedule, shaping_weight_at
+    from agents.train import shaping_schedule
+    from agents.train.guide import annealed
 
-    assert [shaping_weight_at(0.2, 1000, t) for t in (0, 500, 1000, 5000)] == [0.2, 0.1, 0.0, 0.0]
-    assert shaping_weight_at(0.2, 0, 10**9) == 0.2  # no annealing
-    cfg = TrainConfig(scenario="circle", n_robots=4, shaping="vcs_imitation", shaping_anneal=1000)
+    assert [annealed(0.2, 1000, t) for t in (0, 500, 1000, 5000)] == [0.2, 0.1, 0.0, 0.0]
+    assert annealed(0.2, 0, 10**9) == 0.2  # no annealing
+    cfg = TrainConfig(scenario="circle", n_robots=4, shaping="vcs_imitation", guide_anneal=1000)
     scenario = build_scenario(cfg)
     anneal = shaping_schedule(cfg, scenario)
     # In the env: at its step the shaped reward is the unshaped one; before it, it is not.
     unshaped = NavVecEnv(build_scenario(TrainConfig(scenario="circle", n_robots=4)), 2)
     for t, equal in ((999, False), (1000, True)):
         shaped = NavVecEnv(scenario, 2)
-        assert anneal(shaped, t) == shaping_weight_at(0.1, 1000, t)
+        assert anneal(shaped, t) == annealed(0.1, 1000, t)
         rewards = []
         for env in (shaped, unshaped):
             env.seed(3)
@@ -168,5 +170,45 @@ def test_an_annealed_shaping_weight_reaches_zero_at_its_step():
             rewards.append(env.step_wait()[1])
         assert np.array_equal(*rewards) == equal
     assert shaping_schedule(TrainConfig(shaping="vcs_imitation"), scenario) is None
-    with pytest.raises(ValueError, match="--shaping-anneal anneals the --shaping term; give one"):
-        shaping_schedule(TrainConfig(shaping_anneal=1000), scenario)
+    with pytest.raises(ValueError, match="--guide-anneal anneals the expert.s guidance; give --shaping or --guide"):
+        shaping_schedule(TrainConfig(guide_anneal=1000), scenario)
+
+
+def _action_error(model, scenario) -> float:
+    """Mean distance between ``model``'s deterministic action and the expert's, on states the expert visits."""
+    env = NavVecEnv(scenario, 4, expert="vcs")
+    env.seed(123)
+    obs, errors = env.reset(), []
+    for _ in range(30):
+        expert, live = env.expert_actions(), env.live_mask()
+        errors.append(np.linalg.norm(model.predict(obs, deterministic=True)[0] - expert, axis=-1)[live])
+        env.step_async(expert)
+        obs = env.step_wait()[0]
+    return float(np.concatenate(errors).mean())
+
+
+def test_the_imitation_loss_pulls_the_policy_to_the_expert_until_its_weight_is_zero(tmp_path):
+    from agents.checkpoint import load_model
+    from agents.train.guide import ImitationLoss
+
+    common = dict(
+        scenario="circle", n_robots=4, n_worlds=4, n_steps=64, batch_size=64, n_epochs=4, timesteps=8192,
+        eval_freq=0, eval_episodes=1, checkpoint_freq=0, progress_bar=False, tensorboard=False,
+    )  # fmt: skip
+    scenario = make_scenario("circle", n_robots=4)
+    errors = {}
+    for guide in ("none", "imitation_loss"):
+        res = train(TrainConfig(**common, guide=guide, guide_weight=5.0, out=str(tmp_path / guide)))
+        errors[guide] = _action_error(load_model(res["model"], scenario), scenario)
+    assert errors["imitation_loss"] < 0.7 * errors["none"], errors
+    # At its anneal step the weight is zero and the update leaves the network as it is.
+    model = _model(scenario, None, zero=False)
+    model.rollout_buffer.reset()
+    loss = ImitationLoss(5.0, 1000, 64, 0)
+    before = [p.detach().clone() for p in model.policy.parameters()]
+    assert loss.update(model, 1000)["weight"] == 0.0
+    assert all(np.array_equal(a.numpy(), b.detach().numpy()) for a, b in zip(before, model.policy.parameters()))
+    with pytest.raises(ValueError, match="--guide must be one of none, imitation_loss, got 'dapg'"):
+        train(TrainConfig(**common, guide="dapg", out=str(tmp_path / "bad")))
+    with pytest.raises(ValueError, match="--guide imitation_loss pulls the policy to the expert's actions; a residual"):
+        train(TrainConfig(**common, guide="imitation_loss", residual="vcs", out=str(tmp_path / "bad")))

@@ -43,6 +43,7 @@ from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_
 from ..config import build_scenario, config_command, mixture_scenarios, print_suite_differences
 from ..residual import Residual
 from ..runs import TrainConfig, check_run, jsonable, policy_kwargs, scenario_family
+from .guide import GUIDES, ImitationLoss, annealed
 from .periodic import PeriodicEval
 
 
@@ -93,10 +94,11 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
         check_int(name, getattr(cfg, name), 0, 10**12)
 
 
-def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: PeriodicEval, anneal=None):
+def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: PeriodicEval, anneal=None, guide=None):
     """SB3's callback of a run: robot-level rates of the training episodes, periodic evaluation
-    (``periodic``, and ``best_model.zip`` when it improves), periodic checkpoints, and the annealed
-    shaping weight (``anneal``, :func:`shaping_schedule`) set before each rollout."""
+    (``periodic``, and ``best_model.zip`` when it improves), periodic checkpoints, the annealed
+    shaping weight (``anneal``, :func:`shaping_schedule`) set before each rollout, and the ``--guide``
+    loss (``guide``, :mod:`agents.train.guide`) fed with the rollout and applied at its end."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     scenario, family = scenarios[0], scenario_family(scenarios)
@@ -110,6 +112,9 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
             self.last_eval = self.last_ckpt = self.num_timesteps
 
         def _on_rollout_end(self) -> None:
+            if guide is not None:
+                for k, v in guide.update(self.model, self.model.num_timesteps).items():
+                    self.logger.record(f"guide/{k}", v)
             buf = [e for e in self.model.ep_info_buffer if "success" in e]
             if buf:
                 n = len(buf)
@@ -127,6 +132,8 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
             self.num_timesteps = self.model.num_timesteps
             if anneal is not None:
                 self.logger.record("train/shaping_weight", anneal(self.training_env, self.num_timesteps))
+            if guide is not None:
+                guide.rollout_start(self.training_env)
             if cfg.eval_freq > 0 and self.num_timesteps - self.last_eval >= cfg.eval_freq:
                 self.last_eval = self.num_timesteps
                 self.evaluate()
@@ -143,6 +150,8 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
                 )
 
         def _on_step(self) -> bool:
+            if guide is not None:
+                guide.step(self.training_env)
             return True
 
     return RunCallback()
@@ -150,35 +159,40 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
 
 def residual_of(cfg: TrainConfig) -> Residual | None:
     """The residual a run trains (``--residual``), or None; a one-line ``ValueError`` when its
-    planner cannot give what the run's shaping needs (the VCS expert)."""
+    planner cannot give what the run's shaping needs (the VCS expert), or with a ``--guide`` loss
+    (which pulls the network's action, here a correction, towards the expert's action)."""
     residual = Residual.of(cfg)
     if residual is not None and cfg.shaping != "none" and residual.planner != "vcs":
         raise ValueError(
             f"--shaping {cfg.shaping} needs the VCS expert, and a residual's expert is its planner: "
             f"--residual {residual.planner} would attach {residual.planner}"
         )
+    if residual is not None and cfg.guide != "none":
+        raise ValueError(f"--guide {cfg.guide} pulls the policy to the expert's actions; a residual already adds them")
     return residual
 
 
-def shaping_weight_at(weight: float, anneal: int, timesteps: int) -> float:
-    """The weight of an annealed shaping term after ``timesteps`` steps: ``weight`` falling linearly to 0
-    at ``anneal`` timesteps, 0 after; ``weight`` itself when ``anneal`` is 0 (no annealing)."""
-    return weight if anneal <= 0 else weight * max(0.0, 1.0 - timesteps / anneal)
+def guide_of(cfg: TrainConfig) -> ImitationLoss | None:
+    """The ``--guide`` method of a run, or None; a one-line ``ValueError`` for an unknown one."""
+    if cfg.guide not in GUIDES:
+        raise ValueError(f"--guide must be one of {', '.join(GUIDES)}, got {cfg.guide!r}")
+    check_positive("guide_weight", cfg.guide_weight)
+    return None if cfg.guide == "none" else ImitationLoss(cfg.guide_weight, cfg.guide_anneal, cfg.batch_size, cfg.seed)
 
 
 def shaping_schedule(cfg: TrainConfig, scenario):
-    """``set(venv, timesteps) -> weight`` that sets the annealed shaping weight in every engine of
-    ``venv``, or None when the run does not anneal; a one-line ``ValueError`` for an anneal without
-    shaping."""
-    check_int("shaping_anneal", cfg.shaping_anneal, 0, 10**12)
-    if cfg.shaping_anneal == 0:
+    """``set(venv, timesteps) -> weight`` that sets the annealed shaping weight (:func:`annealed`) in every
+    engine of ``venv``, or None when the run anneals no shaping term; a one-line ``ValueError`` for an
+    anneal with nothing to anneal."""
+    check_int("guide_anneal", cfg.guide_anneal, 0, 10**12)
+    if cfg.guide_anneal == 0 or cfg.shaping == "none":
+        if cfg.guide_anneal and cfg.guide == "none":
+            raise ValueError("--guide-anneal anneals the expert's guidance; give --shaping or --guide")
         return None
-    if cfg.shaping == "none":
-        raise ValueError("--shaping-anneal anneals the --shaping term; give one (vcs_imitation or vcs_potential)")
     name, weight = cfg.shaping, scenario.rewards.as_dict()[cfg.shaping]
 
     def set_weight(venv, timesteps: int) -> float:
-        w = shaping_weight_at(weight, cfg.shaping_anneal, timesteps)
+        w = annealed(weight, cfg.guide_anneal, timesteps)
         for group in getattr(venv, "groups", [venv]):
             group.engine.weights[name] = w
         return w
@@ -227,7 +241,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     scenario = scenarios[0]
     print_suite_differences(scenarios)
     check_ppo_settings(cfg)
-    residual, anneal = residual_of(cfg), shaping_schedule(cfg, scenario)
+    residual, anneal, guide = residual_of(cfg), shaping_schedule(cfg, scenario), guide_of(cfg)
+    expert = "vcs" if guide is not None else None
     if cfg.mixture_balance not in ("worlds", "robots"):
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
@@ -246,11 +261,11 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     out.mkdir(parents=True, exist_ok=True)
     t_start = time.time()
     if len(scenarios) == 1:
-        venv = NavVecEnv(scenario, cfg.n_worlds, gamma=cfg.gamma, start_states=starts, residual=residual)
+        venv = NavVecEnv(scenario, cfg.n_worlds, expert=expert, gamma=cfg.gamma, start_states=starts, residual=residual)
     else:
         venv = MixtureVecEnv(
-            scenarios, cfg.n_worlds, gamma=cfg.gamma, balance=cfg.mixture_balance, start_states=starts,
-            residual=residual,
+            scenarios, cfg.n_worlds, expert=expert, gamma=cfg.gamma, balance=cfg.mixture_balance,
+            start_states=starts, residual=residual,
         )  # fmt: skip
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
@@ -271,11 +286,12 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     periodic = PeriodicEval(cfg, scenarios, out, t_start)
     if resume:
         periodic.restore(model.num_timesteps)
-    callback = _callback(cfg, scenarios, out, t_start, periodic, anneal)
+    callback = _callback(cfg, scenarios, out, t_start, periodic, anneal, guide)
     what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
     what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
     print(
         f"training {what} shaping={cfg.shaping}"
+        + (f" guide={cfg.guide} (weight {cfg.guide_weight})" if guide else "")
         + (f" residual={residual.planner} (scale {residual.scale})" if residual else "")
         + f": {venv.num_envs} slots, {remaining} timesteps -> {out}",
         flush=True,

@@ -183,8 +183,8 @@ def check_config(cfg: RLlibConfig) -> None:
         raise ValueError("--start-states applies to the SB3 backend only (the RLlib env runners start fresh)")
     if cfg.residual is not None:
         raise ValueError(f"--residual {cfg.residual} applies to the SB3 backend only (train it with --backend sb3)")
-    if cfg.shaping_anneal:
-        raise ValueError("--shaping-anneal applies to the SB3 backend only (train it with --backend sb3)")
+    if cfg.guide != "none" or cfg.guide_anneal:
+        raise ValueError("--guide and --guide-anneal apply to the SB3 backend only (train it with --backend sb3)")
     if cfg.features != "flat":
         raise ValueError(
             f"--backend rllib reads the flat observation only (--features flat), got --features {cfg.features!r} "
