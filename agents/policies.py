@@ -176,7 +176,12 @@ def resolve_policy(
                 f"delta mode; --action-mode {action_mode} would read its actions in other units"
             )
         residual = Residual.of(ckpt.record.get("config", {}))
-        model = load_checkpoint(ckpt, scenario, shield and residual is None)
+        if residual is not None and shield and ckpt.record.get("shield"):
+            raise ValueError(
+                f"{str(policy)!r} is a residual policy over {residual.planner} and its record names a shield, which "
+                "filters a network's actions, not a planner's plus a correction: run it with --no-shield (shield=False)"
+            )
+        model = load_checkpoint(ckpt, scenario, shield)
         label = name or policy_label(str(policy))
         guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
         resolved = ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint", guard)

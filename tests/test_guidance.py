@@ -99,6 +99,12 @@ def test_an_untrained_residual_is_its_planner_bit_for_bit(tmp_path):
     # The network alone (no residual in its record) is not the planner either.
     alone = save_model(_model(scenario, None, zero=True), tmp_path / "alone" / "model", "ppo", TrainConfig(), scenario)
     assert not same(evaluate(str(alone), SUITE, progress=False).rows, expert.rows)
+    # A shield in its record is refused, not dropped: it filters a network's actions.
+    record = json.loads(path.with_suffix(".json").read_text())
+    path.with_suffix(".json").write_text(json.dumps(record | {"shield": {"horizon": 1.5}}))
+    with pytest.raises(ValueError, match="is a residual policy over vcs and its record names a shield"):
+        resolve_policy(str(path), scenario)
+    assert same(evaluate(str(path), SUITE, progress=False, shield=False).rows, expert.rows)
     # A ResidualPolicy object runs the same pair.
     model = _model(scenario, Residual("vcs"), zero=True)
     assert same(evaluate(ResidualPolicy(model, Residual("vcs")), SUITE, progress=False).rows, expert.rows)
