@@ -8,7 +8,16 @@ import pytest
 import vcs_cli as cli
 from agents.config import family_suite
 from agents.evaluate import evaluate
-from agents.evaluate.probes import PROBE_SEED_BASE, PROBES, Probe, gaps, policy_labels, select_probes
+from agents.evaluate.probes import (
+    PROBE_SEED_BASE,
+    PROBES,
+    Probe,
+    gaps,
+    inside_training,
+    policy_labels,
+    select_probes,
+    training_boxes,
+)
 from vcs_env.scenario import SCENARIOS
 from vcs_env.suites import SUITES
 
@@ -21,7 +30,7 @@ def test_each_probe_changes_only_its_fields_and_uses_no_suite_seed():
         base = family_suite(SCENARIOS[probe.scenario].kind).scenario
         changed = {
             f
-            for f in ("n_robots", "n_obstacles", "jitter", "obstacle_speed")
+            for f in ("n_robots", "n_obstacles", "jitter", "obstacle_speed", *set(probe.changes) & {"layout_radius"})
             if getattr(suite.scenario, f) != getattr(base, f)
         }
         assert changed == set(probe.changes), probe.name
@@ -52,6 +61,29 @@ def test_gap_check_counts_only_probes_the_expert_solves():
 
     table = {"expert": "vcs", "probes": [row("a", 1.0, 0.95), row("b", 0.96, 0.80), row("c", 0.90, 0.10)]}
     assert gaps(table, planners={"vcs", "hrvo"}) == {"pol": [("b", pytest.approx(0.16))]}
+
+
+def test_probes_inside_a_policys_training_ranges_are_named_and_left_out_of_its_gaps():
+    record = json.loads(open("policies/generalist/model.json").read())
+    boxes = training_boxes(record)
+    assert len(boxes) == len(record["config"]["mixture"])
+    inside = {p.name: inside_training(p, boxes) for p in PROBES}
+    # Points of the generalist's mixture, or inside one entry's ranges:
+    assert inside["circle[n_robots=10]"] == "circle-8-v0:n_robots=4-12/4,jitter=0.1-0.5/0.2"
+    assert inside["crowd[obstacle_speed=1.0-1.5]"] == "crowd-5-v0:obstacle_speed=1.0-1.5"
+    assert inside["dynamic[obstacle_speed=0.8-1.2]"] == "dynamic-v0:obstacle_speed=0.6-1.2"
+    # ... and every family it trained on keeps probes beyond all its ranges.
+    held = {p.scenario for p in PROBES if inside[p.name] is None}
+    assert held >= {"circle", "swap", "crossing", "crowd", "dynamic"}
+    assert sum(v is None for v in inside.values()) >= 9
+    # A one-scenario run: only its own point is inside.
+    circle8 = training_boxes({"config": {"scenario": "circle", "n_robots": 8, "jitter": 0.1}})
+    assert inside_training(Probe("circle", "jitter", {"jitter": 0.1}), circle8) == "circle"
+    assert inside_training(Probe("circle", "robots", {"n_robots": 10}), circle8) is None
+    assert training_boxes({}) == []
+    # The gap check skips the cells of probes a policy trained on.
+    row = {"probe": "a", "policies": {"vcs": {"success": 1.0}, "pol": {"success": 0.5}}, "inside": {"pol": "x"}}
+    assert gaps({"expert": "vcs", "probes": [row]}, planners={"vcs"}) == {"pol": []}
 
 
 def test_cli_probe_matches_evaluate_on_the_same_episodes(tmp_path, capsys):
