@@ -97,11 +97,13 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     residual_scale: float = 0.5
     """Largest correction of a residual policy per action component (units of the action range)."""
     guide: str = "none"
-    """Guidance from the VCS expert beside --shaping: none, or imitation_loss (after every rollout, one
-    epoch of steps on guide_weight x |policy mean - expert action|^2 over the rollout's states, the
-    DAPG-style auxiliary loss; agents.train.guide)."""
+    """Guidance from the VCS expert beside --shaping: none; imitation_loss (after every rollout, PPO's
+    epochs of steps on guide_weight x |policy mean - expert action|^2 over the rollout's states, the
+    DAPG-style auxiliary loss); or jump_start (the expert drives the first steps of each training
+    episode, up to a share guide_weight of half the step limit, annealed to 0 at guide_anneal, which
+    it needs); agents.train.guide."""
     guide_weight: float = 1.0
-    """Weight of the --guide loss at step 0."""
+    """Weight of the --guide loss at step 0 (jump_start: its share of half the step limit, at most 1)."""
     guide_anneal: int = 0
     """Anneal the expert's guidance: the --guide loss's weight and the --shaping term's fall linearly from
     their values at step 0 to 0 at this many timesteps and stay 0 after (set before each rollout); 0

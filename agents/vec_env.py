@@ -137,6 +137,9 @@ class NavVecEnv(SharedSlots):
                 raise ValueError(f"the expert of a residual policy is its planner {residual.planner!r}, not {named!r}")
             expert = expert or residual.planner
         self.residual = residual
+        self.jump_share = 0.0
+        """Share of half the step limit the expert may drive at the start of an episode (jump-start;
+        set between rollouts, it applies to episodes that start later)."""
         self.scenario = scenario
         self.engine = NavEngine(
             scenario, int(n_worlds), action_mode, expert, gamma=gamma, max_steps=max_steps, start_states=start_states
@@ -153,6 +156,8 @@ class NavVecEnv(SharedSlots):
         self._ep_return = np.zeros((B, n))
         self._ep_len = np.zeros((B, n), dtype=np.int64)
         self._collided = np.zeros((B, n), dtype=bool)
+        self._guided = np.zeros(B, dtype=np.int64)  # steps the expert still drives, per world
+        self._jump_rng = np.random.default_rng()
         self._actions: np.ndarray | None = None
         self._t0 = time.time()
 
@@ -178,7 +183,21 @@ class NavVecEnv(SharedSlots):
 
     def _start_episodes(self, worlds: np.ndarray) -> None:
         """New episodes in ``worlds``: their driving robots' slots are live, the rest padding (a world
-        started from a saved state, :mod:`vcs_env.start_states`, may hold robots that already finished)."""
+        started from a saved state, :mod:`vcs_env.start_states`, may hold robots that already finished);
+        with jump-start, every slot of a world the expert drives first is padding until the hand-over."""
+        if self.jump_share > 0:
+            if self.engine.expert is None:
+                raise ValueError("jump-start needs an expert; pass expert='vcs'")
+            top = round(self.jump_share * self.engine.max_steps / 2)
+            self._guided[worlds] = self._jump_rng.integers(0, top + 1, size=len(worlds))
+        else:
+            self._guided[worlds] = 0
+        self._live[worlds] = False
+        self._hand_over(worlds)
+
+    def _hand_over(self, worlds: np.ndarray) -> None:
+        """Slots of ``worlds`` the expert no longer drives start their episodes: live for driving robots."""
+        worlds = np.asarray(worlds)[self._guided[worlds] == 0]
         self._live[worlds] = self.engine.world.active[worlds]
         self._ep_return[worlds] = 0.0
         self._ep_len[worlds] = 0
@@ -190,6 +209,8 @@ class NavVecEnv(SharedSlots):
         base = self._seeds[0]
         seeds = None if base is None else [int(base) + b for b in range(self.n_worlds)]
         obs = self.engine.reset(seeds)
+        if base is not None:
+            self._jump_rng = np.random.default_rng([int(base), self.n_worlds])
         self._reset_seeds()
         self._reset_options()
         self.reset_infos = [{} for _ in range(self.num_envs)]
@@ -221,9 +242,13 @@ class NavVecEnv(SharedSlots):
         actions = np.where(live_before[..., None], self._actions, 0.0)
         if self.residual is not None:
             actions = self.residual.actions(self.engine.expert_action, actions)
+        driven = self._guided > 0  # (B,) worlds the expert drives this step (jump-start)
+        if driven.any():
+            actions = np.where(driven[:, None, None], self.engine.expert_action, actions)
         self._actions = None
         res = self.engine.step(actions, autoreset=True)
         ended = res.ended  # (B,) worlds reset this step
+        self._guided -= driven
         robot_done = live_before & (res.terminated | res.truncated)
         reward = np.where(live_before, res.reward, 0.0)
         self._ep_return += reward
@@ -231,7 +256,8 @@ class NavVecEnv(SharedSlots):
         self._collided |= res.events.collided
         # Observation each slot ended on (before an auto-reset of its world).
         last_obs = res.obs if res.final_obs is None else np.where(ended[:, None, None], res.final_obs, res.obs)
-        padding_end = ended[:, None] & ~live_before
+        handed = driven & (self._guided == 0) & ~ended  # (B,) the expert hands these worlds over
+        padding_end = (ended | handed)[:, None] & ~live_before
         dones = robot_done | padding_end
 
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
@@ -265,6 +291,8 @@ class NavVecEnv(SharedSlots):
                 info["TimeLimit.truncated"] = False
 
         self._live &= ~robot_done
+        if handed.any():
+            self._hand_over(np.flatnonzero(handed))
         if ended.any():
             self._start_episodes(np.flatnonzero(ended))
         obs = np.where(self._live[..., None], res.obs, 0.0).astype(np.float32)

@@ -214,7 +214,42 @@ def test_the_imitation_loss_pulls_the_policy_to_the_expert_until_its_weight_is_z
     before = [p.detach().clone() for p in model.policy.parameters()]
     assert loss.update(model, 1000)["weight"] == 0.0
     assert all(np.array_equal(a.numpy(), b.detach().numpy()) for a, b in zip(before, model.policy.parameters()))
-    with pytest.raises(ValueError, match="--guide must be one of none, imitation_loss, got 'dapg'"):
+    with pytest.raises(ValueError, match="--guide must be one of none, imitation_loss, jump_start, got 'dapg'"):
         train(TrainConfig(**common, guide="dapg", out=str(tmp_path / "bad")))
     with pytest.raises(ValueError, match="--guide imitation_loss pulls the policy to the expert's actions; a residual"):
         train(TrainConfig(**common, guide="imitation_loss", residual="vcs", out=str(tmp_path / "bad")))
+
+
+def test_jump_start_lets_the_expert_drive_then_hands_the_robots_over():
+    from agents.train.guide import JumpStart
+
+    scenario = make_scenario("circle", n_robots=4, max_steps=40)
+    guided, oracle = NavVecEnv(scenario, 3, expert="vcs"), NavVecEnv(scenario, 3, expert="vcs")
+    JumpStart(1.0, 1000).rollout_start(guided, 0)  # share 1: up to 20 expert steps per world
+    assert guided.jump_share == 1.0
+    for env in (guided, oracle):
+        env.seed(11)
+    obs = guided.reset()
+    oracle.reset()
+    steps = guided._guided.copy()  # drawn per world from the env's seeded generator
+    assert steps.max() > 0 and (steps <= 20).all()
+    n = scenario.n_robots
+    for t in range(int(steps.max()) + 1):
+        expert = oracle.expert_actions()
+        lead = np.repeat(steps > t, n)  # slots the expert drives this step
+        assert (obs[lead] == 0).all() and not guided.live_mask()[lead].any()
+        policy = np.full((guided.num_envs, 2), -1.0)  # ignored while the expert drives
+        guided.step_async(policy)
+        oracle.step_async(np.where(lead[:, None], expert, policy))
+        (obs, rew, done, infos), (o_obs, *_) = guided.step_wait(), oracle.step_wait()
+        np.testing.assert_array_equal(guided.engine.world.pos, oracle.engine.world.pos)
+        handed = np.repeat(steps == t + 1, n)
+        assert done[handed].all() and guided.live_mask()[handed].all() and (obs[handed] != 0).any(axis=1).all()
+        assert all(infos[j]["TimeLimit.truncated"] is False for j in np.flatnonzero(handed))
+        np.testing.assert_array_equal(obs[handed], o_obs[handed])  # the policy takes over from there
+        assert (rew[lead] == 0).all()
+    # Annealed: at its step the expert drives nothing more.
+    JumpStart(1.0, 1000).rollout_start(guided, 1000)
+    assert guided.jump_share == 0.0
+    with pytest.raises(ValueError, match="--guide jump_start needs --guide-anneal"):
+        JumpStart(1.0, 0)

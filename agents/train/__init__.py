@@ -43,7 +43,7 @@ from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_
 from ..config import build_scenario, config_command, mixture_scenarios, print_suite_differences
 from ..residual import Residual
 from ..runs import TrainConfig, check_run, jsonable, policy_kwargs, scenario_family
-from .guide import GUIDES, ImitationLoss, annealed
+from .guide import GUIDES, ImitationLoss, JumpStart, annealed
 from .periodic import PeriodicEval
 
 
@@ -133,7 +133,7 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
             if anneal is not None:
                 self.logger.record("train/shaping_weight", anneal(self.training_env, self.num_timesteps))
             if guide is not None:
-                guide.rollout_start(self.training_env)
+                guide.rollout_start(self.training_env, self.num_timesteps)
             if cfg.eval_freq > 0 and self.num_timesteps - self.last_eval >= cfg.eval_freq:
                 self.last_eval = self.num_timesteps
                 self.evaluate()
@@ -172,11 +172,13 @@ def residual_of(cfg: TrainConfig) -> Residual | None:
     return residual
 
 
-def guide_of(cfg: TrainConfig) -> ImitationLoss | None:
+def guide_of(cfg: TrainConfig) -> ImitationLoss | JumpStart | None:
     """The ``--guide`` method of a run, or None; a one-line ``ValueError`` for an unknown one."""
     if cfg.guide not in GUIDES:
         raise ValueError(f"--guide must be one of {', '.join(GUIDES)}, got {cfg.guide!r}")
     check_positive("guide_weight", cfg.guide_weight)
+    if cfg.guide == "jump_start":
+        return JumpStart(cfg.guide_weight, cfg.guide_anneal)
     return None if cfg.guide == "none" else ImitationLoss(cfg.guide_weight, cfg.guide_anneal, cfg.batch_size, cfg.seed)
 
 

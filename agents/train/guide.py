@@ -1,4 +1,5 @@
-"""Expert guidance for PPO beside the shaping terms: an auxiliary imitation loss (``--guide imitation_loss``).
+"""Expert guidance for PPO beside the shaping terms: an auxiliary imitation loss (``--guide imitation_loss``)
+and jump-start rollouts (``--guide jump_start``).
 
 :class:`ImitationLoss` is expert-regularised PPO in the manner of DAPG (Rajeswaran et al., 2018): after
 every rollout, before PPO's own update, as many epochs of minibatch gradient steps as PPO's on
@@ -9,6 +10,12 @@ with ``mu(o)`` the policy's mean action and ``a_expert(o)`` the VCS expert's act
 slot observed (:meth:`agents.vec_env.NavVecEnv.expert_actions`, recorded as the rollout is collected,
 padding slots left out), and ``weight(t)`` falling linearly to zero at ``--guide-anneal`` timesteps
 (:func:`annealed`). Once the weight is zero the run is plain PPO.
+
+:class:`JumpStart` is jump-start RL (Uchendu et al., 2023): the expert drives the first steps of each
+training episode, up to a share of half the step limit that falls linearly from ``--guide-weight``
+(at most 1) to zero at ``--guide-anneal`` timesteps, and the policy takes over from the state the
+expert left (:class:`agents.vec_env.NavVecEnv`, ``jump_share``): a curriculum that starts near the
+goal and moves back to the start.
 """
 
 from __future__ import annotations
@@ -17,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-GUIDES = ("none", "imitation_loss")
+GUIDES = ("none", "imitation_loss", "jump_start")
 """Guidance methods of ``--guide``."""
 
 
@@ -42,7 +49,7 @@ class ImitationLoss:
         self.expert: list[np.ndarray] = []
         self.live: list[np.ndarray] = []
 
-    def rollout_start(self, venv) -> None:
+    def rollout_start(self, venv, timesteps: int) -> None:
         """A rollout starts from ``venv``'s current observations: record their expert actions."""
         self.expert, self.live = [venv.expert_actions()], [venv.live_mask()]
 
@@ -78,3 +85,30 @@ class ImitationLoss:
             policy.optimizer.step()
             losses.append(float(loss.detach()))
         return {"weight": weight, "loss": float(np.mean(losses)) if losses else float("nan")}
+
+
+class JumpStart:
+    """Jump-start rollouts (module docstring).
+
+    Args:
+        share: the share of half the step limit the expert may drive at step 0 (at most 1).
+        anneal: timesteps at which the share reaches 0.
+    """
+
+    def __init__(self, share: float, anneal: int):
+        if anneal <= 0:
+            raise ValueError("--guide jump_start needs --guide-anneal, the step at which the expert stops driving")
+        self.share, self.anneal, self.current = min(1.0, float(share)), int(anneal), 0.0
+
+    def rollout_start(self, venv, timesteps: int) -> None:
+        """Set the share of the episodes that start from now on in every group of ``venv``."""
+        self.current = annealed(self.share, self.anneal, timesteps)
+        for group in getattr(venv, "groups", [venv]):
+            group.jump_share = self.current
+
+    def step(self, venv) -> None:
+        """Nothing to record per step."""
+
+    def update(self, model, timesteps: int) -> dict[str, Any]:
+        """The share the rollout ran with."""
+        return {"share": self.current}
