@@ -1,6 +1,6 @@
 """The VCS expert and walls (vcs-method §2.18): a wall record's forbidden set is the capsule's
 velocity obstacle (against the numpy oracle), a door head-on, a wall between a robot and its
-goal, and the ablation with the walls hidden from the kernel."""
+goal, the ablation with the walls hidden from the kernel, and giving way at a junction."""
 
 import numpy as np
 import pytest
