@@ -1,6 +1,6 @@
 """The VCS expert and walls (vcs-method §2.18): a wall record's forbidden set is the capsule's
 velocity obstacle (against the numpy oracle), a door head-on, a wall between a robot and its
-goal, and the ablation with the walls hidden from the kernel."""
+goal, the ablation with the walls hidden from the kernel, and giving way at a junction."""
 
 import numpy as np
 import pytest
@@ -176,3 +176,25 @@ def test_fitted_buffers_pass_a_robot_parked_in_a_narrow_corridor():
     (fitted,) = _episodes("corridor-narrow-v0", [1000], fit_clearance=0.01)
     assert (blocked.reached_step < 0).sum() == 2 and not contact_events(blocked)
     assert (fitted.reached_step >= 0).all() and not contact_events(fitted)
+
+
+def _into_crossing_corridor(e) -> np.ndarray:
+    """``(n,)`` [m]: how far each robot of an ``intersection`` episode got across its own
+    corridor's axis (into the other corridor beyond 1.25 m, its half width)."""
+    along_x = np.abs(e.goal[:, 0]) > np.abs(e.goal[:, 1])
+    across = np.where(along_x, np.abs(e.pos[..., 1]), np.abs(e.pos[..., 0]))  # (T + 1, n)
+    return across.max(axis=0)
+
+
+def test_give_way_keeps_robots_out_of_the_crossing_corridor():
+    """intersection-v0 seeds 1014, 1022, 1029: the two groups reach the junction together. Without
+    ``give_way`` a robot crosses in front of the other group's stream, is carried along it deep
+    into the other corridor, beyond the robots parked there, and never arrives; giving way to the
+    robots coming from the right (vcs-method §2.19), one group waits before the junction, every
+    robot stays in its own corridor and arrives, and nothing touches anything."""
+    seeds = [1014, 1022, 1029]
+    for e in _episodes("intersection-v0", seeds, give_way=False):
+        assert (e.reached_step < 0).any() and _into_crossing_corridor(e).max() > 5.0
+    for e in _episodes("intersection-v0", seeds):
+        assert (e.reached_step >= 0).all() and not contact_events(e)
+        assert _into_crossing_corridor(e).max() < 1.25

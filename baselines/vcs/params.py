@@ -177,6 +177,29 @@ class VCSParams:
     """A detour keeps left instead when keeping right would run into a wall within t_margin at
     v_max and keeping left would not (vcs-method §2.18) (False: always detour_angle, the
     ablation)."""
+    # --- give way at crossing routes (vcs-method §2.19) [ours]
+    give_way: bool = True
+    """On a map with walls, a robot gives way to a driving robot whose next route leg crosses its
+    own from the right (priority to the right, decided from the state alone): it slows down to stop
+    short of the crossing, and never stops inside the lane of another robot about to cross
+    (vcs-method §2.19). ``intersection-v0`` 0.75 -> 0.96 (vcs-calibration §7). False: the ablation;
+    without walls it never acts."""
+    give_way_angle: float = math.pi / 6
+    """Two legs cross when their directions differ by more than this angle [rad] (and by less than
+    pi minus it: head-on and same-way traffic is left to the velocity obstacles)."""
+    give_way_margin: float = 0.3
+    """Gap kept between the two discs at the crossing [m]: a lane is the combined radius plus this,
+    over the sine of the crossing angle, on each side of the crossing point."""
+    give_way_speed: float = 0.2
+    """Only robots faster than this fraction of their v_max are given way to (one that waits does
+    not hold anyone up)."""
+    give_way_range: float = 4.0
+    """Crossings farther than this along either leg [m] are not considered yet."""
+    give_way_slack: float = 1.0
+    """The other robot is given way to if it reaches its lane no later than this [s] after the robot
+    would have cleared it at v_max."""
+    give_way_stop: float = 0.1
+    """The robot stops this far [m] before the lane it gives way to."""
     r_ca: float | None = None
     """Sensing radius [m]; None uses the world's."""
 
@@ -195,6 +218,10 @@ class VCSParams:
             "progress_window",
             "detour_time",
             "detour_jitter",
+            "give_way_margin",
+            "give_way_speed",
+            "give_way_slack",
+            "give_way_stop",
             "w_goal",
             "w_safety",
             "w_change",
@@ -204,6 +231,8 @@ class VCSParams:
         ):
             check_positive(f"VCSParams.{name}", getattr(self, name), allow_zero=True)
         check_range("VCSParams.detour_jitter", self.detour_jitter, 0.0, 1.0, hi_open=True)
+        check_range("VCSParams.give_way_angle [rad]", self.give_way_angle, 0.0, math.pi / 2, lo_open=True)
+        check_positive("VCSParams.give_way_range", self.give_way_range)
         for name in ("t_max", "kappa"):
             check_positive(f"VCSParams.{name}", getattr(self, name))
         if isinstance(self.horizon, str):
@@ -220,6 +249,7 @@ class VCSParams:
             "ramp_check",
             "wall_brake",
             "detour_off_walls",
+            "give_way",
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"VCSParams.{name} must be a bool, got {getattr(self, name)!r}")

@@ -9,7 +9,7 @@ import numpy as np
 from vcs_env import noise
 from vcs_env.geometry import rotate, wrap_angle
 from vcs_env.planning import Planner
-from vcs_env.routes import route_direction
+from vcs_env.routes import waypoints
 from vcs_env.state import WorldState
 
 from ..capsule import reference_capsule_tau
@@ -123,10 +123,18 @@ class VCSPlanner(Planner):
         """Preferred velocities (perturbed, and detour-rotated) and communicated ones."""
         p = self.params
         mem = self._mem
-        route = route_direction(world) if world.n_segments else None  # (next leg, remaining length [m])
+        route, leg = None, None
+        if world.n_segments:  # (next leg scaled to the remaining length [m], that length [m])
+            target, length = waypoints(world)
+            e = target - world.pos
+            leg = np.sqrt(np.einsum("...i,...i->...", e, e))  # (B, n) length of the next leg [m]
+            route = (e * (length / np.maximum(leg, 1e-12))[..., None], length)
         pref = preferred_velocity(world, route=route)
-        own = pref.copy()
         B, n = world.batch_size, world.n_robots
+        if p.give_way and world.n_segments and n > 1:
+            # Give way at crossing routes (vcs-method §2.19): priority to the right.
+            pref = self._give_way(world, pref, leg)
+        own = pref.copy()
         d_goal = np.linalg.norm(world.goal - world.pos, axis=-1) if route is None else route[1]
         if n > 1 and p.perturbation > 0:
             # Symmetry breaking (vcs-method §2.5): a small random push, from the world's counter-based noise.
@@ -162,6 +170,61 @@ class VCSPlanner(Planner):
         mem.ref_out = np.where(mark, d_goal, ref)
         mem.wait_out = np.where(mark, 0.0, wait)
         return own, pref, detour
+
+    def _give_way(self, world: WorldState, pref: np.ndarray, leg: np.ndarray) -> np.ndarray:
+        """Preferred velocities ``(B, n, 2)`` [m/s] after giving way at crossing routes
+        (``VCSParams.give_way``, vcs-method §2.19), from the preferred velocities ``pref`` ``(B, n, 2)``
+        [m/s] (along each robot's next route leg) and the lengths of those legs ``leg`` ``(B, n)`` [m].
+
+        Robot i's leg crosses robot j's when their directions ``u_i``, ``u_j`` differ by more than
+        ``give_way_angle`` (either way) and the crossing point lies on both legs: ``s_i`` [m] ahead
+        of i and ``t_j`` [m] ahead of j, with ``p_i + s_i u_i = p_j + t_j u_j``. j's *lane* on i's
+        leg is ``s_i +- c`` with ``c = (r_i + r_j + give_way_margin) / |sin|`` of the crossing
+        angle. i gives way to j when j comes from i's right (``det(u_i, u_j) > 0``), drives (faster
+        than ``give_way_speed v_max``, not yet through: ``t_j > -c``), reaches its lane no later
+        than ``give_way_slack`` after i would have cleared it at v_max, and i's disc is not in j's
+        way yet (``|s_i sin| >= r_i + r_j``): i's preferred speed is capped to stop
+        ``give_way_stop`` before the lane (``min(d / dt, sqrt(2 a_max d))``, as at a goal). Its
+        stopping point is then moved back before the lane of any other robot about to cross
+        where it would stop (a robot does not wait in the middle of a crossing)."""
+        p = self.params
+        sp = np.sqrt(np.einsum("...i,...i->...", pref, pref))  # (B, n) [m/s]
+        u = pref / np.maximum(sp, 1e-12)[..., None]
+        ui, uj = u[:, :, None, :], u[:, None, :, :]  # (B, n, 1, 2), (B, 1, n, 2)
+        cross = ui[..., 0] * uj[..., 1] - ui[..., 1] * uj[..., 0]  # det(u_i, u_j) (B, n, n)
+        sin_min = np.sin(p.give_way_angle)
+        crossing = np.abs(cross) > sin_min
+        c = np.where(crossing, cross, 1.0)
+        q = world.pos[:, None, :, :] - world.pos[:, :, None, :]  # p_j - p_i (B, n, n, 2) [m]
+        s_i = (q[..., 0] * uj[..., 1] - q[..., 1] * uj[..., 0]) / c  # along i's leg [m]
+        t_j = (q[..., 0] * ui[..., 1] - q[..., 1] * ui[..., 0]) / c  # along j's leg [m]
+        r2 = world.radius[:, :, None] + world.radius[:, None, :]  # (B, n, n) [m]
+        lane = (r2 + p.give_way_margin) / np.abs(c)  # half width of j's lane along i's leg [m]
+        going = world.active & (sp > 0)
+        driving = going & (world.speed > p.give_way_speed * world.v_max)
+        ahead = (
+            crossing
+            & going[:, :, None]
+            & driving[:, None, :]
+            & (t_j > -lane)
+            & (s_i + lane <= leg[:, :, None])
+            & (t_j + lane <= leg[:, None, :])
+            & (s_i - lane <= p.give_way_range)
+            & (t_j - lane <= p.give_way_range)
+            & (s_i * np.abs(c) >= r2)
+        )  # (B, n, n): j is about to cross i's leg, and i is not in j's way yet
+        soon = (t_j - lane) / np.maximum(world.speed, 1e-9)[:, None, :] <= (s_i + lane) / world.v_max[
+            ..., None
+        ] + p.give_way_slack
+        before, after = s_i - lane - p.give_way_stop, s_i + lane
+        stop = np.where(ahead & soon & (cross > 0), before, np.inf).min(axis=-1)  # (B, n) [m]
+        for _ in range(world.n_robots):  # not inside the lane of another robot about to cross
+            inside = ahead & (before < stop[..., None]) & (stop[..., None] < after)
+            stop = np.minimum(stop, np.where(inside, before, np.inf).min(axis=-1))
+        room = np.maximum(stop, 0.0)
+        cap = np.minimum(np.minimum(room / world.dt, np.sqrt(2.0 * world.a_max * room)), sp)
+        scale = np.where(np.isfinite(stop), cap, sp) / np.maximum(sp, 1e-12)
+        return pref * scale[..., None]
 
     def _detour_side(self, world: WorldState, own: np.ndarray, angle: np.ndarray, detour: np.ndarray) -> np.ndarray:
         """The detour's rotation ``(B, n)`` [rad] (vcs-method §2.13, vcs-method §2.18): keep right, unless the
