@@ -193,8 +193,9 @@ def test_give_way_keeps_robots_out_of_the_crossing_corridor():
     robots coming from the right (vcs-method §2.19), one group waits before the junction, every
     robot stays in its own corridor and arrives, and nothing touches anything."""
     seeds = [1014, 1022, 1029]
-    for e in _episodes("intersection-v0", seeds, give_way=False):
+    alone = dict(fit_clearance=None)  # the rule alone: fitted buffers let some of them through later
+    for e in _episodes("intersection-v0", seeds, give_way=False, **alone):
         assert (e.reached_step < 0).any() and _into_crossing_corridor(e).max() > 5.0
-    for e in _episodes("intersection-v0", seeds):
+    for e in _episodes("intersection-v0", seeds, **alone):
         assert (e.reached_step >= 0).all() and not contact_events(e)
         assert _into_crossing_corridor(e).max() < 1.25

@@ -28,10 +28,11 @@ class VCSParams:
     """Always-on safety buffer added to the combined radius [m]."""
     delta_s: float = 0.15
     """Extra buffer at full collision-time or collision-distance factor [m]."""
-    fit_clearance: float | None = None
-    """Buffers fit the free space (vcs-method §2.6), off by default (``0.01`` [m] turns it on;
-    vcs-calibration §7: ``corridor-narrow-v0`` 0.12 -> 1.00, ``intersection-v0`` -3 points): where
-    the surface gap ``g`` between a static disc (a parked robot, a standing obstacle) and a wall
+    fit_clearance: float | None = 0.01
+    """Buffers fit the free space (vcs-method §2.6), on by default since 2026-11-27
+    (vcs-calibration §7: with ``give_way``, ``corridor-narrow-v0`` 0.12 -> 1.00,
+    ``intersection-v0`` 0.96 -> 0.98 on its seeds and 0.96 -> 0.94 on fresh ones; None turns it
+    off): where the surface gap ``g`` between a static disc (a parked robot, a standing obstacle) and a wall
     lets the robot's disc (radius ``r``) through with ``c`` on both sides (``g >= 2 (r + c)``),
     the buffer of each of the two beyond its physical radius (``r_eff - r_0``: regulated, or
     ``delta_min`` for the wall) is at most ``max(c, (g - 2 r) / 4)``: half the spare room
