@@ -14,3 +14,12 @@ import pytest  # noqa: E402
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def pytest_ignore_collect(collection_path, config):
+    """With ``-m "not slow"``, a test module marked slow as a whole (``pytestmark = pytest.mark.slow``) is
+    not even imported: its tests would all be deselected, and importing Ray or the notebook runner costs
+    seconds of the quick subset."""
+    if " ".join(config.getoption("markexpr", "").split()) != "not slow" or collection_path.suffix != ".py":
+        return None
+    return True if "\npytestmark = pytest.mark.slow" in collection_path.read_text() else None

@@ -193,6 +193,7 @@ def _action_error(model, scenario) -> float:
     return float(np.concatenate(errors).mean())
 
 
+@pytest.mark.slow
 def test_the_imitation_loss_pulls_the_policy_to_the_expert_until_its_weight_is_zero(tmp_path):
     from agents.checkpoint import load_model
     from agents.train.guide import ImitationLoss

@@ -186,6 +186,7 @@ def _into_crossing_corridor(e) -> np.ndarray:
     return across.max(axis=0)
 
 
+@pytest.mark.slow
 def test_give_way_keeps_robots_out_of_the_crossing_corridor():
     """intersection-v0 seeds 1014, 1022, 1029: the two groups reach the junction together. Without
     ``give_way`` a robot crosses in front of the other group's stream, is carried along it deep
