@@ -131,7 +131,7 @@ def rllib_actor(module):
     return RLlibActor().eval()
 
 
-def layout(checkpoint, dim: int, opset: int, note: str | None) -> dict[str, Any]:
+def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residual | None = None) -> dict[str, Any]:
     """The JSON written beside the ONNX file: what goes in and out, and the run record it came from.
 
     Args:
@@ -139,12 +139,12 @@ def layout(checkpoint, dim: int, opset: int, note: str | None) -> dict[str, Any]
         dim: the observation size ``D`` of the network's input.
         opset: the ONNX opset of the file.
         note: what the ONNX file leaves out (the record's safety shield), or None.
+        residual: the rule of a residual policy (:class:`agents.residual.Residual`), or None.
     """
     import onnx
     import torch
 
     record = checkpoint.record
-    residual = Residual.of(record.get("config", {}))
     return {
         "format": LAYOUT_FORMAT,
         "version": LAYOUT_VERSION,
@@ -247,5 +247,5 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
             f"{float(np.abs(got - expected).max()):.2g} (more than {TOLERANCE}); not exported"
         )
     side = path.with_suffix(".json")
-    side.write_text(json.dumps(layout(checkpoint, dim, opset, note), indent=2, allow_nan=False) + "\n")
+    side.write_text(json.dumps(layout(checkpoint, dim, opset, note, residual), indent=2, allow_nan=False) + "\n")
     return path, side

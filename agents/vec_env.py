@@ -166,6 +166,11 @@ class NavVecEnv(SharedSlots):
     def dt(self) -> float:
         return self.scenario.dt
 
+    @property
+    def groups(self) -> list[NavVecEnv]:
+        """The batched envs this VecEnv steps: itself (a :class:`MixtureVecEnv` has one per scenario)."""
+        return [self]
+
     def _slot_view(self, x: np.ndarray) -> np.ndarray:
         """``(B, n, ...)`` -> ``(B * n, ...)``."""
         return x.reshape(self.num_envs, *x.shape[2:])

@@ -207,11 +207,13 @@ def waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
     return target, length
 
 
-def route_direction(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
+def route_direction(world: WorldState, with_leg: bool = False) -> tuple[np.ndarray, ...]:
     """The vector toward each robot's next waypoint, scaled to the remaining route length
     ``(B, n, 2)`` [m], and that length ``(B, n)`` [m]: the goal offset and its length without
-    walls (what :func:`baselines.common.preferred_velocity` aims along)."""
+    walls (what :func:`baselines.common.preferred_velocity` aims along); with ``with_leg``, also the
+    length of the next leg, the distance to that waypoint ``(B, n)`` [m]."""
     target, length = waypoints(world)
     e = target - world.pos
     d = np.sqrt(np.einsum("...i,...i->...", e, e))
-    return e * (length / np.maximum(d, 1e-12))[..., None], length
+    scaled = e * (length / np.maximum(d, 1e-12))[..., None]
+    return (scaled, length, d) if with_leg else (scaled, length)

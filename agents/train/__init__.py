@@ -195,7 +195,7 @@ def shaping_schedule(cfg: TrainConfig, scenario):
 
     def set_weight(venv, timesteps: int) -> float:
         w = annealed(weight, cfg.guide_anneal, timesteps)
-        for group in getattr(venv, "groups", [venv]):
+        for group in venv.groups:
             group.engine.weights[name] = w
         return w
 
@@ -321,7 +321,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         callback.init_callback(model)
     callback.num_timesteps = model.num_timesteps
     if starts is not None:
-        fresh, pooled = sum(g.engine.sim.start_counts for g in getattr(venv, "groups", [venv]))
+        fresh, pooled = sum(g.engine.sim.start_counts for g in venv.groups)
         print(f"start states: {pooled} of {fresh + pooled} training world resets started from a pool")
     final = callback.evaluate()
     model.logger.dump(model.num_timesteps)

@@ -103,7 +103,7 @@ class JumpStart:
     def rollout_start(self, venv, timesteps: int) -> None:
         """Set the share of the episodes that start from now on in every group of ``venv``."""
         self.current = annealed(self.share, self.anneal, timesteps)
-        for group in getattr(venv, "groups", [venv]):
+        for group in venv.groups:
             group.jump_share = self.current
 
     def step(self, venv) -> None:

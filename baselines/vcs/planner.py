@@ -9,7 +9,7 @@ import numpy as np
 from vcs_env import noise
 from vcs_env.geometry import rotate, wrap_angle
 from vcs_env.planning import Planner
-from vcs_env.routes import waypoints
+from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
 from ..capsule import reference_capsule_tau
@@ -124,11 +124,9 @@ class VCSPlanner(Planner):
         p = self.params
         mem = self._mem
         route, leg = None, None
-        if world.n_segments:  # (next leg scaled to the remaining length [m], that length [m])
-            target, length = waypoints(world)
-            e = target - world.pos
-            leg = np.sqrt(np.einsum("...i,...i->...", e, e))  # (B, n) length of the next leg [m]
-            route = (e * (length / np.maximum(leg, 1e-12))[..., None], length)
+        if world.n_segments:  # (next leg scaled to the remaining length [m], that length [m]); the leg's length [m]
+            scaled, length, leg = route_direction(world, with_leg=True)
+            route = (scaled, length)
         pref = preferred_velocity(world, route=route)
         B, n = world.batch_size, world.n_robots
         if p.give_way and world.n_segments and n > 1:
