@@ -4,7 +4,7 @@
 (``rollout``, ``train``, ``collect``); :func:`probe_scenario` builds the same flags on the
 conventions of the evaluation suites (``evaluate`` / ``compare`` without ``--suite``), and
 :func:`suite_differences` lists how a training scenario differs from the suite of its family.
-:func:`mixture_scenarios` expands a training mixture (``--mixture``) into one scenario per world.
+:mod:`agents.mixture` expands a training mixture (``--mixture``) into one scenario per world.
 
 Every config is a dataclass whose fields carry a docstring (cleanrl style); :func:`add_config_args`
 turns the fields into ``--flags`` whose help is that docstring, so the config, its JSON copy
@@ -18,18 +18,16 @@ import ast
 import dataclasses
 import functools
 import inspect
-import itertools
 import shlex
 import textwrap
 import types
 import typing
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from vcs_env.layouts import KINDS
-from vcs_env.observations import observation_config
+from vcs_env.lidar import LidarSpec
 from vcs_env.scenario import MAPS, SCENARIOS, RewardWeights, fit_time_limit, make_scenario, short_time_limit
 from vcs_env.suites import SUITES
 
@@ -70,6 +68,16 @@ class ScenarioConfig:
     obstacle_motion: str | None = None
     """How obstacles move: static, constant, patrol, arbitrary, stop_and_go or pedestrians (None: the
     preset's; vcs_env.obstacles)."""
+    corridor_width: float | None = None
+    """Corridor width of corridor and intersection maps [m] (None: the preset's)."""
+    door_width: float | None = None
+    """Door width of doorway and room maps [m] (None: the preset's)."""
+    n_walls: int | None = None
+    """Random wall segments of walls maps (None: the preset's)."""
+    n_wall_points: int | None = None
+    """Nearest points on walls in every robot's observation (Scenario.n_wall_points; None: the preset's, 0)."""
+    lidar_beams: int | None = None
+    """Lidar beams in every robot's observation, over 360 degrees and 4 m (vcs_env.lidar; None: no lidar)."""
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential, danger,
@@ -121,6 +129,9 @@ def _check_applies(scenario, given: dict[str, Any]):
                 else "its layout reads neither jitter nor layout_radius"
             )
             raise ValueError(f"{name} does not apply to {scenario.kind} scenarios ({uses}); leave it out")
+    for name, kinds in MAP_FIELDS.items():
+        if name in given and scenario.kind not in kinds:
+            raise ValueError(f"{name} does not apply to {scenario.kind} scenarios (only to {', '.join(kinds)})")
     for name in ("obstacle_speed", "obstacle_motion"):
         if name in given and scenario.n_obstacles == 0:
             raise ValueError(
@@ -148,13 +159,17 @@ def scenario_base(name: str):
 
 _SCENARIO_FLAGS = (
     "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed",
-    "obstacle_motion",
+    "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points",
 )  # fmt: skip
+MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}
+"""Map fields and the kinds that read them (flags, mixture entries and probe axes)."""
 
 
 def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:
     """The Scenario fields a config sets (flags given), by name."""
     over = {name: getattr(cfg, name) for name in _SCENARIO_FLAGS if getattr(cfg, name) is not None}
+    if cfg.lidar_beams is not None:
+        over["lidar"] = LidarSpec(n_beams=cfg.lidar_beams)
     if "obstacle_speed" in over:
         over["obstacle_speed"] = tuple(float(v) for v in over["obstacle_speed"])
         if len(over["obstacle_speed"]) != 2:
@@ -381,120 +396,3 @@ def config_from_dict(cls: type, data: dict[str, Any]):
     names = {f.name for f in dataclasses.fields(cls)}
     kw = {k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items() if k in names}
     return cls(**kw)
-
-
-# --------------------------------------------------------------------------- mixtures
-MIXTURE_FIELDS = {
-    "n_robots": int,
-    "n_obstacles": int,
-    "jitter": float,
-    "layout_radius": float,
-    "obstacle_speed": float,
-}
-"""Scenario fields a mixture entry may set, with their type. ``obstacle_speed=LO-HI`` sets the
-scenario's speed interval (drawn per obstacle and episode); the others give a value or a grid."""
-
-
-def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
-    """``"circle:n_robots=4-16/4,jitter=0-0.4"`` -> ``("circle", {"n_robots": (4, 8, 12, 16),
-    "jitter": (0.0, 0.2, 0.4)})``.
-
-    ``FIELD=V`` is one value; ``FIELD=LO-HI/STEP`` the grid LO, LO+STEP, ..., HI (STEP must divide
-    HI - LO); without ``/STEP`` integers step by 1 and floats give 3 levels (LO, middle, HI).
-    ``obstacle_speed=LO-HI`` is one interval ``((LO, HI),)`` (no STEP). A field may appear once.
-    The name before the colon is a preset or a suite (``crowd-20-v0:obstacle_speed=0.5-1.5``
-    starts from that suite's conventions, :func:`scenario_base`).
-    """
-    preset, _, rest = text.partition(":")
-    preset = preset.strip()
-    try:
-        scenario_base(preset)
-    except ValueError as err:
-        raise ValueError(f"mixture entry {text!r}: {err}") from None
-    fields: dict[str, tuple] = {}
-    for item in filter(None, (p.strip() for p in rest.split(","))):
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or name not in MIXTURE_FIELDS:
-            raise ValueError(
-                f"mixture entry {text!r}: {item!r} must be FIELD=VALUE or FIELD=LO-HI[/STEP] with FIELD in "
-                f"{list(MIXTURE_FIELDS)}"
-            )
-        if name in fields:
-            raise ValueError(f"mixture entry {text!r}: {name} is set twice")
-        conv = MIXTURE_FIELDS[name]
-        body, _, step_text = value.partition("/")
-        lo_text, dash, hi_text = body.strip().partition("-")
-        try:
-            lo = conv(lo_text)
-            hi = conv(hi_text) if dash else lo
-            step = conv(step_text) if step_text else None
-        except ValueError:
-            raise ValueError(f"mixture entry {text!r}: {name} needs {conv.__name__} values, got {value!r}") from None
-        if hi < lo or (step is not None and step <= 0):
-            raise ValueError(f"mixture entry {text!r}: {name} needs LO <= HI and STEP > 0, got {value!r}")
-        if name == "obstacle_speed":
-            if step is not None:
-                raise ValueError(
-                    f"mixture entry {text!r}: obstacle_speed=LO-HI is one interval (each obstacle draws its speed "
-                    f"from it), it takes no /STEP; got {value!r}"
-                )
-            fields[name] = ((lo, hi),)
-            continue
-        step = step if step is not None else (1 if conv is int else (hi - lo) / 2)
-        count = round((hi - lo) / step) + 1 if hi > lo else 1
-        if hi > lo and abs(lo + (count - 1) * step - hi) > 1e-9 * max(1.0, abs(hi)):
-            raise ValueError(
-                f"mixture entry {text!r}: {name}={value} does not end at {hi}: the step must divide HI - LO"
-            )
-        fields[name] = tuple(conv(round(lo + k * step, 12)) for k in range(count))
-    return preset, fields
-
-
-def mixture_split(scenarios: Sequence, seeds: Sequence[int]) -> list[tuple[Any, list[int]]]:
-    """Episode ``j`` of a mixture plays ``scenarios[j % S]`` with ``seeds[j]``: the pairs
-    ``(scenario, its seeds)`` in scenario order, scenarios without an episode left out. The one
-    rule behind mixture data (:func:`agents.imitation.data.play_mixture`) and scoring
-    (:func:`agents.evaluate.score_scenarios`)."""
-    seeds = [int(s) for s in seeds]
-    return [(sc, seeds[g :: len(scenarios)]) for g, sc in enumerate(scenarios) if seeds[g :: len(scenarios)]]
-
-
-def scenarios_of(cfg: ScenarioConfig, mixture: tuple[str, ...] = ()) -> list:
-    """The scenario of a config, or every scenario of its mixture (:func:`mixture_scenarios`)."""
-    return mixture_scenarios(cfg, tuple(mixture)) if mixture else [build_scenario(cfg)]
-
-
-def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
-    """Every scenario of a mixture: for each entry (:func:`parse_mixture_entry`) the product of its
-    grids, applied to the preset together with the config's common flags (``max_steps``,
-    ``on_collision``, ``obstacle_motion``, ``rewards``, shaping). The per-scenario flags of ``cfg`` (``scenario``,
-    ``n_robots``, ``n_obstacles``, ``jitter``, ``layout_radius``, ``obstacle_speed``) must be
-    unset: entries set those. All scenarios must share one observation config."""
-
-    per_entry = ("n_robots", "n_obstacles", "jitter", "layout_radius", "obstacle_speed")
-    clash = [f for f in per_entry if getattr(cfg, f) is not None]
-    if cfg.scenario != type(cfg)().scenario:
-        clash.insert(0, "scenario")
-    if clash:
-        flags = ", ".join("--" + f.replace("_", "-") for f in clash)
-        raise ValueError(
-            f"with --mixture, set {flags} inside the mixture entries (the scenario before the colon, fields "
-            "after it: circle:n_robots=8)"
-        )
-    out = []
-    for entry in mixture:
-        preset, fields = parse_mixture_entry(entry)
-        names = list(fields)
-        for values in itertools.product(*(fields[n] for n in names)):
-            sub = dataclasses.replace(cfg, scenario=preset, **dict(zip(names, values)))
-            try:
-                out.append(build_scenario(sub, check=tuple(names)))
-            except ValueError as err:
-                raise ValueError(f"mixture entry {entry!r}: {err}") from None
-    if not out:
-        raise ValueError("--mixture needs at least one entry, e.g. circle:n_robots=4-12/4 crowd")
-    configs = [observation_config(s) for s in out]
-    if any(c != configs[0] for c in configs):
-        raise ValueError(f"mixture scenarios must share one observation config, got {configs[0]} and others")
-    return out

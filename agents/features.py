@@ -40,7 +40,7 @@ from typing import Any
 import torch
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, SENSE_REF
+from vcs_env.observations import EGO_DIM, SENSE_REF, Layout
 from vcs_env.scenario import R_REF, V_REF
 
 FEATURES = ("flat", "contact", "slots")
@@ -51,6 +51,9 @@ T_REF = 2.0
 """Time scale of the contact and reach features [s]."""
 G_REF = 0.5
 """Length scale of the nearness feature [m]."""
+V1_NEIGHBOR_DIM = 8
+"""Floats per neighbour slot of observation v1: what checkpoints without ``neighbor_dim`` in their
+``features_extractor_kwargs`` read."""
 SLOT_WIDTH = 64
 """Width of the ``slots`` encoder's hidden layer (its code has ``SLOT_WIDTH // 2`` numbers). Stored in
 every checkpoint's ``features_extractor_kwargs``; checkpoints without it were trained at 128."""
@@ -63,9 +66,10 @@ def check_features(name: str) -> str:
     return name
 
 
-def contact_features(obs: torch.Tensor, n_neighbors: int) -> torch.Tensor:
-    """The ``contact`` block ``(N, n_neighbors * CONTACT_DIM)`` of observations ``(N, D)``."""
-    slots = obs[:, EGO_DIM : EGO_DIM + n_neighbors * NEIGHBOR_DIM].reshape(-1, n_neighbors, NEIGHBOR_DIM)
+def contact_features(obs: torch.Tensor, n_neighbors: int, neighbor_dim: int = V1_NEIGHBOR_DIM) -> torch.Tensor:
+    """The ``contact`` block ``(N, n_neighbors * CONTACT_DIM)`` of observations ``(N, D)`` whose neighbour
+    slots (after the ``EGO_DIM`` ego block) have ``neighbor_dim`` floats (8: observation v1, 9: v2)."""
+    slots = obs[:, EGO_DIM : EGO_DIM + n_neighbors * neighbor_dim].reshape(-1, n_neighbors, neighbor_dim)
     v_max = obs[:, 4:5] * V_REF  # [m/s]
     own_speed = obs[:, 0:1] * v_max  # [m/s], forward in the robot frame
     own_radius = obs[:, 7:8] * R_REF  # [m]
@@ -95,42 +99,43 @@ def contact_features(obs: torch.Tensor, n_neighbors: int) -> torch.Tensor:
 class ContactFeatures(BaseFeaturesExtractor):
     """The observation followed by :func:`contact_features` (module docstring)."""
 
-    def __init__(self, observation_space, n_neighbors: int):
+    def __init__(self, observation_space, n_neighbors: int, neighbor_dim: int = V1_NEIGHBOR_DIM):
         super().__init__(observation_space, observation_space.shape[0] + n_neighbors * CONTACT_DIM)
-        self.n_neighbors = n_neighbors
+        self.n_neighbors, self.neighbor_dim = n_neighbors, neighbor_dim
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        return torch.cat((observations, contact_features(observations, self.n_neighbors)), dim=-1)
+        contact = contact_features(observations, self.n_neighbors, self.neighbor_dim)
+        return torch.cat((observations, contact), dim=-1)
 
 
 class SlotEncoder(BaseFeaturesExtractor):
     """``slots``: one small MLP shared by every neighbour slot, pooled over the real ones.
 
     Each slot reads its own features, its :func:`contact_features` and the robot's own block
-    (``EGO_DIM``), ``(N, k, NEIGHBOR_DIM + CONTACT_DIM + EGO_DIM)``; the encoder (two layers of
+    (``EGO_DIM``), ``(N, k, neighbor_dim + CONTACT_DIM + EGO_DIM)``; the encoder (two layers of
     ``width``, ReLU) maps it to ``width // 2`` numbers; the masked maximum and mean over the real
     slots (0 with none) follow the robot's own block and whatever the observation has after the
     slots (wall points, lidar). The same object reads the same wherever it sorts, and the weights
     that judge one neighbour judge them all.
     """
 
-    def __init__(self, observation_space, n_neighbors: int, width: int = 128):
-        self.n_neighbors, self.width = n_neighbors, width
-        rest = observation_space.shape[0] - n_neighbors * NEIGHBOR_DIM
+    def __init__(self, observation_space, n_neighbors: int, width: int = 128, neighbor_dim: int = V1_NEIGHBOR_DIM):
+        self.n_neighbors, self.width, self.neighbor_dim = n_neighbors, width, neighbor_dim
+        rest = observation_space.shape[0] - n_neighbors * neighbor_dim
         super().__init__(observation_space, rest + 2 * (width // 2))  # + the maximum and the mean
         self.encoder = torch.nn.Sequential(
-            torch.nn.Linear(NEIGHBOR_DIM + CONTACT_DIM + EGO_DIM, width),
+            torch.nn.Linear(neighbor_dim + CONTACT_DIM + EGO_DIM, width),
             torch.nn.ReLU(),
             torch.nn.Linear(width, width // 2),
             torch.nn.ReLU(),
         )
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        k, n = self.n_neighbors, observations.shape[0]
-        end = EGO_DIM + k * NEIGHBOR_DIM
+        k, n, d = self.n_neighbors, observations.shape[0], self.neighbor_dim
+        end = EGO_DIM + k * d
         ego = observations[:, :EGO_DIM]
-        slots = observations[:, EGO_DIM:end].reshape(n, k, NEIGHBOR_DIM)
-        contact = contact_features(observations, k).reshape(n, k, CONTACT_DIM)
+        slots = observations[:, EGO_DIM:end].reshape(n, k, d)
+        contact = contact_features(observations, k, d).reshape(n, k, CONTACT_DIM)
         x = torch.cat((slots, contact, ego[:, None, :].expand(n, k, EGO_DIM)), dim=-1)
         mask = slots[..., :1]  # (N, k, 1)
         h = self.encoder(x) * mask  # ReLU outputs >= 0, so zeroed padding never wins the maximum
@@ -139,12 +144,17 @@ class SlotEncoder(BaseFeaturesExtractor):
         return torch.cat((ego, observations[:, end:], pooled_max, pooled_mean), dim=-1)
 
 
-def extractor_kwargs(features: str, n_neighbors: int) -> dict[str, Any]:
-    """``policy_kwargs`` entries of SB3's ``MlpPolicy`` for ``features`` (none for ``flat``)."""
+def extractor_kwargs(features: str, layout: Layout) -> dict[str, Any]:
+    """``policy_kwargs`` entries of SB3's ``MlpPolicy`` for ``features`` (none for ``flat``) on observations of
+    ``layout`` (:func:`vcs_env.observations.observation_layout`)."""
     if check_features(features) == "flat":
         return {}
     cls = {"contact": ContactFeatures, "slots": SlotEncoder}[features]
-    kwargs = {"features_extractor_class": cls, "features_extractor_kwargs": {"n_neighbors": n_neighbors}}
+    nb = layout.block("neighbors")
+    kwargs = {
+        "features_extractor_class": cls,
+        "features_extractor_kwargs": {"n_neighbors": nb.items, "neighbor_dim": nb.item_dim},
+    }
     if features == "slots":  # the encoder has weights: actor and critic each train their own
         kwargs["features_extractor_kwargs"]["width"] = SLOT_WIDTH
         kwargs["share_features_extractor"] = False

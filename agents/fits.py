@@ -15,19 +15,28 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, OBSERVATION_VERSION, observation_config, observation_dim
+from vcs_env.observations import (
+    EGO_DIM,
+    NEIGHBOR_DIM,
+    OBSERVATION_VERSION,
+    OBSERVATION_VERSIONS,
+    observation_config,
+    observation_dim,
+)
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
 from .runs import jsonable
 
 SIZE_HINT = (
-    f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors, then the lidar and wall-point blocks if the "
-    "scenario has them)"
+    f"(observation size = {EGO_DIM} + {NEIGHBOR_DIM} * n_neighbors in v2 ({NEIGHBOR_DIM - 1} in v1), then the lidar "
+    "and wall-point blocks if the scenario has them)"
 )
 """How an observation's size follows from the scenario, for error messages."""
 V0_EGO_DIM = 8
-"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``)."""
+"""Ego features of observation v0 (``8 + 8 K`` floats; v1 has ``EGO_DIM + 8 K``, v2 ``EGO_DIM + 9 K``)."""
+V0_NEIGHBOR_DIM = 8
+"""Features per neighbour slot of observation v0."""
 
 
 class CheckpointError(ValueError):
@@ -74,6 +83,30 @@ def check_observation_space(space: Any, scenario: Scenario, what: str) -> None:
         )
 
 
+def _config_diff(saved: dict, expected: dict) -> str:
+    """What differs between two observation configs, block by block where both have blocks."""
+    parts = []
+    for k in sorted(set(saved) | set(expected), key=str):
+        a, b = saved.get(k), expected.get(k)
+        if a == b:
+            continue
+        if k == "blocks" and isinstance(a, list) and isinstance(b, list):
+            mine = {blk.get("name"): blk for blk in a if isinstance(blk, dict)}
+            theirs = {blk.get("name"): blk for blk in b if isinstance(blk, dict)}
+            for name in list(mine) + [n for n in theirs if n not in mine]:
+                if mine.get(name) != theirs.get(name):
+                    parts.append(f"block {name!r}: {_block(mine.get(name))} (scenario: {_block(theirs.get(name))})")
+        else:
+            parts.append(f"{k}: {json.dumps(a)} (scenario: {json.dumps(b)})")
+    return "; ".join(parts)
+
+
+def _block(blk: dict | None) -> str:
+    if blk is None:
+        return "absent"
+    return f"{blk.get('items')} x {len(blk.get('fields', []))} floats {blk.get('fields')}"
+
+
 def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, what: str) -> None:
     """Raise :class:`CheckpointError` unless a checkpoint (its metadata ``meta`` and observation
     ``space``) may observe ``scenario``; warn (:class:`FamilyWarning`) if it was trained on
@@ -85,36 +118,38 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
     """
     saved = meta.get("observation")
     dim = getattr(space, "shape", (None,))[0]
-    v0_form = dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % NEIGHBOR_DIM == 0
+    v0_form = dim is not None and dim >= V0_EGO_DIM and (dim - V0_EGO_DIM) % V0_NEIGHBOR_DIM == 0
     if saved is None and v0_form and dim != observation_dim(scenario):
         command = meta.get("command")
         raise CheckpointError(
-            f"{what} was made for observation v0 (vcs_nav_v0: {dim} = {V0_EGO_DIM} + {NEIGHBOR_DIM} K floats, "
-            f"scaled by the world size); observations changed in v1 (vcs_nav_v1: fixed physical scales and "
-            f"scenario features, {EGO_DIM} + {NEIGHBOR_DIM} K floats), so its inputs would mean something else. "
-            "Retrain it on v1" + (f" with its command: {command}" if command else "")
+            f"{what} was made for observation v0 (vcs_nav_v0: {dim} = {V0_EGO_DIM} + {V0_NEIGHBOR_DIM} K floats, "
+            f"scaled by the world size); observations changed in v1 (fixed physical scales and scenario features) "
+            f"and v2 (vcs_nav_v2: {EGO_DIM} + {NEIGHBOR_DIM} K floats), so its inputs would mean something else. "
+            f"Retrain it on v{OBSERVATION_VERSION}" + (f" with its command: {command}" if command else "")
         )
     if saved is not None:
         expected = jsonable(observation_config(scenario))
         if saved != expected:
             version = saved.get("version") if isinstance(saved, dict) else None
-            hint = (
-                f"observation version {version}, this vcs-env has {OBSERVATION_VERSION}; retrain it"
-                if version != OBSERVATION_VERSION
-                else "use a policy trained with this observation config"
-            )
-            if isinstance(saved, dict):
-                keys = sorted(set(saved) | set(expected), key=str)
-                diff = "; ".join(
-                    f"{k}: {json.dumps(saved.get(k))} (scenario: {json.dumps(expected.get(k))})"
-                    for k in keys
-                    if saved.get(k) != expected.get(k)
+            if version != expected["version"]:
+                produced = version in OBSERVATION_VERSIONS
+                raise CheckpointError(
+                    f"{what} reads observation v{version}, but scenario kind={scenario.kind!r} gives "
+                    f"v{expected['version']}: "
+                    + (
+                        f"run it on Scenario(observation={version}, ...) (the -v{version} env ids), or let "
+                        "vcs-env evaluate / compare / probe choose its sensing, or retrain it"
+                        if produced
+                        else f"this vcs-env produces versions {list(OBSERVATION_VERSIONS)}; retrain it"
+                    )
                 )
+            if isinstance(saved, dict):
+                diff = _config_diff(saved, expected)
             else:
                 diff = f"{json.dumps(saved)} (scenario: {json.dumps(expected, sort_keys=True)})"
             raise CheckpointError(
                 f"{what} was trained with another observation config than scenario kind={scenario.kind!r} gives: "
-                f"{diff} ({hint})"
+                f"{diff} (use a policy trained with this observation config)"
             )
     check_observation_space(space, scenario, what)
     if saved is None:

@@ -13,7 +13,7 @@ single envs (same seeds, same actions, same numbers)::
     from stable_baselines3.common.vec_env import VecMonitor
     from agents.gym_vec import GymVectorToSB3
 
-    venv = VecMonitor(GymVectorToSB3(gym.make_vec("vcs_env/Navigation-v1", num_envs=64,
+    venv = VecMonitor(GymVectorToSB3(gym.make_vec("vcs_env/Navigation-v2", num_envs=64,
                                                    vectorization_mode="vector_entry_point")))
     PPO("MlpPolicy", venv).learn(100_000)
 

@@ -24,12 +24,14 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from vcs_env.observations import sees_walls, with_sensors
 from vcs_env.planning import PLANNERS, Planner, make_planner
 from vcs_env.rollout import Controller, planner_controller
 from vcs_env.scenario import Scenario
@@ -54,6 +56,9 @@ class ResolvedPolicy:
     """Parameters of the safety shield a checkpoint runs with (:mod:`agents.shield`), or None."""
     residual: Residual | None = None
     """The planner a residual policy corrects and the correction's bound, or None."""
+    scenario: Scenario | None = None
+    """The scenario as this policy observes it: a checkpoint's own sensing on the given scenario's worlds
+    (:func:`vcs_env.observations.with_sensors`); None: as given."""
 
 
 def policy_label(spec: str) -> str:
@@ -132,8 +137,9 @@ def predictor_controller(predictor: Any, deterministic: bool = True, name: str =
         starts = np.repeat(np.asarray(world.steps) == 0, n)
         if starts.all():
             state = None
+        extra = {"active": world.active.reshape(B * n)} if isinstance(predictor, ShieldedPredictor) else {}
         actions, state = predictor.predict(
-            obs.reshape(B * n, D), state=state, episode_start=starts, deterministic=deterministic
+            obs.reshape(B * n, D), state=state, episode_start=starts, deterministic=deterministic, **extra
         )
         actions = np.asarray(actions, dtype=np.float64)
         if actions.shape not in ((B * n, 2), (B, n, 2)):
@@ -144,6 +150,30 @@ def predictor_controller(predictor: Any, deterministic: bool = True, name: str =
         return np.where(world.active[..., None], actions.reshape(B, n, 2), 0.0)
 
     return control
+
+
+class BlindWarning(UserWarning):
+    """A policy whose observation has no wall sensing runs among walls."""
+
+
+def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scenario:
+    """``scenario``'s worlds observed with the sensing ``ckpt`` was trained with (its run record's
+    observation config, :func:`vcs_env.observations.with_sensors`); ``scenario`` itself for a checkpoint
+    without one. Warns (:class:`BlindWarning`) when the worlds have walls the policy cannot see."""
+    config = ckpt.record.get("observation") if isinstance(ckpt.record, dict) else None
+    if isinstance(config, dict):
+        try:
+            scenario = with_sensors(scenario, config)
+        except (ValueError, KeyError, TypeError):
+            pass  # left to the fit check, which names what differs
+    if scenario.has_walls and not sees_walls(scenario):
+        warnings.warn(
+            f"policy {label!r} cannot see walls (its observation has no lidar or wall-point block), but "
+            f"kind={scenario.kind!r} has walls: expect it to drive into them",
+            BlindWarning,
+            stacklevel=3,
+        )
+    return scenario
 
 
 def resolve_policy(
@@ -181,10 +211,12 @@ def resolve_policy(
                 f"{str(policy)!r} is a residual policy over {residual.planner} and its record names a shield, which "
                 "filters a network's actions, not a planner's plus a correction: run it with --no-shield (shield=False)"
             )
-        model = load_checkpoint(ckpt, scenario, shield)
         label = name or policy_label(str(policy))
+        scenario = sensed_as_trained(ckpt, scenario, label)
+        model = load_checkpoint(ckpt, scenario, shield)
         guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
-        resolved = ResolvedPolicy(label, predictor_controller(model, deterministic, label), "checkpoint", guard)
+        controller = predictor_controller(model, deterministic, label)
+        resolved = ResolvedPolicy(label, controller, "checkpoint", guard, scenario=scenario)
         return resolved if residual is None else _residual(resolved, residual, action_mode)
     if isinstance(policy, str):
         planner = make_planner(policy)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.observations import observation_config
+from vcs_env.observations import observation_config, observation_layout
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -41,14 +41,14 @@ class PolicyConfig:
     neighbour slots, pooled); agents.features. SB3 only."""
 
 
-def policy_kwargs(cfg: PolicyConfig, n_neighbors: int) -> dict[str, Any]:
-    """Keyword arguments of SB3's ``MlpPolicy`` for ``cfg``, on observations with ``n_neighbors`` slots."""
+def policy_kwargs(cfg: PolicyConfig, scenario: Scenario) -> dict[str, Any]:
+    """Keyword arguments of SB3's ``MlpPolicy`` for ``cfg``, on the observations of ``scenario``."""
     from .features import extractor_kwargs  # torch
 
     return dict(
         net_arch=dict(pi=list(cfg.net_arch), vf=list(cfg.net_arch)),
         log_std_init=cfg.log_std_init,
-        **extractor_kwargs(cfg.features, n_neighbors),
+        **extractor_kwargs(cfg.features, observation_layout(scenario)),
     )
 
 
@@ -122,7 +122,7 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     mixture: tuple[str, ...] = ()
     """Train on a mixture instead of one scenario: entries PRESET[:FIELD=VALUE|LO-HI[/STEP],...] with
     FIELD in n_robots, n_obstacles, jitter, layout_radius, obstacle_speed, e.g. circle:n_robots=4-16/4,jitter=0-0.4
-    crowd:n_obstacles=3-19/8,obstacle_speed=0.5-1.5 (agents.config.parse_mixture_entry). Every grid point
+    crowd:n_obstacles=3-19/8,obstacle_speed=0.5-1.5 (agents.mixture.parse_mixture_entry). Every grid point
     is one scenario with a fixed share of the worlds (agents.vec_env.MixtureVecEnv); the other scenario
     flags (max_steps, on_collision, rewards, shaping) apply to all."""
     mixture_balance: str = "worlds"

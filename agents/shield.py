@@ -3,7 +3,7 @@
 The shield predicts, for the action the policy chose and for a fixed grid of alternatives, how close the
 robot would come to its sensed neighbours within ``horizon`` seconds, and replaces the policy's action
 only when that action would come closer than ``margin``. It reads nothing but the robot's own
-observation (observation version 1, :mod:`vcs_env.observations`), so a shielded policy stays a
+observation (its ``ego`` and ``neighbors`` blocks, :mod:`vcs_env.observations`), so a shielded policy stays a
 decentralised policy: observation in, action out.
 
 Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
@@ -14,7 +14,7 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   heading by ``a_1 omega_max dt``, then it drives straight for ``dt``; positions are taken at every
   step's end and, for steps longer than 0.1 s, every ``dt / ceil(dt / 0.1 s)`` along it;
 * every sensed obstacle moves on at its observed velocity; a sensed robot counts only while its speed
-  is at most ``robot_speed`` [m/s] (robots that stopped, parked robots among them), since a moving
+  is at most ``robot_speed`` [m/s] or it is parked (observation v2's flag), since a moving
   robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
   (on circle-24, counting every robot cost 15 points of success, ``docs/experiments.md``);
 * the gap is the distance between centres minus both radii [m].
@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.observations import DT_REF, EGO_DIM, NEIGHBOR_DIM, SENSE_REF
+from vcs_env.observations import DT_REF, SENSE_REF, Layout, observation_layout
 from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 
 from .checkpoint import open_checkpoint
@@ -88,13 +88,13 @@ class Shield:
                 raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
             object.__setattr__(self, name, float(value))
 
-    def min_gaps(self, obs: np.ndarray, candidates: np.ndarray, n_neighbors: int) -> np.ndarray:
+    def min_gaps(self, obs: np.ndarray, candidates: np.ndarray, layout: Layout) -> np.ndarray:
         """Smallest predicted gap [m] ``(N, K)`` of every robot under every candidate action.
 
         Args:
-            obs: observations ``(N, D)`` (observation version 1, ``n_neighbors`` slots).
+            obs: observations ``(N, D)`` of ``layout``.
             candidates: actions ``(N, K, 2)`` in delta units, each held over the horizon.
-            n_neighbors: neighbour slots in the observation.
+            layout: the observation's blocks (:func:`vcs_env.observations.observation_layout`).
 
         Returns:
             ``+inf`` where no neighbour counts.
@@ -104,11 +104,11 @@ class Shield:
         gap = np.full(candidates.shape[:2], np.inf)
         for value in np.unique(dt):  # one step length at a time (one, unless rows of several scenarios)
             rows = dt == value
-            gap[rows] = self._min_gaps(o[rows], candidates[rows], n_neighbors, float(value))
+            gap[rows] = self._min_gaps(o[rows], candidates[rows], layout, float(value))
         return gap
 
-    def _min_gaps(self, o: np.ndarray, candidates: np.ndarray, n_neighbors: int, dt: float) -> np.ndarray:
-        counted, pos, vel, _, _, reach, v0, v_max, a_max, w_max = self._neighbours(o, n_neighbors)
+    def _min_gaps(self, o: np.ndarray, candidates: np.ndarray, layout: Layout, dt: float) -> np.ndarray:
+        counted, pos, vel, _, _, reach, v0, v_max, a_max, w_max = self._neighbours(o, layout)
         sub = max(1, math.ceil(dt / SAMPLE - 1e-9))  # samples along each step's straight segment
         speed = np.repeat(v0[:, None], candidates.shape[1], 1)
         heading = np.zeros_like(speed)
@@ -132,39 +132,41 @@ class Shield:
         """Steps of ``dt`` [s] the prediction covers: the fewest that reach the horizon (at least one)."""
         return np.maximum(1, np.ceil(self.horizon / np.asarray(dt, dtype=np.float64) - 1e-9)).astype(int)
 
-    def _neighbours(self, o: np.ndarray, n_neighbors: int) -> tuple[np.ndarray, ...]:
+    def _neighbours(self, o: np.ndarray, layout: Layout) -> tuple[np.ndarray, ...]:
         """Per slot ``(N, S)``: counted mask, position and velocity ``(N, S, 2)`` in the robot frame [m, m/s],
         gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``."""
-        N = o.shape[0]
         v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
         v0, radius = o[:, 0] * v_max, o[:, 7] * R_REF
-        slots = o[:, EGO_DIM : EGO_DIM + n_neighbors * NEIGHBOR_DIM].reshape(N, n_neighbors, NEIGHBOR_DIM)
+        slots = layout.read(o, "neighbors")
         pos = slots[..., 1:3] * SENSE_REF
         vel = slots[..., 3:5] * (2 * V_REF)
         vel[..., 0] += v0[:, None]  # relative -> the neighbour's own velocity, robot frame [m/s]
         speed = np.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2)
-        counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | (speed <= self.robot_speed))
+        still = speed <= self.robot_speed
+        if slots.shape[-1] > 8:  # observation v2: parked robots stay where they are, whatever they read
+            still |= slots[..., 8] > 0.5
+        counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | still)
         reach = radius[:, None] + slots[..., 5] * R_REF
         return counted, pos, vel, speed, slots[..., 6] * SENSE_REF, reach, v0, v_max, a_max, w_max
 
-    def near(self, obs: np.ndarray, n_neighbors: int) -> np.ndarray:
+    def near(self, obs: np.ndarray, layout: Layout) -> np.ndarray:
         """``(N,)`` bool: some counted neighbour is within ``margin + T * (v_max + its speed)`` now, ``T`` the
         time the prediction covers (the gap feature reads at most 10 m, never more than the true gap; 1e-6 m
         of slack for rounding); elsewhere no action can come within the margin over the horizon."""
         o = np.asarray(obs, dtype=np.float64)
-        counted, _, _, speed, gap, _, _, v_max, *_ = self._neighbours(o, n_neighbors)
+        counted, _, _, speed, gap, _, _, v_max, *_ = self._neighbours(o, layout)
         dt = step_of(o)
         cover = (self.steps(dt) * dt)[:, None]
         return (counted & (gap < self.margin + NEAR_SLACK + cover * (v_max[:, None] + speed))).any(1)
 
-    def filter(self, obs: np.ndarray, actions: np.ndarray, n_neighbors: int) -> tuple[np.ndarray, np.ndarray]:
+    def filter(self, obs: np.ndarray, actions: np.ndarray, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
         """The shielded actions and where the policy's action fell short of the margin.
 
         Args:
             obs: observations ``(..., D)``.
             actions: the policy's actions ``(..., 2)`` in delta units (clipped to ``[-1, 1]`` first, as the
                 env does).
-            n_neighbors: neighbour slots in the observation.
+            layout: the observation's blocks (:func:`vcs_env.observations.observation_layout`).
 
         Returns:
             actions ``(..., 2)`` float64, and the mask ``(...)`` bool of the rows whose action fell short
@@ -178,17 +180,17 @@ class Shield:
             )
         act = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
         o = np.asarray(obs).reshape(act.shape[0], -1)
-        if o.shape[1] < EGO_DIM + n_neighbors * NEIGHBOR_DIM:
-            raise ValueError(f"the shield needs observations of {n_neighbors} neighbour slots, got length {o.shape[1]}")
+        if o.shape[1] != layout.dim:
+            raise ValueError(f"the shield reads observations of length {layout.dim} (its layout), got {o.shape[1]}")
         # Rows where a counted neighbour could come within the margin at all (near); there the policy's
         # action; the alternatives only where it falls short (row by row the same numbers as all at once).
-        unsafe = self.near(o, n_neighbors)
-        unsafe[unsafe] = self.min_gaps(o[unsafe], act[unsafe, None], n_neighbors)[:, 0] < self.margin
+        unsafe = self.near(o, layout)
+        unsafe[unsafe] = self.min_gaps(o[unsafe], act[unsafe, None], layout)[:, 0] < self.margin
         out = act.copy()
         if unsafe.any():
             a = act[unsafe]
             candidates = np.concatenate((a[:, None], np.broadcast_to(GRID, (len(a), *GRID.shape))), axis=1)
-            gap = self.min_gaps(o[unsafe], candidates, n_neighbors)
+            gap = self.min_gaps(o[unsafe], candidates, layout)
             score = np.minimum(gap, self.margin) * 1e6 - np.linalg.norm(candidates - a[:, None], axis=-1)
             out[unsafe] = np.take_along_axis(candidates, score.argmax(1)[:, None, None], 1)[:, 0]
         return out.reshape(*lead, 2), unsafe.reshape(lead)
@@ -212,23 +214,32 @@ class ShieldedPredictor:
         scenario: the scenario it runs in (its neighbour slots; holonomic robots are refused).
 
     The shield reads actions in delta units (``action_mode="delta"``, what ``vcs-env train`` policies emit).
-    ``replaced`` and ``decisions`` count the rows whose action fell short of the margin and all rows given
-    to :meth:`predict` (robots that are no longer active included).
+    ``replaced`` and ``decisions`` count the rows whose action fell short of the margin and the rows the
+    shield judged: the active robots' when :meth:`predict` is told which they are (``active``, as the
+    evaluation harness does), else every row given.
     """
 
     def __init__(self, model: Any, shield: Shield, scenario: Scenario):
         check_scenario(scenario)
-        self.model, self.shield, self.n_neighbors = model, shield, scenario.n_neighbors
+        self.model, self.shield, self.layout = model, shield, observation_layout(scenario)
         self.observation_space = getattr(model, "observation_space", None)
         self.action_space = getattr(model, "action_space", None)
         self.replaced = self.decisions = 0
 
-    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
-        """The network's actions ``(..., 2)`` float32 for ``observation`` ``(..., D)``, shielded; and its state."""
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False, active=None):
+        """The network's actions ``(..., 2)`` float32 for ``observation`` ``(..., D)``, shielded; and its state.
+
+        ``active`` ``(...)`` bool, if given, names the rows of robots still driving: only those are shielded
+        and counted (the others' actions are the network's, and ignored by the env)."""
         actions, state = self.model.predict(
             observation, state=state, episode_start=episode_start, deterministic=deterministic
         )
-        safe, replaced = self.shield.filter(observation, actions, self.n_neighbors)
+        safe = np.asarray(actions, dtype=np.float64).copy()
+        rows = np.ones(safe.shape[:-1], dtype=bool) if active is None else np.asarray(active, dtype=bool)
+        if rows.shape != safe.shape[:-1]:
+            raise ValueError(f"active must have the actions' leading shape {safe.shape[:-1]}, got {rows.shape}")
+        obs = np.asarray(observation)
+        safe[rows], replaced = self.shield.filter(obs[rows], safe[rows], self.layout)
         self.replaced += int(replaced.sum())
         self.decisions += replaced.size
         return safe.astype(np.float32), state

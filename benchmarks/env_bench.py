@@ -8,7 +8,7 @@ Contestants (same agent count ``n``, same batch size ``B``):
 * ``engine`` - :class:`~vcs_env.engine.NavEngine` stepping ``B`` worlds in one numpy call,
   with auto-reset.
 * ``vecenv`` - the SB3 ``VecEnv`` of ``agents/vec_env.py`` (``B * n`` slots), if present.
-* ``gym_vector`` / ``gym_sync`` - ``gym.make_vec("vcs_env/Navigation-v1", num_envs=B,
+* ``gym_vector`` / ``gym_sync`` - ``gym.make_vec("vcs_env/Navigation-v2", num_envs=B,
   vectorization_mode=...)`` with ``"vector_entry_point"`` (:class:`~vcs_env.gym_env.VcsNavVectorEnv`,
   one engine call for all worlds) and with ``"sync"`` (Gymnasium's ``SyncVectorEnv``, a Python
   loop over ``B`` single envs), on our worlds with ``n`` robots: the learner is ``robot_0``, the
@@ -173,7 +173,7 @@ def gym_vector_env(n: int, B: int, mode: str, others: str = "vcs", seed: int = 0
     import vcs_env  # noqa: F401  (registers the ids)
 
     env = gym.make_vec(
-        "vcs_env/Navigation-v1", num_envs=B, vectorization_mode=mode, scenario=our_scenario(n), others=others
+        "vcs_env/Navigation-v2", num_envs=B, vectorization_mode=mode, scenario=our_scenario(n), others=others
     )
     env.reset(seed=seed)
     pool = np.random.default_rng(seed).uniform(-1.0, 1.0, (POOL, B, 2)).astype(np.float32)

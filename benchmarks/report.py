@@ -211,7 +211,7 @@ PLANNER_LABELS = {
 def _render_gym_vector(rows: list[dict]) -> list[str]:
     L = [
         "",
-        '### Gymnasium vector API: `gym.make_vec("vcs_env/Navigation-v1", num_envs=B, vectorization_mode=...)`',
+        '### Gymnasium vector API: `gym.make_vec("vcs_env/Navigation-v2", num_envs=B, vectorization_mode=...)`',
         "",
         "Learner steps (one per env and step) per CPU second, random learner actions; the other robots of each "
         "world follow `others` (the VCS planner, the default, or `straight`, which leaves the env's own cost). "

@@ -131,7 +131,7 @@ def run(sizes: TrainSizes, variants=VARIANTS) -> dict[str, TrainResult]:
                 rewards = {v: shaping_weight[v]} if v in shaping_weight else {}
                 scenario = make_scenario("circle", n_robots=sizes.n_robots, jitter=0.1, rewards=rewards)
                 venv = NavVecEnv(scenario, sizes.n_worlds, expert="vcs" if v == "expert" else None, gamma=cfg.gamma)
-                model = PPO("MlpPolicy", venv, seed=0, device="cpu", verbose=0, **ppo_kwargs(cfg, scenario.n_neighbors))
+                model = PPO("MlpPolicy", venv, seed=0, device="cpu", verbose=0, **ppo_kwargs(cfg, scenario))
                 total = sizes.rollouts * sizes.n_steps * venv.num_envs
                 timer = CollectTimer()
                 t0, w0 = time.process_time(), time.perf_counter()

@@ -1,5 +1,6 @@
 """agents/: the SB3 VecEnv adapter, checkpoints, behaviour cloning, and CLI smoke runs (cleanrl style)."""
 
+import dataclasses
 import json
 import os
 import re
@@ -34,6 +35,7 @@ from agents.evaluate import (  # noqa: E402
 from agents.policies import predictor_controller  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_env import CustomLayout, NavEngine, make_scenario  # noqa: E402
+from vcs_env.observations import observation_config  # noqa: E402
 from vcs_env.rollout import planner_controller  # noqa: E402
 
 
@@ -230,10 +232,10 @@ def test_checkpoint_errors_are_clear(tmp_path):
     small = make_scenario("crowd", n_neighbors=2)
     model = PPO("MlpPolicy", NavVecEnv(small, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
     model.save(tmp_path / "k2.zip")
-    with pytest.raises(CheckpointError, match=r"observation space Box\(27,\).*Box\(75,\)"):
+    with pytest.raises(CheckpointError, match=r"observation space Box\(29,\).*Box\(83,\)"):
         load_model(tmp_path / "k2.zip", s)
     with pytest.warns(UncheckedWarning, match="no observation config in its run record"):  # a bare SB3 zip
-        assert load_model(tmp_path / "k2", small).observation_space.shape == (27,)
+        assert load_model(tmp_path / "k2", small).observation_space.shape == (29,)
     truncated = tmp_path / "truncated.zip"
     with zipfile.ZipFile(tmp_path / "k2.zip") as src, zipfile.ZipFile(truncated, "w") as dst:
         dst.writestr("data", src.read("data"))
@@ -400,10 +402,10 @@ def test_a_v0_checkpoint_is_refused_with_the_reason():
     scenario = make_scenario("circle")
     space = spaces.Box(-1.0, 1.0, shape=(8 + 8 * scenario.n_neighbors,))
     meta = {"command": "vcs-env train --n-robots 8"}
-    with pytest.raises(CheckpointError, match=r"observation v0.*changed in v1.*Retrain it on v1 with its command: vcs"):
+    with pytest.raises(CheckpointError, match=r"observation v0.*changed in v1.*Retrain it on v2 with its command: vcs"):
         check_checkpoint_fits(meta, space, scenario, "policy")
-    # A v1 observation that happens to have that form (5 lidar beams: 11 + 8 K + 5 = 8 + 8 (K + 1)) and
-    # no run record is only unchecked, not called v0.
+    # A v2 observation that happens to have that form (5 lidar beams and 8 slots: 11 + 9 K + 5 = 8 + 8 (K + 2))
+    # and no run record is only unchecked, not called v0.
     from vcs_env.lidar import LidarSpec
     from vcs_env.spaces import observation_space
 
@@ -423,7 +425,7 @@ def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
     model = PPO("MlpPolicy", NavVecEnv(circle, 1), device="cpu", policy_kwargs=dict(net_arch=[8]))
     path = save_model(model, tmp_path / "m", "ppo", TrainConfig(), circle)
     meta = open_checkpoint(path).record
-    assert meta["scenario_family"] == ["circle"] and meta["observation"]["version"] == 1
+    assert meta["scenario_family"] == ["circle"] and meta["observation"]["version"] == 2
     load_model(path, make_scenario("circle", n_robots=12, jitter=0.3))  # same family and config: silent
     with pytest.warns(FamilyWarning, match=r"trained on scenario family \['circle'\], but runs on kind='crowd'"):
         load_model(path, make_scenario("crowd"))
@@ -432,6 +434,19 @@ def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
     (tmp_path / "m.json").write_text(json.dumps(meta))
     with pytest.raises(
         CheckpointError, match=r"another observation config .*: scales: .*goal_ref.: 10.0.*\(scenario: .*goal_ref.: 20"
+    ):
+        load_model(path, circle)
+    # Another block: the message names it, items and fields on both sides.
+    meta["observation"]["scales"]["goal_ref"] = 20.0
+    meta["observation"]["blocks"].append({"name": "wall_points", "items": 4, "fields": ["valid", "x", "y"]})
+    (tmp_path / "m.json").write_text(json.dumps(meta))
+    with pytest.raises(CheckpointError, match=r"block 'wall_points': 4 x 3 floats .* \(scenario: absent\)"):
+        load_model(path, circle)
+    # Observation v1 on a v2 scenario: says how to run it.
+    meta["observation"] = observation_config(dataclasses.replace(circle, observation=1))
+    (tmp_path / "m.json").write_text(json.dumps(meta))
+    with pytest.raises(
+        CheckpointError, match=r"reads observation v1, but .* gives v2: run it on Scenario\(observation=1"
     ):
         load_model(path, circle)
     # A v0 checkpoint: no observation config and the 8 + 8 K size.
@@ -455,9 +470,9 @@ def test_vec_env_plumbing_slots_mixtures_and_names(tmp_path):
     assert env.env_method("ping", indices=[0, 2, 4]) == [1, 1, 1] and calls == [1]
     with pytest.raises(ValueError, match="set_attr sets all of them"):
         env.set_attr("n_worlds", 5, indices=[1])
-    # A mixture needs one observation config, not only one size (4 slots = 3 slots + 8 beams).
+    # A mixture needs one observation config, not only one size (4 slots = 3 slots + 9 beams).
     same_size = [make_scenario("circle", n_robots=3, n_neighbors=4),
-                 make_scenario("circle", n_robots=3, n_neighbors=3, lidar=LidarSpec(n_beams=8))]  # fmt: skip
+                 make_scenario("circle", n_robots=3, n_neighbors=3, lidar=LidarSpec(n_beams=9))]  # fmt: skip
     assert NavVecEnv(same_size[0]).observation_space.shape == NavVecEnv(same_size[1]).observation_space.shape
     with pytest.raises(ValueError, match="one observation config"):
         MixtureVecEnv(same_size, 2)

@@ -72,24 +72,24 @@ def test_bad_actions_raise_clear_errors():
     for bad in (np.array([1j, 0.0]), ["0.5", "0"], [0.5, "x"]):
         with pytest.raises(ValueError, match="robot_0 must be real numbers"):
             env.step({"robot_0": bad, "robot_1": np.zeros(2)})
-    single = gym.make("vcs_env/Swap-v1").unwrapped
+    single = gym.make("vcs_env/Swap-v2").unwrapped
     single.reset(seed=0)
     with pytest.raises(ValueError, match="action must be real numbers"):
         single.step(np.array([0.5 + 1j, 0.0]))
-    vec = gym.make_vec("vcs_env/Swap-v1", num_envs=2, vectorization_mode="vector_entry_point")
+    vec = gym.make_vec("vcs_env/Swap-v2", num_envs=2, vectorization_mode="vector_entry_point")
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="actions must be real numbers"):
         vec.step(np.zeros((2, 2), dtype=complex))
     # An unknown planner for the other robots is named even when there are none to drive.
     with pytest.raises(ValueError, match="unknown planner 'nope'"):
-        gym.make("vcs_env/Circle-v1", n_robots=1, others="nope")
+        gym.make("vcs_env/Circle-v2", n_robots=1, others="nope")
 
 
 def test_render_fps_is_real_time_for_the_scenario_step():
     for dt in (0.1, 0.05):
         par = vcs_env.parallel_env(scenario="circle", dt=dt)
         aec = vcs_env.env(scenario="circle", dt=dt)
-        single = gym.make("vcs_env/Circle-v1", dt=dt)
+        single = gym.make("vcs_env/Circle-v2", dt=dt)
         for e in (par, aec, single):
             assert e.metadata["render_fps"] == pytest.approx(1.0 / dt)
     assert vcs_env.parallel_env(scenario="circle").metadata["render_modes"] == ["human", "rgb_array", "ansi"]
@@ -122,7 +122,7 @@ def test_expert_actions_handed_out_are_the_callers_own():
     np.testing.assert_array_equal(env.engine.expert_action, engine_before)
     env.reset(seed=1)
     np.testing.assert_array_equal(kept, snapshot + 0.5)
-    single = gym.make("vcs_env/Circle-v1", expert="vcs")
+    single = gym.make("vcs_env/Circle-v2", expert="vcs")
     _, info = single.reset(seed=0)
     held = info["expert_action"].copy()
     info["expert_action"] += 0.5
@@ -131,8 +131,8 @@ def test_expert_actions_handed_out_are_the_callers_own():
 
 def test_obstacle_motion_keyword_is_the_scenario_field_in_every_adapter():
     pz = vcs_env.parallel_env(scenario="dynamic", obstacle_motion="constant")
-    single = gym.make("vcs_env/Dynamic-v1", obstacle_motion="constant")
-    vec = gym.make_vec("vcs_env/Dynamic-v1", num_envs=2, obstacle_motion="constant")
+    single = gym.make("vcs_env/Dynamic-v2", obstacle_motion="constant")
+    vec = gym.make_vec("vcs_env/Dynamic-v2", num_envs=2, obstacle_motion="constant")
     for env in (pz, single.unwrapped, vec.unwrapped):
         assert env.scenario.obstacle_motion == "constant"
     pz.reset(seed=0)
@@ -171,7 +171,7 @@ def test_bad_seeds_and_limits_are_named(tmp_path, capsys):
         env.max_cycles = 0
     with pytest.raises(ValueError, match=r"obstacle_speed must be a \(low, high\) pair"):
         vcs_env.make_scenario("crowd", obstacle_speed=1.0)
-    vec = gym.make_vec("vcs_env/Circle-v1", num_envs=2)
+    vec = gym.make_vec("vcs_env/Circle-v2", num_envs=2)
     with pytest.raises(ValueError, match="seed must be an integer, None or one seed per world"):
         vec.reset(seed="ab")
     slots = NavVecEnv(vcs_env.make_scenario("circle", n_robots=4), n_worlds=2)
@@ -204,14 +204,14 @@ def test_gymnasium_check_env(env_id):
 
 @pytest.mark.slow
 def test_gym_make_overrides_and_vector_envs():
-    env = gym.make("vcs_env/Navigation-v1", scenario="crowd", n_obstacles=2, others="straight")
+    env = gym.make("vcs_env/Navigation-v2", scenario="crowd", n_obstacles=2, others="straight")
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     obs, reward, term, trunc, info = env.step(env.action_space.sample())
     assert "reward_terms" in info
     env.close()
     vec = gym.make_vec(
-        "vcs_env/Swap-v1", num_envs=2, vectorization_mode="async", vector_kwargs={"context": "spawn"}, others="straight"
+        "vcs_env/Swap-v2", num_envs=2, vectorization_mode="async", vector_kwargs={"context": "spawn"}, others="straight"
     )
     obs, _ = vec.reset(seed=1)
     assert obs.shape == (2, vec.single_observation_space.shape[0])
@@ -221,7 +221,7 @@ def test_gym_make_overrides_and_vector_envs():
 
 def test_gym_env_seeding_is_reproducible():
     def rollout(seed):
-        env = gym.make("vcs_env/Crossing-v1", others="vcs")
+        env = gym.make("vcs_env/Crossing-v2", others="vcs")
         obs, _ = env.reset(seed=seed)
         out = [obs]
         for _ in range(20):
@@ -252,7 +252,10 @@ def test_pettingzoo_registry():
     import pettingzoo
 
     env = pettingzoo.make("parallel", vcs_env.PZ_ID, scenario="swap", max_cycles=5)
-    assert env.metadata["name"] == "vcs_nav_v1" and env.max_cycles == 5
+    assert env.metadata["name"] == "vcs_nav_v2" and env.max_cycles == 5
+    assert env.observation_space("robot_0").shape == (11 + 9 * 8,)
+    v1 = pettingzoo.make("parallel", "vcs_env/VcsNav-v1", scenario="swap")  # observation v1 stays available
+    assert v1.observation_space("robot_0").shape == (11 + 8 * 8,) and v1.scenario.observation == 1
     env.reset(seed=0)
     aec = pettingzoo.make("aec", vcs_env.PZ_ID, scenario="swap")
     aec.reset(seed=0)

@@ -1,6 +1,7 @@
 """Evaluation: metrics on hand-made episodes, suites, the harness (planners, predictors,
 checkpoints), fair comparison and the ``evaluate`` / ``compare`` commands."""
 
+import dataclasses
 import json
 import math
 import shutil
@@ -467,9 +468,11 @@ def test_a_trained_checkpoint_refuses_absolute_actions(tmp_path):
     scenario = get_suite("circle-8-v0-smoke").scenario
     with pytest.raises(ValueError, match="act in delta mode; --action-mode absolute"):
         resolve_policy("policies/circle8/model.zip", scenario, action_mode="absolute")
-    # Without a run record (an SB3 zip trained elsewhere) the mode is the caller's to choose.
+    # Without a run record (an SB3 zip trained elsewhere) the mode is the caller's to choose, and so is the
+    # sensing (no record says it: this one reads observation v1).
     shutil.copy("policies/circle8/model.zip", tmp_path / "model.zip")
-    assert resolve_policy(str(tmp_path / "model.zip"), scenario, action_mode="absolute").kind == "checkpoint"
+    v1 = dataclasses.replace(scenario, observation=1)
+    assert resolve_policy(str(tmp_path / "model.zip"), v1, action_mode="absolute").kind == "checkpoint"
 
 
 def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):

@@ -27,12 +27,13 @@ from agents.features import extractor_kwargs  # noqa: E402
 from agents.runs import RLlibConfig, TrainConfig, run_record  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_cli import main  # noqa: E402
+from vcs_env.observations import observation_config, observation_layout, with_sensors  # noqa: E402
 from vcs_env.parallel import parallel_env  # noqa: E402
 from vcs_env.scenario import make_scenario  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 GENERALIST = ROOT / "policies" / "generalist" / "model.zip"
-SCALE = 3.0
+SCALE = 6.0
 """Largest weight of the untrained RLlib policy's last layer."""
 torch.set_num_threads(1)
 
@@ -60,7 +61,7 @@ def onnx_actions(path: Path, obs: np.ndarray) -> np.ndarray:
 
 def sb3_checkpoint(tmp_path: Path, scenario, features: str = "flat") -> Path:
     """An untrained SB3 PPO checkpoint whose mean actions often leave [-1, 1] (so clipping is tested)."""
-    kwargs = dict(net_arch=[16], **extractor_kwargs(features, scenario.n_neighbors))
+    kwargs = dict(net_arch=[16], **extractor_kwargs(features, observation_layout(scenario)))
     model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=kwargs, seed=0)
     with torch.no_grad():
         model.policy.action_net.weight.mul_(300.0)
@@ -89,7 +90,7 @@ def test_sb3_onnx_gives_the_deterministic_actions(tmp_path, features, kind, extr
     assert np.any(np.abs(want) == 1.0) and np.any(np.abs(want) < 1.0)  # clipped and unclipped actions both tested
     layout = json.loads(json_path.read_text())
     assert layout["opset"] == OPSET and layout["observation_dim"] == obs.shape[1]
-    assert layout["observation"]["version"] == 1 and layout["observation"]["n_neighbors"] == scenario.n_neighbors
+    assert layout["observation"] == json.loads(json.dumps(observation_config(scenario)))  # version 2, its blocks
     assert layout["record"]["config"]["features"] == features and layout["record"]["scenario"]["kind"] == kind
     assert layout["checkpoint"]["format"] == "sb3" and layout["shield"] is None and layout["shield_note"] is None
 
@@ -100,7 +101,7 @@ def test_the_released_generalist_exports_with_a_note_on_its_shield(tmp_path, cap
     assert main(["export", str(GENERALIST.parent), "--onnx", str(tmp_path / "g.onnx")]) == 0
     out = capsys.readouterr()
     assert "wrote" in out.out and "note: the run record names a safety shield" in out.err
-    scenario = make_scenario(meta["scenario"]["kind"], **meta["scenario"])
+    scenario = with_sensors(make_scenario(meta["scenario"]["kind"], **meta["scenario"]), meta["observation"])  # v1
     obs = fresh_observations(scenario, seed=100)
     want, _ = load_model(GENERALIST).predict(obs, deterministic=True)
     assert np.abs(onnx_actions(tmp_path / "g.onnx", obs) - want).max() <= 1e-5
@@ -177,7 +178,7 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     path.with_suffix(".json").write_text(json.dumps(record))
     assert main(["export", str(path), "--onnx", str(tmp_path / "w.onnx")]) == 2
     line = one_error(capsys)
-    assert "takes observations of size 75, but its run record" in line and "says 99" in line
+    assert "takes observations of size 83, but its run record" in line and "says 99" in line
     assert not (tmp_path / "w.onnx").exists()
     with pytest.raises(CheckpointError, match="must end in .onnx"):
         open_checkpoint(path).export_onnx(tmp_path / "w")

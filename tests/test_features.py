@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from agents.features import CONTACT_DIM, G_REF, SLOT_WIDTH, T_REF, SlotEncoder, check_features, contact_features
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observe
+from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observation_layout, observe
 from vcs_env.sim import Simulator
 from vcs_env.spaces import observation_space
 from vcs_env.suites import get_suite
@@ -56,7 +56,7 @@ def test_contact_block_matches_a_brute_force_oracle(k):
             continue
         world = sim.world
         obs = observe(world, scenario)
-        got = contact_features(torch.as_tensor(obs.reshape(-1, obs.shape[-1])), k).numpy()
+        got = contact_features(torch.as_tensor(obs.reshape(-1, obs.shape[-1])), k, NEIGHBOR_DIM).numpy()
         got = got.reshape(2, scenario.n_robots, k, CONTACT_DIM)
         for b in range(2):
             for i in np.flatnonzero(world.present[b]):
@@ -67,12 +67,12 @@ def test_contact_block_matches_a_brute_force_oracle(k):
 
 def slots_oracle(enc: SlotEncoder, obs: np.ndarray) -> np.ndarray:
     """The slots encoding of one observation ``(D,)``, one real slot at a time."""
-    k = enc.n_neighbors
-    ego, end = obs[:EGO_DIM], EGO_DIM + k * NEIGHBOR_DIM
-    contact = contact_features(torch.as_tensor(obs[None]), k).numpy().reshape(k, CONTACT_DIM)
+    k, d = enc.n_neighbors, enc.neighbor_dim
+    ego, end = obs[:EGO_DIM], EGO_DIM + k * d
+    contact = contact_features(torch.as_tensor(obs[None]), k, d).numpy().reshape(k, CONTACT_DIM)
     codes = []
     for s in range(k):
-        slot = obs[EGO_DIM + s * NEIGHBOR_DIM : EGO_DIM + (s + 1) * NEIGHBOR_DIM]
+        slot = obs[EGO_DIM + s * d : EGO_DIM + (s + 1) * d]
         if slot[0] == 1.0:
             x = torch.as_tensor(np.concatenate((slot, contact[s], ego)))
             codes.append(enc.encoder(x).detach().numpy())
@@ -90,7 +90,7 @@ def test_slot_encoder_matches_a_slot_by_slot_loop_and_ignores_the_order():
         sim = Simulator(scenario, 2)
         sim.reset([3, 4])
         obs = observe(sim.world, scenario).reshape(-1, observation_space(scenario).shape[0])
-        enc = SlotEncoder(observation_space(scenario), scenario.n_neighbors)
+        enc = SlotEncoder(observation_space(scenario), scenario.n_neighbors, neighbor_dim=NEIGHBOR_DIM)
         got = enc(torch.as_tensor(obs)).detach().numpy()
         n_real = obs[:, EGO_DIM : EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM : NEIGHBOR_DIM].sum(1)
         assert (n_real < scenario.n_neighbors).any()  # padding is exercised
@@ -110,10 +110,13 @@ def test_slot_encoder_default_width_is_the_one_older_checkpoints_were_trained_at
     SLOT_WIDTH explicitly."""
     from agents.features import extractor_kwargs
 
-    space = observation_space(get_suite("dynamic-v0").scenario)
+    scenario = get_suite("dynamic-v0").scenario
+    space = observation_space(dataclasses.replace(scenario, observation=1))
     assert SlotEncoder(space, 8).encoder[0].out_features == 128
-    kwargs = extractor_kwargs("slots", 8)["features_extractor_kwargs"]
-    assert kwargs["width"] == SLOT_WIDTH
+    assert SlotEncoder(space, 8).encoder[0].in_features == 8 + CONTACT_DIM + EGO_DIM  # v1 slots, as they were
+    kwargs = extractor_kwargs("slots", observation_layout(scenario))["features_extractor_kwargs"]
+    assert kwargs["width"] == SLOT_WIDTH and kwargs["neighbor_dim"] == NEIGHBOR_DIM
+    space = observation_space(scenario)
     assert SlotEncoder(space, **kwargs).encoder[0].out_features == SLOT_WIDTH
 
 

@@ -104,7 +104,7 @@ def test_cli_ad_hoc_errors_are_messages(args, message, capsys):
 
 # --------------------------------------------------------------------------- mixtures
 def test_obstacle_motion_flag_applies_to_every_mixture_entry():
-    from agents.config import mixture_scenarios
+    from agents.mixture import mixture_scenarios
 
     entries = ("dynamic-v0", "crowd-5-v0:n_obstacles=3-4")
     assert [s.obstacle_motion for s in mixture_scenarios(ScenarioConfig(), entries)] == ["arbitrary", *["constant"] * 2]
@@ -113,7 +113,7 @@ def test_obstacle_motion_flag_applies_to_every_mixture_entry():
 
 
 def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
-    from agents.config import mixture_scenarios, parse_mixture_entry
+    from agents.mixture import mixture_scenarios, parse_mixture_entry
 
     assert parse_mixture_entry("circle:n_robots=4-16/4,jitter=0-0.4") == (
         "circle",
@@ -148,11 +148,35 @@ def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
         mixture_scenarios(ScenarioConfig(scenario="dynamic"), ("circle",))
 
 
+def test_map_fields_and_sensing_flags_reach_every_mixture_entry():
+    """Map entries set corridor and door widths and wall counts; the sensing flags apply to every entry
+    (one observation config for the mixture); a map field on a kind that does not read it is refused."""
+    from agents.mixture import mixture_scenarios
+
+    entries = ("doorway-v0:door_width=1.2-1.6/0.2", "walls:n_walls=4-8/4", "corridor:corridor_width=2.5", "circle")
+    scenarios = mixture_scenarios(ScenarioConfig(n_wall_points=6, lidar_beams=8), entries)
+    assert [(s.kind, s.door_width, s.n_walls, s.corridor_width) for s in scenarios][:5] == [
+        ("doorway", 1.2, 8, 2.0),
+        ("doorway", 1.4, 8, 2.0),
+        ("doorway", 1.6, 8, 2.0),
+        ("walls", 1.2, 4, 2.0),
+        ("walls", 1.2, 8, 2.0),
+    ]
+    assert scenarios[5].corridor_width == 2.5
+    assert {(s.n_wall_points, s.lidar.n_beams) for s in scenarios} == {(6, 8)}
+    for entry, msg in (("circle:door_width=1.2", "door_width does not apply to circle"),
+                       ("walls:corridor_width=2", "corridor_width does not apply to walls")):  # fmt: skip
+        with pytest.raises(ValueError, match=msg):
+            mixture_scenarios(ScenarioConfig(), (entry,))
+    with pytest.raises(ValueError, match="set --n-walls inside the mixture entries"):
+        mixture_scenarios(ScenarioConfig(n_walls=4), ("walls",))
+
+
 def test_mixture_grids_end_at_hi_and_fields_that_change_nothing_are_refused():
     """A grid whose step does not reach HI, a step on the speed interval, a field given twice,
     and a field the entry's scenario does not read are errors naming the entry, never a silently
     shorter grid or a scenario repeated under another label."""
-    from agents.config import mixture_scenarios, parse_mixture_entry
+    from agents.mixture import mixture_scenarios, parse_mixture_entry
 
     assert parse_mixture_entry("circle:n_robots=4-12/4,jitter=0.1-0.5/0.2")[1] == {
         "n_robots": (4, 8, 12),
@@ -207,7 +231,7 @@ def test_each_kind_reads_exactly_the_layout_fields_it_declares(name):
 def test_suite_names_are_scenario_bases_with_their_conventions():
     """``--scenario crowd-20-v0`` and mixture entries named by a suite start from that suite's
     scenario; flags and entry fields change only what they name; the note names the nearest suite."""
-    from agents.config import mixture_scenarios, parse_mixture_entry
+    from agents.mixture import mixture_scenarios, parse_mixture_entry
 
     crowd20 = get_suite("crowd-20-v0").scenario
     assert build_scenario(ScenarioConfig(scenario="crowd-20-v0")) == crowd20

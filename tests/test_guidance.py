@@ -45,9 +45,7 @@ def _model(scenario, residual, zero: bool):
 
     torch.set_num_threads(1)
     env = NavVecEnv(scenario, 1, residual=residual)
-    model = PPO(
-        "MlpPolicy", env, device="cpu", seed=0, policy_kwargs=policy_kwargs(TrainConfig(), scenario.n_neighbors)
-    )
+    model = PPO("MlpPolicy", env, device="cpu", seed=0, policy_kwargs=policy_kwargs(TrainConfig(), scenario))
     if zero:
         zero_action_head(model)
     return model
@@ -199,9 +197,11 @@ def test_the_imitation_loss_pulls_the_policy_to_the_expert_until_its_weight_is_z
     from agents.train.guide import ImitationLoss
 
     common = dict(
-        scenario="circle", n_robots=4, n_worlds=4, n_steps=64, batch_size=64, n_epochs=4, timesteps=8192,
+        scenario="circle", n_robots=4, n_worlds=4, n_steps=64, batch_size=64, n_epochs=4, timesteps=16384,
         eval_freq=0, eval_episodes=1, checkpoint_freq=0, progress_bar=False, tensorboard=False,
     )  # fmt: skip
+    # Seeds 0, 1, 2 here (observation v2, 2026-11-28): 0.51, 0.91, 0.65 of the plain run's error; 8192 steps
+    # gave 1.08, 0.93, 0.82.
     scenario = make_scenario("circle", n_robots=4)
     errors = {}
     for guide in ("none", "imitation_loss"):

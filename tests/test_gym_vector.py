@@ -15,7 +15,7 @@ from vcs_env.gym_env import VcsNavVectorEnv
 SMALL = dict(n_robots=3, n_obstacles=2, max_steps=40)  # short episodes: many autoresets
 
 
-def make(mode, num_envs=3, env_id="vcs_env/Dynamic-v1", **kw):
+def make(mode, num_envs=3, env_id="vcs_env/Dynamic-v2", **kw):
     return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=mode, **{**SMALL, **kw})
 
 
@@ -42,11 +42,11 @@ def assert_same(a, b, path="info"):
 @pytest.mark.parametrize(
     "env_id, kw",
     [
-        ("vcs_env/Dynamic-v1", {}),
-        ("vcs_env/Crowd-v1", {"expert": "vcs", "on_collision": "continue"}),
-        ("vcs_env/Circle-v1", {"n_robots": 1, "n_obstacles": 0}),
-        ("vcs_env/Dynamic-v1", {"max_episode_steps": 7}),  # a TimeLimit in sync mode
-        ("vcs_env/Navigation-v1", {"scenario": "corridor", "action_mode": "absolute", "on_collision": "continue"}),
+        ("vcs_env/Dynamic-v2", {}),
+        ("vcs_env/Crowd-v2", {"expert": "vcs", "on_collision": "continue"}),
+        ("vcs_env/Circle-v2", {"n_robots": 1, "n_obstacles": 0}),
+        ("vcs_env/Dynamic-v2", {"max_episode_steps": 7}),  # a TimeLimit in sync mode
+        ("vcs_env/Navigation-v2", {"scenario": "corridor", "action_mode": "absolute", "on_collision": "continue"}),
     ],
 )
 def test_vector_entry_point_equals_sync_bit_for_bit(env_id, kw):
@@ -130,7 +130,7 @@ def test_sb3_adapter_equals_dummy_vec_env():
     from agents.gym_vec import GymVectorToSB3
 
     fast = GymVectorToSB3(make("vector_entry_point"))
-    slow = DummyVecEnv([lambda: gym.make("vcs_env/Dynamic-v1", **SMALL) for _ in range(3)])
+    slow = DummyVecEnv([lambda: gym.make("vcs_env/Dynamic-v2", **SMALL) for _ in range(3)])
     fast.seed(11)
     slow.seed(11)
     np.testing.assert_array_equal(fast.reset(), slow.reset())

@@ -16,7 +16,7 @@ import vcs_env
 from vcs_env import kernels
 from vcs_env.dynamics import integrate
 from vcs_env.geometry import closest_approach, point_segment_distance, unit
-from vcs_env.observations import EGO_DIM, observe, reference_observe
+from vcs_env.observations import observation_layout, observe, reference_observe
 from vcs_env.obstacles import Arbitrary
 from vcs_env.sim import Simulator, StepEvents
 from vcs_env.state import WorldState
@@ -165,8 +165,7 @@ def test_observe_breaks_gap_ties_by_index_robots_first():
     w.radius[0] = 0.25
     w.obs_pos[0] = [[0.0, -1.0], [1.0, 0.0]]  # same distance and radius as robot_1
     w.obs_radius[0] = 0.25
-    obs = observe(w, scenario)[0, 0]
-    first, second = obs[EGO_DIM : EGO_DIM + 8], obs[EGO_DIM + 8 :]
+    first, second = observation_layout(scenario).read(observe(w, scenario), "neighbors")[0, 0]
     assert first[7] == 1.0 and first[2] > 0  # robot_1 (left), first
     assert second[7] == 0.0 and second[2] < 0  # obstacle_0 (right) before obstacle_1 (ahead)
 

@@ -9,6 +9,7 @@ import vcs_cli as cli
 from agents.config import family_suite
 from agents.evaluate import evaluate
 from agents.evaluate.probes import (
+    AXES,
     PROBE_SEED_BASE,
     PROBES,
     Probe,
@@ -18,7 +19,7 @@ from agents.evaluate.probes import (
     select_probes,
     training_boxes,
 )
-from vcs_env.scenario import SCENARIOS
+from vcs_env.scenario import MAPS, SCENARIOS
 from vcs_env.suites import SUITES
 
 
@@ -27,10 +28,10 @@ def test_each_probe_changes_only_its_fields_and_uses_no_suite_seed():
     for probe in PROBES:
         suite = probe.suite(3)
         assert not used & set(suite.seeds), probe.name
-        base = family_suite(SCENARIOS[probe.scenario].kind).scenario
+        base = family_suite({**SCENARIOS, **MAPS}[probe.scenario].kind).scenario
         changed = {
             f
-            for f in ("n_robots", "n_obstacles", "jitter", "obstacle_speed", *set(probe.changes) & {"layout_radius"})
+            for f in (*AXES, *set(probe.changes) & {"layout_radius"})
             if getattr(suite.scenario, f) != getattr(base, f)
         }
         assert changed == set(probe.changes), probe.name

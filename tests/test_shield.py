@@ -15,23 +15,25 @@ from agents.evaluate import evaluate
 from agents.policies import load_checkpoint
 from agents.shield import GRID, SAMPLE, Shield, ShieldedPredictor, attach, shield_from_record
 from vcs_cli import main
-from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observe
+from vcs_env.observations import EGO_DIM, observation_dim, observation_layout, observe
 from vcs_env.scenario import SCENARIOS
 from vcs_env.sim import Simulator
 from vcs_env.suites import Suite
 
 GENERALIST = "policies/generalist/model.zip"
+LAYOUT = observation_layout(SCENARIOS["dynamic"])  # observation v2, 8 neighbour slots of 9 floats
+V1 = observation_layout(dataclasses.replace(SCENARIOS["dynamic"], observation=1))  # what the generalist reads
 
 
 def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tuple[np.ndarray, bool]:
-    """One robot, one candidate at a time, in plain Python: the module docstring's rule."""
+    """One robot, one candidate at a time, in plain Python: the module docstring's rule (observation v2)."""
     v_max, a_max, w_max = row[4] * 3.0, row[5] * 10.0, row[6] * 2 * math.pi
     v0, radius = row[0] * v_max, row[7] * 2.0
     others = []
     for j in range(k):
-        s = row[EGO_DIM + j * NEIGHBOR_DIM : EGO_DIM + (j + 1) * NEIGHBOR_DIM]
+        s = row[EGO_DIM + j * 9 : EGO_DIM + (j + 1) * 9]
         vx, vy = s[3] * 6.0 + v0, s[4] * 6.0
-        if s[0] > 0.5 and (s[7] < 0.5 or math.hypot(vx, vy) <= shield.robot_speed):
+        if s[0] > 0.5 and (s[7] < 0.5 or math.hypot(vx, vy) <= shield.robot_speed or s[8] > 0.5):
             others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0))
     steps = math.ceil(shield.horizon / SAMPLE - 1e-9)
     h = shield.horizon / steps
@@ -61,13 +63,15 @@ def _world_observations(scenario, seeds, steps=30):
     rng = np.random.default_rng(0)
     for _ in range(steps):
         sim.step(rng.uniform(-1, 1, (len(seeds), scenario.n_robots, 2)))
-    return observe(sim.world, scenario).reshape(-1, 75), rng.uniform(-1.2, 1.2, (len(seeds) * scenario.n_robots, 2))
+    return observe(sim.world, scenario).reshape(-1, observation_dim(scenario)), rng.uniform(
+        -1.2, 1.2, (len(seeds) * scenario.n_robots, 2)
+    )
 
 
 def test_filter_matches_the_readable_oracle_on_real_observations():
     shield = Shield(horizon=1.5, margin=0.1)
     obs, actions = _world_observations(SCENARIOS["dynamic"], range(40))
-    out, replaced = shield.filter(obs, actions, 8)
+    out, replaced = shield.filter(obs, actions, LAYOUT)
     assert 0 < replaced.sum() < len(obs)  # both branches are exercised
     for row, act, got, rep in zip(obs, actions, out, replaced):
         want, want_rep = _oracle(shield, row.astype(np.float64), act, 8)
@@ -92,7 +96,7 @@ def test_prediction_is_what_the_simulator_does(dt, speed):
         obs = observe(world, scenario)[0]
         sensed = np.hypot(*(world.obs_pos[0] - world.pos[0, 0]).T) <= scenario.r_ca
         for cand in GRID[::4]:
-            predicted = shield.min_gaps(obs, np.broadcast_to(cand, (1, 1, 2)).copy(), 8)[0, 0]
+            predicted = shield.min_gaps(obs, np.broadcast_to(cand, (1, 1, 2)).copy(), LAYOUT)[0, 0]
             sim.reset([seed])
             gaps = []
             for _ in range(steps):
@@ -106,33 +110,40 @@ def test_prediction_is_what_the_simulator_does(dt, speed):
             assert predicted == pytest.approx(min(gaps), abs=1e-5)
 
 
-def _obs(speed=1.0, neighbours=()):
+def _obs(speed=1.0, neighbours=(), layout=LAYOUT):
     """One unicycle robot of the default spec (v_max 1, a_max 0.5, omega_max pi/2, radius 0.25, dt 0.1)
-    with neighbours ``(x, y, vx, vy, radius, is_robot)`` in its frame [m, m/s] (absolute velocities)."""
-    o = np.zeros(EGO_DIM + 8 * NEIGHBOR_DIM)
+    with neighbours ``(x, y, vx, vy, radius, is_robot[, parked])`` in its frame [m, m/s] (absolute
+    velocities), as observations of ``layout``."""
+    o = np.zeros(layout.dim)
     o[:11] = [speed, 0.5, 1, 0, 1 / 3, 0.05, 0.25, 0.125, 0.6, 0.1, 0.1]
-    for j, (x, y, vx, vy, r, robot) in enumerate(neighbours):
-        s = EGO_DIM + j * NEIGHBOR_DIM
-        o[s : s + NEIGHBOR_DIM] = [1, x / 10, y / 10, (vx - speed) / 6, vy / 6, r / 2, 0, robot]
+    slots = layout.read(o, "neighbors")  # a view into o
+    for j, (x, y, vx, vy, r, robot, *parked) in enumerate(neighbours):
+        slots[j, :8] = [1, x / 10, y / 10, (vx - speed) / 6, vy / 6, r / 2, 0, robot]
+        if parked:
+            slots[j, 8] = parked[0]
     return o
 
 
 def test_who_counts_and_what_replaces_an_unsafe_action():
     shield = Shield()
     ahead = [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)]  # a still obstacle 0.7 m ahead of a robot at 1 m/s
-    act, rep = shield.filter(_obs(1.0, ahead), np.array([1.0, 0.0]), 8)
+    act, rep = shield.filter(_obs(1.0, ahead), np.array([1.0, 0.0]), LAYOUT)
     assert rep and not np.array_equal(act, [1.0, 0.0])  # full speed ahead is replaced ...
-    gaps = shield.min_gaps(_obs(1.0, ahead)[None], np.stack(([1.0, 0.0], act, [-1.0, 0.0]))[None], 8)[0]
+    gaps = shield.min_gaps(_obs(1.0, ahead)[None], np.stack(([1.0, 0.0], act, [-1.0, 0.0]))[None], LAYOUT)[0]
     assert gaps[0] < gaps[2] < 0 < shield.margin <= gaps[1]  # ... by a turn that keeps the margin (braking would not)
     # Nothing sensed, or the obstacle behind: the action stands, bit for bit.
-    assert not shield.filter(_obs(1.0), np.array([0.3, -0.7]), 8)[1]
-    assert not shield.filter(_obs(1.0, [(-1.5, 0.0, 0.0, 0.0, 0.25, 0.0)]), np.array([1.0, 0.0]), 8)[1]
-    # A parked robot counts like a still obstacle; a driving robot on the same spot is left to the policy.
-    assert shield.filter(_obs(1.0, [(*ahead[0][:5], 1.0)]), np.array([1.0, 0.0]), 8)[1]
-    assert not shield.filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0)]), np.array([1.0, 0.0]), 8)[1]
-    assert Shield(robot_speed=1.0).filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0)]), np.array([1.0, 0.0]), 8)[1]
+    assert not shield.filter(_obs(1.0), np.array([0.3, -0.7]), LAYOUT)[1]
+    assert not shield.filter(_obs(1.0, [(-1.5, 0.0, 0.0, 0.0, 0.25, 0.0)]), np.array([1.0, 0.0]), LAYOUT)[1]
+    # A still robot counts like a still obstacle; a driving robot on the same spot is left to the policy,
+    # unless it reads parked (v2), which a robot that has finished is whatever its velocity reads.
+    assert shield.filter(_obs(1.0, [(*ahead[0][:5], 1.0)]), np.array([1.0, 0.0]), LAYOUT)[1]
+    assert not shield.filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0)]), np.array([1.0, 0.0]), LAYOUT)[1]
+    assert Shield(robot_speed=1.0).filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0)]), np.array([1.0, 0.0]), LAYOUT)[
+        1
+    ]
+    assert shield.filter(_obs(1.0, [(1.2, 0.0, -0.5, 0.0, 0.25, 1.0, 1.0)]), np.array([1.0, 0.0]), LAYOUT)[1]
     # Shapes follow the actions: (B, n, 2) in, (B, n, 2) and (B, n) out.
-    out, rep = shield.filter(np.stack([_obs(1.0, ahead)] * 6).reshape(2, 3, -1), np.tile([1.0, 0.0], (2, 3, 1)), 8)
+    out, rep = shield.filter(np.stack([_obs(1.0, ahead)] * 6).reshape(2, 3, -1), np.tile([1.0, 0.0], (2, 3, 1)), LAYOUT)
     assert out.shape == (2, 3, 2) and rep.shape == (2, 3) and rep.all()
 
 
@@ -155,9 +166,28 @@ def test_bad_parameters_are_named(kw, match):
 def test_any_real_number_and_any_step_work():
     assert Shield(horizon=np.float32(1.5), margin=np.int64(0)) == Shield(horizon=1.5, margin=0.0)
     row = _obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)])
-    assert Shield(horizon=1e-10).filter(row, np.array([1.0, 0.0]), 8)[0].shape == (2,)  # one step at least
+    assert Shield(horizon=1e-10).filter(row, np.array([1.0, 0.0]), LAYOUT)[0].shape == (2,)  # one step at least
     with pytest.raises(ValueError, match="same leading shape"):
-        Shield().filter(np.stack([row] * 5), np.zeros((3, 2)), 8)
+        Shield().filter(np.stack([row] * 5), np.zeros((3, 2)), LAYOUT)
+
+
+def test_counters_count_the_active_robots_only():
+    """Told which rows drive (as the harness does), the shield judges and counts only those; rows of
+    finished robots keep the network's action."""
+
+    class Ahead:  # full speed ahead, whatever it sees
+        def predict(self, observation, state=None, episode_start=None, deterministic=False):
+            return np.tile([1.0, 0.0], (len(observation), 1)), state
+
+    guard = ShieldedPredictor(Ahead(), Shield(), SCENARIOS["dynamic"])
+    obs = np.stack([_obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)])] * 4)  # each unsafe at full speed
+    actions, _ = guard.predict(obs, active=np.array([True, False, True, False]))
+    assert (guard.replaced, guard.decisions) == (2, 2)
+    assert np.array_equal(actions[[1, 3]], [[1.0, 0.0]] * 2) and not np.array_equal(actions[0], [1.0, 0.0])
+    guard.predict(obs)  # not told: every row counts
+    assert (guard.replaced, guard.decisions) == (6, 6)
+    with pytest.raises(ValueError, match="leading shape"):
+        guard.predict(obs, active=np.ones(3, dtype=bool))
 
 
 def test_record_round_trip_and_cli(tmp_path, capsys):
@@ -167,7 +197,7 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     record = json.loads(open(GENERALIST.replace(".zip", ".json")).read())
     record.pop("shield", None)
     model.with_suffix(".json").write_text(json.dumps(record))
-    scenario = SCENARIOS["dynamic"]
+    scenario = dataclasses.replace(SCENARIOS["dynamic"], observation=1)  # the generalist reads observation v1
     assert not isinstance(load_checkpoint(model, scenario), ShieldedPredictor)  # no shield in the record
     assert main(["shield", str(model), "--horizon", "1.0", "--margin", "0.2"]) == 0
     assert "wrote" in capsys.readouterr().out
@@ -178,11 +208,11 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert isinstance(shielded, ShieldedPredictor) and shielded.shield == Shield(horizon=1.0, margin=0.2)
     assert not isinstance(load_checkpoint(model, scenario, shield=False), ShieldedPredictor)
     # One observation in, one action out, as SB3's predict; the shield's choice where it steps in.
-    obs = _obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)]).astype(np.float32)
+    obs = _obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)], V1).astype(np.float32)
     action, _ = shielded.predict(obs, deterministic=True)
     network, _ = shielded.model.predict(obs, deterministic=True)
     assert action.shape == (2,) and action.dtype == np.float32 and shielded.replaced == shielded.decisions == 1
-    np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, 8)[0])
+    np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, V1)[0])
     assert main(["shield", str(model), "--remove"]) == 0
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
     assert main(["shield", str(model), "--horizon", "0"]) == 2

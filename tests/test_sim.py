@@ -1,5 +1,6 @@
 """Simulator semantics: swept collisions, arrival, parking, collision modes, obstacle motion."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -7,7 +8,7 @@ import pytest
 
 import vcs_env
 from vcs_env.engine import NavEngine
-from vcs_env.observations import EGO_DIM, GOAL_REF, SENSE_REF
+from vcs_env.observations import EGO_DIM, GOAL_REF, SENSE_REF, observation_layout, observe
 from vcs_env.obstacles import MOTION_MODELS, Trajectory
 from vcs_env.scenario import CustomLayout, ObstacleTrajectory
 from vcs_env.sim import Simulator
@@ -234,13 +235,33 @@ def test_observation_sees_nearest_objects_in_robot_frame():
     obs, _ = env.reset(seed=0)
     o = obs["robot_0"]
     assert env.observation_space("robot_0").contains(o)
-    nb = o[EGO_DIM:].reshape(3, 8)
+    nb = observation_layout(s).read(o, "neighbors")
+    assert nb.shape == (3, 9) and not nb[..., 8].any()  # nobody has parked yet
     assert nb[0, 0] == 1 and nb[0, 7] == 1  # nearest: the robot ahead
     np.testing.assert_allclose(nb[0, 1:3], [1.0 / SENSE_REF, 0.0], atol=1e-6)  # +x of the robot frame
     assert nb[1, 0] == 1 and nb[1, 7] == 0  # then the obstacle
     np.testing.assert_allclose(nb[1, 1:3], [0.0, -2.0 / SENSE_REF], atol=1e-6)  # to the right
     assert nb[2, 0] == 0 and np.all(nb[2] == 0)  # padding: the third robot is out of range
     np.testing.assert_allclose(o[2:4], [1.0, 0.0], atol=1e-6)  # goal straight ahead
+
+
+def test_a_robot_parked_at_its_goal_reads_parked_in_v2_and_v1_has_no_such_field():
+    """Observation v2's parked flag: robot_1 arrives on its first step and stays; robot_0, driving,
+    reads it as a parked robot (1) while it was a robot like any other (0) before; v1 slots have 8 floats."""
+    s = custom(((0.0, 0.0), (1.5, 0.0)), ((8.0, 5.0), (1.55, 0.0)), n_neighbors=2)
+    sim = Simulator(s)
+    sim.reset([0])
+    before = observation_layout(s).read(observe(sim.world, s), "neighbors")[0, 0]
+    sim.step(np.zeros((1, 2, 2)))
+    assert sim.world.present[0, 1] and not sim.world.active[0, 1] and sim.world.active[0, 0]
+    after = observation_layout(s).read(observe(sim.world, s), "neighbors")[0, 0]
+    assert before[0, 7] == after[0, 7] == 1.0  # a robot
+    assert before[0, 8] == 0.0 and after[0, 8] == 1.0  # parked once it arrived
+    v1 = dataclasses.replace(s, observation=1)
+    assert observation_layout(v1).read(observe(sim.world, v1), "neighbors").shape == (1, 2, 2, 8)
+    np.testing.assert_array_equal(
+        observe(sim.world, v1)[0, 0, : EGO_DIM + 8], observe(sim.world, s)[0, 0, : EGO_DIM + 8]
+    )
 
 
 def test_same_local_situation_gives_the_same_observation_whatever_the_rest_of_the_world():

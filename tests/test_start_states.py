@@ -162,7 +162,8 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     np.testing.assert_array_equal(pool.world["pos"][:k], contacts.world["pos"])  # the same pre-contact states first
     # Replay every state with the same policy: a pre-contact state leads to a contact in the step that
     # ends 0.5 or 1 s later; at a danger state an obstacle is about to touch an active robot.
-    from agents.config import ScenarioConfig, mixture_scenarios
+    from agents.config import ScenarioConfig
+    from agents.mixture import mixture_scenarios
 
     (sc,) = mixture_scenarios(ScenarioConfig(on_collision="terminate"), (entry,))
     assert scenario_key(sc) == key
@@ -170,10 +171,11 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     sim.reset(0)
     w = sim.restore(pool, range(len(pool)))
     danger = ((obstacle_contact_time(w) < 1.5) & w.active).any(axis=1)
-    control = predictor_controller(load_model(GENERALIST, sc).policy)
+    seen = dataclasses.replace(sc, observation=1)  # as the released policy senses (collect-states ran it so)
+    control = predictor_controller(load_model(GENERALIST, seen).policy)
     touched = np.zeros(len(pool), dtype=bool)
     for _ in range(11):
-        touched |= sim.step(control(sim.world, observe(sim.world, sc))).collided.any(axis=1)
+        touched |= sim.step(control(sim.world, observe(sim.world, seen))).collided.any(axis=1)
     assert touched[:k].all() and danger[k:].all()
     # The pool feeds a training run of the mixture (other scenarios start fresh).
     run = ["train", "--mixture", entry, "circle-8-v0", "--on-collision", "terminate", "--start-states", str(out)]

@@ -1,7 +1,7 @@
 """vcs-env: multi-robot navigation among moving obstacles, with a Velocity-Change-Space expert.
 
 Make the PettingZoo env with :func:`parallel_env` (or :func:`env` for AEC) and the single-robot
-Gymnasium env with ``gym.make("vcs_env/Navigation-v1")`` (registered on import).
+Gymnasium env with ``gym.make("vcs_env/Navigation-v2")`` (registered on import).
 """
 
 from __future__ import annotations
@@ -29,33 +29,38 @@ from .threads import get_threads, set_threads
 __version__ = "0.2.0"
 
 GYM_IDS = {
-    "vcs_env/Navigation-v1": "circle",
-    "vcs_env/Circle-v1": "circle",
-    "vcs_env/Swap-v1": "swap",
-    "vcs_env/Crossing-v1": "crossing",
-    "vcs_env/Random-v1": "random",
-    "vcs_env/Crowd-v1": "crowd",
-    "vcs_env/Dynamic-v1": "dynamic",
-    "vcs_env/Custom-v1": "custom",
+    "vcs_env/Navigation-v2": "circle",
+    "vcs_env/Circle-v2": "circle",
+    "vcs_env/Swap-v2": "swap",
+    "vcs_env/Crossing-v2": "crossing",
+    "vcs_env/Random-v2": "random",
+    "vcs_env/Crowd-v2": "crowd",
+    "vcs_env/Dynamic-v2": "dynamic",
+    "vcs_env/Custom-v2": "custom",
 }
 """Registered Gymnasium ids and the preset each starts from (override with ``scenario=``). Each id has a
 ``vector_entry_point`` (:class:`~vcs_env.gym_env.VcsNavVectorEnv`): ``gym.make_vec(id, num_envs,
-vectorization_mode="vector_entry_point")`` steps all worlds in one engine call."""
+vectorization_mode="vector_entry_point")`` steps all worlds in one engine call. The ``-v1`` ids stay
+registered: the same envs with observation version 1 (``observation=1``, :mod:`vcs_env.observations`)."""
 
 for _id, _preset in GYM_IDS.items():
-    if _id not in gymnasium.registry:
-        gymnasium.register(
-            id=_id,
-            entry_point="vcs_env.gym_env:VcsNavEnv",
-            vector_entry_point="vcs_env.gym_env:VcsNavVectorEnv",
-            kwargs={"scenario": _preset},
-        )
+    for _ver, _obs in (("-v2", 2), ("-v1", 1)):
+        _vid = _id.replace("-v2", _ver)
+        if _vid not in gymnasium.registry:
+            gymnasium.register(
+                id=_vid,
+                entry_point="vcs_env.gym_env:VcsNavEnv",
+                vector_entry_point="vcs_env.gym_env:VcsNavVectorEnv",
+                kwargs={"scenario": _preset, "observation": _obs},
+            )
 
-PZ_ID = "vcs_env/VcsNav-v1"
-"""PettingZoo registry id: ``pettingzoo.make("parallel", PZ_ID, scenario="circle")`` (or "aec")."""
+PZ_ID = "vcs_env/VcsNav-v2"
+"""PettingZoo registry id: ``pettingzoo.make("parallel", PZ_ID, scenario="circle")`` (or "aec");
+``vcs_env/VcsNav-v1`` is the same env with observation version 1."""
 for _type, _entry in (("parallel", "vcs_env.parallel:parallel_env"), ("aec", "vcs_env.parallel:raw_env")):
-    if PZ_ID not in getattr(pettingzoo, f"{_type}_registry"):
-        pettingzoo.register(_type, PZ_ID, entry_point=_entry)
+    for _vid, _obs in ((PZ_ID, 2), ("vcs_env/VcsNav-v1", 1)):
+        if _vid not in getattr(pettingzoo, f"{_type}_registry"):
+            pettingzoo.register(_type, _vid, entry_point=_entry, kwargs={"observation": _obs})
 
 __all__ = [
     "PLANNERS",

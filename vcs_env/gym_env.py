@@ -30,7 +30,7 @@ def _others_actions(others: Planner, engine: NavEngine, mask: np.ndarray) -> np.
 
 class VcsNavEnv(RenderMixin, gym.Env):
     """One learning robot among planner-driven robots and passive obstacles
-    (``vcs_env/Navigation-v1``).
+    (``vcs_env/Navigation-v2``).
 
     ## Description
     The scenario's ``robot_0`` is controlled by the agent; every other robot is driven by
@@ -39,7 +39,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
 
     ## Action Space / Observation Space / Rewards
     As one robot of the PettingZoo env :class:`~vcs_env.parallel.VcsNavParallelEnv`:
-    ``Box(-1, 1, (2,))`` actions, ``Box(-1, 1, (11 + 8 K,))`` observations, weighted named
+    ``Box(-1, 1, (2,))`` actions, ``Box(-1, 1, (11 + 9 K,))`` observations (v2), weighted named
     reward terms (``info["reward_terms"]``).
 
     ## Episode End
@@ -58,6 +58,9 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
+    * v2: observation version 2 (:mod:`vcs_env.observations`): every neighbour slot gains a parked
+      flag (a robot that has finished and stays where it is), ``11 + 9 K`` floats, built from named
+      blocks; dynamics and rewards unchanged. The v1 ids remain: the same env with ``observation=1``.
     * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
       at the point of first contact on its swept motion, instead of where its step would have
       ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps
@@ -132,7 +135,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
 class VcsNavVectorEnv(VectorEnv):
     """``num_envs`` copies of :class:`VcsNavEnv` stepped in one engine call: the
     ``vector_entry_point`` of the Gymnasium ids, so
-    ``gym.make_vec("vcs_env/Navigation-v1", num_envs=64, vectorization_mode="vector_entry_point")``
+    ``gym.make_vec("vcs_env/Navigation-v2", num_envs=64, vectorization_mode="vector_entry_point")``
     steps every world (and plans every other robot) at once.
 
     It returns what ``vectorization_mode="sync"`` returns for the same seeds and actions,

@@ -218,6 +218,7 @@ def observe(
     a_max,
     omega_max,
     present,
+    active,
     obs_pos,
     obs_vel,
     obs_radius,
@@ -225,6 +226,7 @@ def observe(
     r_goal,
     dt,
     k,
+    nb_dim,
     ego_dim,
     goal_ref,
     sense_ref,
@@ -236,8 +238,9 @@ def observe(
     width,
 ):
     """Observations ``(B, n, width)`` float32 as documented in :mod:`vcs_env.observations`: the
-    first ``ego_dim + 8 k`` features of every robot, zeros after them (room for the optional
-    blocks, filled by the caller without a copy of the whole array).
+    first ``ego_dim + nb_dim k`` features of every robot, zeros after them (room for the optional
+    blocks, filled by the caller without a copy of the whole array). ``nb_dim`` is 8 (observation
+    v1) or 9 (v2: the parked flag, a robot ``present`` but not ``active``).
 
     The neighbour slots hold the ``k`` sensed objects (robots still in the world, then
     obstacles, whose centres lie within ``r_ca``) with the smallest gap, ties by index (robots
@@ -314,7 +317,7 @@ def observe(
                         ux, uy = obs_vel[b, q, 0], obs_vel[b, q, 1]
                         rj = obs_radius[b, q]
                     wx, wy = ux - vx, uy - vy
-                    base = ego_dim + 8 * t
+                    base = ego_dim + nb_dim * t
                     o[base] = 1.0
                     o[base + 1] = _clip((c * rx + s * ry) / sense_ref, -1.0, 1.0)
                     o[base + 2] = _clip((-s * rx + c * ry) / sense_ref, -1.0, 1.0)
@@ -323,6 +326,8 @@ def observe(
                     o[base + 5] = _clip(rj / r_ref, -1.0, 1.0)
                     o[base + 6] = _clip(gaps[t] / sense_ref, -1.0, 1.0)
                     o[base + 7] = 1.0 if j < n else 0.0
+                    if nb_dim > 8 and j < n and not active[b, j]:
+                        o[base + 8] = 1.0
     return out
 
 

@@ -78,15 +78,16 @@ class MapKind(ScenarioKind):
 def lane_block(s: Scenario, count: int, width: float, x_near: float, away: float) -> np.ndarray:
     """``count`` robots ``(count, 2)`` [m] in lanes ``lane_spacing`` apart across a passage of
     ``width`` [m] centred on y = 0, the first column at x = ``x_near``, further columns
-    ``lane_spacing`` apart in the direction ``away`` (+1 or -1)."""
+    ``lane_spacing`` apart in the direction ``away`` (+1 or -1). The outer lanes keep ``min_separation``
+    plus the start ``jitter`` from the passage's sides."""
     r, sp = s.robot.radius, s.lane_spacing
-    room = width - 2.0 * (r + s.min_separation)
-    if room < 0.0:
+    room = width - 2.0 * (r + s.min_separation + s.jitter)
+    if width - 2.0 * (r + s.min_separation) < 0.0:
         raise ValueError(
             f"{s.kind}: a passage of {width:g} m does not fit a robot of radius {r:g} m with min_separation "
             f"{s.min_separation:g} m on both sides; widen it (corridor_width / arena_half_size)"
         )
-    lanes = max(1, min(count, 1 + int(room // sp)))
+    lanes = max(1, min(count, 1 + int(max(room, 0.0) // sp)))
     j = np.arange(count)
     y = (j % lanes - (lanes - 1) / 2.0) * sp
     x = x_near + away * (j // lanes) * sp

@@ -1,11 +1,17 @@
 """Per-robot observations in the robot's own frame, in fixed physical units, within [-1, 1].
 
-Observation version 1 (:data:`OBSERVATION_VERSION`; env versions ``vcs_nav_v1`` and
-``vcs_env/*-v1``). Every scale is a documented constant, never derived from the scenario, so the
-same local situation reads the same numbers whatever the robot count, layout or arena size.
-What differs between scenarios and matters to a policy (sensing radius, arrival radius, step)
-is an explicit feature. Layout of one robot's vector (``EGO_DIM + n_neighbors * NEIGHBOR_DIM``
-floats):
+An observation is a sequence of blocks (:class:`Block`), each one object with a name, a number of
+items (slots), the fields of one item, their bounds and physical scales; :func:`observation_layout`
+gives a scenario's blocks and their offsets, and everything that reads an observation (the policy's
+feature encoders, the shield, the ONNX export) takes its offsets from there. Every scale is a
+documented constant, never derived from the scenario, so the same local situation reads the same
+numbers whatever the robot count, layout or arena size. What differs between scenarios and matters
+to a policy (sensing radius, arrival radius, step) is an explicit feature.
+
+Observation version 2 (:data:`OBSERVATION_VERSION`, ``Scenario.observation = 2``, the default; env
+versions ``vcs_nav_v2`` and ``vcs_env/*-v2``). Blocks, in order:
+
+``ego`` (1 item of ``EGO_DIM`` = 11 floats):
 
 ===== ============================ ===================================================
 index feature                      scale
@@ -22,8 +28,9 @@ index feature                      scale
 10    step dt                      / DT_REF (1 s)
 ===== ============================ ===================================================
 
-then ``n_neighbors`` slots for the nearest objects (robots still in the world and obstacles)
-whose centres lie within ``r_ca``, nearest surface first, zero-padded:
+``neighbors`` (``n_neighbors`` slots of ``NEIGHBOR_DIM`` = 9 floats): the nearest objects (robots
+still in the world and obstacles) whose centres lie within ``r_ca``, nearest surface first,
+zero-padded:
 
 ===== ============================ ===================================================
 +0    mask                         1 for a real object, 0 for padding
@@ -32,42 +39,60 @@ whose centres lie within ``r_ca``, nearest surface first, zero-padded:
 +5    object radius                / R_REF
 +6    gap (distance - radii)       / SENSE_REF, clipped to [-1, 1]
 +7    is-robot flag                1 robot, 0 obstacle
++8    parked flag                  1 for a robot that has finished (arrived, or crashed under
+                                   ``on_collision="terminate"``) and stays where it is, 0 otherwise
 ===== ============================ ===================================================
 
-:func:`observation_config` names everything that fixes this layout and its scales; a checkpoint
-stores it (:mod:`agents.checkpoint`) and may only be used where the config is the same. New
-blocks (e.g. a lidar scan) go after the neighbour slots, with their size in
-:func:`observation_dim`, their bounds in :func:`observation_bounds` and their parameters in
-:func:`observation_config`.
+``lidar`` (with ``Scenario.lidar``; off by default): one item per beam, ``range / max_range`` in
+``[0, 1]`` (:mod:`vcs_env.lidar`).
 
-Version history: v0 divided the goal distance by ``2 * scenario.world_extent`` and relative
-positions and gaps by ``r_ca`` (scales that moved with n, layout and arena) and had no
-features 8-10 (``EGO_DIM`` was 8).
+``wall_points`` (with ``Scenario.n_wall_points = k`` > 0; 0, off, by default): k slots of the
+nearest points on walls, nearest first (:func:`vcs_env.walls.nearest_wall_points`), each
+``(valid, x / SENSE_REF, y / SENSE_REF)``: the point in the robot frame in metres over 10 m,
+clipped to ``[-1, 1]``, 0 in empty slots.
 
-With ``scenario.lidar`` (off by default) the lidar ranges follow, ``range / max_range`` in
-``[0, 1]``, one per beam (:mod:`vcs_env.lidar`). With ``scenario.n_wall_points = k`` (0, off, by
-default) k slots of the nearest points on walls follow, nearest first
-(:func:`vcs_env.walls.nearest_wall_points`), each ``(valid, x / SENSE_REF, y / SENSE_REF)``: the
-point in the robot frame in metres over 10 m, clipped to ``[-1, 1]``, 0 in empty slots.
+:func:`observation_config` names everything that fixes the layout and its scales (for v2 the blocks
+with their items and fields); a checkpoint stores it (:mod:`agents.checkpoint`) and may only be used
+where the config is the same, and a mismatch names the block. The sensing fields of a scenario
+(:data:`SENSOR_FIELDS`) only shape what robots observe, never the episode: the evaluation harness
+runs a checkpoint on any suite with the sensing it was trained with (:func:`with_sensors`).
+
+Version history:
+
+* v2: neighbour slots gain the parked flag (``NEIGHBOR_DIM`` 8 -> 9), so a policy can tell a robot
+  that waits at its goal (it will not move out of the way) from one that is about to drive on;
+  observations are built from named blocks. ``Scenario(observation=1)`` (and the ``-v1`` ids)
+  still give v1, so v1 checkpoints keep running.
+* v1: fixed physical scales (goal distance / 20 m, positions and gaps / 10 m) and the scenario
+  features 8-10 (``EGO_DIM`` 11); neighbour slots of 8 floats, without the parked flag.
+* v0: divided the goal distance by ``2 * scenario.world_extent`` and relative positions and gaps by
+  ``r_ca`` (scales that moved with n, layout and arena) and had no features 8-10 (``EGO_DIM`` was 8).
+  Removed.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import kernels, lidar
+from .lidar import LidarSpec
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
 from .walls import nearest_wall_points
 
-OBSERVATION_VERSION = 1
+OBSERVATION_VERSION = 2
 """Version of the observation layout and scales (module docstring); bumped with the env versions."""
+OBSERVATION_VERSIONS = (1, 2)
+"""Versions this vcs-env can still produce (``Scenario.observation``)."""
 EGO_DIM = 11
 """Features of the robot itself and of the scenario (indices 0-10)."""
-NEIGHBOR_DIM = 8
-"""Features per neighbour slot."""
+NEIGHBOR_FIELDS = ("mask", "x", "y", "vx", "vy", "radius", "gap", "is_robot", "parked")
+"""Fields of a v2 neighbour slot (v1: all but the last)."""
+NEIGHBOR_DIM = len(NEIGHBOR_FIELDS)
+"""Features per v2 neighbour slot (9; v1 had 8)."""
 GOAL_REF = 20.0
 """Goal distance that reads 1 [m]; farther goals read 1 too (the bearing still points at them)."""
 SENSE_REF = 10.0
@@ -76,56 +101,195 @@ WALL_POINT_DIM = 3
 """Features per nearest-wall-point slot (valid, x, y)."""
 DT_REF = 1.0
 """Largest allowed step [s] (``Scenario.dt`` is in (0, 1])."""
+SENSOR_FIELDS = ("observation", "n_neighbors", "lidar", "n_wall_points")
+"""Scenario fields that only change what robots observe, never the episode's worlds."""
+_SCALES = {
+    "goal_ref": GOAL_REF,
+    "sense_ref": SENSE_REF,
+    "dt_ref": DT_REF,
+    "v_ref": V_REF,
+    "a_ref": A_REF,
+    "omega_ref": OMEGA_REF,
+    "r_ref": R_REF,
+}
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block of a robot's observation: ``items`` slots of ``len(fields)`` floats each."""
+
+    name: str
+    """``ego``, ``neighbors``, ``lidar`` or ``wall_points``."""
+    items: int
+    """Slots (1 for ``ego``, one per beam for ``lidar``)."""
+    fields: tuple[str, ...]
+    """Names of the features of one slot."""
+    low: tuple[float, ...]
+    """Lower bound of each field (every upper bound is 1)."""
+    scale: str
+    """Physical scales of the fields (module docstring)."""
+    encodes: str
+    """What the block encodes."""
+
+    @property
+    def item_dim(self) -> int:
+        """Floats per slot."""
+        return len(self.fields)
+
+    @property
+    def size(self) -> int:
+        """Floats in the block."""
+        return self.items * self.item_dim
+
+    def describe(self) -> dict:
+        """What fixes the block's meaning: name, items and fields (JSON-ready)."""
+        return {"name": self.name, "items": self.items, "fields": list(self.fields)}
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A robot's observation vector as a sequence of :class:`Block` (:func:`observation_layout`)."""
+
+    version: int
+    blocks: tuple[Block, ...]
+
+    @property
+    def dim(self) -> int:
+        """Length D of one robot's observation."""
+        return sum(b.size for b in self.blocks)
+
+    def __contains__(self, name: str) -> bool:
+        return any(b.name == name for b in self.blocks)
+
+    def block(self, name: str) -> Block:
+        """The block called ``name``; ``KeyError`` naming the blocks there are otherwise."""
+        for b in self.blocks:
+            if b.name == name:
+                return b
+        raise KeyError(f"observation v{self.version} has no block {name!r}; it has {[b.name for b in self.blocks]}")
+
+    def span(self, name: str) -> slice:
+        """Columns of block ``name`` in the observation vector."""
+        at = 0
+        for b in self.blocks:
+            if b.name == name:
+                return slice(at, at + b.size)
+            at += b.size
+        self.block(name)  # raises, naming the blocks
+        raise AssertionError
+
+    def read(self, obs, name: str):
+        """Block ``name`` of observations ``(..., D)`` as ``(..., items, item_dim)`` (numpy or torch)."""
+        b = self.block(name)
+        return obs[..., self.span(name)].reshape(*obs.shape[:-1], b.items, b.item_dim)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds ``(D,)`` float32."""
+        low = np.concatenate([np.tile(np.asarray(b.low, dtype=np.float32), b.items) for b in self.blocks])
+        return low, np.ones(self.dim, dtype=np.float32)
+
+
+_EGO_FIELDS = ("speed", "goal_distance", "goal_cos", "goal_sin", "v_max", "a_max", "omega_max", "radius", "r_ca",
+               "r_goal", "dt")  # fmt: skip
+_EGO_LOW = (0.0, 0.0, -1.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+_NEIGHBOR_LOW = (0.0, -1.0, -1.0, -1.0, -1.0, 0.0, -1.0, 0.0, 0.0)
+
+
+def observation_layout(scenario: Scenario) -> Layout:
+    """The blocks of ``scenario``'s observations (module docstring), in order."""
+    version = scenario.observation
+    nb = NEIGHBOR_DIM if version >= 2 else NEIGHBOR_DIM - 1
+    blocks = [
+        Block("ego", 1, _EGO_FIELDS, _EGO_LOW, "module docstring, ego table", "the robot itself and the scenario"),
+        Block(
+            "neighbors",
+            scenario.n_neighbors,
+            NEIGHBOR_FIELDS[:nb],
+            _NEIGHBOR_LOW[:nb],
+            f"positions and gaps / {SENSE_REF} m, velocities / {2 * V_REF} m/s, radii / {R_REF} m",
+            "the nearest robots and obstacles within r_ca, nearest surface first",
+        ),  # fmt: skip
+    ]
+    if scenario.lidar is not None:
+        spec = scenario.lidar
+        blocks.append(Block("lidar", spec.n_beams, ("range",), (0.0,), f"/ {spec.max_range} m", "range per beam"))
+    if scenario.n_wall_points:
+        blocks.append(
+            Block("wall_points", scenario.n_wall_points, ("valid", "x", "y"), (0.0, -1.0, -1.0),
+                  f"/ {SENSE_REF} m", "the nearest points on walls, nearest first")
+        )  # fmt: skip
+    return Layout(version, tuple(blocks))
 
 
 def observation_dim(scenario: Scenario) -> int:
     """Length D of one robot's observation."""
-    lidar = scenario.lidar.n_beams if scenario.lidar is not None else 0
-    return EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM + lidar + scenario.n_wall_points * WALL_POINT_DIM
+    return observation_layout(scenario).dim
 
 
 def observation_config(scenario: Scenario) -> dict:
     """Everything that fixes the meaning of an observation vector of ``scenario``: version,
-    block sizes and scales. Two scenarios with equal configs give comparable observations, so a
-    policy trained on one may be run on the other (checked by :mod:`agents.checkpoint`)."""
-    return (
-        {
-            "version": OBSERVATION_VERSION,
-            "ego_dim": EGO_DIM,
-            "n_neighbors": scenario.n_neighbors,
-            "neighbor_dim": NEIGHBOR_DIM,
-            "scales": {
-                "goal_ref": GOAL_REF,
-                "sense_ref": SENSE_REF,
-                "dt_ref": DT_REF,
-                "v_ref": V_REF,
-                "a_ref": A_REF,
-                "omega_ref": OMEGA_REF,
-                "r_ref": R_REF,
-            },
-        }
-        | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
-        | (
-            {"n_wall_points": scenario.n_wall_points, "wall_point_dim": WALL_POINT_DIM}
-            if scenario.n_wall_points
-            else {}
+    blocks and scales. Two scenarios with equal configs give comparable observations, so a
+    policy trained on one may be run on the other (checked by :mod:`agents.checkpoint`).
+    Version 1 keeps the form v1 checkpoints stored."""
+    if scenario.observation == 1:
+        return (
+            {
+                "version": 1,
+                "ego_dim": EGO_DIM,
+                "n_neighbors": scenario.n_neighbors,
+                "neighbor_dim": NEIGHBOR_DIM - 1,
+                "scales": dict(_SCALES),
+            }  # fmt: skip
+            | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
+            | (
+                {"n_wall_points": scenario.n_wall_points, "wall_point_dim": WALL_POINT_DIM}
+                if scenario.n_wall_points
+                else {}
+            )
         )
-    )
+    return {
+        "version": scenario.observation,
+        "blocks": [b.describe() for b in observation_layout(scenario).blocks],
+        "scales": dict(_SCALES),
+    } | ({"lidar": dataclasses.asdict(scenario.lidar)} if scenario.lidar is not None else {})
+
+
+def sensors_of(config: dict) -> dict:
+    """The scenario's sensing fields (:data:`SENSOR_FIELDS`) that give observation ``config``.
+
+    Raises:
+        ValueError: a config this vcs-env cannot produce (another version, an unknown block).
+    """
+    version = config.get("version") if isinstance(config, dict) else None
+    if version not in OBSERVATION_VERSIONS:
+        raise ValueError(
+            f"observation version {version!r}: this vcs-env produces versions {list(OBSERVATION_VERSIONS)}"
+        )
+    spec = LidarSpec(**config["lidar"]) if config.get("lidar") is not None else None
+    if version == 1:
+        return {"observation": 1, "n_neighbors": config["n_neighbors"], "lidar": spec,
+                "n_wall_points": config.get("n_wall_points", 0)}  # fmt: skip
+    items = {b["name"]: b["items"] for b in config["blocks"]}
+    unknown = set(items) - {"ego", "neighbors", "lidar", "wall_points"}
+    if unknown:
+        raise ValueError(f"observation blocks {sorted(unknown)} are not ones this vcs-env produces")
+    return {"observation": version, "n_neighbors": items["neighbors"], "lidar": spec,
+            "n_wall_points": items.get("wall_points", 0)}  # fmt: skip
+
+
+def with_sensors(scenario: Scenario, config: dict) -> Scenario:
+    """``scenario`` observed as ``config`` says (its worlds unchanged: only :data:`SENSOR_FIELDS` change)."""
+    return dataclasses.replace(scenario, **sensors_of(config))
+
+
+def sees_walls(scenario: Scenario) -> bool:
+    """Whether ``scenario``'s observation shows walls (a lidar or a wall-points block)."""
+    return scenario.lidar is not None or scenario.n_wall_points > 0
 
 
 def observation_bounds(scenario: Scenario) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds ``(D,)`` float32 of every robot's observation (the tables above)."""
-    dim = observation_dim(scenario)
-    low = np.full(dim, -1.0, dtype=np.float32)
-    low[[0, 1, 4, 5, 6, 7, 8, 9, 10]] = 0.0
-    slots = EGO_DIM + NEIGHBOR_DIM * np.arange(scenario.n_neighbors)
-    for off in (0, 5, 7):
-        low[slots + off] = 0.0
-    if scenario.lidar is not None:
-        low[EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM :][: scenario.lidar.n_beams] = 0.0
-    if scenario.n_wall_points:
-        low[dim - scenario.n_wall_points * WALL_POINT_DIM :: WALL_POINT_DIM] = 0.0  # the valid flags
-    return low, np.ones(dim, dtype=np.float32)
+    return observation_layout(scenario).bounds()
 
 
 def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -135,9 +299,10 @@ def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
     centres lie within ``r_ca``.
 
     Returns:
-        features ``(B, n, k, 7)``: relative position x, y and relative velocity x, y in the
-        robot's frame [m, m/s], radius [m], gap [m], is-robot flag; and the valid mask
-        ``(B, n, k)`` bool (padding slots are all zero).
+        features ``(B, n, k, 8)``: relative position x, y and relative velocity x, y in the
+        robot's frame [m, m/s], radius [m], gap [m], is-robot flag, parked flag (a robot that is
+        in the world but no longer active); and the valid mask ``(B, n, k)`` bool (padding slots
+        are all zero).
     """
     B, n, m = world.batch_size, world.n_robots, world.n_obstacles
     pos = np.concatenate((world.pos, world.obs_pos), axis=1)  # (B, N, 2), robots first
@@ -161,7 +326,7 @@ def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
     # Every object's features in each robot's frame, then one gather of the k nearest.
     c = np.cos(world.heading)[..., None]
     s = np.sin(world.heading)[..., None]
-    feats = np.empty((B, n, total, 7))
+    feats = np.empty((B, n, total, 8))
     feats[..., 0] = c * rel[..., 0] + s * rel[..., 1]
     feats[..., 1] = -s * rel[..., 0] + c * rel[..., 1]
     feats[..., 2] = c * rvel[..., 0] + s * rvel[..., 1]
@@ -169,11 +334,12 @@ def sense(world: WorldState, k: int) -> tuple[np.ndarray, np.ndarray]:
     feats[..., 4] = radius[:, None]
     feats[..., 5] = gap
     feats[..., 6] = np.arange(total) < n
+    feats[..., 7] = np.concatenate((world.present & ~world.active, np.zeros((B, m), dtype=bool)), axis=1)[:, None]
     sel = np.take_along_axis(feats, idx[..., None], axis=2)
     valid = np.isfinite(np.take_along_axis(key, idx, axis=-1))
     sel *= valid[..., None]
     if kk < k:  # fewer objects than slots: zero padding (np.pad costs more than the rest here)
-        full, full_valid = np.zeros((B, n, k, 7)), np.zeros((B, n, k), dtype=bool)
+        full, full_valid = np.zeros((B, n, k, 8)), np.zeros((B, n, k), dtype=bool)
         full[:, :, :kk], full_valid[:, :, :kk] = sel, valid
         return full, full_valid
     return sel, valid
@@ -184,18 +350,17 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
 
     One compiled call for all worlds (:func:`vcs_env.kernels.observe`); :func:`reference_observe`
     is the same computation in readable numpy, the kernel's test oracle."""
+    layout = observation_layout(scenario)
     obs = kernels.observe(
         world.pos, world.heading, world.speed, world.radius, world.goal, world.v_max, world.a_max,
-        world.omega_max, world.present, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
-        world.r_goal, world.dt, scenario.n_neighbors, EGO_DIM, GOAL_REF, SENSE_REF, DT_REF, V_REF, A_REF,
-        OMEGA_REF, R_REF, observation_dim(scenario),
+        world.omega_max, world.present, world.active, world.obs_pos, world.obs_vel, world.obs_radius, world.r_ca,
+        world.r_goal, world.dt, scenario.n_neighbors, layout.block("neighbors").item_dim, EGO_DIM, GOAL_REF,
+        SENSE_REF, DT_REF, V_REF, A_REF, OMEGA_REF, R_REF, layout.dim,
     )  # fmt: skip
-    at = EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM  # the optional blocks, written in place
-    if scenario.lidar is not None:
-        lidar.write_observation(obs[..., at : at + scenario.lidar.n_beams], world, scenario.lidar)
-        at += scenario.lidar.n_beams
-    if scenario.n_wall_points:
-        obs[..., at:] = wall_points_block(world, scenario.n_wall_points)
+    if "lidar" in layout:  # the optional blocks, written in place
+        lidar.write_observation(obs[..., layout.span("lidar")], world, scenario.lidar)
+    if "wall_points" in layout:
+        obs[..., layout.span("wall_points")] = wall_points_block(world, scenario.n_wall_points)
     return obs
 
 
@@ -219,7 +384,8 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     """:func:`observe` in readable numpy (with :func:`sense`): the oracle of the compiled kernel."""
     k = scenario.n_neighbors
     B, n = world.batch_size, world.n_robots
-    out = np.empty((B, n, EGO_DIM + k * NEIGHBOR_DIM))
+    nb_dim = observation_layout(scenario).block("neighbors").item_dim
+    out = np.empty((B, n, EGO_DIM + k * nb_dim))
     c, s = np.cos(world.heading), np.sin(world.heading)
     gx, gy = world.goal[..., 0] - world.pos[..., 0], world.goal[..., 1] - world.pos[..., 1]
     d_goal = np.sqrt(gx * gx + gy * gy)
@@ -237,13 +403,15 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     out[..., 9] = world.r_goal / R_REF
     out[..., 10] = world.dt / DT_REF
     feats, valid = sense(world, k)
-    nb = out[..., EGO_DIM:].reshape(B, n, k, NEIGHBOR_DIM)
+    nb = out[..., EGO_DIM:].reshape(B, n, k, nb_dim)
     nb[..., 0] = valid
     nb[..., 1:3] = feats[..., 0:2] / SENSE_REF
     nb[..., 3:5] = feats[..., 2:4] / (2.0 * V_REF)
     nb[..., 5] = feats[..., 4] / R_REF
     nb[..., 6] = feats[..., 5] / SENSE_REF
     nb[..., 7] = feats[..., 6]
+    if nb_dim > 8:  # v2
+        nb[..., 8] = feats[..., 7]
     # Far objects, long gaps, large r_ca or r_goal and rounding (an object exactly at r_ca) are clipped into the space.
     obs = np.clip(out, -1.0, 1.0).astype(np.float32)
     return _optional_blocks(obs, world, scenario)

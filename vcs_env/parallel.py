@@ -20,7 +20,7 @@ from .scenario import Scenario, make_scenario
 
 
 class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
-    """Multi-robot navigation among moving obstacles (``vcs_nav_v1``).
+    """Multi-robot navigation among moving obstacles (``vcs_nav_v2``).
 
     ## Description
     ``n`` circular wheeled robots (``robot_0`` ... ``robot_{n-1}``) drive to their goals among
@@ -36,10 +36,11 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     and wrong shapes raise ``ValueError``. Details: :mod:`vcs_env.dynamics`.
 
     ## Observation Space
-    ``Box(-1, 1, (11 + 8 K,), float32)`` per robot, in the robot's frame and fixed physical
-    scales: own speed, goal distance and bearing, own limits and radius, the scenario's sensing
-    and arrival radii and step, then the ``K = n_neighbors`` nearest objects
-    within ``r_ca`` (relative position and velocity, radius, gap, robot flag, mask). Table in
+    ``Box(-1, 1, (11 + 9 K,), float32)`` per robot (observation v2; v1: ``11 + 8 K``), in the
+    robot's frame and fixed physical scales: own speed, goal distance and bearing, own limits and
+    radius, the scenario's sensing and arrival radii and step, then the ``K = n_neighbors``
+    nearest objects within ``r_ca`` (mask, relative position and velocity, radius, gap, robot
+    flag, parked flag), then the optional lidar and wall-point blocks. Blocks and tables in
     :mod:`vcs_env.observations`. ``state()`` is the global state (SI units).
 
     ## Rewards
@@ -71,6 +72,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2: observation version 2 (:mod:`vcs_env.observations`): every neighbour slot gains a parked
+      flag (a robot that has finished and stays where it is), ``11 + 9 K`` floats, built from named
+      blocks; dynamics and rewards unchanged. The v1 ids remain: the same env with ``observation=1``.
     * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
       at the point of first contact on its swept motion, instead of where its step would have
       ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps
@@ -83,7 +87,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     """
 
     metadata = {
-        "name": "vcs_nav_v1",
+        "name": "vcs_nav_v2",
         "render_modes": ["human", "rgb_array", "ansi"],
         "render_fps": 10,
         "is_parallelizable": True,

@@ -272,6 +272,8 @@ class Scenario:
     n_wall_points: int = 0
     """Optional block of the ``n_wall_points`` nearest points on walls appended to every robot's
     observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
+    observation: int = 2
+    """Observation version (:mod:`vcs_env.observations`): 2, the default, or 1 (what v1 checkpoints read)."""
     pedestrians: PedestrianSpec | None = None
     """How the obstacles walk with ``obstacle_motion="pedestrians"`` (:mod:`vcs_env.pedestrians`);
     None: ``PedestrianSpec()``. Only allowed with that motion."""
@@ -312,6 +314,7 @@ class Scenario:
         check_int("n_walls", self.n_walls, 0, 256)
         check_interval("wall_length", self.wall_length, 0.01, 1e3)
         check_int("n_wall_points", self.n_wall_points, 0, 64)
+        check_int("observation", self.observation, 1, 2)
         if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
             raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         if self.pedestrians is not None:
@@ -322,6 +325,11 @@ class Scenario:
         _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
+    @property
+    def has_walls(self) -> bool:
+        """Whether the worlds have static walls (a map kind, or a custom layout with walls)."""
+        return self.kind in MAPS or (self.custom is not None and len(self.custom.walls) > 0)
+
     @property
     def circle_radius(self) -> float:
         """Layout radius actually used [m] (see ``layout_radius``)."""

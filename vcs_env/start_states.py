@@ -23,6 +23,7 @@ the motion state.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -30,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .observations import SENSOR_FIELDS
 from .scenario import Scenario
 from .state import WorldState
 
@@ -38,9 +40,11 @@ _REWARDS = re.compile(r", rewards=RewardWeights\([^)]*\)")
 
 
 def scenario_key(scenario: Scenario) -> str:
-    """The key of a scenario's pool: its repr without the reward weights (a pool serves any reward,
-    and reward terms added later, not another layout, robot, obstacle or episode setting)."""
-    return _REWARDS.sub("", repr(scenario))
+    """The key of a scenario's pool: its repr without the reward weights and with the default sensing
+    (a pool serves any reward, reward terms added later and any observation, not another layout,
+    robot, obstacle or episode setting)."""
+    defaults = {f.name: f.default for f in dataclasses.fields(Scenario) if f.name in SENSOR_FIELDS}
+    return _REWARDS.sub("", repr(dataclasses.replace(scenario, **defaults)))
 
 
 @dataclass

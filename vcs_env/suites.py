@@ -89,10 +89,20 @@ from .scenario import RobotSpec, Scenario
 LATER_FIELDS = {
     f.name: f.default
     for f in dataclasses.fields(Scenario)
-    if f.name in ("corridor_width", "door_width", "n_walls", "wall_length", "lidar", "n_wall_points", "pedestrians")
+    if f.name
+    in (
+        "corridor_width",
+        "door_width",
+        "n_walls",
+        "wall_length",
+        "lidar",
+        "n_wall_points",
+        "pedestrians",
+        "observation",
+    )
 }
-"""Scenario fields (with their defaults) added after the first suites were pinned: the maps, lidar and
-pedestrians."""
+"""Scenario fields (with their defaults) added after the first suites were pinned: the maps, lidar,
+pedestrians and the observation version."""
 LATER_REWARDS = {"danger": 0.0, "arrival_speed": 0.0}
 """Reward weights (with their defaults) added after the first suites were pinned."""
 SMOKE_SEEDS = 3

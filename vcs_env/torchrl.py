@@ -40,13 +40,13 @@ def _replaced(a: np.ndarray, rows: np.ndarray, value) -> np.ndarray:
 
 
 class VcsNavEnv(EnvBase):
-    """Multi-robot navigation among moving obstacles as a batched TorchRL env (``vcs_nav_v1``).
+    """Multi-robot navigation among moving obstacles as a batched TorchRL env (``vcs_nav_v2``).
 
     ## Description
     ``num_envs`` independent worlds of one :class:`~vcs_env.scenario.Scenario`, each with ``n`` robots
     (``robot_0`` ... ``robot_{n-1}``) driving to their goals among obstacles; one ``step`` advances every
     world with ONE call of the batched engine (the engine, observations and rewards of the PettingZoo env
-    ``vcs_nav_v1``). Batch size ``(num_envs,)``; the robots are the agent dimension of the group
+    ``vcs_nav_v2``). Batch size ``(num_envs,)``; the robots are the agent dimension of the group
     ``"agents"``, laid out as TorchRL's multi-agent envs (``VmasEnv``, ``PettingZooWrapper``) lay them out.
 
     ## Action Space
@@ -62,7 +62,7 @@ class VcsNavEnv(EnvBase):
     ======================================  ======================  =============================================
     key                                     shape                   meaning
     ======================================  ======================  =============================================
-    ``("agents", "observation")``           ``(B, n, D)`` float32   the robot's observation, ``D = 11 + 8 K`` (+
+    ``("agents", "observation")``           ``(B, n, D)`` float32   the robot's observation, ``D = 11 + 9 K`` (+
                                                                     lidar / wall points), in [-1, 1], fixed
                                                                     physical scales (:mod:`vcs_env.observations`);
                                                                     all zeros once the robot has finished
@@ -103,10 +103,11 @@ class VcsNavEnv(EnvBase):
     Scenario field as a keyword override (``n_robots=16``), as :func:`vcs_env.parallel_env` takes them.
 
     ## Version History
+    * v2: observation version 2, as the PettingZoo ``vcs_nav_v2`` (a parked flag per neighbour slot).
     * v1: first TorchRL env, same dynamics, observations and rewards as the PettingZoo ``vcs_nav_v1``.
     """
 
-    metadata = {"name": "vcs_nav_v1"}
+    metadata = {"name": "vcs_nav_v2"}
     batch_locked = True
 
     def __init__(

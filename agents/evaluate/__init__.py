@@ -39,7 +39,7 @@ from vcs_env.rollout import Controller, Episode, Hook, run_episodes, warm_up
 from vcs_env.scenario import Scenario
 from vcs_env.suites import Suite, get_suite
 
-from ..config import mixture_split
+from ..mixture import mixture_split
 from ..policies import policy_label, resolve_policy
 from ..runs import jsonable
 
@@ -188,12 +188,13 @@ def evaluate(
     kept: dict[int, Episode] = {}
     compute, decisions = 0.0, 0
     with _seeded_sampling(int(suite.seeds[0]), deterministic):
-        warm_up(suite.scenario, resolved.controller, suite.seeds[0], action_mode)
+        scenario = resolved.scenario or suite.scenario  # the suite's worlds, as the policy senses them
+        warm_up(scenario, resolved.controller, suite.seeds[0], action_mode)
         t0 = time.perf_counter()
         try:
             for start in range(0, suite.n_episodes, batch_size):
                 seeds = suite.seeds[start : start + batch_size]
-                episodes = run_episodes(suite.scenario, resolved.controller, seeds, action_mode=action_mode)
+                episodes = run_episodes(scenario, resolved.controller, seeds, action_mode=action_mode)
                 for i, ep in enumerate(episodes, start):
                     rows.append(episode_metrics(ep))
                     compute += ep.compute_time

@@ -1,6 +1,7 @@
 """The probe table: policies scored off their training distribution, beside the VCS expert.
 
-A probe is one change along one axis (robot count, start jitter, obstacle count, obstacle speed)
+A probe is one change along one axis (robot count, start jitter, obstacle count, obstacle speed, and on
+maps corridor width, door width, wall count)
 from the suite of a family (:func:`agents.config.probe_scenario`: the suite's jitter, collision
 handling and limits, so only the named field changes), played on seeds no suite uses
 (:data:`PROBE_SEED_BASE` on). ``vcs-env probe`` scores every policy on the same episodes of every
@@ -27,7 +28,8 @@ from typing import Any
 from vcs_env.suites import Suite
 
 from ..checkpoint import open_checkpoint
-from ..config import ScenarioConfig, config_from_dict, mixture_scenarios, probe_scenario
+from ..config import MAP_FIELDS, ScenarioConfig, config_from_dict, probe_scenario
+from ..mixture import mixture_scenarios
 from ..policies import is_checkpoint_spec, policy_label
 from . import compare
 from .report import shield_lines
@@ -88,20 +90,37 @@ PROBES: tuple[Probe, ...] = (
     Probe("dynamic", "robots", {"n_robots": 8}),
     Probe("dynamic", "obstacles", {"n_obstacles": 10}),
     Probe("dynamic", "obstacle speed", {"obstacle_speed": (1.3, 1.6)}),
+    Probe("random", "robots", {"n_robots": 8}),
+    Probe("random", "robots", {"n_robots": 16}),
+    Probe("corridor", "corridor width", {"corridor_width": 2.0}),
+    Probe("corridor", "corridor width", {"corridor_width": 3.5}),
+    Probe("doorway", "door width", {"door_width": 1.0}),
+    Probe("doorway", "door width", {"door_width": 2.0}),
+    Probe("room", "robots", {"n_robots": 5}),
+    Probe("room", "door width", {"door_width": 1.6}),
+    Probe("intersection", "corridor width", {"corridor_width": 3.2}),
+    Probe("intersection", "robots", {"n_robots": 6}),
+    Probe("walls", "walls", {"n_walls": 4}),
+    Probe("walls", "walls", {"n_walls": 18}),
 )
-"""The probe table (issue 13): robot count, jitter, obstacle count and speed, per family; the last
-nine lie beyond every range the released generalist trained on (``tests/test_probes.py``)."""
+"""The probe table (issue 13): robot count, jitter, obstacle count and speed, per family, and the map
+axes (corridor and door widths, wall count) and random layouts with robots parking in the traffic; the
+nine after the first thirteen lie beyond every range the released generalist trained on
+(``tests/test_probes.py``)."""
 
-AXES = ("n_robots", "n_obstacles", "jitter", "obstacle_speed")
+AXES = ("n_robots", "n_obstacles", "jitter", "obstacle_speed", *MAP_FIELDS)
 """The scenario fields a probe or a training box spans."""
 
 
 def _axes(scenario) -> dict[str, tuple[float, float]]:
     """``{axis: (low, high)}`` of one scenario (a number reads as ``(x, x)``; obstacle axes only with
-    obstacles)."""
+    obstacles, map axes only on the kinds that read them)."""
     out = {a: (float(getattr(scenario, a)),) * 2 for a in ("n_robots", "n_obstacles", "jitter")}
     if scenario.n_obstacles:
         out["obstacle_speed"] = tuple(float(v) for v in scenario.obstacle_speed)
+    for a, kinds in MAP_FIELDS.items():
+        if scenario.kind in kinds:
+            out[a] = (float(getattr(scenario, a)),) * 2
     return out
 
 

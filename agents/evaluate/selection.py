@@ -29,7 +29,7 @@ from vcs_env.suites import Suite
 
 from ..checkpoint import SB3Checkpoint, open_checkpoint
 from ..config import ScenarioConfig, parse_seeds, probe_scenario
-from ..policies import load_checkpoint
+from ..policies import resolve_policy
 from . import DEFAULT_BATCH, evaluate
 
 _STEP = SB3Checkpoint.periodic
@@ -90,7 +90,7 @@ def select_checkpoint(
         warnings.simplefilter("ignore")
         for c in candidates:  # every candidate fits every set before the first is scored
             for suite in validation:
-                load_checkpoint(c, suite.scenario)
+                resolve_policy(str(c), suite.scenario)  # as evaluate loads it (with its own sensing)
     scores = []
     for c in candidates:
         sets = {}

@@ -44,8 +44,9 @@ from vcs_env.checks import check_choice, check_int, check_range
 from vcs_env.observations import observation_config, observation_dim
 
 from ..checkpoint import load_policy_weights, save_model
-from ..config import ScenarioConfig, config_command, config_from_dict, print_suite_differences, scenarios_of
+from ..config import ScenarioConfig, config_command, config_from_dict, print_suite_differences
 from ..evaluate import scalar_results, score_scenarios
+from ..mixture import scenarios_of
 from ..policies import predictor_controller
 from ..runs import PolicyConfig, policy_kwargs, scenario_family
 from .data import (
@@ -287,7 +288,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
         )
     venv = NavVecEnv(scenario, 1)  # spaces only
     pcfg = PolicyConfig(net_arch=cfg.net_arch, log_std_init=cfg.log_std_init, features=cfg.features)
-    kwargs = policy_kwargs(pcfg, scenario.n_neighbors)
+    kwargs = policy_kwargs(pcfg, scenario)
     model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=kwargs)
     policy = model.policy
     if cfg.init:

@@ -38,7 +38,8 @@ import numpy as np
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
 
-from ..config import check_out_file, mixture_split
+from ..config import check_out_file
+from ..mixture import mixture_split
 
 DATASET_FORMAT = "vcs-env-expert-v1"
 

@@ -36,20 +36,22 @@ from pathlib import Path
 from typing import Any
 
 from vcs_env.checks import check_int, check_positive, check_range
+from vcs_env.scenario import Scenario
 from vcs_env.start_states import StartStates
 from vcs_env.suites import get_suite
 
 from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_model
-from ..config import build_scenario, config_command, mixture_scenarios, print_suite_differences
+from ..config import build_scenario, config_command, print_suite_differences
+from ..mixture import mixture_scenarios
 from ..residual import Residual
 from ..runs import TrainConfig, check_run, jsonable, policy_kwargs, scenario_family
 from .guide import GUIDES, ImitationLoss, JumpStart, annealed
 from .periodic import PeriodicEval
 
 
-def ppo_kwargs(cfg: TrainConfig, n_neighbors: int) -> dict[str, Any]:
-    """Keyword arguments of ``stable_baselines3.PPO`` from a config (``n_neighbors``: the
-    observation's neighbour slots, read by ``cfg.features``)."""
+def ppo_kwargs(cfg: TrainConfig, scenario: Scenario) -> dict[str, Any]:
+    """Keyword arguments of ``stable_baselines3.PPO`` from a config, on the observations of ``scenario``
+    (read by ``cfg.features``)."""
     return dict(
         n_steps=cfg.n_steps,
         batch_size=cfg.batch_size,
@@ -62,7 +64,7 @@ def ppo_kwargs(cfg: TrainConfig, n_neighbors: int) -> dict[str, Any]:
         vf_coef=cfg.vf_coef,
         max_grad_norm=cfg.max_grad_norm,
         target_kl=cfg.target_kl,
-        policy_kwargs=policy_kwargs(cfg, n_neighbors),
+        policy_kwargs=policy_kwargs(cfg, scenario),
     )
 
 
@@ -276,7 +278,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
         print(f"resumed {resume} at {model.num_timesteps} timesteps")
     else:
-        kwargs = ppo_kwargs(cfg, scenario.n_neighbors)
+        kwargs = ppo_kwargs(cfg, scenario)
         model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
         if residual is not None:
             zero_action_head(model)

@@ -32,9 +32,10 @@ from vcs_env.rewards import contact_times
 from vcs_env.rollout import Hook, Step, play
 from vcs_env.start_states import StartStates, StatePool, scenario_key
 
-from ..checkpoint import load_model
-from ..config import ScenarioConfig, scenarios_of
-from ..policies import predictor_controller
+from ..checkpoint import load_model, open_checkpoint
+from ..config import ScenarioConfig
+from ..mixture import scenarios_of
+from ..policies import predictor_controller, sensed_as_trained
 
 DANGER_THIN = 20
 """One in this many danger steps is kept (neighbouring steps are near duplicates)."""
@@ -111,7 +112,9 @@ def collect_states(cfg: StatesConfig) -> StartStates:
     if cfg.danger_time < 0:
         raise ValueError(f"danger_time must be >= 0 [s], got {cfg.danger_time}")
     scenarios = scenarios_of(cfg, cfg.mixture)
-    control = predictor_controller(load_model(cfg.policy, scenarios[0]).policy)
+    ckpt = open_checkpoint(cfg.policy)
+    sensed = [sensed_as_trained(ckpt, sc, str(cfg.policy)) for sc in scenarios]  # the policy's own sensing
+    control = predictor_controller(load_model(ckpt, sensed[0]).policy)
     rng = np.random.default_rng(cfg.seed)
     pools: dict[str, list[StatePool]] = {}
     t0 = time.time()
@@ -122,7 +125,7 @@ def collect_states(cfg: StatesConfig) -> StartStates:
         for c0 in range(0, cfg.episodes, BATCH):
             first = cfg.seed + g * SEED_STRIDE + c0
             rec = _Recorder(cfg.danger_time)
-            play(sc, control, list(range(first, first + min(BATCH, cfg.episodes - c0))), [rec])
+            play(sensed[g], control, list(range(first, first + min(BATCH, cfg.episodes - c0))), [rec])
             hit = np.flatnonzero(rec.first_contact >= 0)
             picks = [(b, int(rec.first_contact[b]) - k) for b in hit for k in offsets]
             contact += rec.pool([(b, i) for b, i in picks if i >= 1])
