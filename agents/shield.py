@@ -13,6 +13,9 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   units, unicycle robots): each step its speed changes by ``a_0 a_max dt`` within ``[0, v_max]`` and its
   heading by ``a_1 omega_max dt``, then it drives straight for ``dt``; positions are taken at every
   step's end and, for steps longer than 0.1 s, every ``dt / ceil(dt / 0.1 s)`` along it;
+* the nearest points on walls, when the observation has them (its ``wall_points`` block), count as still
+  points: a wall is where its nearest points were (a robot driving towards another part of the wall
+  than its nearest point is not protected from it);
 * every sensed obstacle moves on at its observed velocity; a sensed robot counts only while its speed
   is at most ``robot_speed`` [m/s] or it is parked (observation v2's flag), since a moving
   robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
@@ -134,7 +137,8 @@ class Shield:
 
     def _neighbours(self, o: np.ndarray, layout: Layout) -> tuple[np.ndarray, ...]:
         """Per slot ``(N, S)``: counted mask, position and velocity ``(N, S, 2)`` in the robot frame [m, m/s],
-        gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``."""
+        gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``. The slots are the
+        neighbour slots, then the wall points if the observation has them (still, of radius 0)."""
         v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
         v0, radius = o[:, 0] * v_max, o[:, 7] * R_REF
         slots = layout.read(o, "neighbors")
@@ -147,7 +151,16 @@ class Shield:
             still |= slots[..., 8] > 0.5
         counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | still)
         reach = radius[:, None] + slots[..., 5] * R_REF
-        return counted, pos, vel, speed, slots[..., 6] * SENSE_REF, reach, v0, v_max, a_max, w_max
+        gap = slots[..., 6] * SENSE_REF
+        if "wall_points" in layout:  # the nearest points on walls: still points (radius 0)
+            walls = layout.read(o, "wall_points")
+            points = walls[..., 1:3] * SENSE_REF
+            counted = np.concatenate((counted, walls[..., 0] > 0.5), axis=1)
+            pos, vel = np.concatenate((pos, points), axis=1), np.concatenate((vel, np.zeros_like(points)), axis=1)
+            speed = np.concatenate((speed, np.zeros(walls.shape[:2])), axis=1)
+            gap = np.concatenate((gap, np.hypot(points[..., 0], points[..., 1]) - radius[:, None]), axis=1)
+            reach = np.concatenate((reach, np.repeat(radius[:, None], walls.shape[1], axis=1)), axis=1)
+        return counted, pos, vel, speed, gap, reach, v0, v_max, a_max, w_max
 
     def near(self, obs: np.ndarray, layout: Layout) -> np.ndarray:
         """``(N,)`` bool: some counted neighbour is within ``margin + T * (v_max + its speed)`` now, ``T`` the

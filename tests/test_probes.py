@@ -87,6 +87,21 @@ def test_probes_inside_a_policys_training_ranges_are_named_and_left_out_of_its_g
     assert gaps({"expert": "vcs", "probes": [row]}, planners={"vcs"}) == {"pol": []}
 
 
+def test_the_v2_recipe_trains_on_every_family_and_on_no_probe():
+    """The mixture of policies/generalist-v2.sh covers every probe family, and no probe lies inside one of
+    its entries' ranges: the probe table is held out from the v2 generalist by construction."""
+    import re
+    import shlex
+    from pathlib import Path
+
+    text = (Path(__file__).parents[1] / "policies" / "generalist-v2.sh").read_text()
+    mixture = shlex.split(re.search(r"^MIX=\((.*?)^\)", text, re.S | re.M)[1], comments=True)
+    boxes = training_boxes({"config": {"mixture": mixture, "n_wall_points": 6}})
+    assert len(boxes) == len(mixture) >= 20
+    assert {p.scenario for p in PROBES} <= {kind for _, kind, _ in boxes}
+    assert {p.name: inside_training(p, boxes) for p in PROBES} == {p.name: None for p in PROBES}
+
+
 def test_cli_probe_matches_evaluate_on_the_same_episodes(tmp_path, capsys):
     out = tmp_path / "probe"
     args = ["probe", "--policies", "vcs,straight", "--families", "swap", "--episodes", "2", "--out", str(out)]

@@ -171,6 +171,20 @@ def test_any_real_number_and_any_step_work():
         Shield().filter(np.stack([row] * 5), np.zeros((3, 2)), LAYOUT)
 
 
+def test_a_wall_point_ahead_counts_like_a_still_point():
+    """With a wall-points block the shield keeps the margin to the nearest points on walls (radius 0); the
+    same observation without the block (or with the point marked invalid) leaves full speed ahead alone."""
+    walled = observation_layout(dataclasses.replace(SCENARIOS["dynamic"], n_wall_points=2))
+    row = np.zeros(walled.dim)
+    row[: LAYOUT.dim] = _obs(1.0)
+    walled.read(row, "wall_points")[0] = [1.0, 0.8 / 10, 0.0]  # a wall 0.8 m ahead (0.55 m from the body)
+    act, replaced = Shield().filter(row, np.array([1.0, 0.0]), walled)
+    assert replaced and Shield().min_gaps(row[None], act[None, None], walled)[0, 0] >= Shield().margin
+    assert not Shield().filter(row[: LAYOUT.dim], np.array([1.0, 0.0]), LAYOUT)[1]
+    walled.read(row, "wall_points")[0, 0] = 0.0  # not valid: nothing to keep away from
+    assert not Shield().filter(row, np.array([1.0, 0.0]), walled)[1]
+
+
 def test_counters_count_the_active_robots_only():
     """Told which rows drive (as the harness does), the shield judges and counts only those; rows of
     finished robots keep the network's action."""
