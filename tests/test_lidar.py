@@ -173,8 +173,13 @@ def brute_cast(pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b,
                 continue
             ox, oy = pos[b, i, 0], pos[b, i, 1]
             for q in range(offsets.shape[0]):
-                a = heading[b, i] + offsets[q]
-                dx, dy = math.cos(a), math.sin(a)
+                c, s, co, so = (
+                    math.cos(heading[b, i]),
+                    math.sin(heading[b, i]),
+                    math.cos(offsets[q]),
+                    math.sin(offsets[q]),
+                )
+                dx, dy = c * co - s * so, s * co + c * so  # the beam's robot-frame direction, rotated
                 best = max_range
                 for j in range(n):
                     if j != i and present[b, j]:

@@ -2,7 +2,8 @@
 
 Optional and off by default (``Scenario.lidar = None``). With a :class:`LidarSpec`, every robot
 casts ``n_beams`` beams spread evenly over a field of view ``fov`` centred on its heading (beam
-``k`` at ``heading - fov / 2 + (k + 1/2) fov / n_beams``). A beam's range is the distance [m]
+``k`` at ``heading - fov / 2 + (k + 1/2) fov / n_beams``: its direction in the robot frame, the cosine and
+sine of that offset, rotated by the heading). A beam's range is the distance [m]
 from the robot's centre to the first surface it meets: a wall segment itself (the same segments
 the collision test and the route layer use, :mod:`vcs_env.walls`), the circle of an obstacle or
 of another robot still in the world; ``max_range`` when it meets nothing. A robot whose centre
@@ -123,6 +124,9 @@ def cast_into(
     B, n = radius.shape
     m = obs_radius.shape[1]
     s = seg_present.shape[1]
+    beams = np.empty((offsets.shape[0], 2))  # beam directions in the robot frame, rotated by each heading
+    for q in range(offsets.shape[0]):
+        beams[q, 0], beams[q, 1] = math.cos(offsets[q]), math.sin(offsets[q])
     for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):  # scratch arrays per block of worlds
         disc = np.empty((n + m, 3))  # candidate discs: centre relative to the robot [m], |c|^2 - rho^2 [m^2]
         segs = np.empty(s, dtype=np.int64)  # candidate segments
@@ -131,7 +135,7 @@ def cast_into(
                 if present[b, i]:
                     _cast_robot(
                         b, i, pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present,
-                        offsets, max_range, out, scale, disc, segs,
+                        beams, max_range, out, scale, disc, segs,
                     )  # fmt: skip
                 else:
                     out[b, i, :] = max_range / scale
@@ -139,12 +143,14 @@ def cast_into(
 
 @njit(cache=True)
 def _cast_robot(
-    b, i, pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, offsets, max_range, out,
+    b, i, pos, heading, present, radius, obs_pos, obs_radius, seg_a, seg_b, seg_present, beams, max_range, out,
     scale, disc, segs,
 ):  # fmt: skip
-    """Beams of robot ``i`` of world ``b`` into ``out[b, i]`` (:func:`cast_into`), with the scratch
-    arrays ``disc`` ``(n + m, 3)`` and ``segs`` ``(s,)``. The per-beam arithmetic is
-    :func:`_ray_disc`'s and :func:`_ray_segment`'s, operation for operation."""
+    """Beams of robot ``i`` of world ``b`` into ``out[b, i]`` (:func:`cast_into`), with the beam directions
+    ``beams`` ``(k, 2)`` in the robot frame (the cosine and sine of each offset) and the scratch arrays
+    ``disc`` ``(n + m, 3)`` and ``segs`` ``(s,)``. A beam's direction is its robot-frame direction rotated
+    by the heading; the per-beam arithmetic is :func:`_ray_disc`'s and :func:`_ray_segment`'s, operation
+    for operation. Nothing within range: every beam reads ``max_range``."""
     n, m, s = radius.shape[1], obs_radius.shape[1], seg_present.shape[1]
     ox, oy = pos[b, i, 0], pos[b, i, 1]
     # A body farther than this is met beyond max_range: the slack covers the rounding of the ranges
@@ -178,9 +184,13 @@ def _cast_robot(
             if qx * qx + qy * qy <= reach * reach:  # the segment's nearest point is in range
                 segs[ns] = j
                 ns += 1
-    for q in range(offsets.shape[0]):
-        a = heading[b, i] + offsets[q]
-        dx, dy = math.cos(a), math.sin(a)
+    if nd == 0 and ns == 0:
+        out[b, i, :] = max_range / scale
+        return
+    ch, sh = math.cos(heading[b, i]), math.sin(heading[b, i])
+    for q in range(beams.shape[0]):
+        dx = ch * beams[q, 0] - sh * beams[q, 1]
+        dy = sh * beams[q, 0] + ch * beams[q, 1]
         best = max_range
         for j in range(nd):  # without branches (a beam's hits are unpredictable): selects
             bb = disc[j, 0] * dx + disc[j, 1] * dy
