@@ -24,9 +24,12 @@ and gaps beyond its 10 m scale are clipped there.
 
 ``slots``: a learned encoder (:class:`SlotEncoder`) shared by every neighbour slot reads that
 slot's features, its ``contact`` block and the robot's own block; the MLPs read the robot's own
-block, the rest of the observation after the slots (wall points, lidar) and the maximum and the
-mean of the codes of the real slots. It does not depend on the order of the slots, and one set of
-weights judges every neighbour. Actor and critic each train their own encoder.
+block, the rest of the observation after the slots (lidar) and the maximum and the mean of the codes
+of the real slots. The nearest points on walls, when the observation has them, are slots too
+(:func:`wall_slots`: still objects of radius 0), read by the same encoder (runs before 2026-11-28
+read them as flat numbers beside the lidar; their checkpoints keep doing so). It does not depend on
+the order of the slots, and one set of weights judges every neighbour. Actor and critic each train
+their own encoder.
 
 ``--features`` is part of the architecture a checkpoint stores (SB3 pickles the class into
 ``model.zip``, and ``--init`` refuses a checkpoint with other tensors). The oracles are in
@@ -70,6 +73,30 @@ def contact_features(obs: torch.Tensor, n_neighbors: int, neighbor_dim: int = V1
     """The ``contact`` block ``(N, n_neighbors * CONTACT_DIM)`` of observations ``(N, D)`` whose neighbour
     slots (after the ``EGO_DIM`` ego block) have ``neighbor_dim`` floats (8: observation v1, 9: v2)."""
     slots = obs[:, EGO_DIM : EGO_DIM + n_neighbors * neighbor_dim].reshape(-1, n_neighbors, neighbor_dim)
+    return slot_contacts(obs, slots).reshape(obs.shape[0], n_neighbors * CONTACT_DIM)
+
+
+def wall_slots(obs: torch.Tensor, walls: int, neighbor_dim: int) -> torch.Tensor:
+    """The last ``walls * 3`` numbers of observations ``(N, D)`` (the ``wall_points`` block) as neighbour
+    slots ``(N, walls, neighbor_dim)``: each nearest point on a wall a still object of radius 0 (mask =
+    valid, its position, velocity relative to the robot ``-(own speed, 0)``, gap = distance - own radius,
+    not a robot, not parked)."""
+    n = obs.shape[0]
+    block = obs[:, obs.shape[1] - 3 * walls :].reshape(n, walls, 3)
+    valid, p = block[..., 0], block[..., 1:3]
+    out = torch.zeros(n, walls, neighbor_dim, dtype=obs.dtype, device=obs.device)
+    out[..., 0] = valid
+    out[..., 1:3] = p
+    own_speed = obs[:, 0:1] * obs[:, 4:5] * V_REF  # [m/s]
+    out[..., 3] = -own_speed / (2.0 * V_REF) * valid
+    gap = (torch.sqrt((p * p).sum(-1)) * SENSE_REF - obs[:, 7:8] * R_REF) / SENSE_REF
+    out[..., 6] = gap * valid
+    return out
+
+
+def slot_contacts(obs: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
+    """The contact features ``(N, S, CONTACT_DIM)`` of neighbour slots ``(N, S, d)`` of observations ``(N, D)``
+    (module docstring; 0 in padding slots)."""
     v_max = obs[:, 4:5] * V_REF  # [m/s]
     own_speed = obs[:, 0:1] * v_max  # [m/s], forward in the robot frame
     own_radius = obs[:, 7:8] * R_REF  # [m]
@@ -93,7 +120,7 @@ def contact_features(obs: torch.Tensor, n_neighbors: int, neighbor_dim: int = V1
     block = torch.stack(
         (torch.exp(-t_c / T_REF), torch.exp(-gap.clamp(min=0.0) / G_REF), torch.exp(-t_r / T_REF)), dim=-1
     )
-    return (block * mask[..., None]).reshape(obs.shape[0], n_neighbors * CONTACT_DIM)
+    return block * mask[..., None]
 
 
 class ContactFeatures(BaseFeaturesExtractor):
@@ -119,9 +146,16 @@ class SlotEncoder(BaseFeaturesExtractor):
     that judge one neighbour judge them all.
     """
 
-    def __init__(self, observation_space, n_neighbors: int, width: int = 128, neighbor_dim: int = V1_NEIGHBOR_DIM):
-        self.n_neighbors, self.width, self.neighbor_dim = n_neighbors, width, neighbor_dim
-        rest = observation_space.shape[0] - n_neighbors * neighbor_dim
+    def __init__(
+        self,
+        observation_space,
+        n_neighbors: int,
+        width: int = 128,
+        neighbor_dim: int = V1_NEIGHBOR_DIM,
+        wall_slots: int = 0,
+    ):
+        self.n_neighbors, self.width, self.neighbor_dim, self.wall_slots = n_neighbors, width, neighbor_dim, wall_slots
+        rest = observation_space.shape[0] - n_neighbors * neighbor_dim - 3 * wall_slots
         super().__init__(observation_space, rest + 2 * (width // 2))  # + the maximum and the mean
         self.encoder = torch.nn.Sequential(
             torch.nn.Linear(neighbor_dim + CONTACT_DIM + EGO_DIM, width),
@@ -131,17 +165,20 @@ class SlotEncoder(BaseFeaturesExtractor):
         )
 
     def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        k, n, d = self.n_neighbors, observations.shape[0], self.neighbor_dim
+        k, n, d, walls = self.n_neighbors, observations.shape[0], self.neighbor_dim, self.wall_slots
         end = EGO_DIM + k * d
         ego = observations[:, :EGO_DIM]
         slots = observations[:, EGO_DIM:end].reshape(n, k, d)
-        contact = contact_features(observations, k, d).reshape(n, k, CONTACT_DIM)
-        x = torch.cat((slots, contact, ego[:, None, :].expand(n, k, EGO_DIM)), dim=-1)
+        if walls:  # the nearest points on walls are slots too, read by the same encoder
+            slots = torch.cat((slots, wall_slots(observations, walls, d)), dim=1)
+        contact = slot_contacts(observations, slots)
+        x = torch.cat((slots, contact, ego[:, None, :].expand(n, slots.shape[1], EGO_DIM)), dim=-1)
         mask = slots[..., :1]  # (N, k, 1)
         h = self.encoder(x) * mask  # ReLU outputs >= 0, so zeroed padding never wins the maximum
         pooled_max = h.max(dim=1).values
         pooled_mean = h.sum(dim=1) / mask.sum(dim=1).clamp(min=1.0)
-        return torch.cat((ego, observations[:, end:], pooled_max, pooled_mean), dim=-1)
+        rest = observations[:, end : observations.shape[1] - 3 * walls]
+        return torch.cat((ego, rest, pooled_max, pooled_mean), dim=-1)
 
 
 def extractor_kwargs(features: str, layout: Layout) -> dict[str, Any]:
@@ -158,4 +195,7 @@ def extractor_kwargs(features: str, layout: Layout) -> dict[str, Any]:
     if features == "slots":  # the encoder has weights: actor and critic each train their own
         kwargs["features_extractor_kwargs"]["width"] = SLOT_WIDTH
         kwargs["share_features_extractor"] = False
+        if "wall_points" in layout:  # the last block (vcs_env.observations): the encoder reads it as slots
+            assert layout.blocks[-1].name == "wall_points"
+            kwargs["features_extractor_kwargs"]["wall_slots"] = layout.block("wall_points").items
     return kwargs

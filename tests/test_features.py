@@ -9,7 +9,16 @@ import numpy as np
 import pytest
 import torch
 
-from agents.features import CONTACT_DIM, G_REF, SLOT_WIDTH, T_REF, SlotEncoder, check_features, contact_features
+from agents.features import (
+    CONTACT_DIM,
+    G_REF,
+    SLOT_WIDTH,
+    T_REF,
+    SlotEncoder,
+    check_features,
+    contact_features,
+    slot_contacts,
+)
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observation_layout, observe
 from vcs_env.sim import Simulator
 from vcs_env.spaces import observation_space
@@ -66,31 +75,45 @@ def test_contact_block_matches_a_brute_force_oracle(k):
 
 
 def slots_oracle(enc: SlotEncoder, obs: np.ndarray) -> np.ndarray:
-    """The slots encoding of one observation ``(D,)``, one real slot at a time."""
-    k, d = enc.n_neighbors, enc.neighbor_dim
+    """The slots encoding of one observation ``(D,)``, one real slot at a time; with ``wall_slots``, each
+    valid nearest wall point (the last block) as a still slot of radius 0, written out by hand."""
+    k, d, walls = enc.n_neighbors, enc.neighbor_dim, enc.wall_slots
     ego, end = obs[:EGO_DIM], EGO_DIM + k * d
-    contact = contact_features(torch.as_tensor(obs[None]), k, d).numpy().reshape(k, CONTACT_DIM)
+    slots = [obs[EGO_DIM + s * d : EGO_DIM + (s + 1) * d] for s in range(k)]
+    for valid, x, y in obs[len(obs) - 3 * walls :].reshape(walls, 3):
+        slot = np.zeros(d, dtype=np.float32)
+        own_speed = obs[0] * obs[4] * 3.0  # [m/s]
+        slot[:4] = [valid, x, y, -own_speed / 6.0 * valid]
+        slot[6] = (np.hypot(x, y) * 10.0 - obs[7] * 2.0) / 10.0 * valid  # gap [m] / 10 m
+        slots.append(slot)
     codes = []
-    for s in range(k):
-        slot = obs[EGO_DIM + s * d : EGO_DIM + (s + 1) * d]
+    for slot in slots:
         if slot[0] == 1.0:
-            x = torch.as_tensor(np.concatenate((slot, contact[s], ego)))
+            contact = slot_contacts(torch.as_tensor(obs[None]), torch.as_tensor(slot[None, None]))[0, 0].numpy()
+            x = torch.as_tensor(np.concatenate((slot, contact, ego)).astype(np.float32))
             codes.append(enc.encoder(x).detach().numpy())
     width = enc.width // 2
     pooled = (np.max(codes, axis=0), np.mean(codes, axis=0)) if codes else (np.zeros(width), np.zeros(width))
-    return np.concatenate((ego, obs[end:], *pooled))
+    return np.concatenate((ego, obs[end : len(obs) - 3 * walls], *pooled))
 
 
 def test_slot_encoder_matches_a_slot_by_slot_loop_and_ignores_the_order():
     """On real observations (some robots with padded slots, some with walls after the slots):
     the batched encoder equals the loop, and shuffling the real slots changes nothing."""
     torch.manual_seed(0)
-    for suite, extra in (("dynamic-v0", {}), ("walls-v0", {"n_wall_points": 4})):
+    for suite, extra, walls in (
+        ("dynamic-v0", {}, 0),
+        ("walls-v0", {"n_wall_points": 4}, 0),  # wall points read flat (runs before wall slots)
+        ("walls-v0", {"n_wall_points": 4}, 4),  # wall points as slots
+    ):
         scenario = dataclasses.replace(get_suite(suite).scenario, n_robots=6, r_ca=3.0, **extra)
         sim = Simulator(scenario, 2)
         sim.reset([3, 4])
         obs = observe(sim.world, scenario).reshape(-1, observation_space(scenario).shape[0])
-        enc = SlotEncoder(observation_space(scenario), scenario.n_neighbors, neighbor_dim=NEIGHBOR_DIM)
+        space = observation_space(scenario)
+        enc = SlotEncoder(space, scenario.n_neighbors, neighbor_dim=NEIGHBOR_DIM, wall_slots=walls)
+        if walls:
+            assert (obs[:, -12::3] == 1).any()  # some robots see walls: their slots are exercised
         got = enc(torch.as_tensor(obs)).detach().numpy()
         n_real = obs[:, EGO_DIM : EGO_DIM + scenario.n_neighbors * NEIGHBOR_DIM : NEIGHBOR_DIM].sum(1)
         assert (n_real < scenario.n_neighbors).any()  # padding is exercised
@@ -115,7 +138,9 @@ def test_slot_encoder_default_width_is_the_one_older_checkpoints_were_trained_at
     assert SlotEncoder(space, 8).encoder[0].out_features == 128
     assert SlotEncoder(space, 8).encoder[0].in_features == 8 + CONTACT_DIM + EGO_DIM  # v1 slots, as they were
     kwargs = extractor_kwargs("slots", observation_layout(scenario))["features_extractor_kwargs"]
-    assert kwargs["width"] == SLOT_WIDTH and kwargs["neighbor_dim"] == NEIGHBOR_DIM
+    assert kwargs["width"] == SLOT_WIDTH and kwargs["neighbor_dim"] == NEIGHBOR_DIM and "wall_slots" not in kwargs
+    walled = observation_layout(dataclasses.replace(scenario, n_wall_points=6))
+    assert extractor_kwargs("slots", walled)["features_extractor_kwargs"]["wall_slots"] == 6  # new runs: walls as slots
     space = observation_space(scenario)
     assert SlotEncoder(space, **kwargs).encoder[0].out_features == SLOT_WIDTH
 
