@@ -35,8 +35,10 @@ def uniform(key, step, i, stream):
 
 
 @njit(cache=True)
-def wrap(a):
-    """:func:`vcs_env.geometry.wrap_angle` of one angle [rad]: into (-pi, pi]."""
+def wrap_angle(a):
+    """:func:`vcs_env.geometry.wrap_angle` of one angle [rad], bit for bit: into (-pi, pi]. Unlike
+    :func:`~.scalar.wrap`, an angle already in range goes through the same arithmetic (whose
+    rounding can move it by one bit)."""
     a = (a + math.pi) % TWO_PI - math.pi
     return a + TWO_PI if a <= -math.pi else a
 
@@ -154,12 +156,12 @@ def finish(world, holo, dt, planned, own, own_angle, out, cap, target, prev_out,
                 cmd_dv = min(max(dv, -dv1), dv1)
                 cmd_dth = min(max(dth, -dth1), dth1)
                 prev_out[b, i, 0] = dv - cmd_dv
-                prev_out[b, i, 1] = wrap(dth - cmd_dth)
+                prev_out[b, i, 1] = wrap_angle(dth - cmd_dth)
             active = world.active[b, i]
             has_prev_out[b, i] = active and planned[b, i]
             target[b, i, 0] = world.speed[b, i] + dv if active else 0.0
-            target[b, i, 1] = wrap(world.heading[b, i] + cmd_dth) if active else world.heading[b, i]
+            target[b, i, 1] = wrap_angle(world.heading[b, i] + cmd_dth) if active else world.heading[b, i]
             cost[b, i] = min(out.cost[b, i], cap)
             s = math.sqrt(own[b, i, 0] * own[b, i, 0] + own[b, i, 1] * own[b, i, 1])
             goal_point[b, i, 0] = s - world.speed[b, i]
-            goal_point[b, i, 1] = wrap(own_angle[b, i] - world.heading[b, i]) if s > 0.0 else 0.0
+            goal_point[b, i, 1] = wrap_angle(own_angle[b, i] - world.heading[b, i]) if s > 0.0 else 0.0
