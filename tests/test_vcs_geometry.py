@@ -227,3 +227,23 @@ def test_vcs_params_accept_the_edges_of_their_ranges():
     VCSParams(w_safety=0.0, detour_jitter=0.0, detour_angle=-math.pi, window_margin_steps=0, horizon=3, n_v=2)
     for horizon in HORIZONS:
         assert VCSParams(horizon=horizon).horizon == horizon
+
+
+def test_period_kernels_match_numpy_bit_for_bit(rng):
+    """The compiled noise and angle wrap around the search (``kernel.period``) give numpy's bits:
+    the counter-based noise of :mod:`vcs_env.noise` and :func:`vcs_env.geometry.wrap_angle`,
+    edge angles included (plans stay bit for bit those of the numpy version)."""
+    from baselines.vcs.kernel import period
+    from vcs_env import noise
+    from vcs_env.geometry import wrap_angle
+
+    key = rng.integers(0, 2**63, size=3, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
+    steps = np.array([0, 7, 123456])
+    for stream in (1, 2):
+        ref = noise.uniform(key, steps, 5, stream=stream)
+        got = [[period.uniform(key[b], steps[b], i, stream) for i in range(5)] for b in range(3)]
+        assert np.array_equal(np.array(got), ref)
+    edges = [math.pi, -math.pi, 2 * math.pi, -2 * math.pi, 3 * math.pi, 0.0, -0.0, 1e-300, math.pi - 1e-16]
+    angles = np.concatenate((rng.uniform(-20.0, 20.0, 2000), rng.uniform(-math.pi, math.pi, 2000), edges))
+    got = np.array([period.wrap_angle(a) for a in angles])
+    assert np.array_equal(got.view(np.uint64), wrap_angle(angles).view(np.uint64))

@@ -6,83 +6,38 @@ import dataclasses
 
 import numpy as np
 
-from vcs_env import noise
-from vcs_env.geometry import rotate, wrap_angle
+from vcs_env.geometry import rotate
 from vcs_env.planning import Planner
 from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
 from ..capsule import reference_capsule_tau
-from ..common import hold_inactive, preferred_velocity
+from ..common import preferred_velocity
 from . import kernel
-from .geometry import velocity_to_vcs
 from .params import VCSParams
 
 
 @dataclasses.dataclass
 class _Memory:
-    """Per-robot memory across periods, kept idempotent: ``inp`` is what the plan at step
-    ``step`` uses, ``out`` what it leaves for step ``step + 1``."""
+    """Per-robot memory across periods (:data:`~.kernel.Memory`), kept idempotent: ``inp`` is what
+    the plan at step ``step`` uses, ``out`` what it leaves for step ``step + 1``."""
 
     step: np.ndarray  # (B,) int
     key: np.ndarray  # (B,) uint64
-    prev_in: np.ndarray  # (B, n, 2) residual target (dv, dtheta) from the last period
-    has_prev_in: np.ndarray  # (B, n) bool
-    stall_in: np.ndarray  # (B, n) time spent stalled [s]
-    detour_in: np.ndarray  # (B, n) detour time left [s]
-    ref_in: np.ndarray  # (B, n) goal distance at the last progress mark [m] (0: unset)
-    wait_in: np.ndarray  # (B, n) time since the last progress mark [s]
-    prev_out: np.ndarray
-    has_prev_out: np.ndarray
-    stall_out: np.ndarray
-    detour_out: np.ndarray
-    ref_out: np.ndarray
-    wait_out: np.ndarray
+    inp: kernel.Memory
+    out: kernel.Memory
 
     @classmethod
     def empty(cls, B: int, n: int) -> _Memory:
-        z2, z1, zb = np.zeros((B, n, 2)), np.zeros((B, n)), np.zeros((B, n), dtype=bool)
-        return cls(
-            np.full(B, -1, dtype=np.int64),
-            np.zeros(B, dtype=np.uint64),
-            z2,
-            zb,
-            z1,
-            z1.copy(),
-            z1.copy(),
-            z1.copy(),
-            z2.copy(),
-            zb.copy(),
-            z1.copy(),
-            z1.copy(),
-            z1.copy(),
-            z1.copy(),
-        )
+        def zeros() -> kernel.Memory:
+            z1 = [np.zeros((B, n)) for _ in range(4)]
+            return kernel.Memory(np.zeros((B, n, 2)), np.zeros((B, n), dtype=bool), *z1)
+
+        return cls(np.full(B, -1, dtype=np.int64), np.zeros(B, dtype=np.uint64), zeros(), zeros())
 
     def sync(self, world: WorldState) -> None:
         """Move last period's output into this period's input, or clear it on a new episode."""
-        fresh = (world.steps == 0) | (world.key != self.key)
-        advance = ~fresh & (world.steps == self.step + 1)
-        same = ~fresh & (world.steps == self.step)
-        clear = ~(advance | same)
-        every_advance, every_clear = advance.all(), clear.all()  # the usual cases, without masks
-        for a, b in (
-            (self.prev_in, self.prev_out),
-            (self.has_prev_in, self.has_prev_out),
-            (self.stall_in, self.stall_out),
-            (self.detour_in, self.detour_out),
-            (self.ref_in, self.ref_out),
-            (self.wait_in, self.wait_out),
-        ):
-            if every_advance:
-                a[...] = b
-            elif every_clear:
-                a[...] = 0
-            else:
-                a[advance] = b[advance]
-                a[clear] = 0
-        self.step = world.steps.copy()
-        self.key = world.key.copy()
+        kernel.sync_memory(world.steps, world.key, self.step, self.key, self.inp, self.out)
 
 
 class VCSPlanner(Planner):
@@ -119,54 +74,43 @@ class VCSPlanner(Planner):
         self.last: dict[str, np.ndarray] = {}
 
     # ------------------------------------------------------------------ inputs
-    def _inputs(self, world: WorldState):
-        """Preferred velocities (perturbed, and detour-rotated) and communicated ones."""
+    def _inputs(self, world: WorldState, kworld: kernel.World):
+        """Preferred velocities (perturbed, and detour-rotated) and communicated ones
+        ``(B, n, 2)`` [m/s], and the robots that detour ``(B, n)``; the memory for the next period
+        (``kworld``: the world as the kernels read it)."""
         p = self.params
         mem = self._mem
         route, leg = None, None
+        B, n = world.batch_size, world.n_robots
         if world.n_segments:  # (next leg scaled to the remaining length [m], that length [m]); the leg's length [m]
             scaled, length, leg = route_direction(world, with_leg=True)
             route = (scaled, length)
+            d_goal = length
+        else:
+            d_goal = np.empty((B, n))
+            kernel.goal_distance(world.pos, world.goal, d_goal)
         pref = preferred_velocity(world, route=route)
-        B, n = world.batch_size, world.n_robots
         if p.give_way and world.n_segments and n > 1:
             # Give way at crossing routes (vcs-method §2.19): priority to the right.
             pref = self._give_way(world, pref, leg)
-        own = pref.copy()
-        d_goal = np.linalg.norm(world.goal - world.pos, axis=-1) if route is None else route[1]
+        # Stall handling (vcs-method §2.13), and the direction psi of the symmetry-breaking push.
+        psi, detour = np.empty((B, n)), np.empty((B, n), dtype=bool)
+        rules = kernel.StallRules(
+            float(world.dt), float(world.r_goal), p.stall_goal_margin, p.stall_speed, p.stall_time,
+            p.progress_window, p.detour_time, p.detour_jitter, bool(p.detour_jitter > 0 and world.n_segments),
+        )  # fmt: skip
+        kernel.stall_rules(world.key, world.steps, kworld, rules, d_goal, mem.inp, mem.out, psi, detour)
         if n > 1 and p.perturbation > 0:
             # Symmetry breaking (vcs-method §2.5): a small random push, from the world's counter-based noise.
-            psi = 2.0 * np.pi * noise.uniform(world.key, world.steps, n, stream=1)
-            push = p.perturbation * world.v_max[..., None] * np.stack((np.cos(psi), np.sin(psi)), -1)
-            own = own + np.where((d_goal > world.r_goal)[..., None], push, 0.0)
-        # Stall handling (vcs-method §2.13): after stall_time [s] slow and away from the goal, or after
-        # progress_window [s] without gaining stall_speed * v_max * progress_window on the
-        # goal (whatever the speed), detour.
-        away = (d_goal > world.r_goal + p.stall_goal_margin) & world.active
-        stalled = (world.speed < p.stall_speed * world.v_max) & away
-        ref = np.where(mem.ref_in > 0, mem.ref_in, d_goal)
-        progressed = ref - d_goal >= p.stall_speed * world.v_max * p.progress_window
-        wait = np.where(progressed, 0.0, mem.wait_in + world.dt)
-        no_progress = away & (p.progress_window > 0) & (wait >= p.progress_window - 1e-9)
-        slow = stalled & (mem.stall_in + world.dt >= p.stall_time - 1e-9)
-        start = (mem.detour_in <= 0) & (slow | no_progress)
-        detour = (mem.detour_in > 0) | start
-        angle = np.full((B, n), p.detour_angle)
-        if p.detour_off_walls and world.n_segments and detour.any():
-            angle = self._detour_side(world, own, angle, detour)
-        own = np.where(detour[..., None], rotate(own, angle), own)
-        length = p.detour_time
-        if p.detour_jitter > 0 and world.n_segments and start.any():
-            # Among walls a head-on pair in a door one robot wide stalls and detours in step;
-            # detours of different lengths bring them back one after the other (vcs-method §2.13).
-            length = p.detour_time * (
-                1.0 + p.detour_jitter * (2.0 * noise.uniform(world.key, world.steps, n, stream=2) - 1.0)
-            )
-        mem.detour_out = np.where(detour, np.where(start, length, mem.detour_in) - world.dt, 0.0)
-        mem.stall_out = np.where(stalled & ~detour, mem.stall_in + world.dt, 0.0)
-        mark = progressed | start  # a new progress mark: progress made, or a detour begins
-        mem.ref_out = np.where(mark, d_goal, ref)
-        mem.wait_out = np.where(mark, 0.0, wait)
+            own = np.empty((B, n, 2))
+            kernel.push(pref, world.v_max, d_goal, float(world.r_goal), p.perturbation, np.cos(psi), np.sin(psi), own)
+        else:
+            own = pref.copy()
+        if detour.any():
+            angle = np.full((B, n), p.detour_angle)
+            if p.detour_off_walls and world.n_segments:
+                angle = self._detour_side(world, own, angle, detour)
+            own = np.where(detour[..., None], rotate(own, angle), own)
         return own, pref, detour
 
     def _give_way(self, world: WorldState, pref: np.ndarray, leg: np.ndarray) -> np.ndarray:
@@ -248,20 +192,24 @@ class VCSPlanner(Planner):
         flip = blocked(angle) & ~blocked(-angle)
         return np.where(flip, -angle, angle)
 
-    def _kernel_inputs(self, world: WorldState, own, comm, detour, planned) -> tuple:
+    def _kernel_world(self, world: WorldState) -> kernel.World:
+        """The world arrays as the kernels read them."""
+        return kernel.World(
+            world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
+            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
+            world.seg_a, world.seg_b, world.seg_present,
+        )  # fmt: skip
+
+    def _kernel_inputs(self, world: WorldState, kworld, own, comm, detour, planned) -> tuple:
         """The world, preferred velocities, memory and the robots to plan ``(B, n)`` bool, and the
         setting, as the kernels' records."""
-        mem = self._mem
+        mem = self._mem.inp
         r_ca = world.r_ca if self.params.r_ca is None else self.params.r_ca
         return (
-            kernel.World(
-                world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
-                world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
-                world.seg_a, world.seg_b, world.seg_present,
-            ),
-            kernel.Inputs(own, comm, detour, mem.prev_in, mem.has_prev_in, planned),
+            kworld,
+            kernel.Inputs(own, comm, detour, mem.prev, mem.has_prev, planned),
             kernel.Setting(self._prm, float(r_ca), float(world.dt), bool(world.holonomic)),
-        )  # fmt: skip
+        )
 
     # -------------------------------------------------------------------- plan
     def plan(self, world: WorldState, robots: np.ndarray | None = None) -> np.ndarray:
@@ -284,11 +232,13 @@ class VCSPlanner(Planner):
         if key == self._cache_key:
             return self._cache_target.copy()
         B, n = world.batch_size, world.n_robots
-        if self._mem is None or self._mem.prev_in.shape[:2] != (B, n):
+        if self._mem is None or self._mem.inp.stall.shape != (B, n):
             self._mem = _Memory.empty(B, n)
         mem = self._mem
         mem.sync(world)
-        own, comm, detour = self._inputs(world)
+        kworld = self._kernel_world(world)
+        own, comm, detour = self._inputs(world, kworld)
+        own_angle = np.arctan2(own[..., 1], own[..., 0])  # direction of the goal point G [rad]
         out = kernel.Outputs(
             np.zeros((B, n, 2)),
             np.zeros((B, n)),
@@ -299,32 +249,24 @@ class VCSPlanner(Planner):
             np.zeros((B, n, 2)),
         )
         planned = np.ones((B, n), dtype=bool) if robots is None else np.repeat(robots[None], B, axis=0)
-        kernel.plan_batch(*self._kernel_inputs(world, own, comm, detour, planned), out)
-        out_target = out.target
-        # Residual of the target after this period's saturated command (for J_h next period).
-        dv, dth = out_target[..., 0], out_target[..., 1]
-        if world.holonomic:
-            cmd_dv, cmd_dth = dv, dth  # the holonomic command reaches along the velocity change
-            mem.prev_out = np.zeros((B, n, 2))
-        else:
-            dv1, dth1 = world.a_max * world.dt, world.omega_max * world.dt
-            cmd_dv, cmd_dth = np.clip(dv, -dv1, dv1), np.clip(dth, -dth1, dth1)
-            mem.prev_out = np.stack((dv - cmd_dv, wrap_angle(dth - cmd_dth)), axis=-1)
-        mem.has_prev_out = world.active & planned
-        # The heading target is this period's turn (|cmd_dth| < pi), not the planned point: a
-        # planned half turn dth = -pi wraps to +pi, and the shortest-way turn toward it would
-        # go the other way round from the one the plan checked (vcs-method §2.15).
-        target = hold_inactive(world, np.stack((world.speed + dv, wrap_angle(world.heading + cmd_dth)), axis=-1))
+        kernel.plan_batch(*self._kernel_inputs(world, kworld, own, comm, detour, planned), out)
+        # The polar targets, and the residual of the target after this period's saturated command
+        # (for J_h next period).
+        target, cost, goal_point = np.empty((B, n, 2)), np.empty((B, n)), np.empty((B, n, 2))
         cap = sum(self.params.weights) + 1.0
+        kernel.finish(
+            kworld, bool(world.holonomic), float(world.dt), planned, own, own_angle, out, cap,
+            target, mem.out.prev, mem.out.has_prev, cost, goal_point,
+        )  # fmt: skip
         self.last = {
-            "target": out_target,
-            "cost": np.minimum(out.cost, cap),
+            "target": out.target,
+            "cost": cost,
             "fallback": out.fallback,
             "k": out.k,
             "t_star": out.t_star,
             "threats": out.threats,
             "goal_step": out.goal_step,
-            "goal_point": np.stack(velocity_to_vcs(own, world.speed, world.heading), axis=-1),
+            "goal_point": goal_point,
             "detour": detour,
         }
         self._cache_key, self._cache_target = key, target
@@ -357,7 +299,8 @@ class VCSPlanner(Planner):
             the twins of ``stopping_obstacles`` are not reported).
         """
         self.plan(world)  # memory and inputs of this state
-        own, comm, detour = self._inputs(world)
+        kworld = self._kernel_world(world)
+        own, comm, detour = self._inputs(world, kworld)
         dv = np.ascontiguousarray(dv, dtype=np.float64).ravel()
         dth = np.ascontiguousarray(dth, dtype=np.float64).ravel()
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
@@ -365,6 +308,6 @@ class VCSPlanner(Planner):
         horizon = np.zeros(2 * world.n_robots + world.n_obstacles + world.n_segments)
         planned = np.ones((world.batch_size, world.n_robots), dtype=bool)
         kernel.evaluate_points(
-            b, i, *self._kernel_inputs(world, own, comm, detour, planned), dv, dth, ok, cost, horizon
+            b, i, *self._kernel_inputs(world, kworld, own, comm, detour, planned), dv, dth, ok, cost, horizon
         )
         return ok, cost, horizon

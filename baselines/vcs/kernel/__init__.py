@@ -3,6 +3,8 @@
 Scalar math mirrors :mod:`baselines.vcs.geometry` (which is the readable reference; tests check
 that both agree). Per robot (vcs-method §2.14), by stage:
 
+0. :mod:`.period`: the memory across periods and the stall and detour rules before the search,
+   the residual and polar targets after it (vcs-method §2.13, vcs-method §2.15);
 1. :mod:`.neighbours`: what the robot senses within r_ca, one record each: regulated radius r_eff
    (vcs-method §2.6), cone and apex (vcs-method §2.1, vcs-method §2.4), current time to
    collision t_c0;
@@ -21,19 +23,27 @@ the cache (``__pycache__/*.nbi``, ``*.nbc``, or ``NUMBA_CACHE_DIR``) before meas
 ``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
-from .records import PARAMS, Inputs, Outputs, Setting, World, params_record
+from .period import finish, goal_distance, push, stall_rules, sync_memory
+from .records import PARAMS, Inputs, Memory, Outputs, Setting, StallRules, World, params_record
 from .scalar import tau, tau_within
 from .search import evaluate_points, plan_batch
 
 __all__ = [
     "PARAMS",
     "Inputs",
+    "Memory",
     "Outputs",
     "Setting",
+    "StallRules",
     "World",
     "evaluate_points",
+    "finish",
+    "goal_distance",
     "params_record",
     "plan_batch",
+    "push",
+    "stall_rules",
+    "sync_memory",
     "tau",
     "tau_within",
 ]

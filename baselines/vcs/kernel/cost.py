@@ -79,12 +79,22 @@ def relevant(nbs, order, count, tau_s, adm, js):
 
 
 @njit(cache=True)
+def blocker(nbs, adm, na, vx, vy, first):
+    """Where in ``adm`` a neighbour is whose truncated forbidden set holds velocity (vx, vy),
+    trying position ``first`` before the others (the search passes the last blocker: neighbouring
+    grid points are mostly blocked by the same neighbour); -1 when (vx, vy) is admissible."""
+    if first < na and forbidden(nbs[adm[first]], vx, vy):
+        return first
+    for q in range(na):
+        if q != first and forbidden(nbs[adm[q]], vx, vy):
+            return q
+    return -1
+
+
+@njit(cache=True)
 def admissible(nbs, adm, na, vx, vy):
     """Outside every neighbour's truncated forbidden set (vcs-method §2.11)."""
-    for q in range(na):
-        if forbidden(nbs[adm[q]], vx, vy):
-            return False
-    return True
+    return blocker(nbs, adm, na, vx, vy, 0) < 0
 
 
 @njit(cache=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .cost import goal_term, wall_ramp_clear
@@ -38,20 +39,52 @@ def contact_time(nb, vx, vy, clearance):
 
 
 @njit(cache=True)
-def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax, clearance=-1.0, eps=0.0):
-    """Cost of a candidate when nothing is admissible (vcs-method §2.13). The RVO-style penalty
-    ``kappa / t_c + J_g`` (t_c: the least time to collision over the neighbours), and with
-    ``least_harm``: an overlap counts by how much the candidate fails to separate (the overlap
-    half-plane's violation [m/s], weighted kappa / dt), and a candidate whose first step closes
-    faster than now on something it would hit within T_max (or already touches), by speeding up
-    or, for a static body, by turning toward it, is refused (inf): braking and turning away
-    remain, and keeping the current velocity always does (vcs-method §2.13). Walls stay hard
-    (vcs-method §2.18): a candidate inside a wall's truncated velocity obstacle costs
-    :data:`~.records.WALL_COST` more than any that is not."""
+def refusals(nbs, count, r, v1x, v1y, tmax):
+    """Least harm's refusals of a candidate whose first step reaches velocity (v1x, v1y) [m/s]
+    (vcs-method §2.13): the first step must not close faster than now on a threat (a body it
+    would hit within T_max, or already touches), by speeding up, or (a static body) by turning
+    toward it. Returns ``(faster, static)``: some threat is closed on faster (refused if the
+    candidate speeds up, dv > 0), and some static threat is, while closing (always refused)."""
+    faster = False
+    static = False
+    for q in range(count):
+        nb = nbs[q]
+        if nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax:
+            ux = nb.px / max(nb.d, TINY)
+            uy = nb.py / max(nb.d, TINY)
+            if (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
+                faster = True
+                if nb.kind == K_STATIC and (v1x - nb.vjx) * ux + (v1y - nb.vjy) * uy > TINY:
+                    static = True
+    return faster, static
+
+
+@njit(cache=True)
+def refused(nbs, count, r, dv, dth, vx, vy, tmax):
+    """Is the candidate (dv, dth), velocity (vx, vy), refused by least harm (:func:`refusals`)?"""
+    v1x, v1y = first_step(r, dv, dth, vx, vy)
+    faster, static = refusals(nbs, count, r, v1x, v1y, tmax)
+    return (dv > TINY and faster) or static
+
+
+@njit(cache=True)
+def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance=-1.0, eps=0.0, bound=INF):
+    """Cost of a candidate when nothing is admissible (vcs-method §2.13), unless least harm refuses
+    it (:func:`refused`, the caller's test). The RVO-style penalty ``kappa / t_c + J_g`` (t_c: the
+    least time to collision over the neighbours), and with ``least_harm`` an overlap counts by how
+    much the candidate fails to separate (the overlap half-plane's violation [m/s], weighted
+    kappa / dt). Walls stay hard (vcs-method §2.18): a candidate inside a wall's truncated
+    velocity obstacle costs :data:`~.records.WALL_COST` more than any that is not.
+
+    Returns inf as soon as the cost is known to be at least ``bound`` (the best so far, which it
+    then cannot beat): every term is non-negative and only grows over the neighbours, so the
+    partial sum, in the same order, is never above the full one."""
+    g = goal_term(r, dv, dth, vx, vy)
+    if g >= bound:
+        return INF
     tmin = INF
     viol = 0.0
     walled = 0.0
-    v1x, v1y = first_step(r, dv, dth, vx, vy)
     if least_harm and clearance >= 0.0:
         # Only while the robot is already inside a body's regulated buffer (r_eff was shrunk to
         # d - eps) do the buffered times saturate; then time to contact at r0 + clearance ranks.
@@ -73,17 +106,17 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, tmax, clear
             tc = contact_time(nb, vx, vy, clearance) if least_harm else collision_time(nb, vx, vy)
             if tc < tmin:
                 tmin = tc
-        if least_harm and (nb.overlap or nb.tc0 <= tmax or collision_time(nb, v1x, v1y) <= tmax):
-            # The first step toward the candidate must not close faster on the threat than now:
-            # by speeding up, or (a static body) by turning toward it.
-            ux = nb.px / max(nb.d, TINY)
-            uy = nb.py / max(nb.d, TINY)
-            closing = (v1x - nb.vjx) * ux + (v1y - nb.vjy) * uy > TINY
-            if (dv > TINY or (closing and nb.kind == K_STATIC)) and (v1x - r.vrx) * ux + (v1y - r.vry) * uy > TINY:
-                return INF  # closes faster on a threat
+        if harm(kappa, tmin, r.dt, viol, g, least_harm) + walled >= bound:
+            return INF
+    return harm(kappa, tmin, r.dt, viol, g, least_harm) + walled
+
+
+@njit(cache=True)
+def harm(kappa, tmin, dt, viol, g, least_harm):
+    """The fallback's cost before the wall term: ``kappa / t_c (+ kappa / dt violation) + J_g``."""
     if least_harm:
-        return kappa / max(tmin, T_FLOOR) + kappa / r.dt * viol + goal_term(r, dv, dth, vx, vy) + walled
-    return kappa / max(tmin, T_FLOOR) + goal_term(r, dv, dth, vx, vy) + walled
+        return kappa / max(tmin, T_FLOOR) + kappa / dt * viol + g
+    return kappa / max(tmin, T_FLOOR) + g
 
 
 @njit(cache=True)
@@ -93,31 +126,43 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
     (vcs-method §2.18), a candidate whose ramp (:func:`~.cost.wall_ramp_clear`: its first step
     too) touches a wall, or leaves the robot unable to brake straight to a stop short of it,
     costs :data:`~.records.WALL_COST` more: a fallback that turned toward its goal point, or
-    sped up while turning away, swept into the wall. Returns ``(cost, dv, dth)``."""
+    sped up while turning away, swept into the wall. Returns ``(cost, dv, dth)``.
+
+    A unicycle's first step clips the speed and direction changes to one step's, so the grid
+    points beyond one step share their first step: least harm's refusals are worked out once per
+    first step (per run of equal clipped rows times run of equal clipped columns)."""
     best = INF
     bdv = 0.0
     bdth = 0.0
     ngrid = win.nv * win.nth
     brake = r.walls and r.wall_brake and r.ramp
+    memo = p.least_harm and not r.holo
+    if memo:
+        row_run, col_run = first_step_runs(win, r)
+        seen = np.zeros((win.nv, win.nth), dtype=np.int8)  # per first step: 0 unknown, else 1 + faster + 2 static
     for c in range(ngrid + 3):
         dv, dth = candidate(c, win, r, g1v, g1th)
         if r.holo and c < ngrid and reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r) > win.k:
             continue
         s = r.v_r + dv
+        vx = s * math.cos(r.th + dth)
+        vy = s * math.sin(r.th + dth)
+        if p.least_harm:
+            if memo and c < ngrid:
+                a, t = row_run[c // win.nth], col_run[c % win.nth]
+                if seen[a, t] == 0:
+                    v1x, v1y = first_step(r, dv, dth, vx, vy)
+                    faster, static = refusals(nbs, count, r, v1x, v1y, p.t_max)
+                    seen[a, t] = 1 + (1 if faster else 0) + (2 if static else 0)
+                code = seen[a, t] - 1
+                out = (dv > TINY and code & 1 != 0) or code & 2 != 0
+            else:
+                out = refused(nbs, count, r, dv, dth, vx, vy, p.t_max)
+            if out:
+                continue
         j = fallback_cost(
-            nbs,
-            count,
-            r,
-            dv,
-            dth,
-            s * math.cos(r.th + dth),
-            s * math.sin(r.th + dth),
-            p.kappa,
-            p.least_harm,
-            p.t_max,
-            p.fallback_clearance,
-            p.eps,
-        )
+            nbs, count, r, dv, dth, vx, vy, p.kappa, p.least_harm, p.fallback_clearance, p.eps, best
+        )  # fmt: skip
         if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
             j += WALL_COST
         if j < best:
@@ -125,3 +170,31 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
             bdv = dv
             bdth = dth
     return best, bdv, bdth
+
+
+@njit(cache=True)
+def first_step_runs(win, r):
+    """For each grid row (column), the first row (column) whose first step has the same speed
+    (heading): rows and columns clip to one step's change at both ends, so equal first steps lie
+    in runs."""
+    rows = np.empty(win.nv, dtype=np.int64)
+    cols = np.empty(win.nth, dtype=np.int64)
+    for a in range(win.nv):
+        rows[a] = rows[a - 1] if a > 0 and clip_row(win, r, a) == clip_row(win, r, a - 1) else a
+    for t in range(win.nth):
+        cols[t] = cols[t - 1] if t > 0 and clip_col(win, r, t) == clip_col(win, r, t - 1) else t
+    return rows, cols
+
+
+@njit(cache=True)
+def clip_row(win, r, a):
+    """The first step's speed [m/s] toward grid row a (as :func:`first_step` clips it)."""
+    dv, _ = candidate(a * win.nth, win, r, 0.0, 0.0)
+    return r.v_r + min(max(dv, -r.dv1), r.dv1)
+
+
+@njit(cache=True)
+def clip_col(win, r, t):
+    """The first step's heading [rad] toward grid column t (as :func:`first_step` clips it)."""
+    _, dth = candidate(t, win, r, 0.0, 0.0)
+    return r.th + min(max(dth, -r.dth1), r.dth1)

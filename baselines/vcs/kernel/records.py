@@ -200,6 +200,18 @@ those of an inactive robot)."""
 Setting = namedtuple("Setting", "prm r_ca dt holo")
 """Parameter record ``(1,)``, sensing radius [m], period [s], holonomic robots."""
 
+Memory = namedtuple("Memory", "prev has_prev stall detour ref wait")
+"""A robot's memory across periods ``(B, n, ...)``: the residual target (dv [m/s], dtheta [rad])
+of the last period and whether it is set, the time spent stalled [s], the detour time left [s],
+the goal distance at the last progress mark [m] (0: unset) and the time since that mark [s]."""
+
+StallRules = namedtuple(
+    "StallRules",
+    "dt r_goal stall_goal_margin stall_speed stall_time progress_window detour_time detour_jitter jitter_walls",
+)
+"""The stall and detour rules (:func:`~.period.stall_rules`): period [s], arrival radius [m], the
+``VCSParams`` of the same names, and whether detours are jittered (walls, ``detour_jitter > 0``)."""
+
 Outputs = namedtuple("Outputs", "target cost fallback k t_star threats goal_step")
 """Per-robot results ``(B, n, ...)`` of :func:`~baselines.vcs.kernel.search.plan_batch`."""
 

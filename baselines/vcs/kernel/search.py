@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .cost import admissible, consider, cost, ramp_clear, relevant, robot_context, safety_term
+from .cost import admissible, blocker, consider, cost, ramp_clear, relevant, robot_context, safety_term
 from .fallback import fallback_search
 from .horizon import apply_horizons, contesting_movers, set_horizons
 from .neighbours import setup_neighbours, work
@@ -179,6 +179,7 @@ def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
     delta = max(ws, 0.02)
     t_prev = -INF
     t_cur = lo_c + delta
+    last = 0  # the last blocker (:func:`~.cost.blocker`)
     while True:
         for c in range(win.nv * nth):
             x = g.cheap[c]
@@ -189,7 +190,9 @@ def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
             s = v_r + g.dv_row[a]
             vx = s * g.cth[t]
             vy = s * g.sth[t]
-            if not admissible(nbs, adm, na, vx, vy):
+            q = blocker(nbs, adm, na, vx, vy, last)
+            if q >= 0:
+                last = q
                 continue
             j = x
             if ws > 0.0:
