@@ -26,7 +26,7 @@ if [ "$SMOKE" = 1 ]; then
 else
   # Sized for the 3 h budget on 2 cores from what was measured on 2026-11-28: the 2300 expert episodes took 322 s
   # (1.70 M robot-steps); one BC epoch on them 134 s; PPO on the map entries about 1000 robot-steps/s on a
-  # loaded core. Expected: BC + DAgger about 50 min, PPO about 45 min, the rounds about 45 min, per run.
+  # loaded core. Expected per run (both side by side): BC + DAgger about 50 min, PPO 45-70 min, rounds 45-70 min.
   EPISODES=2300 EPOCHS=8 DAGGER=2 DAGGER_EP=460 PPO=4000000 WORLDS=300 ROUND=1000000 ROUNDS=4 STATES_EP=200
   EVAL=1000000 VAL=7000:7100
 fi
