@@ -7,7 +7,7 @@
 # probe table is held out by construction. Stages as in policies/generalist.sh: expert data, BC + DAgger
 # with the slot encoder, PPO from those weights, start-state rounds, then the checkpoint that does best on
 # validation seeds no suite or probe uses. No shield in the record: the network alone is the policy.
-# Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] bash policies/generalist-v2.sh
+# Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist-v2}
@@ -27,8 +27,10 @@ else
   # Sized for the 3 h budget on 2 cores from what was measured on 2026-11-28: the 2300 expert episodes took 322 s
   # (1.70 M robot-steps); one BC epoch on them 134 s; PPO on the map entries about 1000 robot-steps/s on a
   # loaded core. Expected per run (both side by side): BC + DAgger about 50 min, PPO 45-70 min, rounds 45-70 min.
-  EPISODES=2300 EPOCHS=8 DAGGER=2 DAGGER_EP=460 PPO=4000000 WORLDS=300 ROUND=1000000 ROUNDS=4 STATES_EP=200
-  EVAL=1000000 VAL=7000:7100
+  # Each size can be set from the environment (e.g. PPO=2500000 ROUNDS=2 for one run in less time).
+  EPISODES=${EPISODES:-2300} EPOCHS=${EPOCHS:-8} DAGGER=${DAGGER:-2} DAGGER_EP=${DAGGER_EP:-460} PPO=${PPO:-4000000}
+  WORLDS=${WORLDS:-300} ROUND=${ROUND:-1000000} ROUNDS=${ROUNDS:-4} STATES_EP=${STATES_EP:-200} EVAL=${EVAL:-1000000}
+  VAL=${VAL:-7000:7100}
 fi
 MIX=(
   "circle-8-v0:n_robots=6-8/2"

@@ -29,3 +29,51 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
     assert episodes(evaluate("vcs", other)) == episodes(evaluate("vcs", suite))
     with pytest.warns(BlindWarning, match="'circle8' cannot see walls .* kind='doorway' has walls"):
         resolve_policy("policies/circle8/model.zip", get_suite("doorway-v0-smoke").scenario)
+
+
+def test_among_walls_the_v2_goal_features_follow_the_route_and_v1_reads_the_straight_goal():
+    """Robot behind a wall with a door: v2 reads the bearing of its next waypoint (the door's edge,
+    to its left) and the route length; v1, and v2 without the wall, read the straight goal ahead."""
+    import numpy as np
+
+    from vcs_env.observations import GOAL_REF, observe
+    from vcs_env.routes import waypoints
+    from vcs_env.scenario import CustomLayout, Scenario
+    from vcs_env.sim import Simulator
+
+    start, goal = ((-2.0, 0.0),), ((2.0, 0.0),)
+    door = (((0.0, -4.0), (0.0, 0.5)), ((0.0, 1.5), (0.0, 4.0)))
+    s = Scenario(kind="custom", n_robots=1, custom=CustomLayout(start=start, goal=goal, walls=door))
+    w = Simulator(s).reset(0)
+    target, length = waypoints(w)
+    ego = observe(w, s)[0, 0]
+    bearing = (target[0, 0] - w.pos[0, 0]) / np.linalg.norm(target[0, 0] - w.pos[0, 0])
+    np.testing.assert_allclose(ego[2:4], bearing, atol=1e-6)  # heading 0: robot frame = world frame
+    assert ego[3] > 0.1  # the door is to the left of the straight line
+    np.testing.assert_allclose(ego[1], length[0, 0] / GOAL_REF, rtol=1e-6)
+    assert length[0, 0] > 4.1
+    straight = np.array([0.2, 1.0, 0.0], dtype=np.float32)  # 4 m / 20 m, goal dead ahead
+    np.testing.assert_allclose(observe(w, dataclasses.replace(s, observation=1))[0, 0, 1:4], straight, atol=1e-6)
+    open_floor = dataclasses.replace(s, custom=CustomLayout(start=start, goal=goal))
+    np.testing.assert_allclose(observe(Simulator(open_floor).reset(0), open_floor)[0, 0, 1:4], straight, atol=1e-6)
+
+
+def test_batched_waypoints_equal_the_one_robot_route():
+    """:meth:`Roadmap.next_waypoints` (compiled, many robots) against :meth:`Roadmap.next_waypoint`
+    (readable, one robot), at random points of a random-walls map, some of them inside walls."""
+    import numpy as np
+
+    from vcs_env.routes import roadmap
+    from vcs_env.suites import get_suite as suite_of
+    from vcs_env.sim import Simulator
+
+    w = Simulator(suite_of("walls-v0").scenario).reset(5)
+    rm = roadmap(w, 0, float(w.radius[0, 0]))
+    rng = np.random.default_rng(0)
+    p, g = rng.uniform(-6, 6, (200, 2)), rng.uniform(-6, 6, (200, 2))
+    wp, length = rm.next_waypoints(p, g)
+    for i in range(len(p)):
+        one, total = rm.next_waypoint(p[i], g[i])
+        np.testing.assert_array_equal(wp[i], one)
+        assert length[i] == total
+    assert np.isfinite(length).mean() > 0.5 and (wp != g).any(axis=-1).mean() > 0.1

@@ -17,8 +17,8 @@ versions ``vcs_nav_v2`` and ``vcs_env/*-v2``). Blocks, in order:
 index feature                      scale
 ===== ============================ ===================================================
 0     own speed                    / v_max, in [0, 1]
-1     goal distance                / GOAL_REF (20 m), clipped to [0, 1] (farther goals read 1)
-2, 3  goal bearing cos, sin        robot frame
+1     route distance               / GOAL_REF (20 m), clipped to [0, 1] (farther goals read 1)
+2, 3  route bearing cos, sin       robot frame
 4     v_max                        / V_REF (3 m/s)
 5     a_max                        / A_REF (10 m/s^2)
 6     omega_max                    / OMEGA_REF (2 pi rad/s)
@@ -27,6 +27,11 @@ index feature                      scale
 9     arrival radius r_goal        / R_REF (2 m), clipped to [0, 1]
 10    step dt                      / DT_REF (1 s)
 ===== ============================ ===================================================
+
+The route features (1-3) follow the route the planners drive along (:func:`route_features`,
+:mod:`vcs_env.routes`): among walls, the remaining length of the shortest route around them and the
+bearing of its next waypoint (a door, a corner); without walls, or where no route is found, the
+straight distance and bearing of the goal. (Observation v1 always reads the straight ones.)
 
 ``neighbors`` (``n_neighbors`` slots of ``NEIGHBOR_DIM`` = 9 floats): the nearest objects (robots
 still in the world and obstacles) whose centres lie within ``r_ca``, nearest surface first,
@@ -61,7 +66,8 @@ Version history:
 
 * v2: neighbour slots gain the parked flag (``NEIGHBOR_DIM`` 8 -> 9), so a policy can tell a robot
   that waits at its goal (it will not move out of the way) from one that is about to drive on;
-  observations are built from named blocks. ``Scenario(observation=1)`` (and the ``-v1`` ids)
+  among walls the goal features follow the route (the next waypoint and the remaining route length),
+  so a policy knows which door leads to its goal; observations are built from named blocks. ``Scenario(observation=1)`` (and the ``-v1`` ids)
   still give v1, so v1 checkpoints keep running.
 * v1: fixed physical scales (goal distance / 20 m, positions and gaps / 10 m) and the scenario
   features 8-10 (``EGO_DIM`` 11); neighbour slots of 8 floats, without the parked flag.
@@ -77,7 +83,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels, lidar
+from . import kernels, lidar, routes
 from .lidar import LidarSpec
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 from .state import WorldState
@@ -189,7 +195,7 @@ class Layout:
         return low, np.ones(self.dim, dtype=np.float32)
 
 
-_EGO_FIELDS = ("speed", "goal_distance", "goal_cos", "goal_sin", "v_max", "a_max", "omega_max", "radius", "r_ca",
+_EGO_FIELDS = ("speed", "route_distance", "route_cos", "route_sin", "v_max", "a_max", "omega_max", "radius", "r_ca",
                "r_goal", "dt")  # fmt: skip
 _EGO_LOW = (0.0, 0.0, -1.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 _NEIGHBOR_LOW = (0.0, -1.0, -1.0, -1.0, -1.0, 0.0, -1.0, 0.0, 0.0)
@@ -357,11 +363,31 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
         world.r_goal, world.dt, scenario.n_neighbors, layout.block("neighbors").item_dim, EGO_DIM, GOAL_REF,
         SENSE_REF, DT_REF, V_REF, A_REF, OMEGA_REF, R_REF, layout.dim,
     )  # fmt: skip
+    if scenario.observation >= 2:
+        route_features(obs, world)
     if "lidar" in layout:  # the optional blocks, written in place
         lidar.write_observation(obs[..., layout.span("lidar")], world, scenario.lidar)
     if "wall_points" in layout:
         obs[..., layout.span("wall_points")] = wall_points_block(world, scenario.n_wall_points)
     return obs
+
+
+def route_features(obs: np.ndarray, world: WorldState) -> None:
+    """Write the route features of observation v2 into ``obs`` ``(B, n, D)`` in place: among walls,
+    ego features 1-3 read the remaining route length and the bearing of the next waypoint
+    (:func:`vcs_env.routes.waypoints`, the route the planners follow) instead of the straight
+    distance and bearing of the goal. Without walls the route is the straight line: nothing changes."""
+    if world.n_segments == 0 or not world.seg_present.any():
+        return
+    target, length = routes.waypoints(world)
+    e = target - world.pos
+    d = np.sqrt(np.einsum("...i,...i->...", e, e))
+    far = d > 1e-12
+    c, s = np.cos(world.heading), np.sin(world.heading)
+    safe = np.where(far, d, 1.0)
+    obs[..., 1] = np.minimum(length / GOAL_REF, 1.0)
+    obs[..., 2] = np.clip(np.where(far, (c * e[..., 0] + s * e[..., 1]) / safe, 1.0), -1.0, 1.0)
+    obs[..., 3] = np.clip(np.where(far, (-s * e[..., 0] + c * e[..., 1]) / safe, 0.0), -1.0, 1.0)
 
 
 def wall_points_block(world: WorldState, k: int) -> np.ndarray:
@@ -414,6 +440,8 @@ def reference_observe(world: WorldState, scenario: Scenario) -> np.ndarray:
         nb[..., 8] = feats[..., 7]
     # Far objects, long gaps, large r_ca or r_goal and rounding (an object exactly at r_ca) are clipped into the space.
     obs = np.clip(out, -1.0, 1.0).astype(np.float32)
+    if scenario.observation >= 2:
+        route_features(obs, world)
     return _optional_blocks(obs, world, scenario)
 
 

@@ -37,10 +37,10 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
 
     ## Observation Space
     ``Box(-1, 1, (11 + 9 K,), float32)`` per robot (observation v2; v1: ``11 + 8 K``), in the
-    robot's frame and fixed physical scales: own speed, goal distance and bearing, own limits and
-    radius, the scenario's sensing and arrival radii and step, then the ``K = n_neighbors``
-    nearest objects within ``r_ca`` (mask, relative position and velocity, radius, gap, robot
-    flag, parked flag), then the optional lidar and wall-point blocks. Blocks and tables in
+    robot's frame and fixed physical scales: own speed, goal distance and bearing (along the route
+    among walls), own limits and radius, the scenario's sensing and arrival radii and step, then
+    the ``K = n_neighbors`` nearest objects within ``r_ca`` (mask, relative position and velocity,
+    radius, gap, robot flag, parked flag), then the optional lidar and wall-point blocks. Blocks and tables in
     :mod:`vcs_env.observations`. ``state()`` is the global state (SI units).
 
     ## Rewards
@@ -74,7 +74,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     ## Version History
     * v2: observation version 2 (:mod:`vcs_env.observations`): every neighbour slot gains a parked
       flag (a robot that has finished and stays where it is), ``11 + 9 K`` floats, built from named
-      blocks; dynamics and rewards unchanged. The v1 ids remain: the same env with ``observation=1``.
+      blocks; among walls the goal distance and bearing follow the route (remaining route length,
+      bearing of the next waypoint); dynamics and rewards unchanged. The v1 ids remain: the same env with ``observation=1``.
     * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
       at the point of first contact on its swept motion, instead of where its step would have
       ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps

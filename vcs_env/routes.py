@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import _segment_distance
+from .kernels import _closest_approach, _segment_distance
 from .state import WorldState
 from .walls import clearance
 
@@ -69,6 +69,54 @@ def _visible_pairs(p, seg, r):
                     out[j, i] = False
                     break
     return out
+
+
+@njit(cache=True)
+def _clearance(x, y, seg):
+    """:func:`vcs_env.walls.clearance` of one point ``(x, y)`` [m]."""
+    c = np.inf
+    for w in range(seg.shape[0]):
+        d = _closest_approach(seg[w, 0, 0] - x, seg[w, 0, 1] - y, seg[w, 1, 0] - x, seg[w, 1, 1] - y)
+        if d < c:
+            c = d
+    return c
+
+
+@njit(cache=True)
+def _clear_line(px, py, qx, qy, seg, r):
+    """The segment from ``p`` to ``q`` keeps >= ``r`` [m] from every wall (one pair of :func:`_visible`)."""
+    for w in range(seg.shape[0]):
+        if _segment_distance(px, py, qx, qy, seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]) < r:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _next_waypoints(p, goal, nodes, cost, node_clearance, seg, r):
+    """:meth:`Roadmap.next_waypoint` of ``k`` robots at once: positions ``p`` ``(k, 2)``, goals
+    ``goal`` ``(k, 2)``, each goal's cost-to-go ``cost`` ``(k, N)``; ``node_clearance`` is the
+    smallest clearance of the nodes [m] and ``r`` the lines' clearance [m]. Returns the waypoints
+    ``(k, 2)`` and route lengths ``(k,)`` [m]."""
+    k, N = p.shape[0], nodes.shape[0]
+    target = goal.copy()
+    length = np.full(k, np.inf)
+    for i in range(k):
+        px, py, gx, gy = p[i, 0], p[i, 1], goal[i, 0], goal[i, 1]
+        cp = _clearance(px, py, seg)
+        near = min(cp, _clearance(gx, gy, seg))
+        if _clear_line(px, py, gx, gy, seg, min(r, near * (1.0 - 1e-9))):
+            length[i] = math.sqrt((gx - px) * (gx - px) + (gy - py) * (gy - py))
+            continue
+        rr = min(r, min(cp, node_clearance) * (1.0 - 1e-9))
+        best, j = np.inf, -1
+        for q in range(N):  # the line check (the costly part) only for nodes that would improve
+            dx, dy = nodes[q, 0] - px, nodes[q, 1] - py
+            total = math.sqrt(dx * dx + dy * dy) + cost[i, q]
+            if total < best and _clear_line(px, py, nodes[q, 0], nodes[q, 1], seg, rr):
+                best, j = total, q
+        if j >= 0:
+            target[i, 0], target[i, 1], length[i] = nodes[j, 0], nodes[j, 1], best
+    return target, length
 
 
 @njit(cache=True)
@@ -131,6 +179,7 @@ class Roadmap:
         diff = self.nodes[:, None] - self.nodes[None]
         self._edge = np.where(vis, np.sqrt(np.einsum("...i,...i->...", diff, diff)), np.inf)
         self._costs: dict[tuple[float, float], np.ndarray] = {}
+        self._node_clearance = float(clearance(self.nodes, self.segments).min(initial=np.inf))
 
     def sees(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
         """``(k, l)`` bool: points ``p`` ``(k, 2)`` see points ``q`` ``(l, 2)``: the lines keep
@@ -170,12 +219,22 @@ class Roadmap:
             return goal, math.inf
         return self.nodes[j], float(total[j])
 
+    def next_waypoints(self, p: np.ndarray, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`next_waypoint` of many robots in one compiled call: ``p`` and ``goal`` ``(k, 2)``
+        [m] give the waypoints ``(k, 2)`` [m] and route lengths ``(k,)`` [m] (inf: no route)."""
+        p = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
+        goal = np.ascontiguousarray(goal, dtype=np.float64).reshape(-1, 2)
+        cost = np.empty((len(p), len(self.nodes)))
+        for i in range(len(p)):
+            cost[i] = self.cost_to_go(goal[i])
+        return _next_waypoints(p, goal, self.nodes, cost, self._node_clearance, self.segments, self._r)
+
     def route_length(self, p: np.ndarray, goal: np.ndarray) -> float:
         """Length of the shortest roadmap route from ``p`` to ``goal`` [m] (inf: none)."""
         return self.next_waypoint(p, goal)[1]
 
 
-@functools.lru_cache(maxsize=64)
+@functools.lru_cache(maxsize=4096)
 def _cached(key: bytes, count: int, radius: float) -> Roadmap:
     return Roadmap(np.frombuffer(key, dtype=np.float64).reshape(count, 2, 2), radius)
 
@@ -199,11 +258,12 @@ def waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
     for b in range(world.batch_size):
         if not world.seg_present[b].any():
             continue
-        for i in np.flatnonzero(world.active[b]):
-            rm = roadmap(world, b, world.radius[b, i])
-            wp, total = rm.next_waypoint(world.pos[b, i], world.goal[b, i])
-            if np.isfinite(total):
-                target[b, i], length[b, i] = wp, total
+        active = np.flatnonzero(world.active[b])
+        for r in np.unique(world.radius[b, active]):  # one roadmap per robot radius
+            idx = active[world.radius[b, active] == r]
+            wp, total = roadmap(world, b, r).next_waypoints(world.pos[b, idx], world.goal[b, idx])
+            found = np.isfinite(total)
+            target[b, idx[found]], length[b, idx[found]] = wp[found], total[found]
     return target, length
 
 
