@@ -1,12 +1,18 @@
 """Observation v2 from a user's side: a checkpoint runs on any suite with the sensing it was trained with,
-the sensing fields change no episode, and a policy blind to walls is warned about among them."""
+the sensing fields change no episode, a policy blind to walls is warned about among them, and among walls
+the goal features follow the route."""
 
 import dataclasses
 import json
 
+import numpy as np
 import pytest
 
 from agents.evaluate import evaluate
+from vcs_env.observations import GOAL_REF, observe
+from vcs_env.routes import roadmap, waypoints
+from vcs_env.scenario import CustomLayout, Scenario
+from vcs_env.sim import Simulator
 from vcs_env.suites import get_suite
 
 
@@ -34,13 +40,6 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
 def test_among_walls_the_v2_goal_features_follow_the_route_and_v1_reads_the_straight_goal():
     """Robot behind a wall with a door: v2 reads the bearing of its next waypoint (the door's edge,
     to its left) and the route length; v1, and v2 without the wall, read the straight goal ahead."""
-    import numpy as np
-
-    from vcs_env.observations import GOAL_REF, observe
-    from vcs_env.routes import waypoints
-    from vcs_env.scenario import CustomLayout, Scenario
-    from vcs_env.sim import Simulator
-
     start, goal = ((-2.0, 0.0),), ((2.0, 0.0),)
     door = (((0.0, -4.0), (0.0, 0.5)), ((0.0, 1.5), (0.0, 4.0)))
     s = Scenario(kind="custom", n_robots=1, custom=CustomLayout(start=start, goal=goal, walls=door))
@@ -61,13 +60,7 @@ def test_among_walls_the_v2_goal_features_follow_the_route_and_v1_reads_the_stra
 def test_batched_waypoints_equal_the_one_robot_route():
     """:meth:`Roadmap.next_waypoints` (compiled, many robots) against :meth:`Roadmap.next_waypoint`
     (readable, one robot), at random points of a random-walls map, some of them inside walls."""
-    import numpy as np
-
-    from vcs_env.routes import roadmap
-    from vcs_env.suites import get_suite as suite_of
-    from vcs_env.sim import Simulator
-
-    w = Simulator(suite_of("walls-v0").scenario).reset(5)
+    w = Simulator(get_suite("walls-v0").scenario).reset(5)
     rm = roadmap(w, 0, float(w.radius[0, 0]))
     rng = np.random.default_rng(0)
     p, g = rng.uniform(-6, 6, (200, 2)), rng.uniform(-6, 6, (200, 2))

@@ -67,8 +67,8 @@ Version history:
 * v2: neighbour slots gain the parked flag (``NEIGHBOR_DIM`` 8 -> 9), so a policy can tell a robot
   that waits at its goal (it will not move out of the way) from one that is about to drive on;
   among walls the goal features follow the route (the next waypoint and the remaining route length),
-  so a policy knows which door leads to its goal; observations are built from named blocks. ``Scenario(observation=1)`` (and the ``-v1`` ids)
-  still give v1, so v1 checkpoints keep running.
+  so a policy knows which door leads to its goal; observations are built from named blocks.
+  ``Scenario(observation=1)`` (and the ``-v1`` ids) still give v1, so v1 checkpoints keep running.
 * v1: fixed physical scales (goal distance / 20 m, positions and gaps / 10 m) and the scenario
   features 8-10 (``EGO_DIM`` 11); neighbour slots of 8 floats, without the parked flag.
 * v0: divided the goal distance by ``2 * scenario.world_extent`` and relative positions and gaps by
