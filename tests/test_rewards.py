@@ -180,3 +180,42 @@ def test_rewards_flag_help_names_every_term():
 
     listed = set(re.findall(r"\w+", field_docs(ScenarioConfig)["rewards"].split("names:")[1]))
     assert {t.name for t in TERMS} <= listed
+
+
+def test_among_walls_progress_is_the_decrease_of_the_route_length():
+    """A wall with a door between a robot and its goal: driving the route (the straight planner
+    follows it), the progress terms add up to the route's length minus what is left, not to the
+    straight distance's decrease; a step pressed into the wall toward the goal earns less than its
+    straight progress, and no step earns more than the distance moved."""
+    from vcs_env.routes import waypoints
+    from vcs_env.scenario import CustomLayout, Scenario
+
+    walls = (((0.0, -4.0), (0.0, 1.5)), ((0.0, 2.5), (0.0, 4.0)))  # the door 1.5 m above the straight line
+    s = Scenario(kind="custom", n_robots=1, custom=CustomLayout(start=((-2.0, 0.0),), goal=((2.0, 0.0),), walls=walls))
+    engine = NavEngine(s)
+    engine.reset(0)
+    route = float(waypoints(engine.world)[1][0, 0])
+    planner = vcs_env.make_planner("straight")
+    total, first = 0.0, None
+    for _ in range(s.max_steps):
+        before = engine.world.pos.copy()
+        res = engine.step(planner.act(engine.world))
+        step = float(res.terms["progress"][0, 0])
+        assert step <= np.linalg.norm(engine.world.pos - before) + 1e-12
+        first = step if first is None else first
+        total += step
+        if not engine.world.active.any():
+            break
+    assert engine.world.reached.all()
+    left = float(np.linalg.norm(engine.world.goal[0, 0] - engine.world.pos[0, 0]))
+    np.testing.assert_allclose(
+        total, route - left, atol=0.1
+    )  # the roadmap route is approximate: small jumps are clipped
+    assert total > 4.0 - left + 1.0  # the route is longer than the straight line
+    engine.reset(0)
+    route_gain = straight_gain = 0.0
+    for _ in range(10):  # speed up dead ahead: toward the wall, not the door
+        res = engine.step(np.array([[[1.0, 0.0]]]))
+        route_gain += res.terms["progress"][0, 0]
+        straight_gain += (res.events.goal_dist_before - res.events.goal_dist_after)[0, 0]
+    assert 0.0 < route_gain < 0.75 * straight_gain

@@ -61,8 +61,9 @@ class VcsNavEnv(RenderMixin, gym.Env):
     * v2: observation version 2 (:mod:`vcs_env.observations`): every neighbour slot gains a parked
       flag (a robot that has finished and stays where it is), ``11 + 9 K`` floats, built from named
       blocks; among walls the goal distance and bearing follow the route (remaining route length,
-      bearing of the next waypoint); dynamics and rewards unchanged. The v1 ids remain: the same
-      env with ``observation=1``.
+      bearing of the next waypoint), and so does the ``progress`` reward (the decrease of the
+      remaining route length, not of the straight goal distance); dynamics unchanged, and rewards
+      on open floor. The v1 ids remain: the same env (these rewards too) with ``observation=1``.
     * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
       at the point of first contact on its swept motion, instead of where its step would have
       ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import routes
 from .geometry import time_to_collision
 from .planning import Planner
 from .sim import StepEvents
@@ -60,13 +61,40 @@ class RewardTerm:
 
 
 class Progress(RewardTerm):
-    """Decrease of the goal distance [m]."""
+    """Decrease of the remaining route length [m]: of the goal distance on open floor; among walls,
+    of the length of the shortest route around them (:func:`vcs_env.routes.waypoints`, the route
+    the planners follow), so that pressing into a wall between a robot and its goal earns nothing.
+    A step's route progress is bounded by the distance the robot moved (the roadmap's routes are
+    approximate: where the shortest one switches, or none is found, the length may jump)."""
 
     name = "progress"
 
+    def __init__(self) -> None:
+        self.length: np.ndarray | None = None  # (B, n) remaining route length of the current state [m]
+        self.pos: np.ndarray | None = None  # (B, n, 2) positions of the current state [m]
+
+    @staticmethod
+    def _walled(world: WorldState) -> bool:
+        return world.n_segments > 0 and bool(world.seg_present.any())
+
+    def start(self, world: WorldState, expert: Planner | None, worlds: Sequence[int] | np.ndarray) -> None:
+        if not self._walled(world):
+            return
+        length = routes.waypoints(world)[1]
+        if self.length is None or self.length.shape != length.shape:
+            self.length, self.pos = length, world.pos.copy()
+        else:
+            self.length[worlds], self.pos[worlds] = length[worlds], world.pos[worlds]
+
     def __call__(self, x: StepInput) -> np.ndarray:
         ev = x.events
-        return np.where(ev.acted, ev.goal_dist_before - ev.goal_dist_after, 0.0)
+        if not self._walled(x.world) or self.length is None:
+            return np.where(ev.acted, ev.goal_dist_before - ev.goal_dist_after, 0.0)
+        length = routes.waypoints(x.world)[1]
+        moved = np.linalg.norm(x.world.pos - self.pos, axis=-1)
+        progress = np.clip(self.length - length, -moved, moved)
+        self.length, self.pos = length, x.world.pos.copy()
+        return np.where(ev.acted, progress, 0.0)
 
 
 class Arrival(RewardTerm):

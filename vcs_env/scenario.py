@@ -77,7 +77,8 @@ class RewardWeights:
     """Weights of the named reward terms; the reward is the weighted sum of the terms.
 
     Terms (per robot and step; each is reported in ``info["reward_terms"]`` before weighting):
-    ``progress`` = decrease of the goal distance [m]; ``arrival`` = 1 on the step the goal is
+    ``progress`` = decrease of the remaining route length [m] (the goal distance on open floor;
+    among walls the route around them, :class:`vcs_env.rewards.Progress`); ``arrival`` = 1 on the step the goal is
     reached; ``collision`` = -1 on every step the robot touches something; ``time`` = -dt [s];
     ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
     window, scaled to [0, 1] (needs an expert); ``vcs_potential`` = gamma * phi(s') - phi(s) with
