@@ -147,8 +147,9 @@ class Shield:
         vel[..., 0] += v0[:, None]  # relative -> the neighbour's own velocity, robot frame [m/s]
         speed = np.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2)
         still = speed <= self.robot_speed
-        if slots.shape[-1] > 8:  # observation v2: parked robots stay where they are, whatever they read
-            still |= slots[..., 8] > 0.5
+        fields = layout.block("neighbors").fields
+        if "parked" in fields:  # observation v2: parked robots stay where they are, whatever they read
+            still |= slots[..., fields.index("parked")] > 0.5
         counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | still)
         reach = radius[:, None] + slots[..., 5] * R_REF
         gap = slots[..., 6] * SENSE_REF
