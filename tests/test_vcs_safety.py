@@ -173,3 +173,20 @@ def test_stopping_obstacles_keep_the_robot_from_following_closer_than_it_brakes(
 
     assert at_fault(_run(scenario, seeds, stopping_obstacles=True)) <= 2
     assert at_fault(_run(scenario, seeds)) >= 5
+
+
+def test_goal_twin_keeps_followers_off_a_robot_that_parks_at_speed():
+    """An arriving robot that is faster than it can brake to its goal parks there dead at speed
+    (the simulator parks it on arrival). ``random-dense-holonomic-v0`` seeds 1044 and 1092: a
+    robot behind or beside such a robot, at a gap shorter than its own braking distance, ran
+    into it where it parked (robot 7 into robot 8 at 0.8 m/s, robot 4 into robot 7). With
+    ``arriving_goal_twin`` it keeps its braking distance from the spot the other robot will park
+    on, told by its communicated preferred velocity: no at-fault contact (measured)."""
+    suite = get_suite("random-dense-holonomic-v0")
+    seeds = (1044, 1092)
+
+    def at_fault(eps):
+        return sum(any(c.at_fault for c in contact_events(e)) for e in eps)
+
+    assert at_fault(_run(suite.scenario, seeds)) == 0
+    assert at_fault(_run(suite.scenario, seeds, arriving_goal_twin=False)) == 2
