@@ -121,8 +121,8 @@ class VCSParams:
     crossing an arriving one thus keeps its braking distance from where that one will stop, not
     from where it is. Only for an arriving robot faster than it can brake to its goal (one step
     of braking over its preferred speed), and only in worlds without walls, where the preferred
-    velocity points at the goal (False: the twin where it is only, the ablation; vcs-method
-    §2.4) [ours]."""
+    velocity points at the goal (False: the twin where it is only, the ablation; see
+    vcs-method §2.4) [ours]."""
     stopping_obstacles: bool = False
     """A moving obstacle may stop at any moment (``stop_and_go`` obstacles do): it also gets a
     static twin at its current position, as an arriving robot does, whose margin covers the

@@ -102,7 +102,7 @@ GOAL_TWIN_SLACK = 1.0
 @njit(cache=True)
 def has_walls(b, world):
     """Has world b any wall segment? Among walls a robot's preferred velocity follows its route
-    and may give way at crossings (vcs-method §2.18, §2.19): it no longer tells where its goal
+    and may give way at crossings (vcs-method §2.18, vcs-method §2.19): it no longer tells where its goal
     is."""
     for k in range(world.seg_present.shape[1]):
         if world.seg_present[b, k]:
@@ -136,6 +136,34 @@ def parking_offset(active, speed, heading, v_max, a_max, omega_max, holo, pcx, p
         sin_b = abs(hx * uy - hy * ux) if hx * ux + hy * uy >= 0.0 else 1.0
         d = max(d, 2.0 * s * sin_b / omega_max)
     return True, pcx / s * d, pcy / s * d
+
+
+@njit(cache=True)
+def goal_twins(b, world, pref_comm, p, r_ca, dt, detour, holo, sensed, ns, nbs, count, vrx, vry, a_max_i):
+    """Append to ``nbs`` from slot ``count`` a static twin where each sensed arriving robot that
+    cannot brake to its goal will park (:func:`parking_offset`), record ``idx`` ``-1 - j``; none
+    where the planning robot already is. Returns the new count."""
+    n = world.pos.shape[1]
+    for s in range(ns):
+        o = sensed[s]
+        j = o.idx
+        if j >= n:
+            continue
+        ok, gx, gy = parking_offset(
+            world.active[b, j], world.speed[b, j], world.heading[b, j], world.v_max[b, j], world.a_max[b, j],
+            world.omega_max[b, j], holo, pref_comm[b, j, 0], pref_comm[b, j, 1], dt, p,
+        )  # fmt: skip
+        if not ok:
+            continue
+        qx, qy = o.px + gx, o.py + gy
+        d = math.sqrt(qx * qx + qy * qy)
+        if d <= o.r:  # the robot is on that spot already: the other records handle j
+            continue
+        nb = nbs[count]
+        fill_record(nb, qx, qy, d, o.r, 0.0, 0.0, -1 - j, False, True, vrx, vry, a_max_i, p, r_ca, detour)
+        nb.twin = True
+        count += 1
+    return count
 
 
 @njit(cache=True)
@@ -288,25 +316,7 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
             nb.twin = twin
             count += 1
     if p.arriving_goal_twin and not has_walls(b, world):  # where an arriving robot will park (vcs-method §2.4)
-        for s in range(ns):
-            o = sensed[s]
-            j = o.idx
-            if j >= n:
-                continue
-            ok, gx, gy = parking_offset(
-                active[b, j], speed[b, j], heading[b, j], v_max[b, j], world.a_max[b, j], world.omega_max[b, j], holo,
-                pref_comm[b, j, 0], pref_comm[b, j, 1], dt, p,
-            )  # fmt: skip
-            if not ok:
-                continue
-            qx, qy = o.px + gx, o.py + gy
-            d = math.sqrt(qx * qx + qy * qy)
-            if d <= o.r:  # the robot is on that spot already: the other records handle j
-                continue
-            nb = nbs[count]
-            fill_record(nb, qx, qy, d, o.r, 0.0, 0.0, -1 - j, False, True, vrx, vry, a_max_i, p, r_ca, detour)
-            nb.twin = True
-            count += 1
+        count = goal_twins(b, world, pref_comm, p, r_ca, dt, detour, holo, sensed, ns, nbs, count, vrx, vry, a_max_i)
     first = count  # then the walls (vcs-method §2.18): static, full responsibility
     count = sensed_walls(b, i, world, p, r_ca, vrx, vry, nbs, key, count, 2 * n + world.obs_pos.shape[1])
     if p.fit_clearance >= 0.0:
