@@ -61,13 +61,16 @@ def test_ramp_check_keeps_turning_robots_off_driving_ones():
     other takes the mirror of the change). These are the dense random layouts of seeds
     5100-5399 where the ramp check of non-reactive bodies alone let a robot turn into a driving
     one (4 of 300 episodes; 1 of 300, seed 5290, with driving robots covered): no contact
-    between driving robots with it, contacts in every one of them with the ramp check off."""
+    between driving robots with it, contacts in every one of them with the ramp check off (and
+    ``arriving_goal_twin`` off: the twin where an arriving robot will park also keeps the robots
+    of these four episodes apart without the ramp check, measured)."""
     scenario = vcs_env.make_scenario("random", n_robots=12, arena_half_size=4.0, on_collision="continue")
     seeds = (5142, 5219, 5365, 5368)
-    checked = _run(scenario, seeds)
-    ablated = _run(scenario, seeds, ramp_check=False)
+    checked = _run(scenario, seeds, arriving_goal_twin=False)
+    ablated = _run(scenario, seeds, ramp_check=False, arriving_goal_twin=False)
     assert sum(_robot_contacts_at_fault(e) for e in checked) == 0
     assert sum(_robot_contacts_at_fault(e) > 0 for e in ablated) >= 3
+    assert sum(_robot_contacts_at_fault(e) for e in _run(scenario, seeds, ramp_check=False)) == 0
 
 
 def test_crowd_margin_watches_a_crowd_further_ahead():
@@ -173,3 +176,20 @@ def test_stopping_obstacles_keep_the_robot_from_following_closer_than_it_brakes(
 
     assert at_fault(_run(scenario, seeds, stopping_obstacles=True)) <= 2
     assert at_fault(_run(scenario, seeds)) >= 5
+
+
+def test_goal_twin_keeps_followers_off_a_robot_that_parks_at_speed():
+    """An arriving robot that is faster than it can brake to its goal parks there dead at speed
+    (the simulator parks it on arrival). ``random-dense-holonomic-v0`` seeds 1044 and 1092: a
+    robot behind or beside such a robot, at a gap shorter than its own braking distance, ran
+    into it where it parked (robot 7 into robot 8 at 0.8 m/s, robot 4 into robot 7). With
+    ``arriving_goal_twin`` it keeps its braking distance from the spot the other robot will park
+    on, told by its communicated preferred velocity: no at-fault contact (measured)."""
+    suite = get_suite("random-dense-holonomic-v0")
+    seeds = (1044, 1092)
+
+    def at_fault(eps):
+        return sum(any(c.at_fault for c in contact_events(e)) for e in eps)
+
+    assert at_fault(_run(suite.scenario, seeds)) == 0
+    assert at_fault(_run(suite.scenario, seeds, arriving_goal_twin=False)) == 2

@@ -113,6 +113,16 @@ class VCSParams:
     """A robot within braking distance of its goal (communicated preferred speed below its
     v_max) is about to park: take full responsibility for it, as for an obstacle, instead of
     sharing the avoidance (False: every active robot is reciprocal, the ablation)."""
+    arriving_goal_twin: bool = True
+    """An arriving robot parks at its goal, dead, at whatever speed it has (the simulator parks it
+    on arrival): it also gets a static twin there, which the robot can tell from the communicated
+    preferred velocity (its direction, and its speed ``min(v_max, d / dt, sqrt(2 a_max d))`` at
+    goal distance ``d``), with the stopping-time margin of a static body. A robot following or
+    crossing an arriving one thus keeps its braking distance from where that one will stop, not
+    from where it is. Only for an arriving robot faster than it can brake to its goal (one step
+    of braking over its preferred speed), and only in worlds without walls, where the preferred
+    velocity points at the goal (False: the twin where it is only, the ablation; see
+    vcs-method §2.4) [ours]."""
     stopping_obstacles: bool = False
     """A moving obstacle may stop at any moment (``stop_and_go`` obstacles do): it also gets a
     static twin at its current position, as an arriving robot does, whose margin covers the
@@ -242,6 +252,7 @@ class VCSParams:
             check_positive("VCSParams.horizon", self.horizon)
         for name in (
             "arriving_non_reactive",
+            "arriving_goal_twin",
             "stopping_obstacles",
             "stop_margin",
             "joint_escape",

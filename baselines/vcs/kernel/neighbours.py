@@ -95,6 +95,77 @@ def robot_role(twin, active, speed, heading, v_max, pcx, pcy, p):
     return True, vjx, vjy, p.reciprocity != R_VO and not arriving, True
 
 
+GOAL_TWIN_SLACK = 1.0
+"""An arriving robot faster than its preferred speed plus this many steps of braking cannot brake to its goal."""
+
+
+@njit(cache=True)
+def has_walls(b, world):
+    """Has world b any wall segment? Among walls a robot's preferred velocity follows its route
+    and may give way at crossings (vcs-method §2.18, vcs-method §2.19): it no longer tells where its goal
+    is."""
+    for k in range(world.seg_present.shape[1]):
+        if world.seg_present[b, k]:
+            return True
+    return False
+
+
+@njit(cache=True)
+def parking_offset(active, speed, heading, v_max, a_max, omega_max, holo, pcx, pcy, dt, p):
+    """Where an arriving robot will park, relative to it [m] (``VCSParams.arriving_goal_twin``,
+    vcs-method §2.4): ``(ok, gx, gy)``. A robot's preferred speed is ``min(v_max, d / dt,
+    sqrt(2 a_max d))`` at distance ``d`` of its goal (vcs-method §2.5), a unicycle's (``holo``
+    False) also at most ``omega_max d / (2 |sin beta|)`` for its goal at bearing ``beta`` from its
+    ``heading``; each cap grows with ``d``, so a communicated speed ``s`` below v_max tells
+    ``d = max(s dt, s^2 / (2 a_max), 2 s |sin beta| / omega_max)``, and its direction where the
+    goal lies. An arriving robot faster than ``s`` plus one step of braking (``a_max dt``) cannot
+    brake to its goal: it parks there, dead, at speed. ``ok`` is False for a robot that is not
+    arriving, or can still brake."""
+    if not (active and p.arriving_non_reactive and p.arriving_goal_twin) or speed <= STATIC_SPEED:
+        return False, 0.0, 0.0
+    s2 = pcx * pcx + pcy * pcy
+    if s2 >= (v_max * (1.0 - ARRIVING_SLACK)) ** 2 or s2 <= TINY:
+        return False, 0.0, 0.0
+    s = math.sqrt(s2)
+    if speed <= s + GOAL_TWIN_SLACK * a_max * dt:  # it can still brake to its goal
+        return False, 0.0, 0.0
+    d = max(s * dt, 0.5 * s2 / a_max)
+    if not holo:
+        ux, uy = pcx / s, pcy / s
+        hx, hy = math.cos(heading), math.sin(heading)
+        sin_b = abs(hx * uy - hy * ux) if hx * ux + hy * uy >= 0.0 else 1.0
+        d = max(d, 2.0 * s * sin_b / omega_max)
+    return True, pcx / s * d, pcy / s * d
+
+
+@njit(cache=True)
+def goal_twins(b, world, pref_comm, p, r_ca, dt, detour, holo, sensed, ns, nbs, count, vrx, vry, a_max_i):
+    """Append to ``nbs`` from slot ``count`` a static twin where each sensed arriving robot that
+    cannot brake to its goal will park (:func:`parking_offset`), record ``idx`` ``-1 - j``; none
+    where the planning robot already is. Returns the new count."""
+    n = world.pos.shape[1]
+    for s in range(ns):
+        o = sensed[s]
+        j = o.idx
+        if j >= n:
+            continue
+        ok, gx, gy = parking_offset(
+            world.active[b, j], world.speed[b, j], world.heading[b, j], world.v_max[b, j], world.a_max[b, j],
+            world.omega_max[b, j], holo, pref_comm[b, j, 0], pref_comm[b, j, 1], dt, p,
+        )  # fmt: skip
+        if not ok:
+            continue
+        qx, qy = o.px + gx, o.py + gy
+        d = math.sqrt(qx * qx + qy * qy)
+        if d <= o.r:  # the robot is on that spot already: the other records handle j
+            continue
+        nb = nbs[count]
+        fill_record(nb, qx, qy, d, o.r, 0.0, 0.0, -1 - j, False, True, vrx, vry, a_max_i, p, r_ca, detour)
+        nb.twin = True
+        count += 1
+    return count
+
+
 @njit(cache=True)
 def fill_record(nb, qx, qy, d, r0, vjx, vjy, j, is_robot, mover, vrx, vry, a_max_i, p, r_ca, detour):
     """Everything of a record but the cone (:func:`set_cone`) and the horizon (stage 2)."""
@@ -200,12 +271,13 @@ def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy):
 
 
 @njit(cache=True)
-def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
+def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
     """Fill the records of robot i in world b (all but the horizons, stage 2) into ``wk.nbs``.
     Returns their number; ``wk.order`` lists them nearest surface first. During a stall detour
     the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up. Records:
     robots, obstacles, the static twins of arriving robots (and, with ``stopping_obstacles``, of
-    moving obstacles), then walls, at most ``2 n + 2 m + s``."""
+    moving obstacles), with ``arriving_goal_twin`` the twins of arriving robots where they will
+    park (record ``idx`` ``-1 - j``), then walls, at most ``3 n + 2 m + s``."""
     n = world.pos.shape[1]
     speed, heading, v_max, active, obs_vel = world.speed, world.heading, world.v_max, world.active, world.obs_vel
     sensed, nbs, key = wk.sensed, wk.nbs, wk.key
@@ -243,6 +315,8 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk):
             fill_record(nb, o.px, o.py, o.d, o.r, vjx, vjy, j, is_robot, mover, vrx, vry, a_max_i, p, r_ca, detour)
             nb.twin = twin
             count += 1
+    if p.arriving_goal_twin and not has_walls(b, world):  # where an arriving robot will park (vcs-method §2.4)
+        count = goal_twins(b, world, pref_comm, p, r_ca, dt, detour, holo, sensed, ns, nbs, count, vrx, vry, a_max_i)
     first = count  # then the walls (vcs-method §2.18): static, full responsibility
     count = sensed_walls(b, i, world, p, r_ca, vrx, vry, nbs, key, count, 2 * n + world.obs_pos.shape[1])
     if p.fit_clearance >= 0.0:
@@ -340,7 +414,7 @@ def work(n, m, s, p):
     """Scratch arrays of stages 1 and 2 for ``n`` robots, ``m`` obstacles and ``s`` wall segments
     (:data:`~.records.Work`)."""
     ctotal = p.coarse_n_v * p.coarse_n_theta + 1
-    k = 2 * n + 2 * m + s  # arriving robots (and stopping obstacles) have a static twin
+    k = 3 * n + 2 * m + s  # arriving robots have two static twins (and stopping obstacles one)
     return Work(
         np.zeros(1, dtype=ROBOT),  # robot: the planning robot's context
         np.zeros(n + m, dtype=SENSED),  # sensed: objects within r_ca

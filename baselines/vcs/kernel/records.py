@@ -75,6 +75,7 @@ PARAMS = np.dtype(
         ("ramp_check", "?"),
         ("wall_brake", "?"),
         ("arriving_non_reactive", "?"),
+        ("arriving_goal_twin", "?"),  # arriving robots also get a static twin where they will park
         ("stopping_obstacles", "?"),  # moving obstacles also get a static twin (they may stop)
         ("least_harm", "?"),  # least-harm fallback (else the RVO penalty)
         ("crowd_margin", "?"),
@@ -121,6 +122,7 @@ def params_record(p) -> np.ndarray:
         "ramp_check": p.ramp_check,
         "wall_brake": p.wall_brake,
         "arriving_non_reactive": p.arriving_non_reactive,
+        "arriving_goal_twin": p.arriving_goal_twin,
         "stopping_obstacles": p.stopping_obstacles,
         "least_harm": p.fallback == "least_harm",
         "crowd_margin": p.crowd_margin,

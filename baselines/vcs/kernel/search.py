@@ -36,7 +36,7 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     vcs-method §2.6-2.7): its context in ``wk.robot[0]``, its records in ``wk.nbs``, ordered by
     ``wk.order``. Returns the number of records."""
     robot_context(b, i, world, inputs, p, st.dt, st.holo, wk.robot)
-    count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk)
+    count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk, st.holo)
     r = wk.robot[0]
     r.walls = senses_wall(wk.nbs, count)
     if r.walls and inputs.detour[b, i] and r.v_r < r.dv1:
@@ -318,6 +318,6 @@ def evaluate_points(b, i, world, inputs, st, cand_dv, cand_dth, out_ok, out_cost
     for q in range(out_horizon.shape[0]):
         out_horizon[q] = INF
     for q in range(count):
-        if nbs[q].twin and nbs[q].idx >= n:
-            continue  # a stopping obstacle's twin: not reported
+        if nbs[q].twin and (nbs[q].idx >= n or nbs[q].idx < 0):
+            continue  # a stopping obstacle's twin, or an arriving robot's at its goal: not reported
         out_horizon[nbs[q].idx + (n + m if nbs[q].twin else 0)] = nbs[q].th
