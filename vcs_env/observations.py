@@ -377,7 +377,7 @@ def route_features(obs: np.ndarray, world: WorldState) -> None:
     ego features 1-3 read the remaining route length and the bearing of the next waypoint
     (:func:`vcs_env.routes.waypoints`, the route the planners follow) instead of the straight
     distance and bearing of the goal. Without walls the route is the straight line: nothing changes."""
-    if world.n_segments == 0 or not world.seg_present.any():
+    if not routes.walled(world):
         return
     target, length = routes.waypoints(world)
     e = target - world.pos

@@ -73,12 +73,8 @@ class Progress(RewardTerm):
         self.length: np.ndarray | None = None  # (B, n) remaining route length of the current state [m]
         self.pos: np.ndarray | None = None  # (B, n, 2) positions of the current state [m]
 
-    @staticmethod
-    def _walled(world: WorldState) -> bool:
-        return world.n_segments > 0 and bool(world.seg_present.any())
-
     def start(self, world: WorldState, expert: Planner | None, worlds: Sequence[int] | np.ndarray) -> None:
-        if not self._walled(world):
+        if not routes.walled(world):
             return
         length = routes.waypoints(world)[1]
         if self.length is None or self.length.shape != length.shape:
@@ -88,7 +84,7 @@ class Progress(RewardTerm):
 
     def __call__(self, x: StepInput) -> np.ndarray:
         ev = x.events
-        if not self._walled(x.world) or self.length is None:
+        if not routes.walled(x.world) or self.length is None:
             return np.where(ev.acted, ev.goal_dist_before - ev.goal_dist_after, 0.0)
         length = routes.waypoints(x.world)[1]
         moved = np.linalg.norm(x.world.pos - self.pos, axis=-1)

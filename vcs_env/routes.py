@@ -36,38 +36,34 @@ _DIRECTIONS = 8
 
 
 @njit(cache=True)
+def _clear_line(px, py, qx, qy, seg, r):
+    """The segment from ``p`` to ``q`` keeps >= ``r`` [m] from every wall segment ``seg`` ``(s, 2, 2)``."""
+    for w in range(seg.shape[0]):
+        if _segment_distance(px, py, qx, qy, seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]) < r:
+            return False
+    return True
+
+
+@njit(cache=True)
 def _visible(p, q, seg, r):
     """``(k, l)`` bool: the segment from ``p[i]`` to ``q[j]`` keeps >= ``r`` [m] from every wall
     segment ``seg`` ``(s, 2, 2)``."""
-    k, l_, s = p.shape[0], q.shape[0], seg.shape[0]
+    k, l_ = p.shape[0], q.shape[0]
     out = np.ones((k, l_), dtype=np.bool_)
     for i in range(k):
         for j in range(l_):
-            for w in range(s):
-                d = _segment_distance(
-                    p[i, 0], p[i, 1], q[j, 0], q[j, 1], seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
-                )
-                if d < r:
-                    out[i, j] = False
-                    break
+            out[i, j] = _clear_line(p[i, 0], p[i, 1], q[j, 0], q[j, 1], seg, r)
     return out
 
 
 @njit(cache=True)
 def _visible_pairs(p, seg, r):
     """:func:`_visible` of the points ``p`` ``(k, 2)`` among themselves (symmetric: half the work)."""
-    k, s = p.shape[0], seg.shape[0]
+    k = p.shape[0]
     out = np.ones((k, k), dtype=np.bool_)
     for i in range(k):
         for j in range(i + 1, k):
-            for w in range(s):
-                d = _segment_distance(
-                    p[i, 0], p[i, 1], p[j, 0], p[j, 1], seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
-                )
-                if d < r:
-                    out[i, j] = False
-                    out[j, i] = False
-                    break
+            out[i, j] = out[j, i] = _clear_line(p[i, 0], p[i, 1], p[j, 0], p[j, 1], seg, r)
     return out
 
 
@@ -80,15 +76,6 @@ def _clearance(x, y, seg):
         if d < c:
             c = d
     return c
-
-
-@njit(cache=True)
-def _clear_line(px, py, qx, qy, seg, r):
-    """The segment from ``p`` to ``q`` keeps >= ``r`` [m] from every wall (one pair of :func:`_visible`)."""
-    for w in range(seg.shape[0]):
-        if _segment_distance(px, py, qx, qy, seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]) < r:
-            return False
-    return True
 
 
 @njit(cache=True)
@@ -246,6 +233,11 @@ def roadmap(world: WorldState, b: int, radius: float) -> Roadmap:
     return _cached(seg.tobytes(), len(seg), float(radius))
 
 
+def walled(world: WorldState) -> bool:
+    """Has any world of the batch a wall segment? (Without walls routes are straight lines.)"""
+    return world.n_segments > 0 and bool(world.seg_present.any())
+
+
 def waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
     """Every robot's next visible waypoint ``(B, n, 2)`` [m] and remaining route length
     ``(B, n)`` [m]: the goal and the straight distance without walls, for robots that are not
@@ -253,7 +245,7 @@ def waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
     target = world.goal.copy()
     diff = world.goal - world.pos
     length = np.sqrt(np.einsum("...i,...i->...", diff, diff))
-    if world.n_segments == 0:
+    if not walled(world):
         return target, length
     for b in range(world.batch_size):
         if not world.seg_present[b].any():
