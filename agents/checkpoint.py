@@ -1,12 +1,14 @@
 """What a checkpoint is: one object per format, each detecting, loading and describing itself once.
 
-Two formats (:data:`FORMATS`), both with a run record (:func:`agents.runs.run_record`):
+Three formats (:data:`FORMATS`), each with a run record (:func:`agents.runs.run_record`):
 
 * :class:`SB3Checkpoint`: an SB3 PPO ``.zip`` with its record beside it under the same stem
   (``runs/x/model.zip`` + ``runs/x/model.json``), from ``vcs-env train`` and ``vcs-env bc``; given
   as the zip (suffix optional) or its run directory (``model.zip`` in it);
 * :class:`RLlibCheckpoint`: the checkpoint directory of ``vcs-env train --backend rllib``
-  (``Algorithm.save_to_path`` with ``vcs_env.json`` in it), given as itself or its run directory.
+  (``Algorithm.save_to_path`` with ``vcs_env.json`` in it), given as itself or its run directory;
+* :class:`BenchMARLCheckpoint`: the policy network of ``vcs-env train --backend benchmarl``
+  (``actor.pt`` with ``actor.json`` beside it), given as the file or its run directory; loads with torch alone.
 
 :func:`open_checkpoint` finds the format of a path once; callers then ask the object (its
 :attr:`~Checkpoint.record`, :meth:`~Checkpoint.load`, :meth:`~Checkpoint.describe`), never the path
@@ -33,25 +35,26 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar
 
-import numpy as np
-
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
-from .export import OPSET, export_onnx, rllib_actor, sb3_actor
+from .export import OPSET, export_onnx, mlp_network, rllib_actor, sb3_actor, tanh_actor
 from .fits import SIZE_HINT as SIZE_HINT
 from .fits import CheckpointError as CheckpointError
 from .fits import FamilyWarning as FamilyWarning
 from .fits import UncheckedWarning as UncheckedWarning
 from .fits import check_checkpoint_fits as check_checkpoint_fits
 from .fits import check_observation_space as check_observation_space
+from .predictors import BenchMARLPolicy as BenchMARLPolicy
+from .predictors import RLlibPolicy as RLlibPolicy
 from .runs import run_record
 
 RAY_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
 """How to install Ray RLlib, for error messages."""
 ACCEPTED = (
     "an SB3 .zip file (the suffix may be left out), a run directory with model.zip, an RLlib checkpoint "
-    "directory (with vcs_env.json) or an RLlib run directory (with checkpoint/)"
+    "directory (with vcs_env.json), an RLlib run directory (with checkpoint/), a BenchMARL actor.pt or its run "
+    "directory"
 )
 """Every form a checkpoint may be given in, for error messages."""
 
@@ -71,7 +74,7 @@ class Checkpoint:
     """A checkpoint found on disk; a subclass per format (:data:`FORMATS`)."""
 
     format: ClassVar[str]
-    """``sb3`` or ``rllib``."""
+    """``sb3``, ``rllib`` or ``benchmarl``."""
     record_name: ClassVar[str]
     """File name of the run record."""
     periodic: ClassVar[re.Pattern]
@@ -267,8 +270,73 @@ class RLlibCheckpoint(Checkpoint):
         return rllib_actor(policy.module), policy.observation_space
 
 
-FORMATS: tuple[type[Checkpoint], ...] = (SB3Checkpoint, RLlibCheckpoint)
-"""Every checkpoint format, in the order they are tried."""
+class BenchMARLCheckpoint(Checkpoint):
+    """The policy network of ``vcs-env train --backend benchmarl`` (``actor.pt``, its record ``actor.json``).
+
+    ``actor.pt`` (``torch.save``, tensors and plain values only) holds the MLP every robot shares: ``layers``
+    (``[in, out]`` per linear layer), ``activation`` (a ``torch.nn`` name, between the linear layers),
+    ``state_dict`` (of that ``torch.nn.Sequential``) and ``scale`` (``bias``, ``min``: BenchMARL's biased
+    softplus of the scale half), ``low`` and ``high`` (the observation bounds). The network maps an observation
+    ``(N, D)`` to ``(N, 4)``: the loc and scale parameters of a TanhNormal over ``[-1, 1]^2``; the deterministic
+    action is ``tanh(loc)``.
+    """
+
+    format = "benchmarl"
+    record_name = "actor.json"
+    periodic = re.compile(r"actor_(\d+)\.pt")
+
+    @classmethod
+    def find(cls, path: Path) -> BenchMARLCheckpoint | None:
+        for p in (path, path / "actor.pt"):
+            if p.suffix == ".pt" and p.is_file():
+                return cls(p, p.with_suffix(".json"))
+        return None
+
+    @classmethod
+    def final(cls, run: Path) -> Path:
+        return run / "actor.pt"
+
+    def describe(self) -> str:
+        return f"BenchMARL checkpoint {str(self.path)!r}"
+
+    def saved(self) -> dict[str, Any]:
+        """The contents of ``actor.pt``, checked."""
+        import torch
+
+        try:
+            data = torch.load(self.path, map_location="cpu", weights_only=True)
+        except Exception as e:
+            raise CheckpointError(f"{self.describe()} is corrupt or unreadable: {type(e).__name__}: {e}") from None
+        keys = ("layers", "activation", "state_dict", "scale", "low", "high")
+        missing = [k for k in keys if not isinstance(data, dict) or k not in data]
+        if missing:
+            raise CheckpointError(f"{self.describe()} is not a vcs-env BenchMARL actor (no {', '.join(missing)})")
+        return data
+
+    def load(self, scenario: Scenario | None = None, env=None, device: str = "cpu") -> BenchMARLPolicy:
+        """The policy as a :class:`BenchMARLPolicy` (``predict`` only; no SB3 training can continue it)."""
+        if env is not None:
+            raise CheckpointError(f"{self.describe()} is a BenchMARL policy; SB3 training cannot continue it")
+        import torch
+
+        torch.set_num_threads(1)
+        data = self.saved()
+        try:
+            net = mlp_network(data)
+        except (RuntimeError, ValueError, KeyError, TypeError) as e:
+            raise CheckpointError(f"{self.describe()} could not be loaded: {type(e).__name__}: {e}") from None
+        policy = BenchMARLPolicy(net, data, name=self.path.parent.name)
+        if scenario is not None:
+            check_checkpoint_fits(self.record, policy.observation_space, scenario, self.describe())
+        return policy
+
+    def actor(self):
+        policy = self.load()
+        return tanh_actor(policy.net), policy.observation_space
+
+
+FORMATS: tuple[type[Checkpoint], ...] = (BenchMARLCheckpoint, SB3Checkpoint, RLlibCheckpoint)
+"""Every checkpoint format, in the order they are tried (a BenchMARL actor first: SB3 takes any other file)."""
 
 
 def find_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint | None:
@@ -289,7 +357,7 @@ def open_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint:
     path = Path(spec)
     for fmt in FORMATS:
         if path.name == fmt.record_name and path.is_file():
-            holder = "model.zip" if fmt is SB3Checkpoint else "the checkpoint directory"
+            holder = {SB3Checkpoint: "model.zip", BenchMARLCheckpoint: "actor.pt"}.get(fmt, "the checkpoint directory")
             raise CheckpointError(f"{str(path)!r}: {path.name} is the run record; pass {holder} or the run directory")
     if path.suffix == ".json" and path.with_suffix(".zip").is_file():
         raise CheckpointError(
@@ -386,28 +454,3 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
         )
     model.policy.load_state_dict(theirs)
     return ckpt.record
-
-
-class RLlibPolicy:
-    """An RLlib RLModule as an SB3-style ``PolicyPredictor`` for :mod:`agents.evaluate`.
-
-    ``predict(obs (N, D)) -> (actions (N, 2) in [-1, 1], None)``: the Gaussian's mean with
-    ``deterministic=True``, else a sample drawn from ``rng``.
-    """
-
-    def __init__(self, module, name: str = "rllib", rng: np.random.Generator | None = None):
-        self.module = module
-        self.name = name
-        self.observation_space = module.observation_space
-        self.action_space = module.action_space
-        self.rng = rng if rng is not None else np.random.default_rng(0)
-
-    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
-        import torch
-
-        obs = torch.as_tensor(np.asarray(observation, dtype=np.float32)).reshape(-1, self.observation_space.shape[0])
-        with torch.no_grad():
-            out = self.module.forward_inference({"obs": obs})["action_dist_inputs"].numpy()
-        mean, log_std = np.split(out.astype(np.float64), 2, axis=-1)
-        actions = mean if deterministic else mean + np.exp(log_std) * self.rng.standard_normal(mean.shape)
-        return np.clip(actions, -1.0, 1.0).astype(np.float32), state

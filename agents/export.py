@@ -10,7 +10,9 @@ exactly what its ``predict(obs, deterministic=True)`` returns:
   SB3's ``predict`` clips (:func:`sb3_actor`);
 * RLlib: the shared RLModule's encoder and policy head (what its ``forward_inference`` runs), the mean
   half of its ``action_dist_inputs``, clipped to ``[-1, 1]`` as :class:`agents.checkpoint.RLlibPolicy`
-  clips (:func:`rllib_actor`).
+  clips (:func:`rllib_actor`);
+* BenchMARL: the shared policy MLP (:func:`mlp_network`), ``tanh`` of its loc half, BenchMARL's
+  deterministic action of a TanhNormal over ``[-1, 1]`` (:func:`tanh_actor`).
 
 :func:`export_onnx` traces it into ``OUT.onnx`` at opset :data:`OPSET` (one input ``observation``
 ``(batch, D)``, one output ``action`` ``(batch, 2)``, the batch size free) and writes ``OUT.json`` beside
@@ -129,6 +131,40 @@ def rllib_actor(module):
             return torch.clamp(self.head(latent)[:, :size], -1.0, 1.0)
 
     return RLlibActor().eval()
+
+
+def mlp_network(saved: dict[str, Any]):
+    """The ``torch.nn.Sequential`` a BenchMARL actor file describes (:class:`agents.checkpoint.BenchMARLCheckpoint`):
+    linear layers of sizes ``saved["layers"]`` with ``saved["activation"]`` between them, weights loaded."""
+    import torch
+
+    act = getattr(torch.nn, str(saved["activation"]), None)
+    if act is None or not isinstance(act, type) or not issubclass(act, torch.nn.Module):
+        raise ValueError(f"unknown activation {saved['activation']!r} (a torch.nn module name is expected)")
+    layers: list[Any] = []
+    for k, (n_in, n_out) in enumerate(saved["layers"]):
+        layers += ([act()] if k else []) + [torch.nn.Linear(int(n_in), int(n_out))]
+    net = torch.nn.Sequential(*layers)
+    net.load_state_dict(saved["state_dict"])
+    if net[-1].out_features != 4:
+        raise ValueError(f"the network gives {net[-1].out_features} outputs, not 4 (loc and scale of 2 actions)")
+    return net.eval()
+
+
+def tanh_actor(net):
+    """The deterministic actor of a BenchMARL policy network ``net`` (``(N, D)`` to the loc and scale of a
+    TanhNormal, ``(N, 4)``) as a ``torch.nn.Module``: observations ``(N, D)`` to ``tanh(loc)`` ``(N, 2)``."""
+    import torch
+
+    class TanhActor(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.net = net
+
+        def forward(self, observation: torch.Tensor) -> torch.Tensor:
+            return torch.tanh(self.net(observation.float())[:, :2])
+
+    return TanhActor().eval()
 
 
 def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residual | None = None) -> dict[str, Any]:

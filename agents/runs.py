@@ -171,6 +171,24 @@ class RLlibConfig(TrainConfig):
 RLLIB_ONLY = tuple(f.name for f in dataclasses.fields(RLlibConfig) if f.name not in TrainConfig.__dataclass_fields__)
 """Fields (flags) of an RLlib run only."""
 
+BENCHMARL_ALGORITHMS = ("mappo", "ippo", "masac")
+"""Algorithms of ``vcs-env train --backend benchmarl`` (BenchMARL's, continuous actions)."""
+
+
+@dataclass
+class BenchMARLConfig(TrainConfig):
+    """A ``vcs-env train --backend benchmarl`` run: :class:`TrainConfig` plus the algorithm."""
+
+    algorithm: str = "mappo"
+    """BenchMARL algorithm for --backend benchmarl: mappo (PPO, centralised critic over every robot of a
+    world), ippo (PPO, each robot's own critic) or masac (SAC, centralised critics; off-policy)."""
+    out: str = "runs/benchmarl"
+    """Run directory (config.json, eval.jsonl, actor.pt + actor.json, benchmarl/: BenchMARL's own folder)."""
+
+
+BENCHMARL_ONLY = ("algorithm",)
+"""Fields (flags) of a BenchMARL run only."""
+
 FIXED_ON_RESUME = (
     "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",
     "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl", "residual",
@@ -192,9 +210,9 @@ def check_run(cfg: TrainConfig) -> None:
 
 def run_command(kind: str, cfg: Any) -> str:
     """The ``vcs-env`` line that rebuilds ``cfg`` for a run of ``kind`` (``ppo``, ``rllib_ppo``, ``bc``)."""
-    if kind == "rllib_ppo":
+    if kind == "rllib_ppo" or kind.startswith("benchmarl_"):
         head, _, rest = config_command("train", cfg).partition(" train")
-        return f"{head} train --backend rllib{rest}"
+        return f"{head} train --backend {'rllib' if kind == 'rllib_ppo' else 'benchmarl'}{rest}"
     return config_command({"ppo": "train"}.get(kind, kind), cfg)
 
 

@@ -277,7 +277,9 @@ def attach(checkpoint: str | os.PathLike, shield: Shield | None) -> dict[str, An
     """Write ``shield`` into the run record of ``checkpoint`` (None removes it); return the record."""
     ckpt = open_checkpoint(checkpoint)
     if ckpt.format != "sb3":
-        raise ValueError(f"{str(checkpoint)!r} is an RLlib checkpoint; shields are kept in the run records of SB3 ones")
+        raise ValueError(
+            f"{str(checkpoint)!r} is a {ckpt.format} checkpoint; shields are kept in the run records of SB3 ones"
+        )
     record = ckpt.record
     if not isinstance(record, dict) or not record:
         raise ValueError(

@@ -16,9 +16,10 @@ PENDING_MOVE: set[str] = set()
 benchmarks); the lead empties this set when that move is merged."""
 ADAPTERS = {"__init__.py", "parallel.py", "gym_env.py", "spaces.py", "render.py"}
 """API adapters of ``vcs_env`` that may use Gymnasium and PettingZoo types."""
-TORCH = {"torch", "torchrl", "tensordict"}
-TORCH_ADAPTERS = {"torchrl.py"}
-"""The modules of ``vcs_env`` that may import torch (the ``torchrl`` extra); ``import vcs_env`` loads none of them."""
+TORCH = {"torch", "torchrl", "tensordict", "benchmarl"}
+TORCH_ADAPTERS = {"torchrl.py", "benchmarl.py"}
+"""The modules of ``vcs_env`` that may import torch (the ``torchrl`` and ``benchmarl`` extras); ``import vcs_env``
+loads none of them."""
 
 
 def imported_names(source: str, package: str = "vcs_env") -> set[str]:
@@ -92,7 +93,9 @@ def test_core_modules_have_no_api_types(path):
 @pytest.mark.parametrize("path", [p for p in _modules() if p.name not in TORCH_ADAPTERS], ids=lambda p: p.name)
 def test_only_the_torchrl_adapter_imports_torch(path):
     bad = imported_names(path.read_text()) & TORCH
-    assert not bad, f"{path.name} imports {sorted(bad)}: torch belongs in vcs_env/torchrl.py (torchrl extra) or agents"
+    assert not bad, (
+        f"{path.name} imports {sorted(bad)}: torch belongs in vcs_env/torchrl.py, vcs_env/benchmarl.py or agents"
+    )
 
 
 def test_importing_vcs_env_does_not_load_torch():

@@ -2,6 +2,7 @@
 with the batched engine, partial resets, robots that finish at different times, seeding, errors, and a
 tiny collector run. The ``torchrl`` extra is part of ``.[all]``: these tests run, never skip."""
 
+import inspect
 import pathlib
 import re
 
@@ -285,7 +286,11 @@ def test_a_collector_with_a_multi_agent_policy_collects_frames_for_gae():
         distribution_kwargs={"low": -1.0, "high": 1.0},
         return_log_prob=True,
     )
-    collector = Collector(env, actor, frames_per_batch=32, total_frames=64, auto_register_policy_transforms=False)
+    # torchrl 0.14 registers a policy's transforms unless told not to; 0.11 has no such argument
+    quiet = {"auto_register_policy_transforms": False}
+    if "auto_register_policy_transforms" not in inspect.signature(Collector.__init__).parameters:
+        quiet = {}
+    collector = Collector(env, actor, frames_per_batch=32, total_frames=64, **quiet)
     batches = list(collector)
     collector.shutdown()
     assert len(batches) == 2

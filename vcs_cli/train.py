@@ -19,7 +19,7 @@ import agents.train.rllib
 from agents import imitation
 from agents.checkpoint import Checkpoint, latest_checkpoint
 from agents.config import add_config_args, config_command, config_from_args, config_from_dict
-from agents.runs import FIXED_ON_RESUME, RLLIB_ONLY, RLlibConfig, TrainConfig
+from agents.runs import BENCHMARL_ONLY, FIXED_ON_RESUME, RLLIB_ONLY, BenchMARLConfig, RLlibConfig, TrainConfig
 from agents.train import collect_states
 
 KINDS = {"ppo": TrainConfig, "rllib_ppo": RLlibConfig}
@@ -63,6 +63,19 @@ def resume_base(args: argparse.Namespace) -> tuple[TrainConfig, Checkpoint]:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    given = [f"--{name.replace('_', '-')}" for name in BENCHMARL_ONLY if getattr(args, name, None) is not None]
+    if given and args.backend != "benchmarl":
+        raise ValueError(f"{', '.join(given)} only apply to --backend benchmarl")
+    if args.backend == "benchmarl":
+        given = [f"--{name.replace('_', '-')}" for name in RLLIB_ONLY if getattr(args, name, None) is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)} only apply to --backend rllib")
+        if args.resume:
+            raise ValueError("--resume is not available with --backend benchmarl (start a new run)")
+        from agents.train import benchmarl
+
+        benchmarl.train(config_from_args(BenchMARLConfig, args))
+        return 0
     base, ckpt = resume_base(args) if args.resume else (None, None)
     rllib = args.backend == "rllib" or isinstance(base, RLlibConfig)
     if ckpt is not None and rllib != isinstance(base, RLlibConfig):
@@ -115,8 +128,14 @@ def add_commands(sub) -> None:
         description=agents.train.__doc__.split("\n\n")[0],
     )
     add_config_args(p, TrainConfig)
-    p.add_argument("--backend", choices=["sb3", "rllib"], default="sb3", help="sb3 (one process) or rllib (Ray)")
+    p.add_argument(
+        "--backend",
+        choices=["sb3", "rllib", "benchmarl"],
+        default="sb3",
+        help="sb3 (one process), rllib (Ray) or benchmarl (MAPPO, IPPO, MASAC; docs/torchrl.md)",
+    )
     add_config_args(p, RLlibConfig, skip=tuple(TrainConfig.__dataclass_fields__))
+    add_config_args(p, BenchMARLConfig, skip=tuple(RLlibConfig.__dataclass_fields__))
     p.add_argument(
         "--resume",
         default=None,
