@@ -287,8 +287,9 @@ class BenchMARLCheckpoint(Checkpoint):
 
     @classmethod
     def find(cls, path: Path) -> BenchMARLCheckpoint | None:
-        for p in (path, path / "actor.pt"):
-            if p.suffix == ".pt" and p.is_file():
+        for p in (path, path / "actor.pt"):  # ours: actor.pt, actor_<steps>.pt, or any .pt with its record beside
+            ours = p.name == "actor.pt" or cls.periodic.fullmatch(p.name) or p.with_suffix(".json").is_file()
+            if p.suffix == ".pt" and p.is_file() and ours:
                 return cls(p, p.with_suffix(".json"))
         return None
 
@@ -306,7 +307,8 @@ class BenchMARLCheckpoint(Checkpoint):
         try:
             data = torch.load(self.path, map_location="cpu", weights_only=True)
         except Exception as e:
-            raise CheckpointError(f"{self.describe()} is corrupt or unreadable: {type(e).__name__}: {e}") from None
+            first = str(e).strip().splitlines()[0] if str(e).strip() else ""
+            raise CheckpointError(f"{self.describe()} is corrupt or unreadable: {type(e).__name__}: {first}") from None
         keys = ("layers", "activation", "state_dict", "scale", "low", "high")
         missing = [k for k in keys if not isinstance(data, dict) or k not in data]
         if missing:

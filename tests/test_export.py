@@ -165,7 +165,7 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     # An unknown format: a file that is no checkpoint, and a directory holding none.
     (tmp_path / "weights.pt").write_bytes(b"\x80\x04not a checkpoint")
     assert main(["export", str(tmp_path / "weights.pt"), "--onnx", str(tmp_path / "w.onnx")]) == 2
-    assert "is not a checkpoint of a known format (sb3, rllib)" in one_error(capsys)
+    assert "is not a checkpoint of a known format (benchmarl, sb3, rllib)" in one_error(capsys)
     (tmp_path / "empty").mkdir()
     assert main(["export", str(tmp_path / "empty"), "--onnx", str(tmp_path / "w.onnx")]) == 2
     assert "checkpoint not found" in one_error(capsys)

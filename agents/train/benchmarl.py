@@ -8,8 +8,8 @@ batched TorchRL env :class:`vcs_env.torchrl.VcsNavEnv`, every robot an agent of 
 * ``n_worlds`` worlds in one env; ``n_steps * n_worlds`` world steps per batch (on- and off-policy);
 * PPO (mappo, ippo): ``n_epochs`` passes over each batch in minibatches of ``batch_size`` robot steps
   (``batch_size / n_robots`` world steps: a BenchMARL frame is one world step of every robot), ``clip_range``,
-  ``gae_lambda``, ``ent_coef``; SAC (masac): one gradient step per ``batch_size / n_robots`` world steps
-  collected, from a replay memory of 100 k world steps;
+  ``gae_lambda``, ``ent_coef``; SAC (masac): minibatches of ``batch_size`` robot steps, one gradient step per 6
+  world steps collected (BenchMARL's default ratio), from a replay memory of 100 k world steps;
 * ``learning_rate`` (constant), ``gamma``, ``max_grad_norm`` (gradient norm clip), ``seed``;
 * ``timesteps`` counts robot slot steps as the SB3 backend does (world steps x robots), so a budget buys the
   same world steps on every backend.
@@ -91,7 +91,7 @@ def experiment_config(cfg: BenchMARLConfig, n_robots: int, folder: Path):
     e.on_policy_n_envs_per_worker = e.off_policy_n_envs_per_worker = cfg.n_worlds
     e.on_policy_minibatch_size = e.off_policy_train_batch_size = max(1, cfg.batch_size // n_robots)
     e.on_policy_n_minibatch_iters = cfg.n_epochs
-    e.off_policy_n_optimizer_steps = max(1, per_batch * n_robots // cfg.batch_size)
+    e.off_policy_n_optimizer_steps = max(1, math.ceil(per_batch / 6))  # BenchMARL's ratio: 1000 per 6000 frames
     e.off_policy_memory_size = 100_000
     e.sampling_device = e.train_device = e.buffer_device = "cpu"
     e.share_policy_params, e.prefer_continuous_actions = True, True
