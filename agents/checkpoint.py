@@ -325,8 +325,11 @@ class BenchMARLCheckpoint(Checkpoint):
         data = self.saved()
         try:
             net = mlp_network(data)
-        except (RuntimeError, ValueError, KeyError, TypeError) as e:
-            raise CheckpointError(f"{self.describe()} could not be loaded: {type(e).__name__}: {e}") from None
+            if net[0].in_features != len(data["low"]):
+                raise ValueError(f"its network takes {net[0].in_features} inputs, its bounds {len(data['low'])}")
+        except (RuntimeError, ValueError, KeyError, TypeError, IndexError) as e:
+            first = str(e).strip().splitlines()[0] if str(e).strip() else ""
+            raise CheckpointError(f"{self.describe()} could not be loaded: {type(e).__name__}: {first}") from None
         policy = BenchMARLPolicy(net, data, name=self.path.parent.name)
         if scenario is not None:
             check_checkpoint_fits(self.record, policy.observation_space, scenario, self.describe())

@@ -138,6 +138,8 @@ def mlp_network(saved: dict[str, Any]):
     linear layers of sizes ``saved["layers"]`` with ``saved["activation"]`` between them, weights loaded."""
     import torch
 
+    if not saved["layers"]:
+        raise ValueError("the network has no layers")
     act = getattr(torch.nn, str(saved["activation"]), None)
     if act is None or not isinstance(act, type) or not issubclass(act, torch.nn.Module):
         raise ValueError(f"unknown activation {saved['activation']!r} (a torch.nn module name is expected)")

@@ -6,6 +6,7 @@ and saves an actor that acts as BenchMARL's own deterministic policy does and th
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -69,9 +70,12 @@ def fresh_observations(scenario, n: int = 1000, seed: int = 0) -> np.ndarray:
     return np.concatenate(rows)[:n].astype(np.float32)
 
 
-def test_the_saved_actor_acts_as_benchmarls_deterministic_policy_and_exports_to_onnx(tmp_path):
+@pytest.mark.parametrize("algorithm", ["mappo", "ippo", "masac"])
+def test_the_saved_actor_acts_as_benchmarls_deterministic_policy_and_exports_to_onnx(tmp_path, algorithm):
     scenario = make_scenario("circle", n_robots=4)
-    cfg = BenchMARLConfig(**TINY, timesteps=4 * 32 * 4, out=str(tmp_path / "run"))
+    cfg = BenchMARLConfig(**TINY, algorithm=algorithm, timesteps=4 * 32 * 4, out=str(tmp_path / "run"))
+    if algorithm == "masac":
+        cfg = dataclasses.replace(cfg, n_epochs=BenchMARLConfig.n_epochs)  # no epochs in SAC
     exp = make_experiment(cfg, scenario, tmp_path / "bm")
     exp.run()  # one update: weights off their initial values
     obs = fresh_observations(scenario)
@@ -97,14 +101,21 @@ def test_vcs_env_train_backend_benchmarl_trains_and_evaluates(tmp_path, algorith
     out = tmp_path / algorithm
     code = main(
         ["train", "--backend", "benchmarl", "--algorithm", algorithm, "--scenario", "circle", "--n-robots", "4",
-         "--n-worlds", "4", "--n-steps", "32", "--batch-size", "128", "--n-epochs", "1", "--net-arch", "32", "32",
-         "--timesteps", "1024", "--eval-freq", "512", "--eval-episodes", "2", "--out", str(out)]
+         "--n-worlds", "4", "--n-steps", "32", "--batch-size", "128", "--net-arch", "32", "32",
+         "--timesteps", "1024", "--eval-freq", "512", "--checkpoint-freq", "512", "--eval-episodes", "2",
+         "--out", str(out)] + (["--n-epochs", "1"] if algorithm != "masac" else [])
     )  # fmt: skip
     assert code == 0
     lines = [json.loads(x) for x in (out / "eval.jsonl").read_text().splitlines()]
     assert [x["timesteps"] for x in lines] == [512, 1024]  # every 512 robot steps = 32 world steps of 4 worlds
     record = json.loads((out / "actor.json").read_text())
     assert record["kind"] == f"benchmarl_{algorithm}" and record["num_timesteps"] == 1024
+    assert record["evaluation"] == lines[-1]  # the last evaluation, as SB3 and RLlib records keep it
+    periodic = sorted(p.name for p in (out / "checkpoints").iterdir())
+    assert periodic == ["actor_1024.json", "actor_1024.pt", "actor_512.json", "actor_512.pt"]
+    assert load_model(out / "checkpoints" / "actor_512.pt").observation_space.shape == (record["observation_dim"],)
+    saved = [p.stat().st_size for p in (out / "benchmarl").rglob("*.pt")]
+    assert saved and max(saved) < 5e6  # BenchMARL's own checkpoint, without MASAC's replay memory
     assert record["command"].startswith("vcs-env train --backend benchmarl")
     assert record["observation_dim"] == observation_dim(make_scenario("circle", n_robots=4))
     assert record["config"]["algorithm"] == algorithm
@@ -117,6 +128,8 @@ def test_vcs_env_train_backend_benchmarl_trains_and_evaluates(tmp_path, algorith
 def test_compare_loads_a_benchmarl_run(tmp_path):
     cfg = BenchMARLConfig(**TINY, scenario="circle-8-v0", timesteps=1024, eval_freq=0, out=str(tmp_path / "run"))
     train(cfg)
+    lines = (tmp_path / "run" / "eval.jsonl").read_text().splitlines()
+    assert len(lines) == 1 and json.loads(lines[0])["timesteps"] == 1024  # no periodic ones, one at the end
     code = main(["compare", "--suite", "circle-8-v0-smoke", "--policies", f"vcs,bm={tmp_path / 'run'}",
                  "--no-plots", "--out", str(tmp_path / "cmp")])  # fmt: skip
     assert code == 0
@@ -129,6 +142,11 @@ def test_compare_loads_a_benchmarl_run(tmp_path):
     [
         (["--backend", "benchmarl", "--algorithm", "qmix"], "--algorithm must be one of mappo, ippo, masac"),
         (["--backend", "benchmarl", "--residual", "vcs"], "--residual not available with --backend benchmarl"),
+        (["--backend", "benchmarl", "--vf-coef", "1.0"], "--vf-coef not available with --backend benchmarl"),
+        (["--backend", "benchmarl", "--features", "contact"], "--features contact not available"),
+        (["--backend", "benchmarl", "--algorithm", "masac", "--clip-range", "0.1"], "--clip-range not available with"),
+        (["--backend", "benchmarl", "--n-steps", "0"], "n_steps"),
+        (["--backend", "benchmarl", "--eval-suite", "no-such-suite"], "unknown suite 'no-such-suite'"),
         (["--algorithm", "mappo"], "--algorithm only apply to --backend benchmarl"),
         (["--backend", "benchmarl", "--num-env-runners", "2"], "--num-env-runners only apply to --backend rllib"),
         (["--backend", "benchmarl", "--resume", "runs/x"], "--resume is not available with --backend benchmarl"),
@@ -149,3 +167,22 @@ def test_a_file_that_is_not_an_actor_is_refused(tmp_path):
     with pytest.raises(Exception, match="corrupt or unreadable") as err:
         load_model(bad)
     assert "\n" not in str(err.value)  # one line, whatever torch says
+
+
+def test_a_linear_schedule_brings_the_learning_rate_to_zero_at_the_end_of_the_budget(tmp_path):
+    from agents.train.benchmarl_callback import LinearLR
+
+    scenario = make_scenario("circle", n_robots=4)
+    cfg = BenchMARLConfig(**TINY, timesteps=4 * 4 * 32 * 4, lr_schedule="linear", learning_rate=1e-3)
+    schedule = LinearLR(cfg.learning_rate)
+    exp = make_experiment(cfg, scenario, tmp_path / "bm", [schedule])
+    seen = []
+    original = schedule.on_batch_collected
+    schedule.on_batch_collected = lambda batch: (original(batch), seen.append(_lrs(exp)))  # after pickling
+    exp.run()
+    want = [[7.5e-4] * 2, [5e-4] * 2, [2.5e-4] * 2, [0.0] * 2]  # 4 batches; the actor's and the critic's optimizer
+    assert np.allclose(seen, want, rtol=1e-9, atol=0.0)
+
+
+def _lrs(exp) -> list[float]:
+    return [g["lr"] for opt in exp.optimizers["agents"].values() for g in opt.param_groups]

@@ -62,14 +62,18 @@ def resume_base(args: argparse.Namespace) -> tuple[TrainConfig, Checkpoint]:
     return base, ckpt
 
 
+def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str, ...]) -> None:
+    """``ValueError`` naming the flags of ``names`` given while the backend is not ``backend``."""
+    given = [f"--{name.replace('_', '-')}" for name in names if getattr(args, name, None) is not None]
+    if given:
+        raise ValueError(f"{', '.join(given)} only apply to --backend {backend}")
+
+
 def cmd_train(args: argparse.Namespace) -> int:
-    given = [f"--{name.replace('_', '-')}" for name in BENCHMARL_ONLY if getattr(args, name, None) is not None]
-    if given and args.backend != "benchmarl":
-        raise ValueError(f"{', '.join(given)} only apply to --backend benchmarl")
+    if args.backend != "benchmarl":
+        check_backend_flags(args, "benchmarl", BENCHMARL_ONLY)
     if args.backend == "benchmarl":
-        given = [f"--{name.replace('_', '-')}" for name in RLLIB_ONLY if getattr(args, name, None) is not None]
-        if given:
-            raise ValueError(f"{', '.join(given)} only apply to --backend rllib")
+        check_backend_flags(args, "rllib", RLLIB_ONLY)
         if args.resume:
             raise ValueError("--resume is not available with --backend benchmarl (start a new run)")
         from agents.train import benchmarl
@@ -80,10 +84,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     rllib = args.backend == "rllib" or isinstance(base, RLlibConfig)
     if ckpt is not None and rllib != isinstance(base, RLlibConfig):
         raise ValueError(f"cannot resume {args.resume!r} with --backend rllib: it is an SB3 run's checkpoint")
-    given = [f"--{name.replace('_', '-')}" for name in RLLIB_ONLY if getattr(args, name, None) is not None]
-    if given and not rllib:
-        raise ValueError(f"{', '.join(given)} only apply to --backend rllib")
     if not rllib:
+        check_backend_flags(args, "rllib", RLLIB_ONLY)
         agents.train.train(config_from_args(TrainConfig, args, base), resume=ckpt)
         return 0
     try:

@@ -9,10 +9,12 @@ The only module of ``vcs_env`` that imports ``benchmarl`` (the ``benchmarl`` ext
     from benchmarl.models import MlpConfig
     from vcs_env.benchmarl import VcsNavTask
 
-    task = VcsNavTask.CIRCLE.get_task()                      # circle-8-v0's scenario
+    task = VcsNavTask.CIRCLE.get_task()  # circle-8-v0's scenario, or with a config:
     task = VcsNavTask.CIRCLE.get_task({"scenario": "circle-16-v0", "on_collision": "terminate"})
-    Experiment(task, MappoConfig.get_from_yaml(), MlpConfig.get_from_yaml(), MlpConfig.get_from_yaml(),
-               seed=0, config=ExperimentConfig.get_from_yaml()).run()
+    config = ExperimentConfig.get_from_yaml()
+    config.loggers = ["csv"]  # BenchMARL's default also logs to wandb, which the extra does not install
+    Experiment(task, MappoConfig.get_from_yaml(), MlpConfig.get_from_yaml(), seed=0, config=config,
+               critic_model_config=MlpConfig.get_from_yaml()).run()
 
 Every robot is one agent of the group ``"agents"``; the policy reads ``("agents", "observation")`` only (the
 env's ``mask``, ``info`` and ``expert_action`` are left out of the model's inputs). A world resets when all its
@@ -58,6 +60,14 @@ def task_scenario(config: dict[str, Any], name: str) -> Scenario:
     return make_scenario(base, **over)
 
 
+def _only(env: EnvBase, key: str) -> Composite:
+    """The env's unbatched observation spec with only ``("agents", key)`` in its group."""
+    spec = env.full_observation_spec_unbatched.clone()
+    for other in [k for k in spec[GROUP].keys() if k != key]:
+        del spec[(GROUP, other)]
+    return spec
+
+
 class VcsNavClass(TaskClass):
     """A vcs-env scenario as a BenchMARL task (continuous actions, ``delta`` mode by default)."""
 
@@ -98,18 +108,10 @@ class VcsNavClass(TaskClass):
         return dict(env.group_map)
 
     def observation_spec(self, env: EnvBase) -> Composite:
-        spec = env.full_observation_spec_unbatched.clone()
-        for key in list(spec[GROUP].keys()):
-            if key != "observation":
-                del spec[(GROUP, key)]
-        return spec
+        return _only(env, "observation")
 
     def info_spec(self, env: EnvBase) -> Composite | None:
-        spec = env.full_observation_spec_unbatched.clone()
-        for key in list(spec[GROUP].keys()):
-            if key != "info":
-                del spec[(GROUP, key)]
-        return spec
+        return _only(env, "info")
 
     def state_spec(self, env: EnvBase) -> Composite | None:
         return None

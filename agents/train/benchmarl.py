@@ -10,7 +10,7 @@ batched TorchRL env :class:`vcs_env.torchrl.VcsNavEnv`, every robot an agent of 
   (``batch_size / n_robots`` world steps: a BenchMARL frame is one world step of every robot), ``clip_range``,
   ``gae_lambda``, ``ent_coef``; SAC (masac): minibatches of ``batch_size`` robot steps, one gradient step per 6
   world steps collected (BenchMARL's default ratio), from a replay memory of 100 k world steps;
-* ``learning_rate`` (constant), ``gamma``, ``max_grad_norm`` (gradient norm clip), ``seed``;
+* ``learning_rate`` (constant, or ``lr_schedule`` linear to 0 at the end of the budget), ``gamma``, ``max_grad_norm`` (gradient norm clip), ``seed``;
 * ``timesteps`` counts robot slot steps as the SB3 backend does (world steps x robots), so a budget buys the
   same world steps on every backend.
 
@@ -19,6 +19,7 @@ A run directory holds::
     <out>/config.json       the BenchMARLConfig
     <out>/eval.jsonl        one line per periodic evaluation (agents.train.periodic, as the other backends)
     <out>/actor.pt          the policy network (agents.checkpoint.BenchMARLCheckpoint), actor.json its record
+    <out>/checkpoints/actor_<steps>.pt  periodic ones (every checkpoint_freq timesteps), each with its record
     <out>/benchmarl/        BenchMARL's own experiment folder (csv logs, its checkpoint for its own tools)
 
 ``vcs-env evaluate --policy <out>``, ``compare`` and ``export --onnx`` load ``actor.pt`` with torch alone.
@@ -30,14 +31,18 @@ import copy
 import json
 import math
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from vcs_env.observations import observation_bounds
+from vcs_env.suites import get_suite
 
 from ..checkpoint import BenchMARLCheckpoint, BenchMARLPolicy
 from ..config import build_scenario
+from ..export import mlp_network
 from ..runs import BENCHMARL_ALGORITHMS, BenchMARLConfig, check_run, jsonable, run_command, run_record
+from . import check_ppo_settings
 from .periodic import PeriodicEval
 
 INSTALL = (
@@ -56,25 +61,43 @@ def import_benchmarl():
     return benchmarl
 
 
+PPO_ONLY = {
+    "n_epochs": "--n-epochs",
+    "clip_range": "--clip-range",
+    "gae_lambda": "--gae-lambda",
+    "ent_coef": "--ent-coef",
+}
+"""PPO settings (flags) that SAC does not have."""
+
+
 def check_config(cfg: BenchMARLConfig, n_robots: int) -> None:
-    """A one-line ``ValueError`` for a setting the BenchMARL backend does not have."""
+    """A one-line ``ValueError`` for a bad setting or one the BenchMARL backend does not have."""
     check_run(cfg)
+    check_ppo_settings(cfg)
     if cfg.algorithm not in BENCHMARL_ALGORITHMS:
         raise ValueError(f"--algorithm must be one of {', '.join(BENCHMARL_ALGORITHMS)}, got {cfg.algorithm!r}")
+    if cfg.eval_suite is not None:
+        get_suite(cfg.eval_suite)  # an unknown name fails now, not after the first update
+    default = BenchMARLConfig()
     unsupported = {
         "--residual": cfg.residual is not None,
         "--guide": cfg.guide != "none",
         "--init": cfg.init is not None,
         "--mixture": bool(cfg.mixture),
         "--start-states": cfg.start_states is not None,
-        "--features slots": cfg.features != "flat",
-        "--lr-schedule linear": cfg.lr_schedule != "constant",
+        f"--features {cfg.features}": cfg.features != "flat",
+        f"--lr-schedule {cfg.lr_schedule}": cfg.lr_schedule not in ("constant", "linear"),
         "--target-kl": cfg.target_kl is not None,
         "--shaping": cfg.shaping != "none",
+        "--vf-coef": cfg.vf_coef != default.vf_coef,  # BenchMARL's critic_coef 1.0
+        "--log-std-init": cfg.log_std_init != default.log_std_init,  # BenchMARL's scale starts at 1
     }
+    if cfg.algorithm == "masac":
+        unsupported.update({flag: getattr(cfg, k) != getattr(default, k) for k, flag in PPO_ONLY.items()})
     given = [flag for flag, on in unsupported.items() if on]
     if given:
-        raise ValueError(f"{', '.join(given)} not available with --backend benchmarl (the SB3 backend has them)")
+        where = "with --algorithm masac" if cfg.algorithm == "masac" else "with --backend benchmarl"
+        raise ValueError(f"{', '.join(given)} not available {where}")
     if cfg.batch_size < n_robots:
         raise ValueError(f"--batch-size must be at least the robots of a world ({n_robots}), got {cfg.batch_size}")
 
@@ -96,11 +119,13 @@ def experiment_config(cfg: BenchMARLConfig, n_robots: int, folder: Path):
     e.sampling_device = e.train_device = e.buffer_device = "cpu"
     e.share_policy_params, e.prefer_continuous_actions = True, True
     e.evaluation, e.render, e.create_json = False, False, False  # evaluation: ours (PeriodicEval)
+    e.evaluation_episodes = 1  # BenchMARL builds a test env of this many worlds even without evaluation
     e.loggers = ["csv"]
     e.save_folder = str(folder)
-    e.checkpoint_interval = 0
+    e.checkpoint_interval = 0  # ours: actor_<steps>.pt every checkpoint_freq (agents.train.benchmarl_callback)
     e.checkpoint_at_end = True
     e.keep_checkpoints_num = 1
+    e.exclude_buffer_from_checkpoint = True  # MASAC's replay memory would make it hundreds of MB
     return e
 
 
@@ -116,11 +141,14 @@ def algorithm_config(cfg: BenchMARLConfig):
 
 
 def actor_network(policy, scenario) -> tuple[Any, dict[str, Any]]:
-    """The shared policy MLP of a BenchMARL policy (continuous actions, TanhNormal over [-1, 1], parameters
-    shared by the group) as a plain ``torch.nn.Sequential`` and its layout (:class:`BenchMARLCheckpoint`), with
-    the observation bounds of ``scenario`` (the env's observation space)."""
+    """The shared policy MLP of a BenchMARL policy as a plain ``torch.nn.Sequential`` (built by
+    :func:`agents.export.mlp_network`, as a loaded checkpoint is) and its layout (:class:`BenchMARLCheckpoint`),
+    with the observation bounds of ``scenario``. ``ValueError`` unless the policy is what vcs-env's runs build:
+    one MLP (linear layers, one activation between them) shared by every robot, a biased softplus scale and a
+    TanhNormal over [-1, 1] without ``tanh_loc``."""
     import torch
     from tensordict.nn import NormalParamExtractor
+    from tensordict.nn.utils import biased_softplus
     from torchrl.modules import MultiAgentMLP, TanhNormal
 
     mlps = [m for m in policy.modules() if isinstance(m, MultiAgentMLP)]
@@ -128,31 +156,34 @@ def actor_network(policy, scenario) -> tuple[Any, dict[str, Any]]:
     dists = [m for m in policy.modules() if getattr(m, "distribution_class", None) is not None]
     if len(mlps) != 1 or len(extractors) != 1 or len(dists) != 1 or dists[0].distribution_class is not TanhNormal:
         raise ValueError("expected one shared MLP, a NormalParamExtractor and a TanhNormal action (BenchMARL's MLP)")
-    mlp, mapping = mlps[0], extractors[0].scale_mapping
-    low, high = observation_bounds(scenario)
+    mlp, mapping, kwargs = mlps[0], extractors[0].scale_mapping, dists[0].distribution_kwargs
     if not mlp.share_params:
         raise ValueError("the policy's parameters are not shared by the robots (share_policy_params=False)")
-    layers, sizes, activation = [], [], None
-    for m in mlp._empty_net:
+    if not isinstance(mapping, biased_softplus):
+        raise ValueError(f"the action scale mapping is {type(mapping).__name__}, not the biased softplus saved")
+    bounds = [torch.as_tensor(kwargs.get(k, 0.0)) for k in ("low", "high")]
+    if kwargs.get("tanh_loc", False) or not (torch.all(bounds[0] == -1.0) and torch.all(bounds[1] == 1.0)):
+        raise ValueError("the TanhNormal action must span [-1, 1] without tanh_loc")
+    sizes, activations = [], set()
+    for k, m in enumerate(mlp._empty_net):
+        if isinstance(m, torch.nn.Linear) == (k % 2 == 1):
+            raise ValueError("the policy MLP must alternate linear layers and activations, linear first and last")
         if isinstance(m, torch.nn.Linear):
-            layers.append(torch.nn.Linear(m.in_features, m.out_features))
             sizes.append([m.in_features, m.out_features])
         else:
-            name = type(m).__name__
-            if activation not in (None, name) or not hasattr(torch.nn, name):
-                raise ValueError(f"unsupported layer {name} in the policy MLP (one torch.nn activation expected)")
-            activation = name
-            layers.append(getattr(torch.nn, name)())
-    net = torch.nn.Sequential(*layers)
-    net.load_state_dict({k: v.detach().clone() for k, v in mlp.params.flatten_keys(".").items(True, True)})
+            activations.add(type(m).__name__)
+    if len(activations) > 1 or len(mlp._empty_net) % 2 == 0:
+        raise ValueError(f"the policy MLP must use one activation and end in a linear layer, got {sorted(activations)}")
+    low, high = observation_bounds(scenario)
+    state = {k: v.detach().clone() for k, v in mlp.params.flatten_keys(".").items(True, True)}
     layout = {
         "layers": sizes,
-        "activation": activation,
-        "scale": {"bias": float(getattr(mapping, "bias", 0.0)), "min": float(getattr(mapping, "min_val", 0.0))},
+        "activation": activations.pop() if activations else "Identity",
+        "scale": {"bias": float(mapping.bias), "min": float(mapping.min_val)},
         "low": [float(x) for x in low],
         "high": [float(x) for x in high],
     }
-    return net, layout
+    return mlp_network({**layout, "state_dict": state}), layout
 
 
 def save_actor(policy, scenario, path: Path, record: dict[str, Any]) -> BenchMARLCheckpoint:
@@ -192,10 +223,25 @@ def make_experiment(cfg: BenchMARLConfig, scenario, folder: Path, callbacks=()):
     )
 
 
+def evaluate(evaluator: PeriodicEval, scenario, name: str, policy, timesteps: int) -> dict[str, Any]:
+    """One evaluation of a BenchMARL policy's network (:class:`PeriodicEval`, a line of ``eval.jsonl``)."""
+    net, layout = actor_network(policy, scenario)
+    return evaluator(BenchMARLPolicy(net, layout, name=name), timesteps)
+
+
+def checkpoint(cfg: BenchMARLConfig, scenario, t0: float, policy, timesteps: int) -> None:
+    """A periodic checkpoint ``<out>/checkpoints/actor_<timesteps>.pt`` with its record."""
+    path = Path(cfg.out) / "checkpoints" / f"actor_{timesteps}.pt"
+    save_actor(policy, scenario, path, run_record(
+        f"benchmarl_{cfg.algorithm}", cfg, scenario, None, timesteps, wall_time=round(time.time() - t0, 1)
+    ))  # fmt: skip
+
+
 def train(cfg: BenchMARLConfig) -> Path:
-    """Run a BenchMARL experiment, evaluate it every ``eval_freq`` timesteps, save ``<out>/actor.pt``."""
+    """Run a BenchMARL experiment, evaluate it every ``eval_freq`` timesteps and at the end, keep a checkpoint
+    every ``checkpoint_freq`` timesteps, save ``<out>/actor.pt``."""
     import_benchmarl()
-    from .benchmarl_callback import Evaluate  # BenchMARL
+    from .benchmarl_callback import LinearLR, Periodic  # BenchMARL
 
     scenario = build_scenario(cfg)
     n = scenario.n_robots
@@ -206,17 +252,20 @@ def train(cfg: BenchMARLConfig) -> Path:
     kind = f"benchmarl_{cfg.algorithm}"
     t0 = time.time()
     evaluator = PeriodicEval(cfg, [scenario], out, t0)
-    exp = make_experiment(cfg, scenario, out / "benchmarl", [Evaluate(evaluator, scenario, out.name, actor_network)])
+    periodic = Periodic(n, [
+        (cfg.eval_freq, partial(evaluate, evaluator, scenario, out.name)),
+        (cfg.checkpoint_freq, partial(checkpoint, cfg, scenario, t0)),
+    ])  # fmt: skip
+    callbacks = [periodic] + ([LinearLR(cfg.learning_rate)] if cfg.lr_schedule == "linear" else [])
+    exp = make_experiment(cfg, scenario, out / "benchmarl", callbacks)
     print(f"BenchMARL {cfg.algorithm}: {exp.config.max_n_frames} world steps ({exp.config.max_n_frames * n} robot "
           f"steps), {cfg.n_worlds} worlds, folder {exp.folder_name}", flush=True)  # fmt: skip
     exp.run()
     steps = exp.total_frames * n
-    if cfg.eval_freq > 0 and (not evaluator.history or evaluator.history[-1]["timesteps"] != steps):
-        net, layout = actor_network(exp.policy, scenario)
-        evaluator(BenchMARLPolicy(net, layout, name=out.name), steps)
-    last = evaluator.history[-1] if evaluator.history else None
+    done = [r for r in evaluator.history if r["timesteps"] == steps]
+    final = done[-1] if done else evaluate(evaluator, scenario, out.name, exp.policy, steps)
     record = run_record(
-        kind, cfg, scenario, None, steps, wall_time=round(time.time() - t0, 1), final_eval=last,
+        kind, cfg, scenario, None, steps, evaluation=final, wall_time=round(time.time() - t0, 1),
         history=evaluator.history,
     )  # fmt: skip
     ckpt = save_actor(exp.policy, scenario, out / "actor.pt", record)
