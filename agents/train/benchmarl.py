@@ -10,7 +10,8 @@ batched TorchRL env :class:`vcs_env.torchrl.VcsNavEnv`, every robot an agent of 
   (``batch_size / n_robots`` world steps: a BenchMARL frame is one world step of every robot), ``clip_range``,
   ``gae_lambda``, ``ent_coef``; SAC (masac): minibatches of ``batch_size`` robot steps, one gradient step per 6
   world steps collected (BenchMARL's default ratio), from a replay memory of 100 k world steps;
-* ``learning_rate`` (constant, or ``lr_schedule`` linear to 0 at the end of the budget), ``gamma``, ``max_grad_norm`` (gradient norm clip), ``seed``;
+* ``learning_rate`` (constant, or ``lr_schedule`` linear to 0 at the end of the budget), ``gamma``,
+  ``max_grad_norm`` (gradient norm clip), ``seed``;
 * ``timesteps`` counts robot slot steps as the SB3 backend does (world steps x robots), so a budget buys the
   same world steps on every backend.
 
