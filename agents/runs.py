@@ -181,7 +181,8 @@ class BenchMARLConfig(TrainConfig):
 
     algorithm: str = "mappo"
     """BenchMARL algorithm for --backend benchmarl: mappo (PPO, centralised critic over every robot of a
-    world), ippo (PPO, each robot's own critic) or masac (SAC, centralised critics; off-policy)."""
+    world), ippo (PPO, each robot's critic reads its own observation) or masac (SAC, centralised critics;
+    off-policy). From scratch, give mappo and ippo --ent-coef 0.01 (results/benchmarl-circle8)."""
     out: str = "runs/benchmarl"
     """Run directory (config.json, eval.jsonl, actor.pt + actor.json, benchmarl/: BenchMARL's own folder)."""
 
