@@ -43,6 +43,7 @@ from .fits import SIZE_HINT as SIZE_HINT
 from .fits import CheckpointError as CheckpointError
 from .fits import FamilyWarning as FamilyWarning
 from .fits import UncheckedWarning as UncheckedWarning
+from .fits import cause
 from .fits import check_checkpoint_fits as check_checkpoint_fits
 from .fits import check_observation_space as check_observation_space
 from .predictors import BenchMARLPolicy as BenchMARLPolicy
@@ -307,8 +308,7 @@ class BenchMARLCheckpoint(Checkpoint):
         try:
             data = torch.load(self.path, map_location="cpu", weights_only=True)
         except Exception as e:
-            first = str(e).strip().splitlines()[0] if str(e).strip() else ""
-            raise CheckpointError(f"{self.describe()} is corrupt or unreadable: {type(e).__name__}: {first}") from None
+            raise CheckpointError(f"{self.describe()} is corrupt or unreadable: {cause(e)}") from None
         keys = ("layers", "activation", "state_dict", "scale", "low", "high")
         missing = [k for k in keys if not isinstance(data, dict) or k not in data]
         if missing:
@@ -328,8 +328,7 @@ class BenchMARLCheckpoint(Checkpoint):
             if net[0].in_features != len(data["low"]):
                 raise ValueError(f"its network takes {net[0].in_features} inputs, its bounds {len(data['low'])}")
         except (RuntimeError, ValueError, KeyError, TypeError, IndexError) as e:
-            first = str(e).strip().splitlines()[0] if str(e).strip() else ""
-            raise CheckpointError(f"{self.describe()} could not be loaded: {type(e).__name__}: {first}") from None
+            raise CheckpointError(f"{self.describe()} could not be loaded: {cause(e)}") from None
         policy = BenchMARLPolicy(net, data, name=self.path.parent.name)
         if scenario is not None:
             check_checkpoint_fits(self.record, policy.observation_space, scenario, self.describe())

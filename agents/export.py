@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from .fits import CheckpointError
+from .fits import CheckpointError, cause
 from .residual import RULE, Residual
 
 OPSET = 17
@@ -274,10 +274,7 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
         got = session.run([OUTPUT], {INPUT: obs})[0]
     except Exception as e:  # an opset torch cannot write, an operator it cannot export, a file onnx refuses ...
         path.unlink(missing_ok=True)
-        first = str(e).strip().splitlines()[0] if str(e).strip() else ""
-        raise CheckpointError(
-            f"{checkpoint.describe()} could not be exported at opset {opset}: {type(e).__name__}: {first}"
-        ) from None
+        raise CheckpointError(f"{checkpoint.describe()} could not be exported at opset {opset}: {cause(e)}") from None
     if not np.allclose(got, expected, atol=TOLERANCE, rtol=0):
         path.unlink()
         raise CheckpointError(

@@ -43,6 +43,12 @@ class CheckpointError(ValueError):
     """A checkpoint cannot be used: missing, corrupt, or made for another observation space."""
 
 
+def cause(e: BaseException) -> str:
+    """``e`` for a one-line error message: its type and the first line of its text (torch and onnx write pages)."""
+    text = str(e).strip()
+    return f"{type(e).__name__}: {text.splitlines()[0] if text else ''}"
+
+
 class FamilyWarning(UserWarning):
     """A policy runs on a scenario family (layout kind) it was not trained on."""
 

@@ -70,8 +70,6 @@ def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    if args.backend != "benchmarl":
-        check_backend_flags(args, "benchmarl", BENCHMARL_ONLY)
     if args.backend == "benchmarl":
         check_backend_flags(args, "rllib", RLLIB_ONLY)
         if args.resume:
@@ -80,6 +78,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
         benchmarl.train(config_from_args(BenchMARLConfig, args))
         return 0
+    check_backend_flags(args, "benchmarl", BENCHMARL_ONLY)
     base, ckpt = resume_base(args) if args.resume else (None, None)
     rllib = args.backend == "rllib" or isinstance(base, RLlibConfig)
     if ckpt is not None and rllib != isinstance(base, RLlibConfig):

@@ -246,10 +246,7 @@ def train(cfg: BenchMARLConfig) -> Path:
 
     scenario = build_scenario(cfg)
     n = scenario.n_robots
-    check_config(cfg, n)
     out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
     kind = f"benchmarl_{cfg.algorithm}"
     t0 = time.time()
     evaluator = PeriodicEval(cfg, [scenario], out, t0)
@@ -259,6 +256,7 @@ def train(cfg: BenchMARLConfig) -> Path:
     ])  # fmt: skip
     callbacks = [periodic] + ([LinearLR(cfg.learning_rate)] if cfg.lr_schedule == "linear" else [])
     exp = make_experiment(cfg, scenario, out / "benchmarl", callbacks)
+    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")  # out/ made by make_experiment
     print(f"BenchMARL {cfg.algorithm}: {exp.config.max_n_frames} world steps ({exp.config.max_n_frames * n} robot "
           f"steps), {cfg.n_worlds} worlds, folder {exp.folder_name}", flush=True)  # fmt: skip
     exp.run()
