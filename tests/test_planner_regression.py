@@ -50,9 +50,10 @@ VARIANTS = {
         "stop_margin": False,
     },
 }
-PINNED = {"arriving_goal_twin": False}
+PINNED = {"arriving_goal_twin": False, "mirror_bounces": False, "no_follow": False}
 """Planner rules newer than the fixture, off in every VCS planner here (module docstring): the goal
-twin (2026-11-28; ``tests/test_vcs_safety.py`` measures it)."""
+twin, the mirror images of bouncing obstacles and no following inside a mover's buffer
+(2026-11-28; ``tests/test_vcs_safety.py`` measures them)."""
 EVAL_EVERY = 25
 """Steps between the states at which ``evaluate()`` of robot 0 is hashed."""
 

@@ -247,3 +247,34 @@ def test_period_kernels_match_numpy_bit_for_bit(rng):
     angles = np.concatenate((rng.uniform(-20.0, 20.0, 2000), rng.uniform(-math.pi, math.pi, 2000), edges))
     got = np.array([period.wrap_angle(a) for a in angles])
     assert np.array_equal(got.view(np.uint64), wrap_angle(angles).view(np.uint64))
+
+
+def test_bounce_images_move_along_the_reflected_path():
+    """The mirror image of an obstacle in the arena edge it moves toward (``mirror_bounces``)
+    moves straight along the path the simulator's bounce gives the obstacle after it reflects
+    (within two steps' travel: the simulator reverses a component one step before it would carry
+    the disc through the edge), in x, in y and in a corner, and an axis without
+    motion has no image in reach."""
+    from baselines.vcs.planner import FAR, bounce_images
+    from vcs_env import kernels
+
+    half, dt = 6.0, 0.1
+    pos = np.array([[[5.0, 0.0], [0.0, -5.2], [5.3, 5.1], [1.0, 2.0]]])
+    vel = np.array([[[1.5, 0.0], [0.3, -1.2], [1.0, 1.4], [0.0, 0.0]]])
+    radius = np.array([[0.3, 0.4, 0.2, 0.3]])
+    img_pos, img_vel, img_r = bounce_images(pos, vel, radius, half)
+    assert img_pos.shape == (1, 16, 2) and img_r.shape == (1, 16)
+    m = pos.shape[1]
+    p, v = pos.copy(), vel.copy()
+    for k in range(1, 21):
+        v, _ = kernels.bounce(p, v, radius, half, dt)
+        p = p + v * dt
+        t = k * dt
+        # After every bounce of an obstacle, one of its images is where the obstacle is.
+        images = img_pos[0] + img_vel[0] * t  # (4 m, 2)
+        for q in range(3):
+            bounced = np.any(np.sign(v[0, q]) != np.sign(vel[0, q]))
+            if bounced:
+                gaps = np.linalg.norm(images[q::m] - p[0, q], axis=-1)
+                assert gaps.min() <= 2 * np.linalg.norm(vel[0, q]) * dt + 1e-9, (q, t)
+    assert np.all(np.abs(img_pos[0, 3::m][1:]).max(axis=-1) >= FAR / 2)  # the standing obstacle: no images

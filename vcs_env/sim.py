@@ -131,6 +131,7 @@ class Simulator:
             r_goal=s.r_goal,
             r_ca=s.r_ca,
             holonomic=rs.holonomic,
+            bounce_half=s.arena_half_size if s.bounce else None,
             seg_a=np.zeros((B, n_seg, 2)),
             seg_b=np.zeros((B, n_seg, 2)),
             seg_present=np.zeros((B, n_seg), dtype=bool),

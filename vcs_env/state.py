@@ -47,6 +47,7 @@ class WorldState:
     seg_a: np.ndarray | None = None  # (B, s, 2) wall segment start points [m] (vcs_env.walls); None: no walls
     seg_b: np.ndarray | None = None  # (B, s, 2) wall segment end points [m]
     seg_present: np.ndarray | None = None  # (B, s) bool: segment k exists in world b
+    bounce_half: float | None = None  # obstacles reflect off the arena's edges at +-bounce_half [m]; None: no edges
 
     def __post_init__(self) -> None:
         if self.seg_a is None:

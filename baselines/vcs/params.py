@@ -128,6 +128,18 @@ class VCSParams:
     static twin at its current position, as an arriving robot does, whose margin covers the
     robot's stopping time, so the robot does not follow it closer than it can brake (False, the
     default: obstacles keep their velocity) [ours]."""
+    mirror_bounces: bool = True
+    """Where obstacles reflect off the arena's edges (``Scenario.bounce``), the robot also plans
+    against each obstacle's mirror image in the edge it moves toward (a straight motion reflected
+    off a line is the straight motion of its image), so it sees the obstacle coming back before it
+    turns (False: obstacles keep their velocity, the ablation) [ours]."""
+    no_follow: bool = True
+    """Inside a non-reactive mover's regulated buffer (a moving obstacle's, an arriving robot's),
+    the robot closes on it no faster than it could brake within the surface gap g,
+    ``sqrt(2 a_max g)``, even while the mover recedes (it may stop or turn): the velocity
+    obstacle's apex keeps at most that much of the mover's receding speed (False: the apex is
+    the mover's velocity, and the robot may ride a receding mover at any gap, the ablation;
+    vcs-method §2.4) [ours]."""
     stop_margin: bool = True
     """The margin of a static object (parked robot, standing obstacle) covers the robot's own
     stopping time: max(T_m, v_R / a_max) (False: T_m)."""
@@ -254,6 +266,8 @@ class VCSParams:
             "arriving_non_reactive",
             "arriving_goal_twin",
             "stopping_obstacles",
+            "mirror_bounces",
+            "no_follow",
             "stop_margin",
             "joint_escape",
             "crowd_margin",

@@ -193,11 +193,14 @@ class VCSPlanner(Planner):
         return np.where(flip, -angle, angle)
 
     def _kernel_world(self, world: WorldState) -> kernel.World:
-        """The world arrays as the kernels read them."""
+        """The world arrays as the kernels read them (with ``mirror_bounces``, the obstacles
+        followed by their mirror images, :func:`bounce_images`)."""
+        obs = (world.obs_pos, world.obs_vel, world.obs_radius)
+        if self.params.mirror_bounces and world.bounce_half is not None and world.n_obstacles:
+            obs = bounce_images(world.obs_pos, world.obs_vel, world.obs_radius, world.bounce_half)
         return kernel.World(
             world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
-            world.active, world.present, world.obs_pos, world.obs_vel, world.obs_radius,
-            world.seg_a, world.seg_b, world.seg_present,
+            world.active, world.present, *obs, world.seg_a, world.seg_b, world.seg_present,
         )  # fmt: skip
 
     def _kernel_inputs(self, world: WorldState, kworld, own, comm, detour, planned) -> tuple:
@@ -305,9 +308,35 @@ class VCSPlanner(Planner):
         dth = np.ascontiguousarray(dth, dtype=np.float64).ravel()
         ok = np.zeros(dv.shape[0], dtype=np.bool_)
         cost = np.zeros(dv.shape[0])
-        horizon = np.zeros(2 * world.n_robots + world.n_obstacles + world.n_segments)
+        m = kworld.obs_pos.shape[1]  # the obstacles and their mirror images
+        horizon = np.zeros(2 * world.n_robots + m + world.n_segments)
         planned = np.ones((world.batch_size, world.n_robots), dtype=bool)
         kernel.evaluate_points(
             b, i, *self._kernel_inputs(world, kworld, own, comm, detour, planned), dv, dth, ok, cost, horizon
         )
-        return ok, cost, horizon
+        n, m0 = world.n_robots, world.n_obstacles
+        return ok, cost, np.concatenate((horizon[: n + m0], horizon[n + m : n + m + n], horizon[2 * n + m :]))
+
+
+FAR = 1e9
+"""[m] where :func:`bounce_images` puts an image that is not needed (beyond any sensing radius)."""
+
+
+def bounce_images(pos: np.ndarray, vel: np.ndarray, radius: np.ndarray, half: float):
+    """Obstacles that reflect off the arena's edges, followed by their mirror images
+    (``VCSParams.mirror_bounces``, vcs-method §2.4): ``(B, 4 m, 2)`` positions [m] and velocities
+    [m/s] and ``(B, 4 m)`` radii [m]. An obstacle of radius r turns where its centre meets
+    ``+-(half - r)``; its image in the edge it moves toward (in x, in y, and in both, the corner)
+    moves straight along the path the obstacle takes after it bounces, and is outside the arena
+    until then, so a robot that plans against the images plans against the bounce. An axis the
+    obstacle does not move along has no image there (put at :data:`FAR`)."""
+    edge = np.sign(vel) * (half - radius)[..., None]  # (B, m, 2) the reflecting line in each axis
+    moving = vel != 0.0
+    mirrored = np.where(moving, 2.0 * edge - pos, FAR)
+    flipped = np.where(moving, -vel, 0.0)
+    img_x = (np.stack((mirrored[..., 0], pos[..., 1]), -1), np.stack((flipped[..., 0], vel[..., 1]), -1))
+    img_y = (np.stack((pos[..., 0], mirrored[..., 1]), -1), np.stack((vel[..., 0], flipped[..., 1]), -1))
+    img_xy = (mirrored, flipped)
+    out_pos = np.concatenate((pos, img_x[0], img_y[0], img_xy[0]), axis=1)
+    out_vel = np.concatenate((vel, img_x[1], img_y[1], img_xy[1]), axis=1)
+    return out_pos, out_vel, np.concatenate((radius,) * 4, axis=1)

@@ -234,7 +234,7 @@ def hrvo_apex(qx, qy, d, reff, vjx, vjy, mx, my, rpx, rpy):
 
 
 @njit(cache=True)
-def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy):
+def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy, eps=0.0, no_follow=False, a_max=0.0):
     """Apex and scale of the record's velocity obstacle, or the overlap half-plane (vcs-method §2.4)."""
     vjx = nb.vjx
     vjy = nb.vjy
@@ -259,6 +259,15 @@ def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy):
         nb.scale = 1.0
         nb.apx = vjx
         nb.apy = vjy
+        if no_follow and nb.kind == K_MOVER and nb.d - nb.reff <= eps + 1e-9:
+            # Inside a mover's buffer, close on it no faster than the robot could brake within the gap
+            # (the mover may stop): the apex keeps at most that much of its receding speed.
+            ux = nb.px / nb.d
+            uy = nb.py / nb.d
+            excess = vjx * ux + vjy * uy - math.sqrt(2.0 * a_max * max(nb.d - nb.r0, 0.0))
+            if excess > 0.0:
+                nb.apx = vjx - excess * ux
+                nb.apy = vjy - excess * uy
         return
     nb.scale = 2.0
     mx = 0.5 * (vrx + vjx)
@@ -330,7 +339,7 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
         if is_robot:
             rpx = pref_comm[b, i, 0] - pref_comm[b, nb.idx, 0]
             rpy = pref_comm[b, i, 1] - pref_comm[b, nb.idx, 1]
-        set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy)
+        set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy, p.eps, p.no_follow, a_max_i)
         key[q] = nb.d - nb.reff  # nearest surface first: inadmissible candidates fail early
     sort_nearest(wk.order, key, count)
     return count

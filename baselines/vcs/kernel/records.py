@@ -82,6 +82,7 @@ PARAMS = np.dtype(
         ("crowd_reach", "?"),  # contesting movers: any the robot could meet (else: closing ones)
         ("fallback_clearance", "f8"),  # least-harm fallback's contact radius r0 + this [m]; < 0: r_eff
         ("fit_clearance", "f8"),  # buffers fit passable gaps, down to this clearance [m]; < 0: off
+        ("no_follow", "?"),  # inside a mover's buffer, do not close on it as it recedes
     ],
     align=True,
 )
@@ -129,6 +130,7 @@ def params_record(p) -> np.ndarray:
         "crowd_reach": p.crowd_margin and p.crowd_reach and p.horizon == "adaptive",
         "fallback_clearance": -1.0 if p.fallback_clearance is None else p.fallback_clearance,
         "fit_clearance": -1.0 if p.fit_clearance is None else p.fit_clearance,
+        "no_follow": p.no_follow,
     }
     for name, value in values.items():
         rec[name] = value
