@@ -222,3 +222,20 @@ def test_no_follow_keeps_the_robot_from_riding_inside_a_movers_buffer():
     seeds = (5089, 5291)
     assert _obstacle_faults(_run(scenario, seeds)) == 0
     assert _obstacle_faults(_run(scenario, seeds, no_follow=False)) == 2
+
+
+def test_escalating_detours_back_a_wedged_robot_out():
+    """Holonomic robots among robots that park in the traffic (``random-dense-holonomic-v0``'s
+    scenario, seeds no suite uses): a robot that ends up between two parked robots, a few
+    centimetres from each, can only move back out, away from its goal; a detour that keeps right
+    by 45 degrees stays blocked, and the robot waits there for good. With ``detour_escalate`` each
+    detour without progress turns further, up to a half turn: all five of these episodes solved,
+    against none without (measured)."""
+    scenario = get_suite("random-dense-holonomic-v0").scenario
+    seeds = (5032, 5054, 5185, 5189, 5232)
+
+    def solved(eps):
+        return sum(bool(episode_metrics(e)["success"]) for e in eps)
+
+    assert solved(_run(scenario, seeds)) == 5
+    assert solved(_run(scenario, seeds, detour_escalate=False)) == 0

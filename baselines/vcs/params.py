@@ -191,6 +191,14 @@ class VCSParams:
     (vcs-method §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
+    detour_escalate: bool = True
+    """A detour that began without progress since the last one turns further: the k-th
+    consecutive detour rotates v_pref by k times detour_angle (at most a half turn; after four,
+    from one again), so a robot wedged where keeping right stays blocked (between two parked
+    robots) backs out. Only in worlds without walls: on the maps robots that queue in a corridor
+    or give way at a junction stall for good reasons, and backing out cost `intersection-v0` 9
+    points and `corridor-v0` 7 (time-outs). False: every detour turns by detour_angle, the
+    ablation [ours]."""
     detour_jitter: float = 0.5
     """On a map with walls, each detour lasts detour_time times a factor uniform in
     [1 - detour_jitter, 1 + detour_jitter] (the world's counter-based noise): a head-on pair
@@ -275,6 +283,7 @@ class VCSParams:
             "ramp_check",
             "wall_brake",
             "detour_off_walls",
+            "detour_escalate",
             "give_way",
         ):
             if not isinstance(getattr(self, name), bool):

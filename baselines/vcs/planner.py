@@ -30,7 +30,7 @@ class _Memory:
     @classmethod
     def empty(cls, B: int, n: int) -> _Memory:
         def zeros() -> kernel.Memory:
-            z1 = [np.zeros((B, n)) for _ in range(4)]
+            z1 = [np.zeros((B, n)) for _ in range(5)]
             return kernel.Memory(np.zeros((B, n, 2)), np.zeros((B, n), dtype=bool), *z1)
 
         return cls(np.full(B, -1, dtype=np.int64), np.zeros(B, dtype=np.uint64), zeros(), zeros())
@@ -110,6 +110,10 @@ class VCSPlanner(Planner):
             angle = np.full((B, n), p.detour_angle)
             if p.detour_off_walls and world.n_segments:
                 angle = self._detour_side(world, own, angle, detour)
+            if p.detour_escalate and not world.n_segments:
+                # The k-th detour without progress turns k times as far, up to a half turn, then again.
+                k = (np.maximum(mem.out.tries, 1.0) - 1.0) % ESCALATION + 1.0
+                angle = np.sign(angle) * np.minimum(np.abs(angle) * k, np.pi)
             own = np.where(detour[..., None], rotate(own, angle), own)
         return own, pref, detour
 
@@ -317,6 +321,10 @@ class VCSPlanner(Planner):
         n, m0 = world.n_robots, world.n_obstacles
         return ok, cost, np.concatenate((horizon[: n + m0], horizon[n + m : n + m + n], horizon[2 * n + m :]))
 
+
+ESCALATION = 4
+"""Detour angles of the escalation (``VCSParams.detour_escalate``): 1 to this many times
+``detour_angle``, each at most a half turn, then from 1 again."""
 
 FAR = 1e9
 """[m] where :func:`bounce_images` puts an image that is not needed (beyond any sensing radius)."""

@@ -62,6 +62,7 @@ def sync_memory(steps, key, mem_step, mem_key, inp, out):
                 inp.detour[b, i] = out.detour[b, i] if advance else 0.0
                 inp.ref[b, i] = out.ref[b, i] if advance else 0.0
                 inp.wait[b, i] = out.wait[b, i] if advance else 0.0
+                inp.tries[b, i] = out.tries[b, i] if advance else 0.0
         mem_step[b] = steps[b]
         mem_key[b] = key[b]
 
@@ -105,6 +106,7 @@ def stall_rules(key, steps, world, rules, d_goal, inp, out, psi, detour):
             mark = progressed or start  # a new progress mark: progress made, or a detour begins
             out.ref[b, i] = dg if mark else ref
             out.wait[b, i] = 0.0 if mark else wait
+            out.tries[b, i] = 0.0 if progressed else inp.tries[b, i] + (1.0 if start else 0.0)
 
 
 @njit(cache=True)

@@ -204,10 +204,11 @@ those of an inactive robot)."""
 Setting = namedtuple("Setting", "prm r_ca dt holo")
 """Parameter record ``(1,)``, sensing radius [m], period [s], holonomic robots."""
 
-Memory = namedtuple("Memory", "prev has_prev stall detour ref wait")
+Memory = namedtuple("Memory", "prev has_prev stall detour ref wait tries")
 """A robot's memory across periods ``(B, n, ...)``: the residual target (dv [m/s], dtheta [rad])
 of the last period and whether it is set, the time spent stalled [s], the detour time left [s],
-the goal distance at the last progress mark [m] (0: unset) and the time since that mark [s]."""
+the goal distance at the last progress mark [m] (0: unset), the time since that mark [s] and the
+detours begun since the robot last made progress."""
 
 StallRules = namedtuple(
     "StallRules",
