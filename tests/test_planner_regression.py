@@ -50,10 +50,16 @@ VARIANTS = {
         "stop_margin": False,
     },
 }
-PINNED = {"arriving_goal_twin": False, "mirror_bounces": False, "no_follow": False}
+PINNED = {
+    "arriving_goal_twin": False,
+    "mirror_bounces": False,
+    "no_follow": False,
+    "detour_escalate": False,
+    "stall_turn": False,
+}
 """Planner rules newer than the fixture, off in every VCS planner here (module docstring): the goal
-twin, the mirror images of bouncing obstacles and no following inside a mover's buffer
-(2026-11-28; ``tests/test_vcs_safety.py`` measures them)."""
+twin, the mirror images of bouncing obstacles, no following inside a mover's buffer, escalating
+detours and turning in place from rest (2026-11-28; ``tests/test_vcs_safety.py`` measures them)."""
 EVAL_EVERY = 25
 """Steps between the states at which ``evaluate()`` of robot 0 is hashed."""
 

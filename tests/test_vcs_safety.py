@@ -225,17 +225,36 @@ def test_no_follow_keeps_the_robot_from_riding_inside_a_movers_buffer():
 
 
 def test_escalating_detours_back_a_wedged_robot_out():
-    """Holonomic robots among robots that park in the traffic (``random-dense-holonomic-v0``'s
-    scenario, seeds no suite uses): a robot that ends up between two parked robots, a few
-    centimetres from each, can only move back out, away from its goal; a detour that keeps right
-    by 45 degrees stays blocked, and the robot waits there for good. With ``detour_escalate`` each
-    detour without progress turns further, up to a half turn: all five of these episodes solved,
-    against none without (measured)."""
-    scenario = get_suite("random-dense-holonomic-v0").scenario
-    seeds = (5032, 5054, 5185, 5189, 5232)
+    """Robots among robots that park in the traffic (``random-dense-v0``'s scenario, seeds no suite
+    uses): a robot that ends up between two parked robots, a few centimetres from each, can only
+    move back out, away from its goal; a detour that keeps right by 45 degrees stays blocked, and
+    the robot waits there for good. With ``detour_escalate`` each detour without progress turns
+    further, up to a half turn: all seven of these episodes solved, against none without
+    (measured)."""
+    scenario = get_suite("random-dense-v0").scenario
+    seeds = (5016, 5032, 5084, 5149, 5180, 5197, 5238)
 
     def solved(eps):
         return sum(bool(episode_metrics(e)["success"]) for e in eps)
 
-    assert solved(_run(scenario, seeds)) == 5
+    assert solved(_run(scenario, seeds)) == 7
     assert solved(_run(scenario, seeds, detour_escalate=False)) == 0
+
+
+def test_a_robot_stalled_at_rest_turns_in_place_toward_its_detour():
+    """12 unicycles among 10 static obstacles in a 10 m square (seeds no suite uses). A robot that
+    stopped a few centimetres beside an obstacle, facing it, closes on it in every way of starting
+    off (the ramp check refuses them), and at zero speed every heading costs the same goal term,
+    so it stood there for good, detour after detour. With ``stall_turn`` a robot that detours from
+    rest measures its goal in the velocity change space and turns in place first: all six of these
+    episodes solved, against none without (measured)."""
+    scenario = vcs_env.make_scenario(
+        "random", n_robots=12, n_obstacles=10, obstacle_motion="static", arena_half_size=5.0, on_collision="continue"
+    )
+    seeds = (5000, 5037, 5050, 5051, 5070, 5092)
+
+    def solved(eps):
+        return sum(bool(episode_metrics(e)["success"]) for e in eps)
+
+    assert solved(_run(scenario, seeds)) == 6
+    assert solved(_run(scenario, seeds, stall_turn=False)) == 0

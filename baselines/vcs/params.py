@@ -191,6 +191,12 @@ class VCSParams:
     (vcs-method §2.13); the smoothness weights w_change, w_reach, w_hysteresis are also 0 during a
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
+    stall_turn: bool = True
+    """A robot that detours from rest measures its goal term in the VCS (vcs-method §2.9), so it
+    turns in place toward the detour's direction: in the velocity metric every heading at zero
+    speed costs the same, and a unicycle at rest beside a body, whose every way of starting off
+    closes on that body (the ramp check), stood there for good. False: only beside a wall (the
+    rule of vcs-method §2.18), the ablation [ours]."""
     detour_escalate: bool = True
     """A detour that began without progress since the last one turns further: the k-th
     consecutive detour rotates v_pref by k times detour_angle (at most a half turn; after four,
@@ -284,6 +290,7 @@ class VCSParams:
             "wall_brake",
             "detour_off_walls",
             "detour_escalate",
+            "stall_turn",
             "give_way",
         ):
             if not isinstance(getattr(self, name), bool):

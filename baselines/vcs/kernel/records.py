@@ -83,6 +83,7 @@ PARAMS = np.dtype(
         ("fallback_clearance", "f8"),  # least-harm fallback's contact radius r0 + this [m]; < 0: r_eff
         ("fit_clearance", "f8"),  # buffers fit passable gaps, down to this clearance [m]; < 0: off
         ("no_follow", "?"),  # inside a mover's buffer, do not close on it as it recedes
+        ("stall_turn", "?"),  # a detouring robot at rest turns in place toward its goal (else: by walls only)
     ],
     align=True,
 )
@@ -131,6 +132,7 @@ def params_record(p) -> np.ndarray:
         "fallback_clearance": -1.0 if p.fallback_clearance is None else p.fallback_clearance,
         "fit_clearance": -1.0 if p.fit_clearance is None else p.fit_clearance,
         "no_follow": p.no_follow,
+        "stall_turn": p.stall_turn,
     }
     for name, value in values.items():
         rec[name] = value

@@ -39,8 +39,8 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk, st.holo)
     r = wk.robot[0]
     r.walls = senses_wall(wk.nbs, count)
-    if r.walls and inputs.detour[b, i] and r.v_r < r.dv1:
-        r.goal_vcs = True  # a robot stalled by a wall turns in place toward its goal (vcs-method §2.18)
+    if (r.walls or p.stall_turn) and inputs.detour[b, i] and r.v_r < r.dv1:
+        r.goal_vcs = True  # a stalled robot at rest turns in place toward its goal (vcs-method §2.13, §2.18)
     set_horizons(wk, count, wk.robot[0], p)
     return count
 
