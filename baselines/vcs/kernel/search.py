@@ -40,7 +40,7 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     r = wk.robot[0]
     r.walls = senses_wall(wk.nbs, count)
     if (r.walls or p.stall_turn) and inputs.detour[b, i] and r.v_r < r.dv1:
-        r.goal_vcs = True  # a stalled robot at rest turns in place toward its goal (vcs-method §2.13, §2.18)
+        r.goal_vcs = True  # a stalled robot at rest turns in place toward its goal (vcs-method §2.13, vcs-method §2.18)
     set_horizons(wk, count, wk.robot[0], p)
     return count
 
