@@ -200,6 +200,11 @@ def _obstacle_faults(eps) -> int:
     return sum(any(c.kind == "obstacle" and c.at_fault for c in contact_events(e)) for e in eps)
 
 
+def _solved(eps) -> int:
+    """Episodes solved."""
+    return sum(bool(episode_metrics(e)["success"]) for e in eps)
+
+
 def test_mirror_images_see_obstacles_coming_back_off_the_arena_edge():
     """Obstacles faster than the robot reflect off the arena's edges (``dynamic-fast-v0``'s
     scenario, seeds no suite uses). A robot that plans against their velocity alone is caught by
@@ -234,11 +239,8 @@ def test_escalating_detours_back_a_wedged_robot_out():
     scenario = get_suite("random-dense-v0").scenario
     seeds = (5016, 5032, 5084, 5149, 5180, 5197, 5238)
 
-    def solved(eps):
-        return sum(bool(episode_metrics(e)["success"]) for e in eps)
-
-    assert solved(_run(scenario, seeds)) == 7
-    assert solved(_run(scenario, seeds, detour_escalate=False)) == 0
+    assert _solved(_run(scenario, seeds)) == 7
+    assert _solved(_run(scenario, seeds, detour_escalate=False)) == 0
 
 
 def test_a_robot_stalled_at_rest_turns_in_place_toward_its_detour():
@@ -253,8 +255,5 @@ def test_a_robot_stalled_at_rest_turns_in_place_toward_its_detour():
     )
     seeds = (5000, 5037, 5050, 5051, 5070, 5092)
 
-    def solved(eps):
-        return sum(bool(episode_metrics(e)["success"]) for e in eps)
-
-    assert solved(_run(scenario, seeds)) == 6
-    assert solved(_run(scenario, seeds, stall_turn=False)) == 0
+    assert _solved(_run(scenario, seeds)) == 6
+    assert _solved(_run(scenario, seeds, stall_turn=False)) == 0

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from .cost import goal_term, wall_ramp_clear
-from .neighbours import collision_time, forbidden
+from .neighbours import collision_time, forbidden, inside_buffer
 from .records import INF, K_STATIC, T_FLOOR, TINY, WALL_COST
 from .scalar import reach_steps, tau
 from .window import candidate
@@ -90,7 +90,7 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance=-
         # d - eps) do the buffered times saturate; then time to contact at r0 + clearance ranks.
         inside = False
         for q in range(count):
-            if not nbs[q].wall and nbs[q].d - nbs[q].reff <= eps + 1e-9:
+            if not nbs[q].wall and inside_buffer(nbs[q], eps):
                 inside = True
         if not inside:
             clearance = -1.0

@@ -234,6 +234,12 @@ def hrvo_apex(qx, qy, d, reff, vjx, vjy, mx, my, rpx, rpy):
 
 
 @njit(cache=True)
+def inside_buffer(nb, eps):
+    """Is the robot inside the record's regulated buffer (r_eff shrunk to d - eps, stage 1)?"""
+    return nb.d - nb.reff <= eps + 1e-9
+
+
+@njit(cache=True)
 def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy, eps=0.0, no_follow=False, a_max=0.0):
     """Apex and scale of the record's velocity obstacle, or the overlap half-plane (vcs-method §2.4)."""
     vjx = nb.vjx
@@ -259,7 +265,7 @@ def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy, eps=0.0, no_foll
         nb.scale = 1.0
         nb.apx = vjx
         nb.apy = vjy
-        if no_follow and nb.kind == K_MOVER and nb.d - nb.reff <= eps + 1e-9:
+        if no_follow and nb.kind == K_MOVER and inside_buffer(nb, eps):
             # Inside a mover's buffer, close on it no faster than the robot could brake within the gap
             # (the mover may stop): the apex keeps at most that much of its receding speed.
             ux = nb.px / nb.d
