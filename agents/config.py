@@ -78,6 +78,9 @@ class ScenarioConfig:
     """Nearest points on walls in every robot's observation (Scenario.n_wall_points; None: the preset's, 0)."""
     lidar_beams: int | None = None
     """Lidar beams in every robot's observation, over 360 degrees and 4 m (vcs_env.lidar; None: no lidar)."""
+    stall_clock: bool | None = None
+    """Each robot's stall clock in its observation (Scenario.stall_clock, vcs_env.stall: how long it has been
+    stuck and the detour the expert's stall rule gives it; None: the preset's, off)."""
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential, danger,
@@ -159,7 +162,7 @@ def scenario_base(name: str):
 
 _SCENARIO_FLAGS = (
     "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed",
-    "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points",
+    "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "stall_clock",
 )  # fmt: skip
 MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}
 """Map fields and the kinds that read them (flags, mixture entries and probe axes)."""

@@ -100,9 +100,9 @@ def scenarios_of(cfg: ScenarioConfig, mixture: tuple[str, ...] = ()) -> list:
 def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
     """Every scenario of a mixture: for each entry (:func:`parse_mixture_entry`) the product of its
     grids, applied to the preset together with the config's common flags (``max_steps``,
-    ``on_collision``, ``obstacle_motion``, ``rewards``, shaping, the sensing ``n_wall_points`` and
-    ``lidar_beams``). The per-scenario flags of ``cfg`` (``scenario`` and :data:`MIXTURE_FIELDS`) must be
-    unset: entries set those. All scenarios must share one observation config."""
+    ``on_collision``, ``obstacle_motion``, ``rewards``, shaping, the sensing ``n_wall_points``,
+    ``lidar_beams`` and ``stall_clock``). The per-scenario flags of ``cfg`` (``scenario`` and
+    :data:`MIXTURE_FIELDS`) must be unset: entries set those. All scenarios must share one observation config."""
 
     per_entry = tuple(MIXTURE_FIELDS)
     clash = [f for f in per_entry if getattr(cfg, f) is not None]

@@ -48,6 +48,13 @@ zero-padded:
                                    ``on_collision="terminate"``) and stays where it is, 0 otherwise
 ===== ============================ ===================================================
 
+``clock`` (with ``Scenario.stall_clock``; off by default):
+1 item, the robot's stall clock
+(:mod:`vcs_env.stall`, the memory the expert frees deadlocks with): ``detouring`` (1 while the
+stall rule has the robot detour), ``detour_left``, ``stalled`` (time slow and away from the goal),
+``no_progress`` (time since it last came closer to its goal) [s] / ``CLOCK_REF`` (5 s) in [0, 1],
+and ``tries`` (detours begun since it last made progress) / 4, clipped to [0, 1].
+
 ``lidar`` (with ``Scenario.lidar``; off by default): one item per beam, ``range / max_range`` in
 ``[0, 1]`` (:mod:`vcs_env.lidar`).
 
@@ -64,6 +71,8 @@ runs a checkpoint on any suite with the sensing it was trained with (:func:`with
 
 Version history:
 
+* v2, 2026-11-28: the optional ``clock`` block (``Scenario.stall_clock``, off by default, so every
+  v2 observation without it reads as before).
 * v2: neighbour slots gain the parked flag (``NEIGHBOR_DIM`` 8 -> 9), so a policy can tell a robot
   that waits at its goal (it will not move out of the way) from one that is about to drive on;
   among walls the goal features follow the route (the next waypoint and the remaining route length),
@@ -86,6 +95,7 @@ import numpy as np
 from . import kernels, lidar, routes
 from .lidar import LidarSpec
 from .scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
+from .stall import CLOCK_BLOCK_FIELDS, CLOCK_REF, TRIES_REF, clock_block
 from .state import WorldState
 from .walls import nearest_wall_points
 
@@ -107,7 +117,7 @@ WALL_POINT_DIM = 3
 """Features per nearest-wall-point slot (valid, x, y)."""
 DT_REF = 1.0
 """Largest allowed step [s] (``Scenario.dt`` is in (0, 1])."""
-SENSOR_FIELDS = ("observation", "n_neighbors", "lidar", "n_wall_points")
+SENSOR_FIELDS = ("observation", "n_neighbors", "lidar", "n_wall_points", "stall_clock")
 """Scenario fields that only change what robots observe, never the episode's worlds."""
 _SCALES = {
     "goal_ref": GOAL_REF,
@@ -216,6 +226,12 @@ def observation_layout(scenario: Scenario) -> Layout:
             "the nearest robots and obstacles within r_ca, nearest surface first",
         ),  # fmt: skip
     ]
+    if scenario.stall_clock:
+        blocks.append(
+            Block("clock", 1, CLOCK_BLOCK_FIELDS, (0.0,) * len(CLOCK_BLOCK_FIELDS),
+                  f"times / {CLOCK_REF} s, detours / {TRIES_REF}",
+                  "the robot's stall clock: whether it detours, for how long, how long it has been stuck")
+        )  # fmt: skip
     if scenario.lidar is not None:
         spec = scenario.lidar
         blocks.append(Block("lidar", spec.n_beams, ("range",), (0.0,), f"/ {spec.max_range} m", "range per beam"))
@@ -274,13 +290,13 @@ def sensors_of(config: dict) -> dict:
     spec = LidarSpec(**config["lidar"]) if config.get("lidar") is not None else None
     if version == 1:
         return {"observation": 1, "n_neighbors": config["n_neighbors"], "lidar": spec,
-                "n_wall_points": config.get("n_wall_points", 0)}  # fmt: skip
+                "n_wall_points": config.get("n_wall_points", 0), "stall_clock": False}  # fmt: skip
     items = {b["name"]: b["items"] for b in config["blocks"]}
-    unknown = set(items) - {"ego", "neighbors", "lidar", "wall_points"}
+    unknown = set(items) - {"ego", "neighbors", "lidar", "wall_points", "clock"}
     if unknown:
         raise ValueError(f"observation blocks {sorted(unknown)} are not ones this vcs-env produces")
     return {"observation": version, "n_neighbors": items["neighbors"], "lidar": spec,
-            "n_wall_points": items.get("wall_points", 0)}  # fmt: skip
+            "n_wall_points": items.get("wall_points", 0), "stall_clock": "clock" in items}  # fmt: skip
 
 
 def with_sensors(scenario: Scenario, config: dict) -> Scenario:
@@ -369,6 +385,8 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
         lidar.write_observation(obs[..., layout.span("lidar")], world, scenario.lidar)
     if "wall_points" in layout:
         obs[..., layout.span("wall_points")] = wall_points_block(world, scenario.n_wall_points)
+    if "clock" in layout:
+        obs[..., layout.span("clock")] = clock_block(world)
     return obs
 
 
@@ -398,7 +416,9 @@ def wall_points_block(world: WorldState, k: int) -> np.ndarray:
 
 
 def _optional_blocks(obs: np.ndarray, world: WorldState, scenario: Scenario) -> np.ndarray:
-    """``obs`` followed by the optional blocks the scenario turns on: lidar, then wall points."""
+    """``obs`` followed by the optional blocks the scenario turns on: the clock, lidar, then wall points."""
+    if scenario.stall_clock:
+        obs = np.concatenate((obs, clock_block(world)), axis=-1)
     if scenario.lidar is not None:
         obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
     if scenario.n_wall_points:

@@ -72,6 +72,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, addition (same id): an optional ``clock`` block (``stall_clock=True``, off by default): each
+      robot's stall clock (:mod:`vcs_env.stall`, the memory the VCS expert frees deadlocks with), 5 floats
+      after the neighbour slots. Without it every observation, and with it every episode, is as before.
     * v2: observation version 2 (:mod:`vcs_env.observations`): every neighbour slot gains a parked
       flag (a robot that has finished and stays where it is), ``11 + 9 K`` floats, built from named
       blocks; among walls the goal distance and bearing follow the route (remaining route length,

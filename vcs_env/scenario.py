@@ -273,6 +273,10 @@ class Scenario:
     n_wall_points: int = 0
     """Optional block of the ``n_wall_points`` nearest points on walls appended to every robot's
     observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
+    stall_clock: bool = False
+    """Keep each robot's stall clock (:mod:`vcs_env.stall`: how long it has been stuck and the detour the
+    expert's stall rule gives it) and append it to every robot's observation after the wall points
+    (the ``clock`` block, observation v2 only); False: off."""
     observation: int = 2
     """Observation version (:mod:`vcs_env.observations`): 2, the default, or 1 (what v1 checkpoints read)."""
     pedestrians: PedestrianSpec | None = None
@@ -316,6 +320,10 @@ class Scenario:
         check_interval("wall_length", self.wall_length, 0.01, 1e3)
         check_int("n_wall_points", self.n_wall_points, 0, 64)
         check_int("observation", self.observation, 1, 2)
+        if not isinstance(self.stall_clock, (bool, np.bool_)):
+            raise ValueError(f"stall_clock must be True or False, got {self.stall_clock!r}")
+        if self.stall_clock and self.observation < 2:
+            raise ValueError("stall_clock needs observation version 2 (the clock block is not part of v1)")
         if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
             raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         if self.pedestrians is not None:

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels
+from . import kernels, stall
 from .dynamics import ACTION_MODES, check_actions
 from .geometry import closest_approach
 from .layouts import generate, segment_capacity
@@ -135,6 +135,7 @@ class Simulator:
             seg_a=np.zeros((B, n_seg, 2)),
             seg_b=np.zeros((B, n_seg, 2)),
             seg_present=np.zeros((B, n_seg), dtype=bool),
+            clock=np.zeros((B, n, stall.CLOCK_DIM)) if s.stall_clock else None,
         )
 
     def reset(self, seeds: int | Sequence[int | None] | None = None, worlds: Sequence[int] | None = None) -> WorldState:
@@ -204,7 +205,14 @@ class Simulator:
         # Obstacle velocities are what they will do over the coming step (for sensing).
         self._needs_reset[idx] = False
         self._preview_obstacle_velocity(fresh)  # restored worlds keep their saved obstacle velocities
+        self._start_clock(fresh)
         return w
+
+    def _start_clock(self, idx: Sequence[int]) -> None:
+        """A new stall clock in worlds ``idx``, run on their current state (:mod:`vcs_env.stall`)."""
+        if self.world.clock is not None and len(idx):
+            self.world.clock[idx] = 0.0
+            stall.tick(self.world, idx)
 
     def _name(self) -> str:
         s = self.scenario
@@ -237,6 +245,7 @@ class Simulator:
         if self._wall_cache:
             self._wall_cache[0][idx, :, 2] = -1.0  # new walls: no wall candidates
         self._needs_reset[idx] = False
+        self._start_clock(idx)
         return self.world
 
     def _preview_obstacle_velocity(self, idx: list[int]) -> None:
@@ -315,6 +324,8 @@ class Simulator:
         )  # fmt: skip
         w.time = w.time + dt
         w.steps = w.steps + 1
+        if w.clock is not None:
+            stall.tick(w)
         return StepEvents(
             acted=acted,
             reached=reached,

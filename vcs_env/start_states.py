@@ -74,7 +74,7 @@ class StatePool:
         its motion state, copied."""
         idx = np.asarray(list(worlds), dtype=np.int64)
         return cls(
-            {f: v[idx].copy() for f, v in world.arrays().items()},
+            {f: v[idx].copy() for f, v in world.saved_arrays().items()},
             {k: np.asarray(v)[idx].copy() for k, v in motion.items()},
         )
 
@@ -92,7 +92,7 @@ class StatePool:
     def check(self, world: WorldState, name: str) -> None:
         """A ``ValueError`` naming ``name`` unless the pool's world arrays fit a world state of
         that scenario (``world``, batch first)."""
-        arrays = world.arrays()
+        arrays = world.saved_arrays()
         if set(self.world) != set(arrays):
             raise ValueError(
                 f"the start-state pool of {name} has world fields {sorted(self.world)}, expected {sorted(arrays)}"

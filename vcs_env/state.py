@@ -48,12 +48,21 @@ class WorldState:
     seg_b: np.ndarray | None = None  # (B, s, 2) wall segment end points [m]
     seg_present: np.ndarray | None = None  # (B, s) bool: segment k exists in world b
     bounce_half: float | None = None  # obstacles reflect off the arena's edges at +-bounce_half [m]; None: no edges
+    clock: np.ndarray | None = (
+        None  # (B, n, 6) the stall clock (vcs_env.stall), kept with Scenario.stall_clock; None: not kept
+    )
 
     def __post_init__(self) -> None:
         if self.seg_a is None:
             B = self.pos.shape[0]
             self.seg_a, self.seg_b = np.zeros((B, 0, 2)), np.zeros((B, 0, 2))
             self.seg_present = np.zeros((B, 0), dtype=bool)
+
+    def saved_arrays(self) -> dict[str, np.ndarray]:
+        """The per-world arrays a saved state holds (:mod:`vcs_env.start_states`): :meth:`arrays` without
+        the stall clock, which follows from the motion (a restored world starts a new clock, as the
+        expert's memory clears when a world jumps)."""
+        return {f: v for f, v in self.arrays().items() if f != "clock"}
 
     @property
     def batch_size(self) -> int:

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 
 from vcs_env.checks import check_choice, check_int, check_positive, check_range
+from vcs_env.stall import DETOUR_JITTER, DETOUR_TIME, PROGRESS_WINDOW, STALL_SPEED, STALL_TIME
 
 HORIZONS = ("adaptive", "infinite")
 WINDOWS = ("multi_step", "one_step")
@@ -173,18 +174,18 @@ class VCSParams:
     # --- preferred velocity and deadlocks (vcs-method §2.5, vcs-method §2.13)
     perturbation: float = 0.01
     """Symmetry-breaking noise on v_pref as a fraction of v_max (multi-robot only)."""
-    stall_speed: float = 0.05
+    stall_speed: float = STALL_SPEED
     """A robot slower than this fraction of v_max ..."""
     stall_goal_margin: float = 0.0
     """... farther than r_goal + this from its goal [m] (the reconstruction's 0.3 m, with r_goal 0.1 m,
     left robots stopped 0.1-0.3 m short of their goal for good) ..."""
-    stall_time: float = 1.0
+    stall_time: float = STALL_TIME
     """... for this long [s] starts a detour ..."""
-    progress_window: float = 5.0
+    progress_window: float = PROGRESS_WINDOW
     """A robot that has not come closer to its goal by ``stall_speed * v_max * progress_window``
     over this window [s] is stalled too, whatever its speed (creeping sideways, circling);
     0 turns the progress test off."""
-    detour_time: float = 2.0
+    detour_time: float = DETOUR_TIME
     """... of this duration [s] ..."""
     detour_angle: float = -math.pi / 4
     """... with v_pref rotated by this angle [rad] (negative: keep right) and w_safety = 0
@@ -205,7 +206,7 @@ class VCSParams:
     or give way at a junction stall for good reasons, and backing out cost `intersection-v0` 9
     points and `corridor-v0` 7 (time-outs). False: every detour turns by detour_angle, the
     ablation [ours]."""
-    detour_jitter: float = 0.5
+    detour_jitter: float = DETOUR_JITTER
     """On a map with walls, each detour lasts detour_time times a factor uniform in
     [1 - detour_jitter, 1 + detour_jitter] (the world's counter-based noise): a head-on pair
     in a door one robot wide otherwise stalls, detours and comes back in step (0: every detour

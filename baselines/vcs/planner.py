@@ -99,7 +99,10 @@ class VCSPlanner(Planner):
             float(world.dt), float(world.r_goal), p.stall_goal_margin, p.stall_speed, p.stall_time,
             p.progress_window, p.detour_time, p.detour_jitter, bool(p.detour_jitter > 0 and world.n_segments),
         )  # fmt: skip
-        kernel.stall_rules(world.key, world.steps, kworld, rules, d_goal, mem.inp, mem.out, psi, detour)
+        kernel.stall_rules(
+            world.key, world.steps, kworld.speed, kworld.v_max, kworld.active, rules, d_goal, mem.inp, mem.out, psi,
+            detour,
+        )  # fmt: skip
         if n > 1 and p.perturbation > 0:
             # Symmetry breaking (vcs-method §2.5): a small random push, from the world's counter-based noise.
             own = np.empty((B, n, 2))

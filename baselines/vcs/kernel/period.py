@@ -13,25 +13,11 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
-_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
-_M1 = np.uint64(0xBF58476D1CE4E5B9)
-_M2 = np.uint64(0x94D049BB133111EB)
+from vcs_env.stall import stall_rules, uniform  # noqa: F401  (one implementation, shared with the clock)
+
 TWO_PI = 2.0 * math.pi
-
-
-@njit(cache=True)
-def uniform(key, step, i, stream):
-    """:func:`vcs_env.noise.uniform` of world key ``key``, step ``step``, robot ``i`` and
-    ``stream``, one number in [0, 1) (the same splitmix64 bits)."""
-    counter = np.uint64(step) * np.uint64(1 << 20) + np.uint64(i) * np.uint64(64) + np.uint64(stream)
-    z = key + (counter + np.uint64(1)) * _GOLDEN
-    z = (z ^ (z >> np.uint64(30))) * _M1
-    z = (z ^ (z >> np.uint64(27))) * _M2
-    z = z ^ (z >> np.uint64(31))
-    return np.float64(z >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
 @njit(cache=True)
@@ -65,48 +51,6 @@ def sync_memory(steps, key, mem_step, mem_key, inp, out):
                 inp.tries[b, i] = out.tries[b, i] if advance else 0.0
         mem_step[b] = steps[b]
         mem_key[b] = key[b]
-
-
-@njit(cache=True)
-def stall_rules(key, steps, world, rules, d_goal, inp, out, psi, detour):
-    """The stall and detour rules of every robot (vcs-method §2.13) into ``out`` (the memory for
-    the next period), ``detour`` ``(B, n)`` (the robot detours this period) and ``psi`` ``(B, n)``
-    [rad] (the direction of its symmetry-breaking push, vcs-method §2.5).
-
-    After ``stall_time`` [s] slow and away from the goal, or after ``progress_window`` [s] without
-    gaining ``stall_speed v_max progress_window`` [m] on the goal (whatever the speed), a robot
-    detours for ``detour_time`` [s] (times a factor in [1 - jitter, 1 + jitter] among walls, so
-    that a head-on pair in a door comes back one after the other). ``rules`` is the record of
-    :data:`~.records.StallRules`, ``key``, ``steps`` ``(B,)`` the worlds' noise keys and step
-    counts, ``d_goal`` ``(B, n)`` the goal (or route) distance [m]."""
-    rl = rules
-    B, n = d_goal.shape
-    dt = rl.dt
-    for b in range(B):
-        for i in range(n):
-            psi[b, i] = TWO_PI * uniform(key[b], steps[b], i, 1)
-            dg = d_goal[b, i]
-            away = dg > rl.r_goal + rl.stall_goal_margin and world.active[b, i]
-            stalled = world.speed[b, i] < rl.stall_speed * world.v_max[b, i] and away
-            ref = inp.ref[b, i] if inp.ref[b, i] > 0 else dg
-            progressed = ref - dg >= rl.stall_speed * world.v_max[b, i] * rl.progress_window
-            wait = 0.0 if progressed else inp.wait[b, i] + dt
-            no_progress = away and rl.progress_window > 0 and wait >= rl.progress_window - 1e-9
-            slow = stalled and inp.stall[b, i] + dt >= rl.stall_time - 1e-9
-            start = inp.detour[b, i] <= 0 and (slow or no_progress)
-            detour[b, i] = inp.detour[b, i] > 0 or start
-            if start:
-                length = rl.detour_time
-                if rl.jitter_walls:
-                    length = rl.detour_time * (1.0 + rl.detour_jitter * (2.0 * uniform(key[b], steps[b], i, 2) - 1.0))
-                out.detour[b, i] = length - dt
-            else:
-                out.detour[b, i] = inp.detour[b, i] - dt if detour[b, i] else 0.0
-            out.stall[b, i] = inp.stall[b, i] + dt if stalled and not detour[b, i] else 0.0
-            mark = progressed or start  # a new progress mark: progress made, or a detour begins
-            out.ref[b, i] = dg if mark else ref
-            out.wait[b, i] = 0.0 if mark else wait
-            out.tries[b, i] = 0.0 if progressed else inp.tries[b, i] + (1.0 if start else 0.0)
 
 
 @njit(cache=True)

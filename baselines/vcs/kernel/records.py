@@ -11,6 +11,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from vcs_env.stall import Rules
+
 INF = np.inf
 
 # ------------------------------------------------------------------ tolerances
@@ -212,12 +214,8 @@ of the last period and whether it is set, the time spent stalled [s], the detour
 the goal distance at the last progress mark [m] (0: unset), the time since that mark [s] and the
 detours begun since the robot last made progress."""
 
-StallRules = namedtuple(
-    "StallRules",
-    "dt r_goal stall_goal_margin stall_speed stall_time progress_window detour_time detour_jitter jitter_walls",
-)
-"""The stall and detour rules (:func:`~.period.stall_rules`): period [s], arrival radius [m], the
-``VCSParams`` of the same names, and whether detours are jittered (walls, ``detour_jitter > 0``)."""
+StallRules = Rules
+"""The stall and detour rules (:data:`vcs_env.stall.Rules`, :func:`vcs_env.stall.stall_rules`)."""
 
 Outputs = namedtuple("Outputs", "target cost fallback k t_star threats goal_step")
 """Per-robot results ``(B, n, ...)`` of :func:`~baselines.vcs.kernel.search.plan_batch`."""
