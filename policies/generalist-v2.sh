@@ -18,8 +18,10 @@ for pair in $RUNS; do
 done
 export OMP_NUM_THREADS=1
 mkdir -p "$ROOT"
-# Wall sensing of every scenario (the observation config the mixture shares): the 6 nearest points on walls.
-SENSE=(--n-wall-points 6)
+# Sensing of every scenario (the observation config the mixture shares): the 6 nearest points on walls, and
+# the stall clock (the memory the expert frees deadlocks with; without it BC + PPO deadlock on the maps,
+# docs/training.md).
+SENSE=(--n-wall-points 6 --stall-clock)
 # Sizes: episodes of expert data, BC epochs, DAgger rounds and episodes, PPO steps, start-state rounds.
 if [ "$SMOKE" = 1 ]; then
   EPISODES=46 EPOCHS=1 DAGGER=1 DAGGER_EP=23 PPO=20000 WORLDS=46 ROUND=10000 ROUNDS=1 STATES_EP=2 EVAL=0 VAL=7000:7002
