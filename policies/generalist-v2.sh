@@ -96,4 +96,4 @@ done
 [ "$failed" = 0 ] || exit 1
 vcs-env select "${runs[@]/%//round$ROUNDS}" --from-step $((ROUND / 2)) --no-progress --out "$ROOT/release" \
   --validation "circle-24-v0:$VAL" "dynamic-v0:$VAL" "crowd-20-v0:$VAL" "room-v0:$VAL" "walls-v0:$VAL" \
-  "random-dense-v0:$VAL"
+  "random-dense-v0:$VAL" "corridor-v0:$VAL" "intersection-v0:$VAL"
