@@ -48,9 +48,7 @@ class WorldState:
     seg_b: np.ndarray | None = None  # (B, s, 2) wall segment end points [m]
     seg_present: np.ndarray | None = None  # (B, s) bool: segment k exists in world b
     bounce_half: float | None = None  # obstacles reflect off the arena's edges at +-bounce_half [m]; None: no edges
-    clock: np.ndarray | None = (
-        None  # (B, n, 6) the stall clock (vcs_env.stall), kept with Scenario.stall_clock; None: not kept
-    )
+    clock: np.ndarray | None = None  # (B, n, 6) stall clock (vcs_env.stall, Scenario.stall_clock); None: not kept
 
     def __post_init__(self) -> None:
         if self.seg_a is None:
