@@ -21,6 +21,7 @@ made progress, and whether it detours in this state (0 or 1).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import namedtuple
 
@@ -139,7 +140,9 @@ def tick(world, worlds=None) -> None:
     B, n = sub.shape[:2]
     if B == 0:
         return
-    d_goal = np.ascontiguousarray(goal_distances(world)[idx])
+    # Route distances of the ticked worlds only (a reset of a few worlds must not route them all).
+    ticked = world if worlds is None else dataclasses.replace(world, **{f: v[idx] for f, v in world.arrays().items()})
+    d_goal = np.ascontiguousarray(goal_distances(ticked))
     rules = Rules(
         float(world.dt), float(world.r_goal), 0.0, STALL_SPEED, STALL_TIME, PROGRESS_WINDOW, DETOUR_TIME,
         DETOUR_JITTER, bool(world.n_segments),
