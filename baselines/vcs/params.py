@@ -134,6 +134,12 @@ class VCSParams:
     against each obstacle's mirror image in the edge it moves toward (a straight motion reflected
     off a line is the straight motion of its image), so it sees the obstacle coming back before it
     turns (False: obstacles keep their velocity, the ablation) [ours]."""
+    mover_turn_lead: float | None = None
+    """Movers that turn: each obstacle's velocity is taken turned by its turn over the last period
+    (at most :data:`~baselines.vcs.planner.MAX_TURN_RATE`; a faster change of heading is a jump,
+    a bounce or a push, not a turn) scaled to this lead [s], the heading it will have ``lead``
+    from now at its current turn rate; a straight line of that heading is the chord of its arc
+    over twice the lead. ``None``: obstacles keep their velocity (the default) [ours]."""
     no_follow: bool = True
     """Inside a non-reactive mover's regulated buffer (a moving obstacle's, an arriving robot's),
     the robot closes on it no faster than it could brake within the surface gap g,
@@ -314,6 +320,8 @@ class VCSParams:
             check_positive("VCSParams.fit_clearance", self.fit_clearance)
         if self.fallback_clearance is not None:
             check_positive("VCSParams.fallback_clearance", self.fallback_clearance, allow_zero=True)
+        if self.mover_turn_lead is not None:
+            check_positive("VCSParams.mover_turn_lead [s]", self.mover_turn_lead)
 
     @property
     def weights(self) -> tuple[float, float, float, float, float, float]:

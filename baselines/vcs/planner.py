@@ -40,6 +40,32 @@ class _Memory:
         kernel.sync_memory(world.steps, world.key, self.step, self.key, self.inp, self.out)
 
 
+@dataclasses.dataclass
+class _MoverMemory:
+    """Every obstacle's velocity at the last period seen and at the one before, per world (for
+    ``VCSParams.mover_turn_lead``); planning the same step again changes nothing."""
+
+    step: np.ndarray  # (B,) int
+    key: np.ndarray  # (B,) uint64
+    now: np.ndarray  # (B, m, 2) [m/s]
+    before: np.ndarray  # (B, m, 2) [m/s]
+    has: np.ndarray  # (B,) bool: ``before`` is the period just before ``now``
+
+    @classmethod
+    def empty(cls, B: int, m: int) -> _MoverMemory:
+        z = np.zeros((B, m, 2))
+        return cls(np.full(B, -1, dtype=np.int64), np.zeros(B, dtype=np.uint64), z, z.copy(), np.zeros(B, dtype=bool))
+
+    def update(self, world: WorldState) -> None:
+        same = world.key == self.key
+        new = same & (world.steps == self.step + 1)
+        again = same & (world.steps == self.step)
+        self.before[new] = self.now[new]
+        self.has = new | (again & self.has)
+        self.now = world.obs_vel.copy()
+        self.step, self.key = world.steps.copy(), world.key.copy()
+
+
 class VCSPlanner(Planner):
     """Velocity Change Space planner (Zhong, Zhong and Peng), batched over worlds and robots.
 
@@ -69,6 +95,7 @@ class VCSPlanner(Planner):
         self.params = dataclasses.replace(base, **overrides) if overrides else base
         self._prm = kernel.params_record(self.params)
         self._mem: _Memory | None = None
+        self._movers: _MoverMemory | None = None
         self._cache_key: tuple | None = None
         self._cache_target: np.ndarray | None = None
         self.last: dict[str, np.ndarray] = {}
@@ -202,9 +229,17 @@ class VCSPlanner(Planner):
     def _kernel_world(self, world: WorldState) -> kernel.World:
         """The world arrays as the kernels read them (with ``mirror_bounces``, the obstacles
         followed by their mirror images, :func:`bounce_images`)."""
-        obs = (world.obs_pos, world.obs_vel, world.obs_radius)
+        vel = world.obs_vel
+        lead = self.params.mover_turn_lead
+        if lead is not None and world.n_obstacles:
+            mem = self._movers
+            if mem is None or mem.now.shape != vel.shape:
+                mem = self._movers = _MoverMemory.empty(world.batch_size, world.n_obstacles)
+            mem.update(world)
+            vel = turned_velocities(mem.before, mem.now, mem.has, float(world.dt), lead)
+        obs = (world.obs_pos, vel, world.obs_radius)
         if self.params.mirror_bounces and world.bounce_half is not None and world.n_obstacles:
-            obs = bounce_images(world.obs_pos, world.obs_vel, world.obs_radius, world.bounce_half)
+            obs = bounce_images(world.obs_pos, vel, world.obs_radius, world.bounce_half)
         return kernel.World(
             world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
             world.active, world.present, *obs, world.seg_a, world.seg_b, world.seg_present,
@@ -323,6 +358,25 @@ class VCSPlanner(Planner):
         )
         n, m0 = world.n_robots, world.n_obstacles
         return ok, cost, np.concatenate((horizon[: n + m0], horizon[n + m : n + m + n], horizon[2 * n + m :]))
+
+
+MAX_TURN_RATE = 2.0
+"""[rad/s] fastest change of an obstacle's heading that ``VCSParams.mover_turn_lead`` reads as a
+turn; a faster one (a bounce off an edge, a push) is a jump, and the obstacle keeps its velocity."""
+
+
+def turned_velocities(before: np.ndarray, now: np.ndarray, has: np.ndarray, dt: float, lead: float) -> np.ndarray:
+    """Obstacle velocities ``now`` ``(B, m, 2)`` [m/s] turned by their turn since ``before`` (one
+    period ``dt`` [s] earlier; worlds where ``has`` ``(B,)`` is False have no such period) times
+    ``lead / dt``: the heading each will have ``lead`` [s] from now at its current turn rate
+    (``VCSParams.mover_turn_lead``). Obstacles at rest, or that turned faster than
+    :data:`MAX_TURN_RATE`, keep their velocity."""
+    a0 = np.arctan2(before[..., 1], before[..., 0])
+    a1 = np.arctan2(now[..., 1], now[..., 0])
+    turn = (a1 - a0 + np.pi) % (2.0 * np.pi) - np.pi
+    moving = (np.hypot(before[..., 0], before[..., 1]) > 1e-6) & (np.hypot(now[..., 0], now[..., 1]) > 1e-6)
+    smooth = has[:, None] & moving & (np.abs(turn) <= MAX_TURN_RATE * dt)
+    return rotate(now, np.where(smooth, turn * (lead / dt), 0.0))
 
 
 ESCALATION = 4
