@@ -134,12 +134,12 @@ class VCSParams:
     against each obstacle's mirror image in the edge it moves toward (a straight motion reflected
     off a line is the straight motion of its image), so it sees the obstacle coming back before it
     turns (False: obstacles keep their velocity, the ablation) [ours]."""
-    mover_turn_lead: float | None = None
+    mover_turn_lead: float | None = 0.2
     """Movers that turn: each obstacle's velocity is taken turned by its turn over the last period
     (at most :data:`~baselines.vcs.planner.MAX_TURN_RATE`; a faster change of heading is a jump,
     a bounce or a push, not a turn) scaled to this lead [s], the heading it will have ``lead``
     from now at its current turn rate; a straight line of that heading is the chord of its arc
-    over twice the lead. ``None``: obstacles keep their velocity (the default) [ours]."""
+    over twice the lead. ``None``: obstacles keep their velocity (the ablation) [ours]."""
     no_follow: bool = True
     """Inside a non-reactive mover's regulated buffer (a moving obstacle's, an arriving robot's),
     the robot closes on it no faster than it could brake within the surface gap g,

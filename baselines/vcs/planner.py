@@ -229,14 +229,7 @@ class VCSPlanner(Planner):
     def _kernel_world(self, world: WorldState) -> kernel.World:
         """The world arrays as the kernels read them (with ``mirror_bounces``, the obstacles
         followed by their mirror images, :func:`bounce_images`)."""
-        vel = world.obs_vel
-        lead = self.params.mover_turn_lead
-        if lead is not None and world.n_obstacles:
-            mem = self._movers
-            if mem is None or mem.now.shape != vel.shape:
-                mem = self._movers = _MoverMemory.empty(world.batch_size, world.n_obstacles)
-            mem.update(world)
-            vel = turned_velocities(mem.before, mem.now, mem.has, float(world.dt), lead)
+        vel = self.obstacle_velocities(world)
         obs = (world.obs_pos, vel, world.obs_radius)
         if self.params.mirror_bounces and world.bounce_half is not None and world.n_obstacles:
             obs = bounce_images(world.obs_pos, vel, world.obs_radius, world.bounce_half)
@@ -244,6 +237,20 @@ class VCSPlanner(Planner):
             world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
             world.active, world.present, *obs, world.seg_a, world.seg_b, world.seg_present,
         )  # fmt: skip
+
+    def obstacle_velocities(self, world: WorldState) -> np.ndarray:
+        """The obstacle velocities ``(B, m, 2)`` [m/s] the planner plans with in this state: the
+        sensed ones, turned a lead ahead with ``mover_turn_lead`` (:func:`turned_velocities`; the
+        planner remembers the last period's, so asking again in the same state changes nothing)."""
+        vel = world.obs_vel
+        lead = self.params.mover_turn_lead
+        if lead is None or not world.n_obstacles:
+            return vel
+        mem = self._movers
+        if mem is None or mem.now.shape != vel.shape:
+            mem = self._movers = _MoverMemory.empty(world.batch_size, world.n_obstacles)
+        mem.update(world)
+        return turned_velocities(mem.before, mem.now, mem.has, float(world.dt), lead)
 
     def _kernel_inputs(self, world: WorldState, kworld, own, comm, detour, planned) -> tuple:
         """The world, preferred velocities, memory and the robots to plan ``(B, n)`` bool, and the

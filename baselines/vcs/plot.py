@@ -82,7 +82,8 @@ def object_forbidden_masks(
         )
         if arriving and world.speed[b, j] > 1e-6:
             objects.append((n + m + j, world.pos[b, j], np.zeros(2), world.radius[b, j], False))
-    objects += [(n + k, world.obs_pos[b, k], world.obs_vel[b, k], world.obs_radius[b, k], False) for k in range(m)]
+    obs_vel = planner.obstacle_velocities(world)[b]  # as the planner takes them (mover_turn_lead)
+    objects += [(n + k, world.obs_pos[b, k], obs_vel[k], world.obs_radius[b, k], False) for k in range(m)]
     for idx, pos, v_j, r_j, reciprocal in objects:
         r0 = world.radius[b, i] + r_j
         rel = pos - world.pos[b, i]
