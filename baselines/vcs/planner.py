@@ -9,6 +9,7 @@ import numpy as np
 from vcs_env.geometry import rotate
 from vcs_env.planning import Planner
 from vcs_env.routes import route_direction
+from vcs_env.stall import goal_distances
 from vcs_env.state import WorldState
 
 from ..capsule import reference_capsule_tau
@@ -114,8 +115,7 @@ class VCSPlanner(Planner):
             route = (scaled, length)
             d_goal = length
         else:
-            d_goal = np.empty((B, n))
-            kernel.goal_distance(world.pos, world.goal, d_goal)
+            d_goal = goal_distances(world)  # as the stall clock measures it
         pref = preferred_velocity(world, route=route)
         if p.give_way and world.n_segments and n > 1:
             # Give way at crossing routes (vcs-method §2.19): priority to the right.

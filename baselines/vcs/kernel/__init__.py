@@ -23,7 +23,7 @@ the cache (``__pycache__/*.nbi``, ``*.nbc``, or ``NUMBA_CACHE_DIR``) before meas
 ``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
-from .period import finish, goal_distance, push, stall_rules, sync_memory
+from .period import finish, push, stall_rules, sync_memory
 from .records import PARAMS, Inputs, Memory, Outputs, Setting, StallRules, World, params_record
 from .scalar import tau, tau_within
 from .search import evaluate_points, plan_batch
@@ -38,7 +38,6 @@ __all__ = [
     "World",
     "evaluate_points",
     "finish",
-    "goal_distance",
     "params_record",
     "plan_batch",
     "push",

@@ -54,17 +54,6 @@ def sync_memory(steps, key, mem_step, mem_key, inp, out):
 
 
 @njit(cache=True)
-def goal_distance(pos, goal, d_goal):
-    """Distance to the goal ``(B, n)`` [m] (the world has no walls, so no route)."""
-    B, n = d_goal.shape
-    for b in range(B):
-        for i in range(n):
-            ex = goal[b, i, 0] - pos[b, i, 0]
-            ey = goal[b, i, 1] - pos[b, i, 1]
-            d_goal[b, i] = math.sqrt(ex * ex + ey * ey)
-
-
-@njit(cache=True)
 def push(pref, v_max, d_goal, r_goal, perturbation, cos_psi, sin_psi, own):
     """Own preferred velocity ``own`` ``(B, n, 2)`` [m/s]: ``pref`` plus the symmetry-breaking
     push of speed ``perturbation v_max`` in direction psi for robots away from their goal."""
