@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from vcs_env.geometry import rotate
+from vcs_env.geometry import rotate, wrap_angle
 from vcs_env.planning import Planner
 from vcs_env.routes import route_direction
 from vcs_env.stall import goal_distances
@@ -15,6 +15,7 @@ from vcs_env.state import WorldState
 from ..capsule import reference_capsule_tau
 from ..common import preferred_velocity
 from . import kernel
+from .kernel.records import STATIC_SPEED
 from .params import VCSParams
 
 
@@ -376,12 +377,14 @@ def turned_velocities(before: np.ndarray, now: np.ndarray, has: np.ndarray, dt: 
     """Obstacle velocities ``now`` ``(B, m, 2)`` [m/s] turned by their turn since ``before`` (one
     period ``dt`` [s] earlier; worlds where ``has`` ``(B,)`` is False have no such period) times
     ``lead / dt``: the heading each will have ``lead`` [s] from now at its current turn rate
-    (``VCSParams.mover_turn_lead``). Obstacles at rest, or that turned faster than
-    :data:`MAX_TURN_RATE`, keep their velocity."""
+    (``VCSParams.mover_turn_lead``). Obstacles at rest (below the kernel's ``STATIC_SPEED``), or that
+    turned faster than :data:`MAX_TURN_RATE`, keep their velocity."""
     a0 = np.arctan2(before[..., 1], before[..., 0])
     a1 = np.arctan2(now[..., 1], now[..., 0])
-    turn = (a1 - a0 + np.pi) % (2.0 * np.pi) - np.pi
-    moving = (np.hypot(before[..., 0], before[..., 1]) > 1e-6) & (np.hypot(now[..., 0], now[..., 1]) > 1e-6)
+    turn = wrap_angle(a1 - a0)
+    moving = (np.hypot(before[..., 0], before[..., 1]) > STATIC_SPEED) & (
+        np.hypot(now[..., 0], now[..., 1]) > STATIC_SPEED
+    )
     smooth = has[:, None] & moving & (np.abs(turn) <= MAX_TURN_RATE * dt)
     return rotate(now, np.where(smooth, turn * (lead / dt), 0.0))
 
