@@ -108,6 +108,13 @@ class VCSParams:
     collision is ~0 and cannot rank), the least-harm fallback measures time to contact with the
     combined physical radius plus this clearance [m] (at most r_eff); ``None``: always the
     regulated radius r_eff (the ablation; vcs-method §2.13) [ours]."""
+    fallback_contact: float | None = 20.0
+    """Movers faster than the robot: the fallback also plays each candidate out against the moving
+    obstacles (the robot ramping to it and holding it, each obstacle at its planned velocity, up
+    to ``t_max``) and a candidate that meets one (contact radius r0 + ``fallback_clearance``),
+    first at t_m [s] with the robot driving toward it at v_t [m/s], costs this weight [s] times
+    ``1 / t_m + v_t`` more: the least-bad escape meets a mover late, and not head on. Driving and
+    parked robots are not counted. ``None``: off (the ablation; vcs-method §2.13) [ours]."""
     # --- safety against what does not get out of the way [reconstructed]
     # (vcs-method §2.4, vcs-method §2.7, vcs-method §2.15)
     arriving_non_reactive: bool = True
@@ -320,6 +327,8 @@ class VCSParams:
             check_positive("VCSParams.fit_clearance", self.fit_clearance)
         if self.fallback_clearance is not None:
             check_positive("VCSParams.fallback_clearance", self.fallback_clearance, allow_zero=True)
+        if self.fallback_contact is not None:
+            check_positive("VCSParams.fallback_contact [s]", self.fallback_contact)
         if self.mover_turn_lead is not None:
             check_positive("VCSParams.mover_turn_lead [s]", self.mover_turn_lead)
 

@@ -158,6 +158,16 @@ def cost(nbs, js, nj, r, dv, dth, vx, vy, steps):
 
 
 @njit(cache=True)
+def ramp_line(r, dv, dth):
+    """The velocity change ``(ex, ey)`` [m/s] to VCS point (dv, dth) and its length ``e`` (a holonomic
+    ramp's straight line, :func:`ramp_velocity`)."""
+    s_end = r.v_r + dv
+    ex = s_end * math.cos(r.th + dth) - r.vrx
+    ey = s_end * math.sin(r.th + dth) - r.vry
+    return ex, ey, math.sqrt(ex * ex + ey * ey)
+
+
+@njit(cache=True)
 def ramp_velocity(r, dv, dth, ex, ey, e, k):
     """Velocity [m/s] after ``k`` steps toward VCS point (dv, dth) at the maximal per-step rates
     (holonomic: along the straight line ``(ex, ey)`` of length ``e`` [m/s])."""
@@ -201,10 +211,7 @@ def ramp_walk(nbs, count, r, dv, dth, walls_only):
         steps = max(steps, 1)  # the fallback's candidates: its first step too
     elif steps <= 1:
         return True  # reached within the step: the velocity obstacles judge it
-    s_end = r.v_r + dv
-    ex = s_end * math.cos(r.th + dth) - r.vrx
-    ey = s_end * math.sin(r.th + dth) - r.vry
-    e = math.sqrt(ex * ex + ey * ey)
+    ex, ey, e = ramp_line(r, dv, dth)
     a_max = r.dv1 / r.dt
     px = 0.0
     py = 0.0

@@ -7,9 +7,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .cost import goal_term, wall_ramp_clear
+from .cost import goal_term, ramp_line, ramp_velocity, wall_ramp_clear
 from .neighbours import collision_time, forbidden, inside_buffer
-from .records import INF, K_STATIC, T_FLOOR, TINY, WALL_COST
+from .records import INF, K_MOVER, K_STATIC, T_FLOOR, TINY, WALL_COST
 from .scalar import reach_steps, tau
 from .window import candidate
 
@@ -68,17 +68,23 @@ def refused(nbs, count, r, dv, dth, vx, vy, tmax):
 
 
 @njit(cache=True)
-def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance=-1.0, eps=0.0, bound=INF):
+def fallback_cost(
+    nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance=-1.0, eps=0.0, bound=INF, contact=0.0, horizon=0.0
+):
     """Cost of a candidate when nothing is admissible (vcs-method §2.13), unless least harm refuses
     it (:func:`refused`, the caller's test). The RVO-style penalty ``kappa / t_c + J_g`` (t_c: the
     least time to collision over the neighbours), and with ``least_harm`` an overlap counts by how
     much the candidate fails to separate (the overlap half-plane's violation [m/s], weighted
     kappa / dt). Walls stay hard (vcs-method §2.18): a candidate inside a wall's truncated
-    velocity obstacle costs :data:`~.records.WALL_COST` more than any that is not.
+    velocity obstacle costs :data:`~.records.WALL_COST` more than any that is not. With ``least_harm`` and
+    ``contact`` > 0 [s] (``VCSParams.fallback_contact``), a candidate that meets a moving obstacle
+    within ``horizon`` [s] (:func:`mover_contact`, first at t_m [s], driving toward it at v_t [m/s]
+    then) costs ``contact (1 / t_m + v_t)`` more (t_m in s, v_t in m/s).
 
     Returns inf as soon as the cost is known to be at least ``bound`` (the best so far, which it
     then cannot beat): every term is non-negative and only grows over the neighbours, so the
     partial sum, in the same order, is never above the full one."""
+    contact_clear = max(clearance, 0.0)  # before it is switched off below
     g = goal_term(r, dv, dth, vx, vy)
     if g >= bound:
         return INF
@@ -108,7 +114,48 @@ def fallback_cost(nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance=-
                 tmin = tc
         if harm(kappa, tmin, r.dt, viol, g, least_harm) + walled >= bound:
             return INF
-    return harm(kappa, tmin, r.dt, viol, g, least_harm) + walled
+    j = harm(kappa, tmin, r.dt, viol, g, least_harm) + walled
+    if contact > 0.0 and least_harm:
+        t, toward = mover_contact(nbs, count, r, dv, dth, contact_clear, horizon)
+        if t < INF:
+            j += contact * (1.0 / max(t, T_FLOOR) + max(toward, 0.0))
+    return j
+
+
+@njit(cache=True)
+def mover_contact(nbs, count, r, dv, dth, clear, horizon):
+    """The candidate (dv, dth) against the moving obstacles (vcs-method §2.13): the robot ramps
+    to it at the maximal per-step rates (:func:`~.cost.ramp_velocity`) and holds it, each moving
+    obstacle keeps its (planned) velocity; the first time [s] within ``horizon`` at which some
+    obstacle comes within its combined physical radius plus ``clear`` [m] (inf: none), and the
+    largest speed [m/s] of the robot toward an obstacle's centre at that obstacle's first
+    contact (0 if none). Driving and parked robots, static bodies and walls are not counted."""
+    ex, ey, e = ramp_line(r, dv, dth)
+    steps = int(horizon / r.dt + 0.5)
+    first = INF
+    toward = 0.0
+    for q in range(count):
+        nb = nbs[q]
+        if nb.kind != K_MOVER or nb.mover or nb.overlap:
+            continue  # an overlap is least harm's violation term already
+        rc = nb.r0 + clear
+        if nb.d - rc > (math.sqrt(nb.vjx * nb.vjx + nb.vjy * nb.vjy) + r.v_r + r.dv1 / r.dt * horizon) * horizon:
+            continue  # cannot meet within the horizon
+        px = 0.0
+        py = 0.0
+        for k in range(1, steps + 1):
+            vx, vy = ramp_velocity(r, dv, dth, ex, ey, e, k)
+            px += vx * r.dt
+            py += vy * r.dt
+            t = k * r.dt
+            gx = nb.px + nb.vjx * t - px
+            gy = nb.py + nb.vjy * t - py
+            d2 = gx * gx + gy * gy
+            if d2 < rc * rc:
+                first = min(first, t)
+                toward = max(toward, (vx * gx + vy * gy) / math.sqrt(max(d2, TINY)))
+                break
+    return first, toward
 
 
 @njit(cache=True)
@@ -161,7 +208,8 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
             if out:
                 continue
         j = fallback_cost(
-            nbs, count, r, dv, dth, vx, vy, p.kappa, p.least_harm, p.fallback_clearance, p.eps, best
+            nbs, count, r, dv, dth, vx, vy, p.kappa, p.least_harm, p.fallback_clearance, p.eps, best,
+            p.fallback_contact, p.t_max,
         )  # fmt: skip
         if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
             j += WALL_COST

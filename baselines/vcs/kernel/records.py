@@ -83,6 +83,7 @@ PARAMS = np.dtype(
         ("crowd_margin", "?"),
         ("crowd_reach", "?"),  # contesting movers: any the robot could meet (else: closing ones)
         ("fallback_clearance", "f8"),  # least-harm fallback's contact radius r0 + this [m]; < 0: r_eff
+        ("fallback_contact", "f8"),  # fallback weight of contact with a moving obstacle [s]; 0: off
         ("fit_clearance", "f8"),  # buffers fit passable gaps, down to this clearance [m]; < 0: off
         ("no_follow", "?"),  # inside a mover's buffer, do not close on it as it recedes
         ("stall_turn", "?"),  # a detouring robot at rest turns in place toward its goal (else: by walls only)
@@ -132,6 +133,7 @@ def params_record(p) -> np.ndarray:
         "crowd_margin": p.crowd_margin,
         "crowd_reach": p.crowd_margin and p.crowd_reach and p.horizon == "adaptive",
         "fallback_clearance": -1.0 if p.fallback_clearance is None else p.fallback_clearance,
+        "fallback_contact": 0.0 if p.fallback_contact is None else p.fallback_contact,
         "fit_clearance": -1.0 if p.fit_clearance is None else p.fit_clearance,
         "no_follow": p.no_follow,
         "stall_turn": p.stall_turn,
