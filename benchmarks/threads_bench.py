@@ -4,8 +4,9 @@ Times :meth:`vcs_env.engine.NavEngine.step` (auto-reset on, random actions from 
 before timing) on the env benchmark's worlds (:func:`benchmarks.env_bench.our_scenario`: the
 ``dynamic`` preset, ``n = 3`` robots, 10 obstacles turning at random and bouncing off the arena)
 at ``B = 1024`` and ``4096`` worlds, without lidar and with 12 and 64 beams, on 1, 2 and all
-usable cores (:func:`vcs_env.set_threads`); and the serial/parallel crossover at small ``B`` (the
-reason for :data:`vcs_env.threads.MIN_PARALLEL_BATCH`, which is lowered to 1 for those rows).
+usable cores (:func:`vcs_env.set_threads`); the serial/parallel crossover at small ``B`` (the
+reason for :data:`vcs_env.threads.MIN_PARALLEL_BATCH`, which is lowered to 1 for those rows); and
+the VCS expert driving ``B = 256`` worlds of three suites (:func:`expert_rate`).
 
 Wall-clock rates (threads make CPU time meaningless), best of ``--repeats`` runs, in robot-steps
 per second (acting robots advanced by one step). The load average is printed beside them: on a
@@ -40,6 +41,9 @@ N_ROBOTS = 3
 BATCHES = (1024, 4096)
 BEAMS = (0, 12, 64)
 CROSSOVER_BATCHES = (16, 32, 64, 128, 256)
+EXPERT_SUITES = ("circle-16-v0", "crowd-20-v0", "doorway-v0")
+EXPERT_BATCH = 256
+EXPERT_STEPS = 30
 DEFAULT_OUT = Path("runs") / "bench-threads" / "THREADS.md"
 
 
@@ -81,6 +85,29 @@ def machine() -> dict:
     return info
 
 
+def expert_rate(suite: str, B: int, n_threads: int, steps: int, repeats: int) -> float:
+    """Best wall-clock robot-steps/s of ``steps`` steps of ``B`` worlds of ``suite``'s scenario driven
+    by the VCS expert (planning and stepping: what expert data collection and ``compare`` run)."""
+    from baselines.vcs import VCSPlanner
+    from vcs_env import threads
+    from vcs_env.engine import NavEngine
+    from vcs_env.suites import get_suite
+
+    threads.set_threads(n_threads)
+    eng = NavEngine(get_suite(suite).scenario, B)
+    best = 0.0
+    for _ in range(repeats + 1):  # the first run compiles and warms up
+        eng.reset(list(range(B)))
+        planner = VCSPlanner()
+        acted = 0
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            acted += int(eng.world.active.sum())
+            eng.step(planner.act(eng.world, "delta"))
+        best = max(best, acted / (time.perf_counter() - t0))
+    return best
+
+
 def run(steps: int, repeats: int, batches=BATCHES, beams=BEAMS, crossover=CROSSOVER_BATCHES) -> dict:
     from vcs_env import threads
 
@@ -102,13 +129,22 @@ def run(steps: int, repeats: int, batches=BATCHES, beams=BEAMS, crossover=CROSSO
             print(f"crossover B={B}: " + ", ".join(f"{t} thr {r / 1e6:.3f} M/s" for t, r in rates.items()), flush=True)
     finally:
         threads.MIN_PARALLEL_BATCH = old
+    expert = []
+    for suite in EXPERT_SUITES if batches is BATCHES else EXPERT_SUITES[:1]:
+        B, n_steps = (EXPERT_BATCH, EXPERT_STEPS) if batches is BATCHES else (16, 2)
+        rates = {t: expert_rate(suite, B, t, n_steps, min(repeats, 3)) for t in counts}
+        expert.append({"suite": suite, "B": B, "rates": rates})
+        print(f"expert {suite} B={B}: " + ", ".join(f"{t} thr {r / 1e3:.1f} k/s" for t, r in rates.items()), flush=True)
     threads.set_threads()
     info["load_average_end"] = list(os.getloadavg())
     import numba
 
     info["threading_layer"] = numba.threading_layer()
     info["omp_wait_policy"] = os.environ.get("OMP_WAIT_POLICY", "unset")
-    return {"machine": info, "threads": counts, "rows": rows, "crossover": cross, "steps": steps, "repeats": repeats}
+    return {
+        "machine": info, "threads": counts, "rows": rows, "crossover": cross, "expert": expert, "steps": steps,
+        "repeats": repeats,
+    }  # fmt: skip
 
 
 def render(res: dict) -> str:
@@ -156,6 +192,25 @@ def render(res: dict) -> str:
     ]
     for r in res["crossover"]:
         out.append(f"| {r['B']} | " + " | ".join(f"{r['rates'][t] / 1e6:.3f}" for t in counts) + " |")
+    out += [
+        "",
+        f"The VCS expert driving the suites' worlds ({EXPERT_STEPS} steps from the reset, planning and stepping, "
+        "best of 3 runs after a warm-up; robot-steps/s, k = 10^3): the planner's world loop runs in parallel "
+        "too; its Python glue (preferred velocities, routes among walls) and the env step's do not.",
+        "",
+        "| suite | B | " + " | ".join(f"{t} thread{'s' if t > 1 else ''} [k/s]" for t in counts)
+        + " | " + " | ".join(f"speed-up {t}/1" for t in counts[1:]) + " |",
+        "|---|---|" + "---|" * (2 * len(counts) - 1),
+    ]  # fmt: skip
+    for r in res.get("expert", []):
+        rates = r["rates"]
+        out.append(
+            f"| `{r['suite']}` | {r['B']} | "
+            + " | ".join(f"{rates[t] / 1e3:.1f}" for t in counts)
+            + " | "
+            + " | ".join(f"{rates[t] / rates[1]:.2f}x" for t in counts[1:])
+            + " |"
+        )
     return "\n".join(out) + "\n"
 
 

@@ -187,4 +187,5 @@ def test_threads_bench_quick_writes_its_table(tmp_path):
     text = out.read_text()
     assert "| B | lidar beams | 1 thread [M/s]" in text and "Load average" in text and "Machine:" in text
     res = json.loads(out.with_suffix(".json").read_text())
-    assert res["threads"][0] == 1 and res["rows"] and res["crossover"]
+    assert res["threads"][0] == 1 and res["rows"] and res["crossover"] and res["expert"]
+    assert "| `circle-16-v0` | 16 |" in text

@@ -7,10 +7,14 @@ import numba
 import numpy as np
 import pytest
 
+from baselines.vcs import VCSPlanner
+from baselines.vcs import kernel as vcs_kernel
 from vcs_env import kernels, lidar, threads
 from vcs_env.engine import NavEngine
 from vcs_env.lidar import LidarSpec
+from vcs_env.rollout import planner_controller, run_episodes
 from vcs_env.scenario import make_scenario
+from vcs_env.suites import get_suite
 
 TWO = pytest.mark.skipif(threads.max_threads() < 2, reason="NUMBA_NUM_THREADS < 2: numba has one thread")
 
@@ -39,6 +43,7 @@ def test_twins_have_their_own_cache_files():
         kernels.wall_events_cached,
         kernels.stop_at_contact,
         lidar.cast_into,
+        vcs_kernel.plan_batch,
     ):
         assert kernel.parallel.py_func.__qualname__ == kernel.serial.py_func.__qualname__ + "_parallel"
         assert kernel.parallel.targetoptions.get("parallel") and not kernel.serial.targetoptions.get("parallel")
@@ -89,6 +94,30 @@ def test_rollout_is_identical_with_one_and_two_threads(monkeypatch):
     for a, b in zip(one, two):
         assert a.dtype == b.dtype
         np.testing.assert_array_equal(a, b)
+
+
+@TWO
+@pytest.mark.parametrize("suite", ["crowd-20-v0", "doorway-v0"])
+def test_vcs_expert_plans_the_same_with_one_and_two_threads(monkeypatch, suite):
+    """The VCS planner's world loop over blocks of worlds in parallel (37 worlds: three blocks, the
+    last one short): the same episodes, step for step, among moving obstacles and among walls."""
+    monkeypatch.setattr(threads, "MIN_PARALLEL_BATCH", 1)
+    calls = []
+    par = vcs_kernel.plan_batch.parallel
+    monkeypatch.setattr(vcs_kernel.plan_batch, "parallel", lambda *a: calls.append(1) or par(*a))
+    scenario, seeds = get_suite(suite).scenario, range(5000, 5037)
+    old = threads.get_threads()
+    try:
+        runs = []
+        for n in (1, 2):
+            threads.set_threads(n)
+            runs.append(run_episodes(scenario, planner_controller(VCSPlanner()), seeds, max_steps=80))
+    finally:
+        threads.set_threads(old)
+    assert calls, "the planner never ran its parallel twin"
+    for a, b in zip(*runs, strict=True):
+        np.testing.assert_array_equal(a.pos, b.pos)
+        np.testing.assert_array_equal(a.actions, b.actions)
 
 
 @TWO

@@ -78,7 +78,8 @@ def get_threads() -> int:
 
 class TwinKernel:
     """A kernel compiled serial (``.serial``) and parallel over worlds (``.parallel``); calling it
-    runs one of them (module docstring). The first argument's leading axis is the batch ``B``."""
+    runs one of them (module docstring). The first argument's leading axis is the batch ``B`` (of its
+    first field, for a tuple of arrays such as the VCS planner's world)."""
 
     def __init__(self, func, **options):
         self.__wrapped__ = func
@@ -92,7 +93,8 @@ class TwinKernel:
 
     def __call__(self, *args):
         n = _threads[0]
-        if n > 1 and args[0].shape[0] >= MIN_PARALLEL_BATCH:
+        lead = args[0] if hasattr(args[0], "shape") else args[0][0]  # an array, or a tuple of arrays
+        if n > 1 and lead.shape[0] >= MIN_PARALLEL_BATCH:
             if numba.get_num_threads() != n:
                 numba.set_num_threads(n)
             return self.parallel(*args)

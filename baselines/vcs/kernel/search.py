@@ -7,7 +7,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
+
+from vcs_env.threads import WORLD_BLOCK, twin_kernel
 
 from .cost import admissible, blocker, consider, cost, ramp_clear, relevant, robot_context, safety_term
 from .fallback import fallback_search
@@ -258,36 +260,45 @@ def plan_robot(b, i, world, inputs, st, p, wk, g):
     return bdv, bdth, best, fell_back, int(win.k), tstar, n_threats, g1v, g1th
 
 
-@njit(cache=True)
+@twin_kernel(cache=True)
 def plan_batch(world, inputs, st, out):
     """Plan every active robot of every world that ``inputs.plan`` selects into ``out``
     (:data:`~.records.Outputs`, arrays ``(B, n, ...)``, see :func:`plan_robot`); the other robots
-    get zeros and t* = inf."""
+    get zeros and t* = inf. A world's plans depend on that world alone, so the world loop runs
+    over blocks of worlds in parallel (:mod:`vcs_env.threads`: the same plans for any thread
+    count), each block with its own scratch arrays."""
     B, n = world.pos.shape[0], world.pos.shape[1]
-    p = st.prm[0]
-    wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
-    g = grid_work(p)
-    for b in range(B):
-        for i in range(n):
-            if not (world.active[b, i] and inputs.plan[b, i]):
-                out.target[b, i, 0] = 0.0
-                out.target[b, i, 1] = 0.0
-                out.cost[b, i] = 0.0
-                out.fallback[b, i] = False
-                out.k[b, i] = 0
-                out.t_star[b, i] = INF
-                out.threats[b, i] = 0
-                continue
-            res = plan_robot(b, i, world, inputs, st, p, wk, g)
-            out.target[b, i, 0] = res[0]
-            out.target[b, i, 1] = res[1]
-            out.cost[b, i] = res[2]
-            out.fallback[b, i] = res[3]
-            out.k[b, i] = res[4]
-            out.t_star[b, i] = res[5]
-            out.threats[b, i] = res[6]
-            out.goal_step[b, i, 0] = res[7]
-            out.goal_step[b, i, 1] = res[8]
+    for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):
+        p = st.prm[0]  # inside: a record value does not pass into a parallel loop's body
+        wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
+        g = grid_work(p)
+        for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
+            plan_world(b, n, world, inputs, st, p, wk, g, out)
+
+
+@njit(cache=True)
+def plan_world(b, n, world, inputs, st, p, wk, g, out):
+    """:func:`plan_batch` of world b with scratch arrays ``wk`` and ``g``."""
+    for i in range(n):
+        if not (world.active[b, i] and inputs.plan[b, i]):
+            out.target[b, i, 0] = 0.0
+            out.target[b, i, 1] = 0.0
+            out.cost[b, i] = 0.0
+            out.fallback[b, i] = False
+            out.k[b, i] = 0
+            out.t_star[b, i] = INF
+            out.threats[b, i] = 0
+            continue
+        res = plan_robot(b, i, world, inputs, st, p, wk, g)
+        out.target[b, i, 0] = res[0]
+        out.target[b, i, 1] = res[1]
+        out.cost[b, i] = res[2]
+        out.fallback[b, i] = res[3]
+        out.k[b, i] = res[4]
+        out.t_star[b, i] = res[5]
+        out.threats[b, i] = res[6]
+        out.goal_step[b, i, 0] = res[7]
+        out.goal_step[b, i, 1] = res[8]
 
 
 @njit(cache=True)
