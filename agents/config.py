@@ -84,7 +84,7 @@ class ScenarioConfig:
     rewards: str | None = None
     """Overrides of the scenario's reward weights as name=weight pairs, comma separated, e.g.
     time=2,collision=20 (names: progress, arrival, collision, time, vcs_imitation, vcs_potential, danger,
-    arrival_speed)."""
+    arrival_speed, stuck)."""
     shaping: str = "none"
     """Reward shaping from the VCS expert: none, vcs_imitation or vcs_potential."""
     shaping_weight: float | None = None

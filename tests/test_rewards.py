@@ -174,6 +174,32 @@ def test_arrival_speed_is_minus_the_speed_the_arriving_step_began_with():
     assert "arrival_speed" not in eng.step(np.zeros((1, 2, 2))).terms  # computed only when weighted
 
 
+def test_stuck_costs_dt_while_the_stall_rule_counts_a_detour_without_progress():
+    """Two robots head-on in a door (``door-headon-v0``'s scenario), both standing still (zero
+    actions): after the stall rule's second at rest each begins a detour and from then on each step
+    costs it dt, the stall clock's detour count at one or more. Computed only when weighted, and
+    only with the stall clock."""
+    from vcs_env.suites import get_suite
+
+    base = dataclasses.replace(get_suite("door-headon-v0").scenario, stall_clock=True)
+    s = dataclasses.replace(base, rewards=dataclasses.replace(base.rewards, stuck=1.0))
+    eng = NavEngine(s)
+    eng.reset(seeds=[0])
+    terms = []
+    for _ in range(30):
+        res = eng.step(np.zeros((1, 2, 2)))
+        terms.append(res.terms["stuck"][0].copy())
+        tries = eng.world.clock[0, :, 4]
+        np.testing.assert_array_equal(res.terms["stuck"][0], np.where(tries >= 1, -s.dt, 0.0))
+    terms = np.array(terms)
+    assert (terms[:5] == 0.0).all() and (terms[-5:] == -s.dt).all()
+    eng = NavEngine(base)
+    eng.reset(seeds=[0])
+    assert "stuck" not in eng.step(np.zeros((1, 2, 2))).terms
+    with pytest.raises(ValueError, match="stuck reward term needs each robot's stall clock"):
+        dataclasses.replace(s, stall_clock=False)
+
+
 def test_rewards_flag_help_names_every_term():
     # --rewards takes any term of TERMS; its help (the ScenarioConfig field's docstring) lists them.
     from agents.config import ScenarioConfig, field_docs

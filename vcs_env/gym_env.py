@@ -58,6 +58,9 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
+    * v2, addition (same id): an optional reward term ``stuck`` (weight 0 by default; with the stall
+      clock): -dt per step while the expert's stall rule counts the robot as stuck. Rewards unchanged
+      unless weighted.
     * v2, addition (same id): an optional ``clock`` block (``stall_clock=True``, off by default): each
       robot's stall clock (:mod:`vcs_env.stall`, the memory the VCS expert frees deadlocks with), 5 floats
       after the neighbour slots. Without it every observation, and with it every episode, is as before.

@@ -18,8 +18,11 @@ from . import routes
 from .geometry import time_to_collision
 from .planning import Planner
 from .sim import StepEvents
+from .stall import CLOCK_FIELDS
 from .state import WorldState
 
+STALL_TRIES = CLOCK_FIELDS.index("tries")
+"""The stall clock's detours begun since the robot last made progress (:mod:`vcs_env.stall`)."""
 RewardFn = Callable[[WorldState, StepEvents, np.ndarray], np.ndarray]
 """A custom reward term as a function: ``fn(world_after, events, actions (B, n, 2)) -> (B, n)``."""
 
@@ -226,6 +229,26 @@ class ArrivalSpeed(RewardTerm):
         return out
 
 
+class Stuck(RewardTerm):
+    """``-dt`` [s] per step while the robot is stuck by the VCS expert's stall rule (:mod:`vcs_env.stall`):
+    since it last gained ground on its goal (along its route among walls) it has been slow or
+    without progress long enough to begin a detour (the stall clock's detour count is at least
+    one). Waiting in front of a door, or circling in a deadlock, costs it until it makes progress
+    again, which the ``time`` term alone barely does. Needs the stall clock (``Scenario.stall_clock``)."""
+
+    name = "stuck"
+    only_when_weighted = True
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        if x.world.clock is None:
+            raise ValueError(
+                "the stuck reward term needs each robot's stall clock: make the scenario with stall_clock=True "
+                "(--stall-clock)"
+            )
+        stuck = x.world.clock[..., STALL_TRIES] >= 1.0
+        return np.where(x.events.acted & stuck, -x.dt, 0.0)
+
+
 class FunctionTerm(RewardTerm):
     """A term from a :data:`RewardFn`, zero for robots that did not act."""
 
@@ -237,7 +260,7 @@ class FunctionTerm(RewardTerm):
 
 
 TERMS: tuple[type[RewardTerm], ...] = (
-    Progress, Arrival, Collision, Time, VcsImitation, VcsPotential, Danger, ArrivalSpeed,
+    Progress, Arrival, Collision, Time, VcsImitation, VcsPotential, Danger, ArrivalSpeed, Stuck,
 )  # fmt: skip
 """The built-in terms, in the order they are summed; each has a weight in ``RewardWeights``."""
 

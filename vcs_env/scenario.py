@@ -87,7 +87,9 @@ class RewardWeights:
     ``danger`` = ``-dt * max_j exp(-t_j / DANGER_TIME)`` [s], ``t_j`` the time until the robot
     would touch robot or obstacle ``j`` if both kept their velocities (0 when touching; walls not
     counted; :class:`vcs_env.rewards.Danger`); ``arrival_speed`` = ``-v / v_max`` on the step the
-    goal is reached, ``v`` the speed [m/s] when that step began (:class:`vcs_env.rewards.ArrivalSpeed`).
+    goal is reached, ``v`` the speed [m/s] when that step began (:class:`vcs_env.rewards.ArrivalSpeed`);
+    ``stuck`` = -dt [s] per step while the VCS expert's stall rule counts the robot as stuck (a detour
+    begun since it last gained ground on its goal; needs ``stall_clock``, :class:`vcs_env.rewards.Stuck`).
     Each term is an object in :data:`vcs_env.rewards.TERMS`.
     """
 
@@ -99,6 +101,7 @@ class RewardWeights:
     vcs_potential: float = 0.0
     danger: float = 0.0
     arrival_speed: float = 0.0
+    stuck: float = 0.0
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -324,6 +327,10 @@ class Scenario:
             raise ValueError(f"stall_clock must be True or False, got {self.stall_clock!r}")
         if self.stall_clock and self.observation < 2:
             raise ValueError("stall_clock needs observation version 2 (the clock block is not part of v1)")
+        if self.rewards.stuck != 0.0 and not self.stall_clock:
+            raise ValueError(
+                "the stuck reward term needs each robot's stall clock: set stall_clock=True (--stall-clock)"
+            )
         if self.lidar is not None and not isinstance(self.lidar, LidarSpec):
             raise ValueError(f"lidar must be a vcs_env.lidar.LidarSpec or None, got {type(self.lidar).__name__}")
         if self.pedestrians is not None:

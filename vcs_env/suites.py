@@ -104,7 +104,7 @@ LATER_FIELDS = {
 }
 """Scenario fields (with their defaults) added after the first suites were pinned: the maps, lidar,
 pedestrians and the observation version."""
-LATER_REWARDS = {"danger": 0.0, "arrival_speed": 0.0}
+LATER_REWARDS = {"danger": 0.0, "arrival_speed": 0.0, "stuck": 0.0}
 """Reward weights (with their defaults) added after the first suites were pinned."""
 SMOKE_SEEDS = 3
 """Episodes in a ``-smoke`` suite."""
