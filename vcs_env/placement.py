@@ -196,18 +196,21 @@ class Sampler:
 
     def __init__(self, rng: np.random.Generator, half: float, sep: float):
         self.rng, self.half, self.sep = rng, half, sep
-        self.pos: list[np.ndarray] = []
-        self.rad: list[float] = []
+        self.discs: list[tuple[float, float, float]] = []  # (x [m], y [m], radius [m]) placed so far
 
     def add(self, p: np.ndarray, r: float) -> None:
-        self.pos.append(np.asarray(p, dtype=np.float64))
-        self.rad.append(r)
+        self.discs.append((float(p[0]), float(p[1]), float(r)))
 
     def free(self, p: np.ndarray, r: float) -> bool:
-        if not self.pos:
-            return True
-        d = np.linalg.norm(np.asarray(self.pos) - p, axis=-1) - np.asarray(self.rad) - r
-        return bool(np.all(d >= self.sep))
+        """No placed disc within ``sep`` [m] of the disc at ``p`` of radius ``r``: the gap
+        ``|q - p| - r_q - r`` of every placed disc ``q`` is at least ``sep`` (plain floats: a few
+        discs, thousands of worlds per reset; the same numbers as the numpy norm of the pair)."""
+        x, y, sep = float(p[0]), float(p[1]), self.sep
+        for qx, qy, qr in self.discs:
+            dx, dy = qx - x, qy - y
+            if math.sqrt(dx * dx + dy * dy) - qr - r < sep:
+                return False
+        return True
 
     def sample(self, r: float, what: str, accept=lambda p: True) -> np.ndarray:
         lim = self.half - r
