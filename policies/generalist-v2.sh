@@ -20,7 +20,9 @@ export OMP_NUM_THREADS=1
 mkdir -p "$ROOT"
 # Sensing of every scenario (the observation config the mixture shares): the 6 nearest points on walls, and
 # the stall clock (the memory the expert frees deadlocks with; without it BC + PPO deadlock on the maps,
-# docs/training.md).
+# docs/training.md). The stall clock also prices waiting: the stuck reward term (10 per second stuck by the
+# expert's stall rule) in PPO and the rounds, without which PPO learns to wait in front of doors
+# (docs/training.md, "Waiting has a price").
 SENSE=(--n-wall-points 6 --stall-clock)
 # Sizes: episodes of expert data, BC epochs, DAgger rounds and episodes, PPO steps, start-state rounds.
 if [ "$SMOKE" = 1 ]; then
@@ -66,7 +68,7 @@ train_run() {
   [ -f "$DIR/bc/model.zip" ] || vcs-env bc --data "$ROOT/expert.npz" --out "$DIR/bc" --net-arch 256 256 --features slots \
     --seed "$BC_SEED" --epochs "$EPOCHS" --dagger-iters "$DAGGER" --dagger-episodes "$DAGGER_EP" --eval-episodes 0
   [ -f "$DIR/ppo/model.zip" ] || vcs-env train --mixture "${MIX[@]}" "${SENSE[@]}" --mixture-balance robots \
-    --on-collision terminate --rewards collision=150 --net-arch 256 256 --features slots --init "$DIR/bc/model.zip" \
+    --on-collision terminate --rewards collision=150,stuck=10 --net-arch 256 256 --features slots --init "$DIR/bc/model.zip" \
     --seed "$S0" --timesteps "$PPO" --n-worlds "$WORLDS" --lr-schedule linear --eval-freq "$EVAL" --eval-episodes 96 \
     --no-progress-bar --out "$DIR/ppo"
   local prev="$DIR/ppo/model.zip" lr=1.5e-4 r
@@ -75,7 +77,7 @@ train_run() {
       vcs-env collect-states --policy "$prev" --on-collision terminate --mixture "${DANGER[@]}" "${SENSE[@]}" \
         --episodes "$STATES_EP" --seed $((80000 + 100000 * r)) --out "$DIR/states$r.npz"
       vcs-env train --mixture "${MIX[@]}" "${SENSE[@]}" --mixture-balance robots --on-collision terminate \
-        --rewards collision=300 --net-arch 256 256 --features slots --init "$prev" --timesteps "$ROUND" \
+        --rewards collision=300,stuck=10 --net-arch 256 256 --features slots --init "$prev" --timesteps "$ROUND" \
         --seed $((S0 + r)) --n-worlds "$WORLDS" --learning-rate $lr --lr-schedule linear --eval-freq 0 \
         --checkpoint-freq $((ROUND / 4)) --no-progress-bar --start-states "$DIR/states$r.npz" --start-prob 0.5 \
         --out "$DIR/round$r"
@@ -96,4 +98,4 @@ done
 [ "$failed" = 0 ] || exit 1
 vcs-env select "${runs[@]/%//round$ROUNDS}" --from-step $((ROUND / 2)) --no-progress --out "$ROOT/release" \
   --validation "circle-24-v0:$VAL" "dynamic-v0:$VAL" "crowd-20-v0:$VAL" "room-v0:$VAL" "walls-v0:$VAL" \
-  "random-dense-v0:$VAL" "corridor-v0:$VAL" "intersection-v0:$VAL"
+  "random-dense-v0:$VAL" "corridor-v0:$VAL" "intersection-v0:$VAL" "doorway-v0:$VAL" "door-headon-v0:$VAL"

@@ -81,6 +81,11 @@ def test_reset_starts_from_the_pool_with_the_given_probability():
     # The rewards do not enter the key: a pool serves the scenario under any reward weights.
     weighted = vcs_env.make_scenario("dynamic", n_robots=3, n_obstacles=6, rewards={"collision": 300.0})
     assert scenario_key(weighted) == scenario_key(sc) and starts.pool(weighted) is pool
+    # ... nor the sensors, even with a term that needs one (stuck reads the stall clock).
+    clocked = vcs_env.make_scenario(
+        "dynamic", n_robots=3, n_obstacles=6, stall_clock=True, rewards={"collision": 300.0, "stuck": 10.0}
+    )
+    assert scenario_key(clocked) == scenario_key(sc) and starts.pool(clocked) is pool
 
 
 @pytest.mark.parametrize("prob", [None, 0.0])

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .observations import SENSOR_FIELDS
-from .scenario import Scenario
+from .scenario import RewardWeights, Scenario
 from .state import WorldState
 
 _REWARDS = re.compile(r", rewards=RewardWeights\([^)]*\)")
@@ -44,7 +44,8 @@ def scenario_key(scenario: Scenario) -> str:
     (a pool serves any reward, reward terms added later and any observation, not another layout,
     robot, obstacle or episode setting)."""
     defaults = {f.name: f.default for f in dataclasses.fields(Scenario) if f.name in SENSOR_FIELDS}
-    return _REWARDS.sub("", repr(dataclasses.replace(scenario, **defaults)))
+    # Default rewards too: a term that needs a sensor (stuck: the stall clock) must not outlive it.
+    return _REWARDS.sub("", repr(dataclasses.replace(scenario, rewards=RewardWeights(), **defaults)))
 
 
 @dataclass
