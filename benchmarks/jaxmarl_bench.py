@@ -85,11 +85,17 @@ ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = Path("runs") / "bench-jaxmarl" / "JAXMARL.md"
 
 
-def _jaxmarl_env():
-    from .peers import require
+JAXMARL_HINT = "pip install jaxmarl==0.2.0 (not part of the bench extra; it installs jax beside torch)"
 
-    jax = require("jax")
-    jaxmarl = require("jaxmarl")
+
+def _jaxmarl_env():
+    from .timing import Missing
+
+    try:
+        import jax
+        import jaxmarl
+    except Exception as e:  # ImportError, or a broken install that fails while importing
+        raise Missing(f"cannot import JaxMARL ({type(e).__name__}: {e}); {JAXMARL_HINT}") from None
     env = jaxmarl.make(ENV_ID, num_agents=N_AGENTS, action_type="Continuous", max_steps=EPISODE_STEPS)
     return jax, env
 
@@ -334,6 +340,12 @@ def _ratio(units: float, seconds: float) -> float:
     return units / seconds if seconds and np.isfinite(units) and np.isfinite(seconds) else float("nan")
 
 
+def _times(a: float, b: float) -> str:
+    """``a / b`` as a ratio, or ``-`` where either side was not measured."""
+    r = _ratio(a, b)
+    return f"{r:.2f}x" if np.isfinite(r) else "-"
+
+
 def _loads(x) -> str:
     return ", ".join(f"{v:.2f}" for v in x)
 
@@ -393,9 +405,9 @@ def render(res: dict) -> str:
             out.append(
                 f"| {r['B']} | "
                 + " | ".join(f"{rate[k] / 1e6:.3f}" for k in CONTESTANTS)
-                + f" | {_ratio(rate['ours'], rate['jaxmarl_step']):.2f}x | "
-                f"{_ratio(rate['ours'], rate['jaxmarl_scan']):.2f}x | {between / 1e6:.3f} | "
-                f"{_ratio(between, rate['jaxmarl_scan']):.2f}x | {share} |"
+                + f" | {_times(rate['ours'], rate['jaxmarl_step'])} | "
+                f"{_times(rate['ours'], rate['jaxmarl_scan'])} | {between / 1e6:.3f} | "
+                f"{_times(between, rate['jaxmarl_scan'])} | {share} |"
             )
         busy = [b for k in ("core_busy_at_start", "core_busy_at_end") for b in i.get(k, {}).values()]
         if busy and max(busy) > 0.5:

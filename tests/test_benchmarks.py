@@ -189,3 +189,19 @@ def test_threads_bench_quick_writes_its_table(tmp_path):
     res = json.loads(out.with_suffix(".json").read_text())
     assert res["threads"][0] == 1 and res["rows"] and res["crossover"] and res["expert"]
     assert "| `circle-16-v0` | 16 |" in text
+
+
+def test_jaxmarl_bench_quick_writes_its_tables_with_or_without_jaxmarl(tmp_path):
+    """``python -m benchmarks.jaxmarl_bench --quick`` (issue 45): both tables, our engine measured, and
+    JaxMARL either measured or named as missing with how to install it (it is not in any extra)."""
+    out = tmp_path / "JAXMARL.md"
+    cmd = [sys.executable, "-m", "benchmarks.jaxmarl_bench", "--quick", "--out", str(out)]
+    subprocess.run(cmd, check=True, capture_output=True, cwd=Path(__file__).resolve().parents[1])
+    text = out.read_text()
+    assert text.count("| B | ours [M/s] | JaxMARL step [M/s]") == 2 and "Machine:" in text
+    res = json.loads(out.with_suffix(".json").read_text())
+    rows = [row for phase in res["phases"] for row in phase["rows"]]
+    assert len(rows) == 2 and all(row["ours"]["median_wall_rate"] > 0 for row in rows)
+    for row in rows:
+        jax_ok = row["jaxmarl_step"]["status"] == "ok"
+        assert jax_ok or "pip install jaxmarl" in row["jaxmarl_step"]["status"]
