@@ -115,7 +115,7 @@ def fallback_cost(
         if harm(kappa, tmin, r.dt, viol, g, least_harm) + walled >= bound:
             return INF
     j = harm(kappa, tmin, r.dt, viol, g, least_harm) + walled
-    if contact > 0.0 and least_harm:
+    if contact > 0.0 and least_harm and j < bound:  # the play-out only adds: skip it for a loser
         t, toward = mover_contact(nbs, count, r, dv, dth, contact_clear, horizon)
         if t < INF:
             j += contact * (1.0 / max(t, T_FLOOR) + max(toward, 0.0))
