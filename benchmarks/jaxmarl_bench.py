@@ -244,8 +244,9 @@ def run_phase(phase: str, batches, budget) -> dict:
     info["core_busy_at_start"] = busy
     if PHASES[phase] == 1 and busy:  # XLA's flags leave its thread pool at the usable cores: pin to one
         usable = os.sched_getaffinity(0)
-        core = min((c for c in busy if c in usable), key=busy.get)
-        os.sched_setaffinity(0, {core})
+        core = min((c for c in busy if c in usable), key=busy.get, default=None)
+        if core is not None:  # /proc/stat's cores and the affinity set may not meet (containers)
+            os.sched_setaffinity(0, {core})
         info["pinned_to_core"] = core
 
     from vcs_env import threads

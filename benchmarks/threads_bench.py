@@ -108,7 +108,9 @@ def expert_rate(suite: str, B: int, n_threads: int, steps: int, repeats: int) ->
     return best
 
 
-def run(steps: int, repeats: int, batches=BATCHES, beams=BEAMS, crossover=CROSSOVER_BATCHES) -> dict:
+def run(
+    steps: int, repeats: int, batches=BATCHES, beams=BEAMS, crossover=CROSSOVER_BATCHES, quick: bool = False
+) -> dict:
     from vcs_env import threads
 
     counts = sorted({1, min(2, threads.max_threads()), threads.max_threads()})
@@ -130,8 +132,8 @@ def run(steps: int, repeats: int, batches=BATCHES, beams=BEAMS, crossover=CROSSO
     finally:
         threads.MIN_PARALLEL_BATCH = old
     expert = []
-    for suite in EXPERT_SUITES if batches is BATCHES else EXPERT_SUITES[:1]:
-        B, n_steps = (EXPERT_BATCH, EXPERT_STEPS) if batches is BATCHES else (16, 2)
+    for suite in EXPERT_SUITES[:1] if quick else EXPERT_SUITES:
+        B, n_steps = (16, 2) if quick else (EXPERT_BATCH, EXPERT_STEPS)
         rates = {t: expert_rate(suite, B, t, n_steps, min(repeats, 3)) for t in counts}
         expert.append({"suite": suite, "B": B, "rates": rates})
         print(f"expert {suite} B={B}: " + ", ".join(f"{t} thr {r / 1e3:.1f} k/s" for t, r in rates.items()), flush=True)
@@ -222,7 +224,7 @@ def main(argv=None) -> int:
     p.add_argument("--quick", action="store_true", help="tiny sizes (smoke test; the numbers mean nothing)")
     a = p.parse_args(argv)
     if a.quick:
-        res = run(3, 1, batches=(64,), beams=(0, 4), crossover=(16,))
+        res = run(3, 1, batches=(64,), beams=(0, 4), crossover=(16,), quick=True)
     else:
         res = run(a.steps, a.repeats)
     text = render(res)

@@ -348,6 +348,13 @@ def test_mover_contact_plays_the_ramp_against_the_mover(dv, dth):
     t, toward = mover_contact(nbs, 2, r[0], dv, dth, 0.0, 5.0)
     t_ref, toward_ref = _mover_contact_oracle(0.5, 0.0, dv, dth, 0.05, 0.157, 0.1, (2.0, 1.5), (-0.5, -1.4), 0.6, 5.0)
     assert t == pytest.approx(t_ref) and toward == pytest.approx(toward_ref)
+    t, toward = mover_contact(nbs, 2, r[0], dv, dth, 0.1, 5.0)  # a clearance widens the contact radius
+    t_ref, toward_ref = _mover_contact_oracle(0.5, 0.0, dv, dth, 0.05, 0.157, 0.1, (2.0, 1.5), (-0.5, -1.4), 0.7, 5.0)
+    assert t == pytest.approx(t_ref) and toward == pytest.approx(toward_ref)
+    far = nbs.copy()  # 20 m away at 2 m/s: out of reach within 5 s (the play-out's pruning)
+    far["px"], far["py"], far["d"], far["vjx"], far["vjy"] = 20.0, 0.0, 20.0, -2.0, 0.0
+    assert mover_contact(far, 1, r[0], dv, dth, 0.0, 5.0) == (math.inf, 0.0)
+    assert _mover_contact_oracle(0.5, 0.0, dv, dth, 0.05, 0.157, 0.1, (20.0, 0.0), (-2.0, 0.0), 0.6, 5.0)[0] == math.inf
     nbs["kind"] = K_RECIPROCAL
     assert mover_contact(nbs, 2, r[0], dv, dth, 0.0, 5.0) == (math.inf, 0.0)
 
@@ -357,7 +364,15 @@ def test_fallback_contact_changes_nothing_without_moving_obstacles():
     against moving obstacles has nothing to count: the same episodes, step for step."""
     scenario = get_suite("circle-16-v0").scenario
     a = _run(scenario, [5000, 5001], fallback_contact=None)
-    b = _run(scenario, [5000, 5001])
+    planner, fell_back = VCSPlanner(), []
+
+    def control(world, obs):
+        action = planner.act(world, "delta")
+        fell_back.append(bool(planner.last["fallback"].any()))
+        return action
+
+    b = run_episodes(scenario, control, [5000, 5001])
+    assert any(fell_back)  # the fallback ran (42 robot-steps when measured)
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x.pos, y.pos)
 

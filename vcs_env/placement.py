@@ -205,10 +205,10 @@ class Sampler:
         """No placed disc within ``sep`` [m] of the disc at ``p`` of radius ``r``: the gap
         ``|q - p| - r_q - r`` of every placed disc ``q`` is at least ``sep`` (plain floats: a few
         discs, thousands of worlds per reset; the same numbers as the numpy norm of the pair)."""
-        x, y, sep = float(p[0]), float(p[1]), self.sep
+        x, y, r, sep = float(p[0]), float(p[1]), float(r), float(self.sep)  # float64, as numpy's was
         for qx, qy, qr in self.discs:
             dx, dy = qx - x, qy - y
-            if math.sqrt(dx * dx + dy * dy) - qr - r < sep:
+            if not math.sqrt(dx * dx + dy * dy) - qr - r >= sep:  # a NaN gap is not free either
                 return False
         return True
 

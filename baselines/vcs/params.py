@@ -109,12 +109,14 @@ class VCSParams:
     combined physical radius plus this clearance [m] (at most r_eff); ``None``: always the
     regulated radius r_eff (the ablation; vcs-method §2.13) [ours]."""
     fallback_contact: float | None = 20.0
-    """Movers faster than the robot: the fallback also plays each candidate out against the moving
-    obstacles (the robot ramping to it and holding it, each obstacle at its planned velocity, up
-    to ``t_max``) and a candidate that meets one (contact radius r0 + ``fallback_clearance``),
-    first at t_m [s] with the robot driving toward it at v_t [m/s], costs this weight [s] times
-    ``1 / t_m + v_t`` more: the least-bad escape meets a mover late, and not head on. Driving and
-    parked robots are not counted. ``None``: off (the ablation; vcs-method §2.13) [ours]."""
+    """With nothing admissible, the least-harm fallback (``fallback="least_harm"``) also plays each
+    candidate out against the moving obstacles (the robot ramping to it and holding it, each
+    obstacle at its planned velocity, up to ``t_max``): a candidate that meets one (contact radius
+    r0 + ``fallback_clearance``, r0 with None), first after t_m [s], while driving toward the centre
+    of one it meets at up to v_t [m/s], costs this weight times ``1 / t_m + v_t`` more (t_m in s,
+    v_t in units of 1 m/s): the least-bad escape meets a mover late and not head on (what matters
+    against movers faster than the robot). Robots, driving, arriving or parked, and static bodies
+    are not played out. ``None``: off (the ablation; vcs-method §2.13) [ours]."""
     # --- safety against what does not get out of the way [reconstructed]
     # (vcs-method §2.4, vcs-method §2.7, vcs-method §2.15)
     arriving_non_reactive: bool = True

@@ -139,7 +139,8 @@ def mover_contact(nbs, count, r, dv, dth, clear, horizon):
         if nb.kind != K_MOVER or nb.mover or nb.overlap:
             continue  # an overlap is least harm's violation term already
         rc = nb.r0 + clear
-        if nb.d - rc > (math.sqrt(nb.vjx * nb.vjx + nb.vjy * nb.vjy) + r.v_r + r.dv1 / r.dt * horizon) * horizon:
+        span = steps * r.dt  # [s] the play-out's length (horizon rounded to whole steps)
+        if nb.d - rc > (math.sqrt(nb.vjx * nb.vjx + nb.vjy * nb.vjy) + r.v_r + r.dv1 / r.dt * span) * span:
             continue  # cannot meet within the horizon
         px = 0.0
         py = 0.0
