@@ -99,8 +99,8 @@ def test_rollout_is_identical_with_one_and_two_threads(monkeypatch):
 @TWO
 @pytest.mark.parametrize("suite", ["crowd-20-v0", "doorway-v0"])
 def test_vcs_expert_plans_the_same_with_one_and_two_threads(monkeypatch, suite):
-    """The VCS planner's world loop over blocks of worlds in parallel (37 worlds: three blocks, the
-    last one short): the same episodes, step for step, among moving obstacles and among walls."""
+    """The VCS planner's world loop over blocks of worlds in parallel (37 worlds: five blocks of
+    eight, the last one short): the same episodes, step for step, among moving obstacles and among walls."""
     monkeypatch.setattr(threads, "MIN_PARALLEL_BATCH", 1)
     calls = []
     par = vcs_kernel.plan_batch.parallel

@@ -23,7 +23,8 @@ from the start (its kernels then never start OpenMP), or set ``NUMBA_THREADING_L
 The thread count is process-wide (numba's thread pool is): :func:`set_threads` (default: the
 cores this process may use, capped by ``NUMBA_NUM_THREADS``, which numba reads at import). A
 call runs the serial twin when the count is 1 or the batch has fewer than
-:data:`MIN_PARALLEL_BATCH` worlds (B = 1 envs pay nothing for threads).
+:data:`MIN_PARALLEL_BATCH` worlds, or than a kernel's own smaller ``min_batch`` (the VCS planner's:
+16; B = 1 envs pay nothing for threads).
 """
 
 from __future__ import annotations
@@ -81,7 +82,8 @@ class TwinKernel:
     runs one of them (module docstring). The first argument's leading axis is the batch ``B`` (of its
     first field, for a tuple of arrays such as the VCS planner's world)."""
 
-    def __init__(self, func, **options):
+    def __init__(self, func, min_batch: int | None = None, **options):
+        self.min_batch = min_batch  # smallest batch run in parallel (None: MIN_PARALLEL_BATCH; never above it)
         self.__wrapped__ = func
         self.__doc__, self.__name__, self.__qualname__ = func.__doc__, func.__name__, func.__qualname__
         self.__module__ = func.__module__
@@ -94,16 +96,18 @@ class TwinKernel:
     def __call__(self, *args):
         n = _threads[0]
         lead = args[0] if hasattr(args[0], "shape") else args[0][0]  # an array, or a tuple of arrays
-        if n > 1 and lead.shape[0] >= MIN_PARALLEL_BATCH:
+        limit = MIN_PARALLEL_BATCH if self.min_batch is None else min(self.min_batch, MIN_PARALLEL_BATCH)
+        if n > 1 and lead.shape[0] >= limit:
             if numba.get_num_threads() != n:
                 numba.set_num_threads(n)
             return self.parallel(*args)
         return self.serial(*args)
 
 
-def twin_kernel(**options):
-    """Decorator: :class:`TwinKernel` with numba ``options`` (e.g. ``cache=True``)."""
-    return lambda func: TwinKernel(func, **options)
+def twin_kernel(min_batch: int | None = None, **options):
+    """Decorator: :class:`TwinKernel` with numba ``options`` (e.g. ``cache=True``); ``min_batch``: the
+    smallest batch it runs in parallel, for a kernel with more work per world than the step's."""
+    return lambda func: TwinKernel(func, min_batch=min_batch, **options)
 
 
 WORLD_BLOCK = 16

@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from vcs_env.threads import WORLD_BLOCK, twin_kernel
+from vcs_env.threads import twin_kernel
 
 from .cost import admissible, blocker, consider, cost, ramp_clear, relevant, robot_context, safety_term
 from .fallback import fallback_search
@@ -260,19 +260,25 @@ def plan_robot(b, i, world, inputs, st, p, wk, g):
     return bdv, bdth, best, fell_back, int(win.k), tstar, n_threats, g1v, g1th
 
 
-@twin_kernel(cache=True)
+PLAN_BLOCK = 8
+"""Worlds per block of :func:`plan_batch` (its scratch arrays are allocated once per block)."""
+
+
+@twin_kernel(cache=True, min_batch=2 * PLAN_BLOCK)
 def plan_batch(world, inputs, st, out):
     """Plan every active robot of every world that ``inputs.plan`` selects into ``out``
     (:data:`~.records.Outputs`, arrays ``(B, n, ...)``, see :func:`plan_robot`); the other robots
     get zeros and t* = inf. A world's plans depend on that world alone, so the world loop runs
     over blocks of worlds in parallel (:mod:`vcs_env.threads`: the same plans for any thread
-    count), each block with its own scratch arrays."""
+    count), each block of :data:`PLAN_BLOCK` worlds with its own scratch arrays; from two blocks on (a
+    world's plan costs far more than its step: the evaluation harness's batches of 25 worlds plan in
+    parallel)."""
     B, n = world.pos.shape[0], world.pos.shape[1]
-    for blk in prange((B + WORLD_BLOCK - 1) // WORLD_BLOCK):
+    for blk in prange((B + PLAN_BLOCK - 1) // PLAN_BLOCK):
         p = st.prm[0]  # inside: a record value does not pass into a parallel loop's body
         wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
         g = grid_work(p)
-        for b in range(blk * WORLD_BLOCK, min(B, (blk + 1) * WORLD_BLOCK)):
+        for b in range(blk * PLAN_BLOCK, min(B, (blk + 1) * PLAN_BLOCK)):
             plan_world(b, n, world, inputs, st, p, wk, g, out)
 
 
