@@ -46,28 +46,23 @@ does not, run this module with the python of a separate environment that has
 
 from __future__ import annotations
 
+from . import threading_env  # noqa: F401  (first, before numpy and numba: the thread settings)
+
+# isort: split
+import argparse
+import datetime
+import json
 import os
+import shlex
+import subprocess
+import sys
+import tempfile
+from importlib import metadata
+from pathlib import Path
 
-try:  # numba reads its pool size once, at import: all usable cores unless the caller set it
-    os.environ.setdefault("NUMBA_NUM_THREADS", str(len(os.sched_getaffinity(0))))
-except AttributeError:
-    pass
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+import numpy as np
 
-import argparse  # noqa: E402
-import datetime  # noqa: E402
-import json  # noqa: E402
-import shlex  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-from importlib import metadata  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from .env_bench import EPISODE_STEPS  # noqa: E402  (episode length of both sides; JaxMARL's MPE default is 25)
+from .env_bench import EPISODE_STEPS, engine_env  # EPISODE_STEPS: both sides' episodes (MPE's own: 25)
 
 N_AGENTS = 3
 BATCHES = (1024, 4096)
@@ -172,36 +167,9 @@ def episode_of(step, calls: int):
     return run
 
 
-def ours_env(B: int, split: dict, seed: int = 0):
-    """:func:`benchmarks.env_bench.engine_env`'s loop, also adding up (in ``split``) the robot-steps and
-    seconds of the steps in which no world ended (so no reset ran): the rate between resets."""
-    import time
-
-    from vcs_env.engine import NavEngine
-
-    from .env_bench import our_scenario
-
-    eng = NavEngine(our_scenario(N_AGENTS), B)
-    eng.reset(list(range(seed, seed + B)))
-    pool = np.random.default_rng(seed).uniform(-1.0, 1.0, (POOL, B, N_AGENTS, 2))
-    k = [0]
-
-    def step() -> int:
-        k[0] = (k[0] + 1) % POOL
-        acting = int(eng.world.active.sum())
-        t0 = time.perf_counter()
-        res = eng.step(pool[k[0]], autoreset=True)
-        if not res.ended.any():
-            split["units"] += acting
-            split["seconds"] += time.perf_counter() - t0
-        return acting
-
-    return step
-
-
 def builders(B: int, split: dict) -> dict:
     def ours():
-        run = episode_of(ours_env(B, split), EPISODE_STEPS)
+        run = episode_of(engine_env(N_AGENTS, B, split=split), EPISODE_STEPS)
         split.update(units=0, seconds=0.0)  # from the timed runs only
         return run
 
@@ -462,11 +430,9 @@ def main(argv=None) -> int:
     res["command"] = "python -m benchmarks.jaxmarl_bench " + shlex.join(argv if argv is not None else sys.argv[1:])
     res["command"] = res["command"].strip()
     text = render(res)
-    print(text)
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(text)
-    a.out.with_suffix(".json").write_text(json.dumps(res, indent=1, default=str) + "\n")
-    print(f"wrote {a.out} and {a.out.with_suffix('.json')}")
+    from .timing import write_report
+
+    write_report(a.out, text, res)
     return 0
 
 

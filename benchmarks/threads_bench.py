@@ -19,23 +19,17 @@ committed) and the numbers as JSON next to it. A committed report is only overwr
 
 from __future__ import annotations
 
+from . import threading_env  # noqa: F401  (first, before numpy and numba: the thread settings)
+
+# isort: split
+import argparse
+import dataclasses
+import datetime
 import os
+import time
+from pathlib import Path
 
-try:  # numba reads its pool size once, at import: all usable cores unless the caller set it
-    os.environ.setdefault("NUMBA_NUM_THREADS", str(len(os.sched_getaffinity(0))))
-except AttributeError:
-    pass
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
-
-import argparse  # noqa: E402
-import dataclasses  # noqa: E402
-import datetime  # noqa: E402
-import json  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
+import numpy as np
 
 N_ROBOTS = 3
 BATCHES = (1024, 4096)
@@ -228,11 +222,9 @@ def main(argv=None) -> int:
     else:
         res = run(a.steps, a.repeats)
     text = render(res)
-    print(text)
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(text)
-    a.out.with_suffix(".json").write_text(json.dumps(res, indent=1, default=str) + "\n")
-    print(f"wrote {a.out} and {a.out.with_suffix('.json')}")
+    from .timing import write_report
+
+    write_report(a.out, text, res)
     return 0
 
 

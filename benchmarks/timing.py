@@ -199,3 +199,15 @@ def machine_info() -> dict:
         "packages": versions,
         "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
     }
+
+
+def write_report(out, text: str, res: dict) -> None:
+    """Print a benchmark's Markdown ``text`` and write it to ``out`` (a Path), its numbers ``res`` as JSON
+    beside it (``out`` with suffix ``.json``)."""
+    import json
+
+    print(text)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text)
+    out.with_suffix(".json").write_text(json.dumps(res, indent=1, default=str) + "\n")
+    print(f"wrote {out} and {out.with_suffix('.json')}")
