@@ -202,7 +202,13 @@ def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residua
         "shield_note": note,
         "residual": None
         if residual is None
-        else {"planner": residual.planner, "scale": residual.scale, "action": RULE, "network_action": OUTPUT},
+        else {
+            "planner": residual.planner,
+            "scale": residual.scale,
+            "gate": residual.gate,
+            "action": RULE,
+            "network_action": OUTPUT,
+        },
         "checkpoint": {"format": checkpoint.format, "path": str(checkpoint.path)},
         "exported_with": {"torch": torch.__version__, "onnx": onnx.__version__},
         "record": record,

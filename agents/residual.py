@@ -21,7 +21,8 @@ from vcs_env.rollout import Controller, planner_controller
 from vcs_env.state import WorldState
 
 RULE = "clip(planner_action + scale * clip(network_action, -1, 1), -1, 1)"
-"""The action of a residual policy, in the env's action units (delta mode)."""
+"""The action of a residual policy, in the env's action units (delta mode); with the gate, the
+planner's action alone while it falls back (:attr:`Residual.gate`)."""
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,10 @@ class Residual:
     """Registered planner name whose action is corrected (:data:`vcs_env.planning.PLANNERS`)."""
     scale: float = 0.5
     """Largest correction per action component, in units of the action range [-1, 1]."""
+    gate: bool = False
+    """Hold the correction of a robot whose planner found no admissible velocity this step (the VCS
+    fallback, ``VCSPlanner.last["fallback"]``): there the planner's action alone drives, so the
+    network corrects the expert where the expert is safe and never steers its escapes."""
 
     def __post_init__(self):
         if self.planner not in PLANNERS:
@@ -43,25 +48,44 @@ class Residual:
             )
         if isinstance(self.scale, bool) or not isinstance(self.scale, (int, float)) or not 0 < self.scale <= 2:
             raise ValueError(f"--residual-scale must be in (0, 2] (units of the action range), got {self.scale!r}")
+        if not isinstance(self.gate, bool):
+            raise ValueError(f"--residual-gate must be a bool, got {self.gate!r}")
+        if self.gate and self.planner != "vcs":
+            raise ValueError(
+                f"--residual-gate holds the correction while the planner falls back, which only vcs reports; "
+                f"--residual {self.planner} has no fallback to gate on"
+            )
 
     @classmethod
     def of(cls, config: Any) -> Residual | None:
         """The residual a run config (or its JSON record's ``config``) names, or None."""
         get = config.get if isinstance(config, dict) else lambda k, d=None: getattr(config, k, d)
         planner = get("residual")
-        return None if planner in (None, "", "none") else cls(planner, float(get("residual_scale", 0.5)))
+        if planner in (None, "", "none"):
+            return None
+        return cls(planner, float(get("residual_scale", 0.5)), bool(get("residual_gate", False)))
 
-    def actions(self, base: np.ndarray, network: np.ndarray) -> np.ndarray:
-        """``(..., 2)`` actions from the planner's ``base`` and the network's ``network`` (same shape)."""
+    def held(self, planner) -> np.ndarray | None:
+        """``(B, n)`` robots whose correction the gate holds after ``planner`` acted (its last plan),
+        or None without the gate."""
+        return np.asarray(planner.last["fallback"], dtype=bool) if self.gate else None
+
+    def actions(self, base: np.ndarray, network: np.ndarray, held: np.ndarray | None = None) -> np.ndarray:
+        """``(..., 2)`` actions from the planner's ``base`` and the network's ``network`` (same shape);
+        ``held`` ``(...)``: robots that take ``base`` alone (:meth:`held`)."""
+        base = np.asarray(base, dtype=np.float64)
         correction = self.scale * np.clip(np.asarray(network, dtype=np.float64), -1.0, 1.0)
-        return np.clip(np.asarray(base, dtype=np.float64) + correction, -1.0, 1.0)
+        action = base + correction if held is None else np.where(held[..., None], base, base + correction)
+        return np.clip(action, -1.0, 1.0)
 
     def controller(self, network: Controller) -> Controller:
         """The controller that adds ``network``'s correction to a fresh planner's action."""
-        base = planner_controller(make_planner(self.planner), "delta")
+        planner = make_planner(self.planner)
+        base = planner_controller(planner, "delta")
 
         def control(world: WorldState, obs: np.ndarray) -> np.ndarray:
-            return np.where(world.active[..., None], self.actions(base(world, obs), network(world, obs)), 0.0)
+            action = base(world, obs)
+            return np.where(world.active[..., None], self.actions(action, network(world, obs), self.held(planner)), 0.0)
 
         return control
 

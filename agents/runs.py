@@ -96,6 +96,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     two together (agents.residual.Residual). SB3 only."""
     residual_scale: float = 0.5
     """Largest correction of a residual policy per action component (units of the action range)."""
+    residual_gate: bool = False
+    """A residual over vcs holds its correction while the expert falls back (nothing admissible): the
+    expert alone drives its escapes (agents.residual.Residual.gate)."""
     guide: str = "none"
     """Guidance from the VCS expert beside --shaping: none; imitation_loss (after every rollout, PPO's
     epochs of steps on guide_weight x |policy mean - expert action|^2 over the rollout's states, the
@@ -193,7 +196,7 @@ BENCHMARL_ONLY = ("algorithm",)
 FIXED_ON_RESUME = (
     "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",
     "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl", "residual",
-    "residual_scale",
+    "residual_scale", "residual_gate",
 )  # fmt: skip
 """Fields a resumed run keeps from its checkpoint (the network, the PPO settings in the model and what
 its actions mean)."""

@@ -246,7 +246,7 @@ class NavVecEnv(SharedSlots):
         # Padding rows: the engine ignores inactive robots, but NaN from a policy must not reach it.
         actions = np.where(live_before[..., None], self._actions, 0.0)
         if self.residual is not None:
-            actions = self.residual.actions(self.engine.expert_action, actions)
+            actions = self.residual.actions(self.engine.expert_action, actions, self.residual.held(self.engine.expert))
         driven = self._guided > 0  # (B,) worlds the expert drives this step (jump-start)
         if driven.any():
             actions = np.where(driven[:, None, None], self.engine.expert_action, actions)

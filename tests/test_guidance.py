@@ -1,8 +1,9 @@
 """The expert as a guide.
 
 Residual policies (``vcs-env train --residual PLANNER``, :mod:`agents.residual`): the training VecEnv
-drives the planner's action plus the network's bounded correction, an untrained residual is its
-planner bit for bit in the harness, and the rule travels with the checkpoint (evaluate, export).
+drives the planner's action plus the network's bounded correction (held, with the gate, while the
+expert falls back), an untrained residual is its planner bit for bit in the harness, and the rule
+travels with the checkpoint (evaluate, export).
 The auxiliary imitation loss (``--guide imitation_loss``) pulls the policy to the expert, and annealed
 guidance (``--guide-anneal``) reaches zero at its step."""
 
@@ -130,7 +131,51 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
     _, side = open_checkpoint(res["model"]).export_onnx(tmp_path / "res.onnx")
     rule = json.loads(side.read_text())["residual"]
     assert rule["planner"] == "vcs" and rule["scale"] == 0.25 and "planner_action" in rule["action"]
+    assert rule["gate"] is False
     assert "a residual policy" in capsys.readouterr().err
+
+
+def test_the_gate_holds_the_correction_while_the_expert_falls_back():
+    """With the gate, a robot whose VCS expert has nothing admissible takes the expert's action alone,
+    every other robot the corrected one: in the training env and in the harness's controller, each
+    against the rule written out by hand, among movers faster than the robots (the expert falls back)."""
+    from baselines.vcs.planner import VCSPlanner
+    from vcs_env.rollout import run_episodes
+
+    scenario = make_scenario("dynamic", n_robots=4, n_obstacles=6, obstacle_speed=(1.2, 1.8), max_steps=60)
+    gate = Residual("vcs", 0.5, gate=True)
+    gated_env = NavVecEnv(scenario, 4, residual=gate)
+    plain_env = NavVecEnv(scenario, 4, expert="vcs")
+    for env in (gated_env, plain_env):
+        env.seed(3)
+        env.reset()
+    held_steps = 0
+    for _ in range(60):
+        expert = plain_env.engine.expert_action.reshape(-1, 2).astype(np.float64)
+        held = plain_env.engine.expert.last["fallback"].reshape(-1)
+        by_hand = np.clip(np.where(held[:, None], expert, expert + 0.5), -1, 1)
+        gated_env.step_async(np.ones_like(expert))
+        plain_env.step_async(by_hand)
+        np.testing.assert_array_equal(gated_env.step_wait()[0], plain_env.step_wait()[0])
+        held_steps += int(held.any())
+    assert held_steps > 0  # the gate did hold some robots
+
+    def network(world, obs):
+        return np.ones((world.batch_size, world.n_robots, 2))
+
+    planner = VCSPlanner()
+
+    def oracle(world, obs):
+        expert = planner.act(world, "delta").astype(np.float64)
+        action = np.clip(np.where(planner.last["fallback"][..., None], expert, expert + 0.5), -1, 1)
+        return np.where(world.active[..., None], action, 0.0)
+
+    gated, hand = (run_episodes(scenario, c, [3, 4]) for c in (gate.controller(network), oracle))
+    for x, y in zip(gated, hand, strict=True):
+        np.testing.assert_array_equal(x.pos, y.pos)
+    ungated = run_episodes(scenario, Residual("vcs", 0.5).controller(network), [3, 4])
+    assert any(not np.array_equal(x.pos, y.pos) for x, y in zip(gated, ungated, strict=True))
+    assert Residual.of(TrainConfig(residual="vcs", residual_gate=True)) == gate
 
 
 def test_bad_residual_input_gets_one_line_errors():
@@ -138,6 +183,8 @@ def test_bad_residual_input_gets_one_line_errors():
         Residual.of(TrainConfig(residual="nope"))
     with pytest.raises(ValueError, match=r"--residual-scale must be in \(0, 2\]"):
         Residual("vcs", 0.0)
+    with pytest.raises(ValueError, match="--residual-gate .* only vcs reports; --residual orca has no fallback"):
+        Residual("orca", 0.5, gate=True)
     with pytest.raises(ValueError, match="--shaping vcs_imitation needs the VCS expert.*--residual orca"):
         residual_of(TrainConfig(residual="orca", shaping="vcs_imitation"))
     assert residual_of(TrainConfig(residual="orca")) == Residual("orca", 0.5)
