@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from .fits import CheckpointError, cause
-from .residual import RULE, Residual
+from .residual import GATE_RULE, RULE, Residual
 
 OPSET = 17
 """The ONNX opset every export uses (recorded in the JSON beside the file)."""
@@ -205,7 +205,7 @@ def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residua
         else {
             "planner": residual.planner,
             "scale": residual.scale,
-            "gate": residual.gate,
+            "gate": GATE_RULE if residual.gate else None,
             "action": RULE,
             "network_action": OUTPUT,
         },

@@ -22,7 +22,9 @@ from vcs_env.state import WorldState
 
 RULE = "clip(planner_action + scale * clip(network_action, -1, 1), -1, 1)"
 """The action of a residual policy, in the env's action units (delta mode); with the gate, the
-planner's action alone while it falls back (:attr:`Residual.gate`)."""
+planner's action alone while it falls back (:attr:`Residual.gate`, :data:`GATE_RULE`)."""
+GATE_RULE = "clip(planner_action, -1, 1) for a robot whose VCS planner has no admissible velocity (its fallback)"
+"""What the gate changes in :data:`RULE`."""
 
 
 @dataclass(frozen=True)
