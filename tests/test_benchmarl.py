@@ -142,6 +142,7 @@ def test_compare_loads_a_benchmarl_run(tmp_path):
     [
         (["--backend", "benchmarl", "--algorithm", "qmix"], "--algorithm must be one of mappo, ippo, masac"),
         (["--backend", "benchmarl", "--residual", "vcs"], "--residual not available with --backend benchmarl"),
+        (["--backend", "benchmarl", "--residual-gate"], "--residual-gate not available with --backend benchmarl"),
         (["--backend", "benchmarl", "--vf-coef", "1.0"], "--vf-coef not available with --backend benchmarl"),
         (["--backend", "benchmarl", "--features", "contact"], "--features contact not available"),
         (["--backend", "benchmarl", "--algorithm", "masac", "--clip-range", "0.1"], "--clip-range not available with"),

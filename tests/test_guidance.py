@@ -185,6 +185,8 @@ def test_bad_residual_input_gets_one_line_errors():
         Residual("vcs", 0.0)
     with pytest.raises(ValueError, match="--residual-gate .* only vcs reports; --residual orca has no fallback"):
         Residual("orca", 0.5, gate=True)
+    with pytest.raises(ValueError, match="--residual-gate holds a residual policy's correction; it needs --residual"):
+        residual_of(TrainConfig(residual_gate=True))
     with pytest.raises(ValueError, match="--shaping vcs_imitation needs the VCS expert.*--residual orca"):
         residual_of(TrainConfig(residual="orca", shaping="vcs_imitation"))
     assert residual_of(TrainConfig(residual="orca")) == Residual("orca", 0.5)
@@ -197,6 +199,8 @@ def test_bad_residual_input_gets_one_line_errors():
 
     with pytest.raises(ValueError, match="--residual vcs applies to the SB3 backend only"):
         check_config(RLlibConfig(residual="vcs"))
+    with pytest.raises(ValueError, match="--residual-gate applies to the SB3 backend only"):
+        check_config(RLlibConfig(residual_gate=True))
 
 
 def test_an_annealed_shaping_weight_reaches_zero_at_its_step():

@@ -162,8 +162,11 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
 def residual_of(cfg: TrainConfig) -> Residual | None:
     """The residual a run trains (``--residual``), or None; a one-line ``ValueError`` when its
     planner cannot give what the run's shaping needs (the VCS expert), or with a ``--guide`` loss
-    (which pulls the network's action, here a correction, towards the expert's action)."""
+    (which pulls the network's action, here a correction, towards the expert's action), or with
+    ``--residual-gate`` and no residual to gate."""
     residual = Residual.of(cfg)
+    if residual is None and cfg.residual_gate:
+        raise ValueError("--residual-gate holds a residual policy's correction; it needs --residual vcs")
     if residual is not None and cfg.shaping != "none" and residual.planner != "vcs":
         raise ValueError(
             f"--shaping {cfg.shaping} needs the VCS expert, and a residual's expert is its planner: "

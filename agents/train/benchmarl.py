@@ -82,6 +82,7 @@ def check_config(cfg: BenchMARLConfig, n_robots: int) -> None:
     default = BenchMARLConfig()
     unsupported = {
         "--residual": cfg.residual is not None,
+        "--residual-gate": cfg.residual_gate,
         "--guide": cfg.guide != "none",
         "--init": cfg.init is not None,
         "--mixture": bool(cfg.mixture),

@@ -181,8 +181,9 @@ def check_config(cfg: RLlibConfig) -> None:
         raise ValueError("--target-kl applies to the SB3 backend only (RLlib's PPO adapts a KL coefficient instead)")
     if cfg.start_states is not None:
         raise ValueError("--start-states applies to the SB3 backend only (the RLlib env runners start fresh)")
-    if cfg.residual is not None:
-        raise ValueError(f"--residual {cfg.residual} applies to the SB3 backend only (train it with --backend sb3)")
+    if cfg.residual is not None or cfg.residual_gate:
+        flag = f"--residual {cfg.residual}" if cfg.residual is not None else "--residual-gate"
+        raise ValueError(f"{flag} applies to the SB3 backend only (train it with --backend sb3)")
     if cfg.guide != "none" or cfg.guide_anneal:
         raise ValueError("--guide and --guide-anneal apply to the SB3 backend only (train it with --backend sb3)")
     if cfg.features != "flat":
