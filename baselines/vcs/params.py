@@ -61,6 +61,12 @@ class VCSParams:
     ``"one_step"``: only the one-step window (the shortsighted foil)."""
     window_margin_steps: int = 2
     """Steps kept in hand before the first threat when sizing the window (0 to 1000)."""
+    holonomic_window_fit: bool = True
+    """A holonomic robot's window grid spans the bounds of its disc of reachable velocities (speeds
+    within ``k a_max dt`` of its own, directions within ``asin(k a_max dt / v_R)`` of its heading
+    while the disc leaves out the origin) instead of every speed and direction, so a small window
+    close to a threat keeps lateral candidates (False: the whole domain, of which the disc keeps a
+    few points along the heading, the ablation; vcs-method §2.10) [ours]."""
     # --- point search (vcs-method §2.11) [reconstructed]
     n_v: int = 21
     """Grid values of the speed change over the window (endpoints included)."""
@@ -308,6 +314,7 @@ class VCSParams:
             "detour_escalate",
             "stall_turn",
             "give_way",
+            "holonomic_window_fit",
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"VCSParams.{name} must be a bool, got {getattr(self, name)!r}")

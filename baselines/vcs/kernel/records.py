@@ -87,6 +87,7 @@ PARAMS = np.dtype(
         ("fit_clearance", "f8"),  # buffers fit passable gaps, down to this clearance [m]; < 0: off
         ("no_follow", "?"),  # inside a mover's buffer, do not close on it as it recedes
         ("stall_turn", "?"),  # a detouring robot at rest turns in place toward its goal (else: by walls only)
+        ("holonomic_window_fit", "?"),  # a holonomic window grid spans its disc only
     ],
     align=True,
 )
@@ -137,6 +138,7 @@ def params_record(p) -> np.ndarray:
         "fit_clearance": -1.0 if p.fit_clearance is None else p.fit_clearance,
         "no_follow": p.no_follow,
         "stall_turn": p.stall_turn,
+        "holonomic_window_fit": p.holonomic_window_fit,
     }
     for name, value in values.items():
         rec[name] = value

@@ -29,8 +29,10 @@ def threats(nbs, count):
 @njit(cache=True)
 def window(r, p, tstar):
     """The window W_k (vcs-method §2.10): k steps, keeping ``window_margin`` steps in hand before
-    the first threat at ``tstar`` [s]; a holonomic window spans every speed (a disc of radius
-    k a_max dt around the velocity, cut by the search)."""
+    the first threat at ``tstar`` [s]; a holonomic window is the disc of radius R = k a_max dt around
+    the velocity, cut from the grid by the search: the grid spans every speed and direction, or
+    with ``holonomic_window_fit`` the disc's bounds, speeds within R of v_R and, while the disc
+    leaves out the origin (R < v_R), directions within asin(R / v_R) of the heading."""
     if p.one_step:
         k = 1.0
     elif tstar == INF:
@@ -41,8 +43,11 @@ def window(r, p, tstar):
     hi_v = min(r.v_max - r.v_r, k * r.dv1)
     half = min(math.pi, k * r.dth1)
     if r.holo:
-        lo_v = -r.v_r
-        hi_v = r.v_max - r.v_r
+        if p.holonomic_window_fit:  # the speeds above; the directions of the disc
+            half = math.pi if k * r.dv1 >= r.v_r else math.asin(k * r.dv1 / r.v_r)
+        else:
+            lo_v = -r.v_r
+            hi_v = r.v_max - r.v_r
     full = half >= math.pi - TINY
     nth = p.n_theta_full if full else p.n_theta
     return Window(k, lo_v, hi_v, half, full, p.n_v, nth)
