@@ -31,7 +31,8 @@ else
   # Sized for the 3 h budget on 2 cores from what was measured on 2026-11-28/29: the 2300 expert episodes took
   # 322-375 s; BC and two DAgger rounds 65 min beside other jobs; PPO 1200-2000 steps/s on a core, depending on
   # what else runs (7 M: 1-1.6 h); a start-state round of 1 M about 15 minutes with its 100 state episodes. So one
-  # run takes about 3 h on a quiet machine and more under load.
+  # run should take about 3 h on a quiet machine (an estimate from those stages, not yet measured whole) and more
+  # under load.
   # Each size can be set from the environment (e.g. PPO=2500000 ROUNDS=1 for one run in less time).
   EPISODES=${EPISODES:-2300} EPOCHS=${EPOCHS:-8} DAGGER=${DAGGER:-2} DAGGER_EP=${DAGGER_EP:-460} PPO=${PPO:-7000000}
   WORLDS=${WORLDS:-300} ROUND=${ROUND:-1000000} ROUNDS=${ROUNDS:-2} STATES_EP=${STATES_EP:-100} EVAL=${EVAL:-1000000}
