@@ -378,9 +378,14 @@ RELEASED = [
     ("generalist", "crowd-20-v0-smoke"),
     ("generalist", "crossing-v0-smoke"),
     ("generalist", "crowd-5-v0-smoke"),
+    ("generalist-v2", "room-v0-smoke"),
+    ("generalist-v2", "corridor-v0-smoke"),
+    ("generalist-v2", "door-headon-v0-smoke"),
+    ("generalist-v2", "circle-16-v0-smoke"),
+    ("generalist-v2", "crowd-20-v0-smoke"),
 ]
-"""Released v1 policies and smoke suites each must solve (the generalist: families it solves on the
-full suites, results/generalist)."""
+"""Released policies and smoke suites each must solve (the generalists: families they solve on the
+full suites, results/generalist and results/generalist-v2; the v2 one on maps, with its wall sensing)."""
 
 
 @pytest.mark.parametrize("name,suite", RELEASED)
