@@ -1,6 +1,6 @@
 #!/bin/bash
-# Recipe of the v2 generalist (issue 41; not released yet: policies/generalist is still the v1 release of
-# policies/generalist.sh). Observation v2 with wall sensing, one mixture over every family a user meets:
+# Recipe of the v2 generalist (issue 41): policies/generalist-v2, a preview beside the v1 release of
+# policies/generalist.sh (policies/README.md). Observation v2 with wall sensing, one mixture over every family a user meets:
 # robot-only (circle, swap, crossing), crowds, dynamic obstacles, random layouts with robots parking in the
 # traffic, and every map kind (corridor, narrow corridor, doorway, room, intersection, random walls). Every
 # entry's ranges leave out the probes of agents/evaluate/probes.py (tests/test_probes.py checks it), so the
@@ -9,7 +9,7 @@
 # validation seeds no suite or probe uses; then a movers stage (more PPO steps with the dynamic entries
 # counted six times, from that checkpoint) and the same selection over its checkpoints. No shield in the
 # record: the network alone is the policy.
-# Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... (sizes)] bash policies/generalist-v2.sh
+# Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist-v2}
