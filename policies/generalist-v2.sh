@@ -32,8 +32,8 @@ if [ "$SMOKE" = 1 ]; then
   MOVERS=30000 MOVERS_EP=2
 else
   # Stage times of the run with these sizes (one run, 2026-11-28/29, this 2-core machine beside other jobs): 2300
-  # expert episodes 6 min; BC and two DAgger rounds 65 min; PPO 4 M 45 min; two rounds of 1 M with their 100
-  # state episodes 30-35 min; a selection 10 min; the movers stage 40-43 min for 3 M (another job beside it).
+  # expert episodes 6 min; BC and two DAgger rounds 65 min; PPO 4 M 46 min; two rounds of 1 M with their 100
+  # state episodes about 20 min each; a selection 8-11 min; the movers stage 43 min for 3 M (another job beside it).
   # About 3 h 40 min in all with one run: over the 3 h of issue 41. Sizes can be set from the environment.
   EPISODES=${EPISODES:-2300} EPOCHS=${EPOCHS:-8} DAGGER=${DAGGER:-2} DAGGER_EP=${DAGGER_EP:-460} PPO=${PPO:-4000000}
   WORLDS=${WORLDS:-300} ROUND=${ROUND:-1000000} ROUNDS=${ROUNDS:-2} STATES_EP=${STATES_EP:-100} EVAL=${EVAL:-1000000}
