@@ -198,10 +198,10 @@ def test_jaxmarl_bench_quick_writes_its_tables_with_or_without_jaxmarl(tmp_path)
     cmd = [sys.executable, "-m", "benchmarks.jaxmarl_bench", "--quick", "--out", str(out)]
     subprocess.run(cmd, check=True, capture_output=True, cwd=Path(__file__).resolve().parents[1])
     text = out.read_text()
-    assert text.count("| B | ours [M/s] | JaxMARL step [M/s]") == 2 and "Machine:" in text
+    assert text.count("| B | ours [M/s] | ours, open [M/s] | JaxMARL step [M/s]") == 2 and "Machine:" in text
     res = json.loads(out.with_suffix(".json").read_text())
     rows = [row for phase in res["phases"] for row in phase["rows"]]
-    assert len(rows) == 2 and all(row["ours"]["median_wall_rate"] > 0 for row in rows)
+    assert len(rows) == 2 and all(row[k]["median_wall_rate"] > 0 for row in rows for k in ("ours", "ours_open"))
     for row in rows:
         for name in ("jaxmarl_step", "jaxmarl_scan"):
             assert row[name]["status"] == "ok" or "pip install jaxmarl" in row[name]["status"]
