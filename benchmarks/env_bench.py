@@ -204,7 +204,10 @@ def vmas_spawn_half_size(n: int) -> float:
     return math.sqrt(max(n, 4) / 4.0)
 
 
-def vmas_env(n: int, B: int, seed: int = 0) -> Step:
+def vmas_env(n: int, B: int, seed: int = 0, **scenario_kwargs) -> Step:
+    """VMAS ``navigation`` (its defaults: agent collisions and a 12-ray lidar that senses the other agents;
+    ``scenario_kwargs`` such as ``n_lidar_rays`` go to ``vmas.make_env``), ``B`` worlds stepped with random
+    actions; returns agent-steps."""
     torch = require("torch")
     vmas = require("vmas")
     s = vmas_spawn_half_size(n)
@@ -218,6 +221,7 @@ def vmas_env(n: int, B: int, seed: int = 0) -> Step:
         n_agents=n,
         world_spawning_x=s,
         world_spawning_y=s,
+        **scenario_kwargs,
     )
     env.reset()
     gen = torch.Generator().manual_seed(seed)

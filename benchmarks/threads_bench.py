@@ -6,7 +6,11 @@ before timing) on the env benchmark's worlds (:func:`benchmarks.env_bench.our_sc
 at ``B = 1024`` and ``4096`` worlds, without lidar and with 12 and 64 beams, on 1, 2 and all
 usable cores (:func:`vcs_env.set_threads`); the serial/parallel crossover at small ``B`` (the
 reason for :data:`vcs_env.threads.MIN_PARALLEL_BATCH`, which is lowered to 1 for those rows); and
-the VCS expert driving ``B = 256`` worlds of three suites (:func:`expert_rate`).
+the VCS expert driving ``B = 256`` worlds of three suites (:func:`expert_rate`). Beside each row at one
+thread, VMAS ``navigation`` on the CPU with one torch thread, same ``n`` and ``B`` (:func:`vmas_rate`): with
+its lidar of as many rays (12 by default; it senses the other agents; ``n_lidar_rays=0`` for the rows
+without lidar), agent collisions on. Its worlds hold the agents alone, ours 10 moving obstacles more, so
+our engine is also timed without them (one thread, the "open" column).
 
 Wall-clock rates (threads make CPU time meaningless), best of ``--repeats`` runs, in robot-steps
 per second (acting robots advanced by one step). The load average is printed beside them: on a
@@ -41,15 +45,16 @@ EXPERT_STEPS = 30
 DEFAULT_OUT = Path("runs") / "bench-threads" / "THREADS.md"
 
 
-def engine_rate(B: int, beams: int, n_threads: int, steps: int, repeats: int) -> float:
-    """Best wall-clock robot-steps/s of ``steps`` engine steps at ``B`` worlds, over ``repeats`` runs."""
+def engine_rate(B: int, beams: int, n_threads: int, steps: int, repeats: int, n_obstacles: int | None = None) -> float:
+    """Best wall-clock robot-steps/s of ``steps`` engine steps at ``B`` worlds, over ``repeats`` runs
+    (``n_obstacles``: other than the env benchmark's 10; 0 for the robots alone)."""
     from vcs_env import threads
     from vcs_env.engine import NavEngine
     from vcs_env.lidar import LidarSpec
 
     from .env_bench import our_scenario
 
-    s = our_scenario(N_ROBOTS)
+    s = our_scenario(N_ROBOTS) if n_obstacles is None else our_scenario(N_ROBOTS, n_obstacles)
     if beams:
         s = dataclasses.replace(s, lidar=LidarSpec(n_beams=beams))
     threads.set_threads(n_threads)
@@ -66,6 +71,29 @@ def engine_rate(B: int, beams: int, n_threads: int, steps: int, repeats: int) ->
             acting += int(eng.world.active.sum())
             eng.step(pool[k % 16], autoreset=True)
         best = max(best, acting / (time.perf_counter() - t0))
+    return best
+
+
+def vmas_rate(B: int, beams: int, steps: int, repeats: int) -> float:
+    """Best wall-clock agent-steps/s of ``steps`` steps of VMAS ``navigation`` at ``B`` worlds and ``n = 3``
+    (one torch thread), agent collisions on, its lidar with ``beams`` rays (none with 0); NaN when VMAS is not
+    installed."""
+    from .env_bench import vmas_env
+    from .peers import torch_single_thread
+    from .timing import Missing
+
+    torch_single_thread()
+    try:
+        step = vmas_env(N_ROBOTS, B, n_lidar_rays=beams)
+    except Missing:
+        return float("nan")
+    for _ in range(3):
+        step()
+    best = 0.0
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        units = sum(step() for _ in range(steps))
+        best = max(best, units / (time.perf_counter() - t0))
     return best
 
 
@@ -113,8 +141,14 @@ def run(
     for B in batches:
         for k in beams:
             rates = {t: engine_rate(B, k, t, steps, repeats) for t in counts}
-            rows.append({"B": B, "beams": k, "rates": rates})
-            print(f"B={B} beams={k}: " + ", ".join(f"{t} thr {r / 1e6:.3f} M/s" for t, r in rates.items()), flush=True)
+            vmas = vmas_rate(B, k, steps, repeats)
+            open_rate = engine_rate(B, k, 1, steps, repeats, n_obstacles=0)
+            rows.append({"B": B, "beams": k, "rates": rates, "vmas": vmas, "open": open_rate})
+            print(
+                f"B={B} beams={k}: " + ", ".join(f"{t} thr {r / 1e6:.3f} M/s" for t, r in rates.items())
+                + f", VMAS {vmas / 1e6:.3f} M/s, ours open {open_rate / 1e6:.3f} M/s",
+                flush=True,
+            )  # fmt: skip
     cross = []
     old = threads.MIN_PARALLEL_BATCH
     threads.MIN_PARALLEL_BATCH = 1
@@ -162,24 +196,31 @@ def render(res: dict) -> str:
         "runs at 2+ threads.",
         "",
         "| B | lidar beams | " + " | ".join(f"{t} thread{'s' if t > 1 else ''} [M/s]" for t in counts)
-        + " | " + " | ".join(f"speed-up {t}/1" for t in counts[1:]) + " | lidar cost (1 thread) |",
-        "|---|---|" + "---|" * (2 * len(counts)),
+        + " | " + " | ".join(f"speed-up {t}/1" for t in counts[1:]) + " | lidar cost (1 thread) "
+        "| VMAS, 1 thread [M/s] | ours / VMAS (1 thread) | ours, open, 1 thread [M/s] | ours, open / VMAS |",
+        "|---|---|" + "---|" * (2 * len(counts) + 4),
     ]  # fmt: skip
     base = {(r["B"], t): r["rates"][t] for r in res["rows"] if r["beams"] == 0 for t in counts}
     for r in res["rows"]:
         rates = r["rates"]
         cost = base[(r["B"], 1)] / rates[1] if (r["B"], 1) in base else float("nan")
+        vmas, open_rate = r.get("vmas", float("nan")), r.get("open", float("nan"))
         out.append(
             f"| {r['B']} | {r['beams'] or 'none'} | "
             + " | ".join(f"{rates[t] / 1e6:.3f}" for t in counts)
             + " | "
             + " | ".join(f"{rates[t] / rates[1]:.2f}x" for t in counts[1:])
-            + f" | {cost:.2f}x |"
+            + f" | {cost:.2f}x | {vmas / 1e6:.3f} | {rates[1] / vmas:.2f}x | {open_rate / 1e6:.3f} | "
+            f"{open_rate / vmas:.2f}x |"
         )
     out += [
         "",
         "Lidar cost: the step without lidar over the step with it (time ratio), 1 thread. Targets (issue 45): "
-        ">= 1.8x from 1 to 2 threads at B = 4096; 12 beams <= 2x, 64 beams <= 4x the step without lidar.",
+        ">= 1.8x from 1 to 2 threads at B = 4096; 12 beams <= 2x, 64 beams <= 4x the step without lidar. VMAS: "
+        "`navigation` on the CPU, one torch thread, agent collisions on, the agents alone (no obstacles; ours have "
+        "10 moving obstacles more), with its lidar of that many rays (`n_lidar_rays=0` without). Ours, open: our "
+        "worlds without the obstacles (the robots alone, as VMAS's), the like-for-like column. nan: VMAS not "
+        "installed.",
         "",
         "Crossover (no lidar, parallel twins forced at every B): where threads start to pay.",
         "",

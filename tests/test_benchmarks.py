@@ -189,6 +189,8 @@ def test_threads_bench_quick_writes_its_table(tmp_path):
     res = json.loads(out.with_suffix(".json").read_text())
     assert res["threads"][0] == 1 and res["rows"] and res["crossover"] and res["expert"]
     assert "| `circle-16-v0` | 16 |" in text
+    assert "| VMAS, 1 thread [M/s] | ours / VMAS (1 thread) |" in text
+    assert all(row["vmas"] > 0 and row["open"] > 0 for row in res["rows"])  # VMAS is in the bench extra
 
 
 def test_jaxmarl_bench_quick_writes_its_tables_with_or_without_jaxmarl(tmp_path):
