@@ -59,7 +59,9 @@ def test_among_walls_the_v2_goal_features_follow_the_route_and_v1_reads_the_stra
 
 def test_batched_waypoints_equal_the_one_robot_route():
     """:meth:`Roadmap.next_waypoints` (compiled, many robots) against :meth:`Roadmap.next_waypoint`
-    (readable, one robot), at random points of a random-walls map, some of them inside walls."""
+    (readable, one robot), at random points of a random-walls map, some of them inside walls: the same
+    waypoints, and route lengths equal to rounding (the compiled sums may differ in the last bit by
+    machine: 9.930437691559137 against ...135 on an Intel Xeon, equal on an AMD EPYC)."""
     w = Simulator(get_suite("walls-v0").scenario).reset(5)
     rm = roadmap(w, 0, float(w.radius[0, 0]))
     rng = np.random.default_rng(0)
@@ -68,5 +70,5 @@ def test_batched_waypoints_equal_the_one_robot_route():
     for i in range(len(p)):
         one, total = rm.next_waypoint(p[i], g[i])
         np.testing.assert_array_equal(wp[i], one)
-        assert length[i] == total
+        np.testing.assert_allclose(length[i], total, rtol=1e-12, atol=0.0)
     assert np.isfinite(length).mean() > 0.5 and (wp != g).any(axis=-1).mean() > 0.1
