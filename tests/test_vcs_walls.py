@@ -2,6 +2,8 @@
 velocity obstacle (against the numpy oracle), a door head-on, a wall between a robot and its
 goal, the ablation with the walls hidden from the kernel, and giving way at a junction."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -176,6 +178,23 @@ def test_fitted_buffers_pass_a_robot_parked_in_a_narrow_corridor():
     (fitted,) = _episodes("corridor-narrow-v0", [1000], fit_clearance=0.01)
     assert (blocked.reached_step < 0).sum() == 2 and not contact_events(blocked)
     assert (fitted.reached_step >= 0).all() and not contact_events(fitted)
+
+
+def test_fitted_gate_between_parked_robots():
+    """corridor-v0: the front robots of each lane park at their goals 1.2 m apart across the corridor, 0.7
+    m between their bodies, and a robot bound for a goal beyond them must pass between the two (0.1 m to
+    spare on each side). Under the buffers of vcs-method §2.6 that gate is closed: holonomic robots
+    (seeds 1010, 1018) and ten unicycles (seeds 9002, 9003) leave robots short of their goals; with
+    ``fit_discs`` the robot heading for the gate slows down and passes, and nothing touches anything."""
+    base = SUITES["corridor-v0"].scenario
+    holonomic = dataclasses.replace(base, robot=dataclasses.replace(base.robot, holonomic=True))
+    cases = [(holonomic, [1010, 1018]), (dataclasses.replace(base, n_robots=10), [9002, 9003])]
+    for scenario, seeds in cases:
+        for fit in (False, True):
+            episodes = run_episodes(scenario, planner_controller(VCSPlanner(fit_discs=fit)), seeds)
+            for e in episodes:
+                assert not contact_events(e)
+                assert (e.reached_step >= 0).all() == fit
 
 
 def _into_crossing_corridor(e) -> np.ndarray:

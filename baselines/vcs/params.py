@@ -114,6 +114,14 @@ class VCSParams:
     collision is ~0 and cannot rank), the least-harm fallback measures time to contact with the
     combined physical radius plus this clearance [m] (at most r_eff); ``None``: always the
     regulated radius r_eff (the ablation; vcs-method §2.13) [ours]."""
+    fit_discs: bool = False
+    """With ``fit_clearance``, buffers also fit the gate between two static discs (parked robots, standing
+    obstacles) that the robot's preferred velocity runs through, the same way as a disc and a wall
+    (vcs-method §2.6) [ours]. Off by default (vcs-calibration §7): it lets robots through the 0.7 m
+    between two rows of parked robots (``intersection-v0`` with 12 robots 0.075 -> 0.60, ``corridor-v0``
+    with 10 robots 0.45 -> 0.85, holonomic robots on ``corridor-v0`` 0.90 -> 1.00), but a unicycle that
+    stops in such a gate facing a parked robot can stay there (``corridor-v0`` 0.99 -> 0.98,
+    ``intersection-v0`` 0.98 -> 0.97)."""
     fallback_contact: float | None = 20.0
     """With nothing admissible, the least-harm fallback (``fallback="least_harm"``) also plays each
     candidate out against the moving obstacles (the robot ramping to it and holding it, each
@@ -315,6 +323,7 @@ class VCSParams:
             "stall_turn",
             "give_way",
             "holonomic_window_fit",
+            "fit_discs",
         ):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"VCSParams.{name} must be a bool, got {getattr(self, name)!r}")

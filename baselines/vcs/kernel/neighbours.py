@@ -337,6 +337,9 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
     if p.fit_clearance >= 0.0:
         brake = 0.5 * v_r * v_r / a_max_i  # the robot's braking distance [m]
         fit_buffers(nbs, first, count, world.radius[b, i], max(p.fit_clearance, brake))
+        if p.fit_discs:
+            ux, uy = pref_comm[b, i, 0], pref_comm[b, i, 1]
+            fit_disc_pairs(nbs, first, world.radius[b, i], max(p.fit_clearance, brake), ux, uy)
     for q in range(count):
         nb = nbs[q]
         is_robot = nb.kind == K_RECIPROCAL
@@ -383,6 +386,45 @@ def fit_buffers(nbs, discs, count, r_i, clearance):
             room = max(clearance, 0.25 * (gap - 2.0 * r_i))
             a.reff = max(min(a.reff, a.r0 + room), a.r0)
             if c.reff > c.r0 + room and c.d > c.r0:
+                c.reff = c.r0 + room
+
+
+@njit(cache=True)
+def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
+    """:func:`fit_buffers` between two static discs (``VCSParams.fit_discs``, vcs-method §2.6): for every
+    two static disc records among ``nbs[:discs]`` (parked robots, standing obstacles, not the static
+    twins) whose surface gap lets the robot (radius ``r_i`` [m]) through with ``clearance`` [m] on both
+    sides, and whose centres the ray from the robot along its preferred velocity ``(ux, uy)`` [m/s]
+    passes between (the gate it is heading for), the buffers of both beyond their physical radius are at
+    most ``max(clearance, (g - 2 r_i) / 4)``. Only the gate ahead: fitted all round, the buffers also
+    let the robot into the pocket between a parked robot and a wall, which it does not fit through."""
+    for j in range(discs):
+        a = nbs[j]
+        if a.kind != K_STATIC or a.twin or a.d <= a.r0:
+            continue
+        for q in range(j + 1, discs):
+            c = nbs[q]
+            if c.kind != K_STATIC or c.twin or c.d <= c.r0:
+                continue
+            if a.reff <= a.r0 + clearance and c.reff <= c.r0 + clearance:
+                continue
+            dx, dy = a.px - c.px, a.py - c.py
+            gap = math.sqrt(dx * dx + dy * dy) - (a.r0 - r_i) - (c.r0 - r_i)
+            if gap < 2.0 * (r_i + clearance):
+                continue
+            # the ray from the robot along (ux, uy) crosses the segment between the two centres
+            ex, ey = c.px - a.px, c.py - a.py
+            den = ux * ey - uy * ex
+            if abs(den) < 1e-12:
+                continue
+            t = (a.px * ey - a.py * ex) / den
+            s = (a.px * uy - a.py * ux) / den
+            if t <= 0.0 or s <= 0.0 or s >= 1.0:
+                continue
+            room = max(clearance, 0.25 * (gap - 2.0 * r_i))
+            if a.reff > a.r0 + room:
+                a.reff = a.r0 + room
+            if c.reff > c.r0 + room:
                 c.reff = c.r0 + room
 
 

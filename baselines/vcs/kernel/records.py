@@ -88,6 +88,7 @@ PARAMS = np.dtype(
         ("no_follow", "?"),  # inside a mover's buffer, do not close on it as it recedes
         ("stall_turn", "?"),  # a detouring robot at rest turns in place toward its goal (else: by walls only)
         ("holonomic_window_fit", "?"),  # a holonomic window grid spans its disc only
+        ("fit_discs", "?"),  # fit_clearance also between two static discs, at a gate the robot heads through
     ],
     align=True,
 )
@@ -139,6 +140,7 @@ def params_record(p) -> np.ndarray:
         "no_follow": p.no_follow,
         "stall_turn": p.stall_turn,
         "holonomic_window_fit": p.holonomic_window_fit,
+        "fit_discs": p.fit_discs,
     }
     for name, value in values.items():
         rec[name] = value
