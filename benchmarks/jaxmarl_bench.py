@@ -22,7 +22,7 @@ selects it where the episode ended (``step >= max_steps``; simple_spread has no 
 resets, after the step, only the worlds whose episode ended (no robot active, or 200 steps).
 
 Two processes, one per table, each measuring its contestants in turn, round after round (ours,
-jaxmarl_step, jaxmarl_scan, ours, ...; :func:`benchmarks.timing.side_by_side`), so a change of load
+ours_open, jaxmarl_step, jaxmarl_scan, ours, ...; :func:`benchmarks.timing.side_by_side`), so a change of load
 hits all of them alike. A timed run is one episode of every world: :data:`EPISODE_STEPS` steps of
 all ``B`` worlds. Our worlds start together and end together, so each run holds one reset of all
 ``B`` worlds (layouts drawn on the host: a large share of our time) at the same rate as in training;

@@ -195,6 +195,8 @@ def test_fitted_gate_between_parked_robots():
             for e in episodes:
                 assert not contact_events(e)
                 assert (e.reached_step >= 0).all() == fit
+    with pytest.raises(ValueError, match="fit_discs fits buffers down to fit_clearance"):
+        VCSPlanner(fit_discs=True, fit_clearance=None)
 
 
 def _into_crossing_corridor(e) -> np.ndarray:

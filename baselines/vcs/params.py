@@ -121,7 +121,7 @@ class VCSParams:
     between two rows of parked robots (``intersection-v0`` with 12 robots 0.075 -> 0.60, ``corridor-v0``
     with 10 robots 0.45 -> 0.85, holonomic robots on ``corridor-v0`` 0.90 -> 1.00), but a unicycle that
     stops in such a gate facing a parked robot can stay there (``corridor-v0`` 0.99 -> 0.98,
-    ``intersection-v0`` 0.98 -> 0.97)."""
+    ``intersection-v0`` 0.98 -> 0.97). Needs ``fit_clearance``."""
     fallback_contact: float | None = 20.0
     """With nothing admissible, the least-harm fallback (``fallback="least_harm"``) also plays each
     candidate out against the moving obstacles (the robot ramping to it and holding it, each
@@ -343,6 +343,8 @@ class VCSParams:
             check_positive("VCSParams.r_ca", self.r_ca)
         if self.fit_clearance is not None:
             check_positive("VCSParams.fit_clearance", self.fit_clearance)
+        elif self.fit_discs:
+            raise ValueError("VCSParams.fit_discs fits buffers down to fit_clearance: give fit_clearance, not None")
         if self.fallback_clearance is not None:
             check_positive("VCSParams.fallback_clearance", self.fallback_clearance, allow_zero=True)
         if self.fallback_contact is not None:
