@@ -420,7 +420,7 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
             t = (a.px * ey - a.py * ex) / den
             s = (a.px * uy - a.py * ux) / den
             if t <= 0.0 or s <= 0.0 or s >= 1.0:
-                continue  # not ahead (a robot past the line between the centres is inside their buffers: §2.6)
+                continue  # not ahead (past the line between the centres it is inside their buffers, vcs-method §2.6)
             room = max(clearance, 0.25 * (gap - 2.0 * r_i))
             if a.reff > a.r0 + room:
                 a.reff = a.r0 + room
