@@ -379,14 +379,20 @@ def fit_buffers(nbs, discs, count, r_i, clearance):
         if a.kind != K_STATIC or a.reff <= a.r0 + clearance or a.d <= a.r0:  # nothing to shrink, or an overlap
             continue
         for q in range(discs, count):
-            c = nbs[q]
-            gap = _gap_to_wall(a, c, r_i)
-            if gap < 2.0 * (r_i + clearance):
-                continue
-            room = max(clearance, 0.25 * (gap - 2.0 * r_i))
-            a.reff = max(min(a.reff, a.r0 + room), a.r0)
-            if c.reff > c.r0 + room and c.d > c.r0:
-                c.reff = c.r0 + room
+            fit_gap(a, nbs[q], _gap_to_wall(a, nbs[q], r_i), r_i, clearance)
+
+
+@njit(cache=True)
+def fit_gap(a, c, gap, r_i, clearance):
+    """The cap of :func:`fit_buffers` on records ``a`` (a static disc) and ``c``, whose surface gap is
+    ``gap`` [m]: if the robot (radius ``r_i`` [m]) fits through with ``clearance`` [m] on both sides, the
+    buffers of both beyond their physical radius are at most ``max(clearance, (gap - 2 r_i) / 4)``."""
+    if gap < 2.0 * (r_i + clearance):
+        return
+    room = max(clearance, 0.25 * (gap - 2.0 * r_i))
+    a.reff = max(min(a.reff, a.r0 + room), a.r0)
+    if c.reff > c.r0 + room and c.d > c.r0:
+        c.reff = c.r0 + room
 
 
 @njit(cache=True)
@@ -408,10 +414,6 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
                 continue
             if a.reff <= a.r0 + clearance and c.reff <= c.r0 + clearance:
                 continue
-            dx, dy = a.px - c.px, a.py - c.py
-            gap = math.sqrt(dx * dx + dy * dy) - (a.r0 - r_i) - (c.r0 - r_i)
-            if gap < 2.0 * (r_i + clearance):
-                continue
             # the ray from the robot along (ux, uy) crosses the segment between the two centres
             ex, ey = c.px - a.px, c.py - a.py
             den = ux * ey - uy * ex
@@ -421,11 +423,8 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
             s = (a.px * uy - a.py * ux) / den
             if t <= 0.0 or s <= 0.0 or s >= 1.0:
                 continue  # not ahead (past the line between the centres it is inside their buffers, vcs-method §2.6)
-            room = max(clearance, 0.25 * (gap - 2.0 * r_i))
-            if a.reff > a.r0 + room:
-                a.reff = a.r0 + room
-            if c.reff > c.r0 + room:
-                c.reff = c.r0 + room
+            gap = math.sqrt(ex * ex + ey * ey) - (a.r0 - r_i) - (c.r0 - r_i)
+            fit_gap(a, c, gap, r_i, clearance)
 
 
 @njit(cache=True)
