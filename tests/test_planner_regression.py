@@ -59,12 +59,13 @@ PINNED = {
     "mover_turn_lead": None,
     "fallback_contact": None,
     "holonomic_window_fit": False,
+    "fit_discs": False,
 }
 """Planner rules newer than the fixture, off in every VCS planner here (module docstring): the goal
 twin, the mirror images of bouncing obstacles, no following inside a mover's buffer, escalating
 detours, turning in place from rest, movers that turn and the fallback's play-out against
-movers (2026-11-28), the holonomic window fitted to its disc (2026-11-29); ``tests/test_vcs_safety.py``
-measures them."""
+movers (2026-11-28), the holonomic window fitted to its disc (2026-11-29), buffers fitted between two
+parked robots (2026-12-01); ``tests/test_vcs_safety.py`` and ``tests/test_vcs_walls.py`` measure them."""
 EVAL_EVERY = 25
 """Steps between the states at which ``evaluate()`` of robot 0 is hashed."""
 

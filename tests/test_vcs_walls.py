@@ -9,6 +9,8 @@ import pytest
 
 from baselines.capsule import reference_capsule_tau, segment_range
 from baselines.vcs import VCSPlanner
+from baselines.vcs.kernel.neighbours import fit_disc_pairs
+from baselines.vcs.kernel.records import K_STATIC, NEIGHBOUR
 from vcs_env.contacts import contact_events
 from vcs_env.rollout import planner_controller, run_episodes
 from vcs_env.scenario import CustomLayout, RobotSpec, Scenario
@@ -195,8 +197,35 @@ def test_fitted_gate_between_parked_robots():
             for e in episodes:
                 assert not contact_events(e)
                 assert (e.reached_step >= 0).all() == fit
-    with pytest.raises(ValueError, match="fit_discs fits buffers down to fit_clearance"):
-        VCSPlanner(fit_discs=True, fit_clearance=None)
+    # fit_clearance=None turns all fitting off, between discs too: the same episode either way.
+    scenario, seeds = cases[1][0], cases[1][1][:1]
+    off, discs_off = (
+        run_episodes(scenario, planner_controller(VCSPlanner(fit_clearance=None, fit_discs=f)), seeds)[0]
+        for f in (True, False)
+    )
+    np.testing.assert_array_equal(off.pos, discs_off.pos)
+
+
+def test_fitted_gate_only_where_the_ray_runs_between_the_bodies():
+    """``fit_disc_pairs`` on two parked discs 1.2 m apart across the robot's way (physical radii 0.25 m,
+    buffers 0.2 m beyond): a ray that crosses the segment between their centres outside both bodies fits
+    both buffers to max(clearance, (g - 2 r) / 4) = 0.05 m; one that crosses it inside a body (the robot
+    bound past a robot parked in its lane) or not at all leaves them regulated."""
+    r_i, clearance, buffer = 0.25, 0.01, 0.2
+
+    def buffers(y_a):
+        nbs = np.zeros(2, dtype=NEIGHBOUR)
+        for rec, y in zip(nbs, (y_a, y_a + 1.2), strict=True):
+            rec["kind"], rec["px"], rec["py"] = K_STATIC, 1.0, y
+            rec["d"], rec["r0"] = np.hypot(1.0, y), 2 * r_i
+            rec["reff"] = rec["r0"] + buffer
+        fit_disc_pairs(nbs, 2, r_i, clearance, 1.0, 0.0)  # the ray along +x from the robot at the origin
+        return nbs["reff"] - nbs["r0"]
+
+    np.testing.assert_allclose(buffers(-0.6), [0.05, 0.05])  # the ray runs through the middle of the gate
+    np.testing.assert_allclose(buffers(-0.3), [0.05, 0.05])  # 0.3 m from the near centre: past its body
+    np.testing.assert_allclose(buffers(-0.1), [buffer, buffer])  # through the near body
+    np.testing.assert_allclose(buffers(0.1), [buffer, buffer])  # not between them at all
 
 
 def _into_crossing_corridor(e) -> np.ndarray:

@@ -114,14 +114,14 @@ class VCSParams:
     collision is ~0 and cannot rank), the least-harm fallback measures time to contact with the
     combined physical radius plus this clearance [m] (at most r_eff); ``None``: always the
     regulated radius r_eff (the ablation; vcs-method §2.13) [ours]."""
-    fit_discs: bool = False
+    fit_discs: bool = True
     """With ``fit_clearance``, buffers also fit the gate between two static discs (parked robots, standing
-    obstacles) that the robot's preferred velocity runs through, the same way as a disc and a wall
-    (vcs-method §2.6) [ours]. Off by default (vcs-calibration §7): it lets robots through the 0.7 m
-    between two rows of parked robots (``intersection-v0`` with 12 robots 0.075 -> 0.60, ``corridor-v0``
-    with 10 robots 0.45 -> 0.85, holonomic robots on ``corridor-v0`` 0.90 -> 1.00), but a unicycle that
-    stops in such a gate facing a parked robot can stay there (``corridor-v0`` 0.99 -> 0.98,
-    ``intersection-v0`` 0.98 -> 0.97). Needs ``fit_clearance``."""
+    obstacles) that the robot's preferred velocity runs through between their bodies, the same way as a
+    disc and a wall (vcs-method §2.6) [ours]. On by default since 2026-12-01 (vcs-calibration §7): it lets
+    robots through the 0.7 m between two rows of parked robots (``intersection-v0`` with 12 robots
+    0.20 -> 0.64, ``corridor-v0`` with 10 robots 0.52 -> 0.85, holonomic robots on ``corridor-v0`` 0.90 ->
+    1.00), and every suite ends the same or better. False: the buffers of vcs-method §2.6 between discs
+    (the ablation); ``fit_clearance=None`` turns all fitting off, this included."""
     fallback_contact: float | None = 20.0
     """With nothing admissible, the least-harm fallback (``fallback="least_harm"``) also plays each
     candidate out against the moving obstacles (the robot ramping to it and holding it, each
@@ -343,8 +343,6 @@ class VCSParams:
             check_positive("VCSParams.r_ca", self.r_ca)
         if self.fit_clearance is not None:
             check_positive("VCSParams.fit_clearance", self.fit_clearance)
-        elif self.fit_discs:
-            raise ValueError("VCSParams.fit_discs fits buffers down to fit_clearance: give fit_clearance, not None")
         if self.fallback_clearance is not None:
             check_positive("VCSParams.fallback_clearance", self.fallback_clearance, allow_zero=True)
         if self.fallback_contact is not None:

@@ -400,10 +400,13 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
     """:func:`fit_buffers` between two static discs (``VCSParams.fit_discs``, vcs-method §2.6): for every
     two static disc records among ``nbs[:discs]`` (parked robots, standing obstacles, not the static
     twins) whose surface gap lets the robot (radius ``r_i`` [m]) through with ``clearance`` [m] on both
-    sides, and whose centres the ray from the robot along its preferred velocity ``(ux, uy)`` [m/s]
-    passes between (the gate it is heading for), the buffers of both beyond their physical radius are at
-    most ``max(clearance, (g - 2 r_i) / 4)``. Only the gate ahead: fitted all round, the buffers also
-    let the robot into the pocket between a parked robot and a wall, which it does not fit through."""
+    sides, and whose bodies the ray from the robot along its preferred velocity ``(ux, uy)`` [m/s]
+    passes between (the gate it is heading for: it crosses the segment between their centres outside
+    both discs), the buffers of both beyond their physical radius are at most ``max(clearance, (g - 2
+    r_i) / 4)``. Only the gate ahead: fitted all round, the buffers also let the robot into the pocket
+    between a parked robot and a wall, which it does not fit through; nor a ray that runs into one of
+    the two bodies: the robot bound past a robot parked in its lane then closed in on that robot, 4 cm
+    from it, where every move ahead closes on it (vcs-calibration §7)."""
     for j in range(discs):
         a = nbs[j]
         if a.kind != K_STATIC or a.twin or a.d <= a.r0:
@@ -423,7 +426,10 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
             s = (a.px * uy - a.py * ux) / den
             if t <= 0.0 or s <= 0.0 or s >= 1.0:
                 continue  # not ahead (past the line between the centres it is inside their buffers, vcs-method §2.6)
-            gap = math.sqrt(ex * ex + ey * ey) - (a.r0 - r_i) - (c.r0 - r_i)
+            span = math.sqrt(ex * ex + ey * ey)
+            if s * span < a.r0 - r_i or (1.0 - s) * span < c.r0 - r_i:
+                continue  # the ray crosses one of the two bodies, not the way between them
+            gap = span - (a.r0 - r_i) - (c.r0 - r_i)
             fit_gap(a, c, gap, r_i, clearance)
 
 
