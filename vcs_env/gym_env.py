@@ -58,6 +58,11 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
+    * v2, planner default (same id, 2026-12-01): the VCS expert, which drives ``others`` by default and
+      gives the expert labels and the VCS shaping terms, fits its buffers to the gate between two parked
+      robots or standing obstacles it heads through (``VCSParams.fit_discs``); episodes with parked
+      or standing bodies can differ, the rest are unchanged. ``others=VCSPlanner(fit_discs=False)``
+      drives them as before.
     * v2, addition (same id): an optional reward term ``stuck`` (weight 0 by default; with the stall
       clock): -dt per step while the expert's stall rule counts the robot as stuck. Rewards unchanged
       unless weighted.

@@ -72,6 +72,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, planner default (same id, 2026-12-01): the VCS expert behind the expert labels and the VCS
+      shaping terms fits its buffers to the gate between two parked robots or standing obstacles it
+      heads through (``VCSParams.fit_discs``); dynamics and the other rewards unchanged.
     * v2, addition (same id): an optional reward term ``stuck`` (weight 0 by default; with the stall
       clock): -dt per step while the expert's stall rule counts the robot as stuck. Rewards unchanged
       unless weighted.
