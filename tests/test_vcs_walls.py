@@ -207,25 +207,30 @@ def test_fitted_gate_between_parked_robots():
 
 
 def test_fitted_gate_only_where_the_ray_runs_between_the_bodies():
-    """``fit_disc_pairs`` on two parked discs 1.2 m apart across the robot's way (physical radii 0.25 m,
-    buffers 0.2 m beyond): a ray that crosses the segment between their centres outside both bodies fits
-    both buffers to max(clearance, (g - 2 r) / 4) = 0.05 m; one that crosses it inside a body (the robot
-    bound past a robot parked in its lane) or not at all leaves them regulated."""
+    """``fit_disc_pairs`` on two parked discs (physical radii 0.25 m, buffers 0.2 m beyond) and a robot at
+    the origin heading along +x: a ray that keeps out of both bodies up to where it crosses the segment
+    between their centres fits both buffers to max(clearance, (g - 2 r) / 4) (0.05 m for discs 1.2 m
+    apart); one that runs into a body first (the robot bound past a robot parked in its lane, the gate
+    across the lane or slanted along it), or does not cross at all, leaves them regulated."""
     r_i, clearance, buffer = 0.25, 0.01, 0.2
 
-    def buffers(y_a):
+    def buffers(a, c):
         nbs = np.zeros(2, dtype=NEIGHBOUR)
-        for rec, y in zip(nbs, (y_a, y_a + 1.2), strict=True):
-            rec["kind"], rec["px"], rec["py"] = K_STATIC, 1.0, y
-            rec["d"], rec["r0"] = np.hypot(1.0, y), 2 * r_i
+        for rec, (x, y) in zip(nbs, (a, c), strict=True):
+            rec["kind"], rec["px"], rec["py"] = K_STATIC, x, y
+            rec["d"], rec["r0"] = np.hypot(x, y), 2 * r_i
             rec["reff"] = rec["r0"] + buffer
-        fit_disc_pairs(nbs, 2, r_i, clearance, 1.0, 0.0)  # the ray along +x from the robot at the origin
+        fit_disc_pairs(nbs, 2, r_i, clearance, 1.0, 0.0)
         return nbs["reff"] - nbs["r0"]
 
-    np.testing.assert_allclose(buffers(-0.6), [0.05, 0.05])  # the ray runs through the middle of the gate
-    np.testing.assert_allclose(buffers(-0.3), [0.05, 0.05])  # 0.3 m from the near centre: past its body
-    np.testing.assert_allclose(buffers(-0.1), [buffer, buffer])  # through the near body
-    np.testing.assert_allclose(buffers(0.1), [buffer, buffer])  # not between them at all
+    fitted, regulated = [0.05, 0.05], [buffer, buffer]
+    np.testing.assert_allclose(buffers((1, -0.6), (1, 0.6)), fitted)  # through the middle of the gate
+    np.testing.assert_allclose(buffers((1, -0.3), (1, 0.9)), fitted)  # 0.3 m from the near centre: past its body
+    np.testing.assert_allclose(buffers((1, -0.9), (1, 0.3)), fitted)  # the same by the other disc
+    np.testing.assert_allclose(buffers((1, -0.1), (1, 1.1)), regulated)  # into the near body at the crossing
+    np.testing.assert_allclose(buffers((1, -1.1), (1, 0.1)), regulated)  # into the other one
+    np.testing.assert_allclose(buffers((1, -0.05), (2.5, 0.1)), regulated)  # into the near body before a slanted gate
+    np.testing.assert_allclose(buffers((1, 0.1), (1, 1.3)), regulated)  # not between them at all
 
 
 def _into_crossing_corridor(e) -> np.ndarray:

@@ -118,10 +118,11 @@ class VCSParams:
     """With ``fit_clearance``, buffers also fit the gate between two static discs (parked robots, standing
     obstacles) that the robot's preferred velocity runs through between their bodies, the same way as a
     disc and a wall (vcs-method §2.6) [ours]. On by default since 2026-12-01 (vcs-calibration §7): it lets
-    robots through the 0.7 m between two rows of parked robots (``intersection-v0`` with 12 robots
-    0.20 -> 0.64, ``corridor-v0`` with 10 robots 0.52 -> 0.85, holonomic robots on ``corridor-v0`` 0.90 ->
-    1.00), and every suite ends the same or better. False: the buffers of vcs-method §2.6 between discs
-    (the ablation); ``fit_clearance=None`` turns all fitting off, this included."""
+    robots through the 0.7 m between two rows of parked robots (fresh seeds: ``intersection-v0`` with 12
+    robots 0.20 -> 0.68, ``corridor-v0`` with 10 robots 0.52 -> 0.85; holonomic robots on ``corridor-v0``
+    0.90 -> 1.00), and every suite ends with the same success and at-fault counts. False: the buffers of
+    vcs-method §2.6 between discs (the ablation); ``fit_clearance=None`` turns all fitting off, this
+    included."""
     fallback_contact: float | None = 20.0
     """With nothing admissible, the least-harm fallback (``fallback="least_harm"``) also plays each
     candidate out against the moving obstacles (the robot ramping to it and holding it, each

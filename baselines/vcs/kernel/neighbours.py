@@ -396,17 +396,29 @@ def fit_gap(a, c, gap, r_i, clearance):
 
 
 @njit(cache=True)
+def ray_hits(nb, ux, uy, t, r_i):
+    """Does the robot's centre, from where it is along ``(ux, uy)`` up to ``t`` times it, come nearer
+    to the record's centre than the body's own radius ``r0 - r_i`` [m] (into the body)?"""
+    uu = ux * ux + uy * uy
+    k = min(max((nb.px * ux + nb.py * uy) / uu, 0.0), t)  # the ray's point nearest the centre
+    dx, dy = nb.px - k * ux, nb.py - k * uy
+    body = nb.r0 - r_i
+    return dx * dx + dy * dy < body * body
+
+
+@njit(cache=True)
 def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
     """:func:`fit_buffers` between two static discs (``VCSParams.fit_discs``, vcs-method §2.6): for every
     two static disc records among ``nbs[:discs]`` (parked robots, standing obstacles, not the static
     twins) whose surface gap lets the robot (radius ``r_i`` [m]) through with ``clearance`` [m] on both
     sides, and whose bodies the ray from the robot along its preferred velocity ``(ux, uy)`` [m/s]
-    passes between (the gate it is heading for: it crosses the segment between their centres outside
-    both discs), the buffers of both beyond their physical radius are at most ``max(clearance, (g - 2
-    r_i) / 4)``. Only the gate ahead: fitted all round, the buffers also let the robot into the pocket
-    between a parked robot and a wall, which it does not fit through; nor a ray that runs into one of
-    the two bodies: the robot bound past a robot parked in its lane then closed in on that robot, 4 cm
-    from it, where every move ahead closes on it (vcs-calibration §7)."""
+    passes between (the gate it is heading for: up to where it crosses the segment between their
+    centres, the ray keeps out of both discs, :func:`ray_hits`), the buffers of both beyond their
+    physical radius are at most ``max(clearance, (g - 2 r_i) / 4)``. Only the gate ahead: fitted all
+    round, the buffers also let the robot into the pocket between a parked robot and a wall, which it
+    does not fit through; nor a ray that runs into one of the two bodies: the robot bound past a robot
+    parked in its lane then closed in on that robot, 4 cm from it, where every move ahead closes on it
+    (vcs-calibration §7)."""
     for j in range(discs):
         a = nbs[j]
         if a.kind != K_STATIC or a.twin or a.d <= a.r0:
@@ -426,10 +438,9 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
             s = (a.px * uy - a.py * ux) / den
             if t <= 0.0 or s <= 0.0 or s >= 1.0:
                 continue  # not ahead (past the line between the centres it is inside their buffers, vcs-method §2.6)
-            span = math.sqrt(ex * ex + ey * ey)
-            if s * span < a.r0 - r_i or (1.0 - s) * span < c.r0 - r_i:
-                continue  # the ray crosses one of the two bodies, not the way between them
-            gap = span - (a.r0 - r_i) - (c.r0 - r_i)
+            if ray_hits(a, ux, uy, t, r_i) or ray_hits(c, ux, uy, t, r_i):
+                continue  # the ray runs into one of the two bodies before it reaches the way between them
+            gap = math.sqrt(ex * ex + ey * ey) - (a.r0 - r_i) - (c.r0 - r_i)
             fit_gap(a, c, gap, r_i, clearance)
 
 
