@@ -23,7 +23,7 @@ from .records import (
     TINY,
     Work,
 )
-from .scalar import tau, tau_within
+from .scalar import ray_near, tau, tau_within
 from .walls import sensed_walls, wall_tau, wall_within
 
 
@@ -396,29 +396,15 @@ def fit_gap(a, c, gap, r_i, clearance):
 
 
 @njit(cache=True)
-def ray_hits(nb, ux, uy, t, r_i):
-    """Does the robot's centre, from where it is along ``(ux, uy)`` up to ``t`` times it, come nearer
-    to the record's centre than the body's own radius ``r0 - r_i`` [m] (into the body)?"""
-    uu = ux * ux + uy * uy
-    k = min(max((nb.px * ux + nb.py * uy) / uu, 0.0), t)  # the ray's point nearest the centre
-    dx, dy = nb.px - k * ux, nb.py - k * uy
-    body = nb.r0 - r_i
-    return dx * dx + dy * dy < body * body
-
-
-@njit(cache=True)
 def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
     """:func:`fit_buffers` between two static discs (``VCSParams.fit_discs``, vcs-method §2.6): for every
     two static disc records among ``nbs[:discs]`` (parked robots, standing obstacles, not the static
     twins) whose surface gap lets the robot (radius ``r_i`` [m]) through with ``clearance`` [m] on both
     sides, and whose bodies the ray from the robot along its preferred velocity ``(ux, uy)`` [m/s]
-    passes between (the gate it is heading for: up to where it crosses the segment between their
-    centres, the ray keeps out of both discs, :func:`ray_hits`), the buffers of both beyond their
-    physical radius are at most ``max(clearance, (g - 2 r_i) / 4)``. Only the gate ahead: fitted all
-    round, the buffers also let the robot into the pocket between a parked robot and a wall, which it
-    does not fit through; nor a ray that runs into one of the two bodies: the robot bound past a robot
-    parked in its lane then closed in on that robot, 4 cm from it, where every move ahead closes on it
-    (vcs-calibration §7)."""
+    passes between (up to where it crosses the segment between their centres, it keeps out of both
+    discs: the gate it heads for), the buffers of both beyond their physical radius are at most
+    ``max(clearance, (g - 2 r_i) / 4)``. Fitted all round, or for a ray into a body, the buffers let a
+    robot into a pocket it does not fit through, or close in on a robot parked in its lane (vcs-calibration §7)."""
     for j in range(discs):
         a = nbs[j]
         if a.kind != K_STATIC or a.twin or a.d <= a.r0:
@@ -438,7 +424,7 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
             s = (a.px * uy - a.py * ux) / den
             if t <= 0.0 or s <= 0.0 or s >= 1.0:
                 continue  # not ahead (past the line between the centres it is inside their buffers, vcs-method §2.6)
-            if ray_hits(a, ux, uy, t, r_i) or ray_hits(c, ux, uy, t, r_i):
+            if ray_near(a.px, a.py, ux, uy, t, a.r0 - r_i) or ray_near(c.px, c.py, ux, uy, t, c.r0 - r_i):
                 continue  # the ray runs into one of the two bodies before it reaches the way between them
             gap = math.sqrt(ex * ex + ey * ey) - (a.r0 - r_i) - (c.r0 - r_i)
             fit_gap(a, c, gap, r_i, clearance)
