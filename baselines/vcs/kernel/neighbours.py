@@ -8,6 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ...capsule import segment_range
 from .records import (
     ARRIVING_SLACK,
     INF,
@@ -23,7 +24,7 @@ from .records import (
     TINY,
     Work,
 )
-from .scalar import ray_near, tau, tau_within
+from .scalar import tau, tau_within
 from .walls import sensed_walls, wall_tau, wall_within
 
 
@@ -335,11 +336,10 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
     first = count  # then the walls (vcs-method §2.18): static, full responsibility
     count = sensed_walls(b, i, world, p, r_ca, vrx, vry, nbs, key, count, 2 * n + world.obs_pos.shape[1])
     if p.fit_clearance >= 0.0:
-        brake = 0.5 * v_r * v_r / a_max_i  # the robot's braking distance [m]
-        fit_buffers(nbs, first, count, world.radius[b, i], max(p.fit_clearance, brake))
+        clear = max(p.fit_clearance, 0.5 * v_r * v_r / a_max_i)  # at least the robot's braking distance [m]
+        fit_buffers(nbs, first, count, world.radius[b, i], clear)
         if p.fit_discs:
-            ux, uy = pref_comm[b, i, 0], pref_comm[b, i, 1]
-            fit_disc_pairs(nbs, first, world.radius[b, i], max(p.fit_clearance, brake), ux, uy)
+            fit_disc_pairs(nbs, first, world.radius[b, i], clear, pref_comm[b, i, 0], pref_comm[b, i, 1])
     for q in range(count):
         nb = nbs[q]
         is_robot = nb.kind == K_RECIPROCAL
@@ -424,8 +424,12 @@ def fit_disc_pairs(nbs, discs, r_i, clearance, ux, uy):
             s = (a.px * uy - a.py * ux) / den
             if t <= 0.0 or s <= 0.0 or s >= 1.0:
                 continue  # not ahead (past the line between the centres it is inside their buffers, vcs-method §2.6)
-            if ray_near(a.px, a.py, ux, uy, t, a.r0 - r_i) or ray_near(c.px, c.py, ux, uy, t, c.r0 - r_i):
-                continue  # the ray runs into one of the two bodies before it reaches the way between them
+            # the ray from the robot to the crossing, seen from each centre, keeps the body's own radius
+            if (
+                segment_range(-a.px, -a.py, t * ux - a.px, t * uy - a.py) < a.r0 - r_i
+                or segment_range(-c.px, -c.py, t * ux - c.px, t * uy - c.py) < c.r0 - r_i
+            ):
+                continue  # it runs into one of the two bodies before it reaches the way between them
             gap = math.sqrt(ex * ex + ey * ey) - (a.r0 - r_i) - (c.r0 - r_i)
             fit_gap(a, c, gap, r_i, clearance)
 

@@ -75,12 +75,3 @@ def reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r):
     kt = steps_for(dth, dth1)
     k = kv if kv > kt else kt
     return k if k > 0 else 0
-
-
-@njit(cache=True)
-def ray_near(px, py, ux, uy, t, radius):
-    """Does the ray from the origin along ``(ux, uy)``, up to ``t`` times it, come nearer than
-    ``radius`` [m] to the point ``(px, py)`` [m]?"""
-    k = min(max((px * ux + py * uy) / (ux * ux + uy * uy), 0.0), t)  # the ray's point nearest (px, py)
-    dx, dy = px - k * ux, py - k * uy
-    return dx * dx + dy * dy < radius * radius
