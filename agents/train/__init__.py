@@ -100,7 +100,7 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
     """SB3's callback of a run: robot-level rates of the training episodes, periodic evaluation
     (``periodic``, and ``best_model.zip`` when it improves), periodic checkpoints, the annealed
     shaping weight (``anneal``, :func:`shaping_schedule`) set before each rollout, and the ``--guide``
-    loss (``guide``, :mod:`agents.train.guide`) fed with the rollout and applied at its end."""
+    loss (``guide``, :mod:`agents.train.guide`) fed with the rollout and summed into PPO's update on it."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     scenario, family = scenarios[0], scenario_family(scenarios)
@@ -112,6 +112,10 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
 
         def _on_training_start(self) -> None:
             self.last_eval = self.last_ckpt = self.num_timesteps
+
+        def _on_training_end(self) -> None:
+            if guide is not None:
+                guide.finish()
 
         def _on_rollout_end(self) -> None:
             if guide is not None:
