@@ -100,9 +100,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """A residual over vcs holds its correction while the expert falls back (nothing admissible): the
     expert alone drives its escapes (agents.residual.Residual.gate)."""
     guide: str = "none"
-    """Guidance from the VCS expert beside --shaping: none; imitation_loss (after every rollout, PPO's
-    epochs of steps on guide_weight x |policy mean - expert action|^2 over the rollout's states, the
-    DAPG-style auxiliary loss); or jump_start (the expert drives the first steps of each training
+    """Guidance from the VCS expert beside --shaping: none; imitation_loss (every step of PPO's update
+    on a rollout also descends guide_weight x |policy mean - expert action|^2 on a minibatch of the
+    rollout's states, the DAPG-style auxiliary loss); or jump_start (the expert drives the first steps of each training
     episode, up to a share guide_weight of half the step limit, annealed to 0 at guide_anneal, which
     it needs); agents.train.guide."""
     guide_weight: float = 1.0
