@@ -10,8 +10,10 @@ with ``mu(o)`` the policy's mean action and ``a_expert(o)`` the VCS expert's act
 slot observed (:meth:`agents.vec_env.NavVecEnv.expert_actions`, recorded as the rollout is collected,
 padding slots left out), and ``weight(t)`` falling linearly to zero at ``--guide-anneal`` timesteps
 (:func:`annealed`). The two gradients are summed, each clipped to PPO's ``max_grad_norm``, before the
-optimiser's step. Once the weight is zero the run is plain PPO. (Imitation steps of their own before
-PPO's update do not hold: PPO's clipped ratios pull the policy back to the rollout's actions, and on
+optimiser's step (DAPG clips the sum once): while the weighted imitation gradient is longer than the clip,
+its share of the step is that of PPO's clipped gradient whatever the weight, so the weight and its anneal
+act as that gradient falls below the clip. Once the weight is zero the run is plain PPO. (Imitation steps
+of their own before PPO's update do not hold: PPO's clipped ratios pull the policy back to the rollout's actions, and on
 circle-16 the error on the rollout's states came back from 0.45 to 1.74 of 1.86; summed into PPO's steps
 it ends at 0.46.)
 
