@@ -69,12 +69,17 @@ def ppo_kwargs(cfg: TrainConfig, scenario: Scenario) -> dict[str, Any]:
 
 
 def learning_rate(cfg: TrainConfig):
-    """SB3 learning rate: a number, or a function of the remaining progress (1 -> 0)."""
+    """SB3 learning rate: a number, or a function of the remaining progress (1 -> 0).
+
+    ``linear`` holds at 0 once the progress runs out: PPO learns in whole rollouts, so a run whose budget
+    is not a multiple of the rollout ends past it, and SB3 then passes a negative remaining progress to
+    the last update. A negative rate there ran gradient ascent on the PPO loss (one such update took a
+    policy from 1.00 to 0.00 on the corridor suites, docs/training.md)."""
     if cfg.lr_schedule == "constant":
         return cfg.learning_rate
     if cfg.lr_schedule == "linear":
         lr0 = cfg.learning_rate
-        return lambda progress_remaining: lr0 * progress_remaining
+        return lambda progress_remaining: lr0 * max(progress_remaining, 0.0)
     raise ValueError(f"lr_schedule must be constant or linear, got {cfg.lr_schedule!r}")
 
 
