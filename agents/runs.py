@@ -72,8 +72,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     learning_rate: float = 3e-4
     """Adam learning rate (at the start, see lr_schedule)."""
     lr_schedule: str = "constant"
-    """constant, or linear: decays to 0 at the end of the run's budget (of this learn() call when resuming)
-    and holds there (a run that ends past its budget, in whole rollouts, makes its last update at 0)."""
+    """constant, or linear: decays to 0 over the run's budget ``timesteps`` (a resumed run goes on from its
+    checkpoint's step) and holds there (a run that ends past its budget, in whole rollouts, makes its last
+    update at 0)."""
     gamma: float = 0.99
     """Discount factor of PPO and of vcs_potential shaping (Ng et al.'s policy-invariant form)."""
     gae_lambda: float = 0.95
