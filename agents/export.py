@@ -169,6 +169,17 @@ def tanh_actor(net):
     return TanhActor().eval()
 
 
+def _shield(record: dict[str, Any]) -> dict[str, Any] | None:
+    """The shield the record names with every parameter spelled out (a record written before a parameter
+    existed keeps the rule it ran with, :func:`agents.shield.shield_from_record`), or None."""
+    from dataclasses import asdict
+
+    from .shield import shield_from_record
+
+    shield = shield_from_record(record)
+    return None if shield is None else asdict(shield)
+
+
 def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residual | None = None) -> dict[str, Any]:
     """The JSON written beside the ONNX file: what goes in and out, and the run record it came from.
 
@@ -198,7 +209,7 @@ def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residua
         },
         "observation": record.get("observation"),
         "observation_dim": dim,
-        "shield": record.get("shield"),
+        "shield": _shield(record),
         "shield_note": note,
         "residual": None
         if residual is None

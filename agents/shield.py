@@ -20,7 +20,14 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   is at most ``robot_speed`` [m/s] or it is parked (observation v2's flag), since a moving
   robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
   (on circle-24, counting every robot cost 15 points of success, ``docs/experiments.md``);
-* the gap is the distance between centres minus both radii [m].
+* the gap is the distance between centres minus both radii [m]; to a *still* body (a point on a wall, a
+  parked robot, a body at most ``robot_speed`` fast), whose prediction is exact, the shield keeps
+  ``still_margin`` (0.02 m) instead of ``margin``, which is for the constant-velocity guess of moving
+  obstacles: it counts that gap as ``gap + margin - still_margin``, so one threshold, ``margin``, applies
+  below. With ``margin`` to still bodies too, a passage narrower than the robot's diameter plus twice the
+  margin (a 0.7 m door for a robot of 0.5 m, the 0.7 m between two robots parked side by side in a
+  corridor) could not be driven through: the v2 generalist deadlocked on every corridor and door suite
+  with it (``docs/experiments.md``). Run records written before ``still_margin`` keep that rule.
 
 Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least
 ``margin``; otherwise the candidate (the policy's action or one of :data:`GRID`, acceleration and turn
@@ -59,6 +66,8 @@ SAMPLE = 0.1
 """Longest interval between predicted positions [s]."""
 HORIZON_MAX = 10.0
 """Longest horizon [s] (the neighbours' positions read at most 10 m away)."""
+STILL_MARGIN = 0.02
+"""Default smallest predicted gap to still bodies [m] (:attr:`Shield.still_margin`)."""
 NEAR_SLACK = 1e-6
 """Slack of :meth:`Shield.near`'s bound [m], for rounding."""
 
@@ -79,9 +88,16 @@ class Shield:
     """Smallest predicted gap the policy's action may leave to any counted neighbour [m]."""
     robot_speed: float = 0.05
     """Sensed robots at most this fast are counted, faster ones left to the policy [m/s]."""
+    still_margin: float | None = STILL_MARGIN
+    """Smallest predicted gap to still bodies [m]: the nearest points on walls, parked robots and bodies at
+    most ``robot_speed`` fast, whose prediction is exact (None: ``margin``, the rule of run records written
+    before this field, 2026-12-04)."""
 
     def __post_init__(self):
-        for name, low, high in (("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)):
+        checks = [("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)]
+        if self.still_margin is not None:
+            checks.append(("still_margin", None, None))
+        for name, low, high in checks:
             value = getattr(self, name)
             if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value):
                 raise ValueError(f"shield {name} must be a finite number, got {value!r}")
@@ -100,7 +116,8 @@ class Shield:
             layout: the observation's blocks (:func:`vcs_env.observations.observation_layout`).
 
         Returns:
-            ``+inf`` where no neighbour counts.
+            ``+inf`` where no neighbour counts; a gap to a still body as ``gap + margin - still_margin``
+            (module docstring).
         """
         o = np.asarray(obs, dtype=np.float64)
         dt = step_of(o)
@@ -157,10 +174,14 @@ class Shield:
             walls = layout.read(o, "wall_points")
             points = walls[..., 1:3] * SENSE_REF
             counted = np.concatenate((counted, walls[..., 0] > 0.5), axis=1)
+            still = np.concatenate((still, np.ones(walls.shape[:2], dtype=bool)), axis=1)
             pos, vel = np.concatenate((pos, points), axis=1), np.concatenate((vel, np.zeros_like(points)), axis=1)
             speed = np.concatenate((speed, np.zeros(walls.shape[:2])), axis=1)
             gap = np.concatenate((gap, np.hypot(points[..., 0], points[..., 1]) - radius[:, None]), axis=1)
             reach = np.concatenate((reach, np.repeat(radius[:, None], walls.shape[1], axis=1)), axis=1)
+        if self.still_margin is not None:  # a still body's gap counts from its own margin: shifted by the difference
+            shift = np.where(still, self.margin - self.still_margin, 0.0)
+            reach, gap = reach - shift, gap + shift
         return counted, pos, vel, speed, gap, reach, v0, v_max, a_max, w_max
 
     def near(self, obs: np.ndarray, layout: Layout) -> np.ndarray:
@@ -268,7 +289,7 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
         keys = list(Shield.__dataclass_fields__)
         raise ValueError(f"the shield in {where} must be an object with keys of {keys}, got {spec!r}")
     try:
-        return Shield(**spec)
+        return Shield(**{"still_margin": None, **spec})  # records without the key keep the rule they were run with
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None
 

@@ -25,6 +25,7 @@ from agents.checkpoint import CheckpointError, load_model, open_checkpoint, save
 from agents.export import OPSET  # noqa: E402
 from agents.features import extractor_kwargs  # noqa: E402
 from agents.runs import RLlibConfig, TrainConfig, run_record  # noqa: E402
+from agents.shield import Shield, shield_from_record  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_cli import main  # noqa: E402
 from vcs_env.observations import observation_config, observation_layout, with_sensors  # noqa: E402
@@ -106,7 +107,10 @@ def test_the_released_generalist_exports_with_a_note_on_its_shield(tmp_path, cap
     want, _ = load_model(GENERALIST).predict(obs, deterministic=True)
     assert np.abs(onnx_actions(tmp_path / "g.onnx", obs) - want).max() <= 1e-5
     layout = json.loads((tmp_path / "g.json").read_text())
-    assert layout["shield"] == meta["shield"] and "network only" in layout["shield_note"]
+    assert "network only" in layout["shield_note"]
+    # every parameter spelled out: the release's record predates still_margin and keeps margin for every body
+    assert layout["shield"] == meta["shield"] | {"still_margin": None}
+    assert Shield(**layout["shield"]) == shield_from_record(meta)
 
 
 def rllib_checkpoint(tmp_path: Path, scenario) -> Path:

@@ -16,7 +16,7 @@ from agents.policies import load_checkpoint
 from agents.shield import GRID, SAMPLE, Shield, ShieldedPredictor, attach, shield_from_record
 from vcs_cli import main
 from vcs_env.observations import EGO_DIM, observation_dim, observation_layout, observe
-from vcs_env.scenario import SCENARIOS
+from vcs_env.scenario import SCENARIOS, make_scenario
 from vcs_env.sim import Simulator
 from vcs_env.suites import Suite
 
@@ -33,8 +33,11 @@ def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tupl
     for j in range(k):
         s = row[EGO_DIM + j * 9 : EGO_DIM + (j + 1) * 9]
         vx, vy = s[3] * 6.0 + v0, s[4] * 6.0
-        if s[0] > 0.5 and (s[7] < 0.5 or math.hypot(vx, vy) <= shield.robot_speed or s[8] > 0.5):
-            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0))
+        still = math.hypot(vx, vy) <= shield.robot_speed or s[8] > 0.5
+        if s[0] > 0.5 and (s[7] < 0.5 or still):
+            # the gap to a still body is kept at still_margin: it counts as that much farther than margin
+            shift = shield.margin - shield.still_margin if still and shield.still_margin is not None else 0.0
+            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0 - shift))
     steps = math.ceil(shield.horizon / SAMPLE - 1e-9)
     h = shield.horizon / steps
 
@@ -68,9 +71,18 @@ def _world_observations(scenario, seeds, steps=30):
     )
 
 
-def test_filter_matches_the_readable_oracle_on_real_observations():
-    shield = Shield(horizon=1.5, margin=0.1)
-    obs, actions = _world_observations(SCENARIOS["dynamic"], range(40))
+# moving obstacles; and still ones among robots (the still margin matters there)
+STILL = make_scenario("random", n_robots=6, n_obstacles=8, obstacle_motion="static", arena_half_size=4.0)
+
+
+@pytest.mark.parametrize("name, still_margin", [("dynamic", None), ("dynamic", 0.02), ("still", 0.02), ("still", 0.15)])
+def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin):
+    shield = Shield(horizon=1.5, margin=0.1, still_margin=still_margin)
+    obs, actions = _world_observations(STILL if name == "still" else SCENARIOS["dynamic"], range(40))
+    if name == "still":
+        assert observation_layout(STILL) == LAYOUT
+        old_rule = Shield(still_margin=None).filter(obs, actions, LAYOUT)[1]
+        assert (shield.filter(obs, actions, LAYOUT)[1] != old_rule).any()
     out, replaced = shield.filter(obs, actions, LAYOUT)
     assert 0 < replaced.sum() < len(obs)  # both branches are exercised
     for row, act, got, rep in zip(obs, actions, out, replaced):
@@ -147,9 +159,36 @@ def test_who_counts_and_what_replaces_an_unsafe_action():
     assert out.shape == (2, 3, 2) and rep.shape == (2, 3) and rep.all()
 
 
+def test_still_bodies_keep_the_still_margin_and_passages_stay_open():
+    """Between two parked robots 0.7 m apart (surface to surface) a robot of 0.5 m driving through the middle
+    passes 0.08 m from each: further than ``still_margin`` (0.02 m), so full speed ahead stands, where the rule
+    of records without it (``margin`` to every body) stops the robot; obstacles moving on the same spots still
+    get ``margin``. The same between two walls (their nearest points)."""
+    gate = [(1.0, y, 0.0, 0.0, 0.25, 1.0, 1.0) for y in (0.58, -0.58)]  # parked robots beside the way
+    ahead = np.array([1.0, 0.0])
+    assert not Shield().filter(_obs(1.0, gate), ahead, LAYOUT)[1]
+    assert Shield(still_margin=None).filter(_obs(1.0, gate), ahead, LAYOUT)[1]
+    assert Shield(still_margin=0.1).filter(_obs(1.0, gate), ahead, LAYOUT)[1]
+    movers = [(1.0, y, 0.0, 0.3, 0.25, 0.0) for y in (0.58, -0.58)]  # obstacles drifting at 0.3 m/s
+    assert Shield().filter(_obs(1.0, movers), ahead, LAYOUT)[1]
+    walled = observation_layout(dataclasses.replace(SCENARIOS["dynamic"], n_wall_points=2))
+    row = np.zeros(walled.dim)
+    row[: LAYOUT.dim] = _obs(1.0)
+    walled.read(row, "wall_points")[:] = [[1.0, 0.0, 0.033], [1.0, 0.0, -0.033]]  # walls 0.08 m from the body
+    assert not Shield().filter(row, ahead, walled)[1]
+    assert Shield(still_margin=None).filter(row, ahead, walled)[1]
+    # Into a still body the shield still steps in, and its choice keeps the still margin (the true gap,
+    # which the rule without a still margin reports).
+    row = _obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 1.0, 1.0)])
+    act, replaced = Shield().filter(row, ahead, LAYOUT)
+    gaps = Shield(still_margin=None).min_gaps(row[None], np.stack((ahead, act))[None], LAYOUT)[0]
+    assert replaced and gaps[0] < 0 < Shield().still_margin <= gaps[1]
+
+
 @pytest.mark.parametrize(
     "kw, match",
     [
+        ({"still_margin": -0.01}, "still_margin must be >= 0"),
         ({"horizon": 0.0}, "horizon must be > 0"),
         ({"horizon": 1e9}, "horizon must be at most 10"),
         ({"margin": -0.1}, "margin must be >= 0"),
@@ -253,7 +292,9 @@ def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     suite = Suite("dynamic-fresh", SCENARIOS["dynamic"], tuple(range(60000, 60200)), "fresh dynamic episodes")
     shielded_run = evaluate(GENERALIST, suite, progress=False)
     network_run = evaluate(GENERALIST, suite, progress=False, shield=False)
-    assert shielded_run.to_dict()["shield"] == {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}
+    # the release's record predates still_margin: it keeps margin for every body (None)
+    want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05, "still_margin": None}
+    assert shielded_run.to_dict()["shield"] == want
     assert network_run.to_dict()["shield"] is None  # what ran is in the results
     shielded, network = shielded_run.summary, network_run.summary
     assert shielded["collision"]["mean"] < network["collision"]["mean"]

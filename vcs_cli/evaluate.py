@@ -207,7 +207,7 @@ def _add_select(sub) -> None:
 
 
 def cmd_shield(args) -> int:
-    guard = None if args.remove else shield.Shield(args.horizon, args.margin, args.robot_speed)
+    guard = None if args.remove else shield.Shield(args.horizon, args.margin, args.robot_speed, args.still_margin)
     shield.attach(args.checkpoint, guard)
     said = "removed the shield from" if guard is None else f"wrote {asdict(guard)} into"
     print(f"{said} the run record of {args.checkpoint}")
@@ -225,6 +225,12 @@ def _add_shield(sub) -> None:
     p.add_argument("--margin", type=float, default=shield.Shield.margin, help="smallest predicted gap to keep [m]")
     p.add_argument(
         "--robot-speed", type=float, default=shield.Shield.robot_speed, help="robots at most this fast count [m/s]"
+    )
+    p.add_argument(
+        "--still-margin",
+        type=float,
+        default=shield.Shield.still_margin,
+        help="smallest predicted gap to keep to still bodies: walls, parked and slow robots [m]",
     )
     p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
     p.set_defaults(func=cmd_shield)
