@@ -27,6 +27,7 @@ stable-baselines3, torch and Ray are imported when a checkpoint is loaded or exp
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -389,6 +390,27 @@ def config_path(checkpoint: str | os.PathLike) -> Path:
     """The run record beside an SB3 zip (``model.zip`` -> ``model.json``)."""
     p = Path(checkpoint)
     return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
+
+
+def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str, Any]:
+    """Write ``shield`` (an :class:`agents.shield.Shield`) into the run record of ``checkpoint`` (None removes
+    it); return the record."""
+    ckpt = open_checkpoint(checkpoint)
+    if ckpt.format != "sb3":
+        raise ValueError(
+            f"{str(checkpoint)!r} is a {ckpt.format} checkpoint; shields are kept in the run records of SB3 ones"
+        )
+    record = ckpt.record
+    if not isinstance(record, dict) or not record:
+        raise ValueError(
+            f"{str(ckpt.path)!r} has no run record to keep the shield in ({ckpt.record_path.name} is missing, empty "
+            "or not a JSON object)"
+        )
+    record.pop("shield", None)
+    if shield is not None:
+        record["shield"] = dataclasses.asdict(shield)
+    ckpt.record_path.write_text(json.dumps(record, indent=2) + "\n")
+    return record
 
 
 # --------------------------------------------------------------------------- SB3 and RLlib

@@ -45,19 +45,15 @@ so it applies wherever a checkpoint is run (``vcs-env evaluate``, ``compare``, `
 
 from __future__ import annotations
 
-import json
 import math
 import numbers
-import os
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from vcs_env.observations import DT_REF, SENSE_REF, Layout, observation_layout
 from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
-
-from .checkpoint import open_checkpoint
 
 LEVELS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 GRID = np.array([(a, w) for a in LEVELS for w in LEVELS])
@@ -292,23 +288,3 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
         return Shield(**{"still_margin": None, **spec})  # records without the key keep the rule they were run with
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None
-
-
-def attach(checkpoint: str | os.PathLike, shield: Shield | None) -> dict[str, Any]:
-    """Write ``shield`` into the run record of ``checkpoint`` (None removes it); return the record."""
-    ckpt = open_checkpoint(checkpoint)
-    if ckpt.format != "sb3":
-        raise ValueError(
-            f"{str(checkpoint)!r} is a {ckpt.format} checkpoint; shields are kept in the run records of SB3 ones"
-        )
-    record = ckpt.record
-    if not isinstance(record, dict) or not record:
-        raise ValueError(
-            f"{str(ckpt.path)!r} has no run record to keep the shield in ({ckpt.record_path.name} is missing, empty "
-            "or not a JSON object)"
-        )
-    record.pop("shield", None)
-    if shield is not None:
-        record["shield"] = asdict(shield)
-    ckpt.record_path.write_text(json.dumps(record, indent=2) + "\n")
-    return record

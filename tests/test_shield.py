@@ -11,9 +11,11 @@ import shutil
 import numpy as np
 import pytest
 
+from agents.checkpoint import attach_shield
 from agents.evaluate import evaluate
+from agents.evaluate.report import describe_shield
 from agents.policies import load_checkpoint
-from agents.shield import GRID, SAMPLE, Shield, ShieldedPredictor, attach, shield_from_record
+from agents.shield import GRID, SAMPLE, Shield, ShieldedPredictor, shield_from_record
 from vcs_cli import main
 from vcs_env.observations import EGO_DIM, observation_dim, observation_layout, observe
 from vcs_env.scenario import SCENARIOS, make_scenario
@@ -273,13 +275,17 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
     with pytest.raises(ValueError, match="keys of"):
         shield_from_record({"shield": {"horizon": 1.0, "reach": 2}})
+    # Results name the still margin where the shield has one (records before it: margin for every body).
+    assert describe_shield(dataclasses.asdict(Shield())).endswith("robots at most 0.05 m/s, still bodies 0.02 m")
+    assert describe_shield(record_before := {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}).endswith("m/s")
+    assert shield_from_record({"shield": record_before}).still_margin is None
     for bad in ("[1, 2]", "{}"):
         model.with_suffix(".json").write_text(bad)
         with pytest.raises(ValueError, match="has no run record to keep the shield in"):
-            attach(model, Shield())
+            attach_shield(model, Shield())
     model.with_suffix(".json").unlink()
     with pytest.raises(ValueError, match="has no run record"):
-        attach(model, Shield())
+        attach_shield(model, Shield())
     holonomic = dataclasses.replace(scenario, robot=dataclasses.replace(scenario.robot, holonomic=True))
     with pytest.raises(ValueError, match="holonomic"):
         ShieldedPredictor(None, Shield(), holonomic)

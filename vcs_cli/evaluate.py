@@ -20,6 +20,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from agents import shield
+from agents.checkpoint import attach_shield
 from agents.config import (
     _SCENARIO_FLAGS,
     ScenarioConfig,
@@ -208,7 +209,7 @@ def _add_select(sub) -> None:
 
 def cmd_shield(args) -> int:
     guard = None if args.remove else shield.Shield(args.horizon, args.margin, args.robot_speed, args.still_margin)
-    shield.attach(args.checkpoint, guard)
+    attach_shield(args.checkpoint, guard)
     said = "removed the shield from" if guard is None else f"wrote {asdict(guard)} into"
     print(f"{said} the run record of {args.checkpoint}")
     return 0

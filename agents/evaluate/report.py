@@ -92,10 +92,11 @@ def shield_lines(shields: Mapping[str, dict[str, float] | None]) -> list[str]:
 
 
 def describe_shield(shield: dict[str, float]) -> str:
-    """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s``."""
-    return (
-        f"horizon {shield['horizon']:g} s, margin {shield['margin']:g} m, robots at most {shield['robot_speed']:g} m/s"
-    )
+    """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s`` (and ``, still bodies 0.02 m`` with a still margin)."""
+    text = f"horizon {shield['horizon']:g} s, margin {shield['margin']:g} m"
+    text += f", robots at most {shield['robot_speed']:g} m/s"
+    still = shield.get("still_margin")
+    return text if still is None else f"{text}, still bodies {still:g} m"
 
 
 def fmt(x: float, spec: str = ".2f") -> str:
