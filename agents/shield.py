@@ -35,6 +35,15 @@ in ``{-1, -0.5, 0, 0.5, 1}``) with the largest score ``1e6 * min(gap, margin) - 
 in metres, the first candidate on ties): the largest smallest gap capped at ``margin``, and of those equal in
 it to within a few micrometres (all that reach the margin, say) the one nearest the policy's action.
 
+No harm to the robots it leaves to the policy (``driving_guard``, on by default): a candidate may replace the
+policy's action only if it comes no closer to the sensed *driving* robots (those not counted above, each moving on
+at its observed velocity) than the policy's action does, below ``margin``: its smallest predicted gap to them is at
+least ``min(that of the policy's action, margin)`` (to a micrometre). Driving robots never make the shield step
+in; they only rule out replacements that would steer into them. Without the guard the shield, keeping its margin
+to a wall or a parked robot, replaced a robot's braking with speeding up into a robot creeping past at 0.07 m/s
+(``doorway-v0`` seed 1005, a contact the network alone does not make; ``docs/experiments.md``). Run records
+written before the field run without it.
+
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
 ``vcs-env shield``); :func:`agents.policies.load_checkpoint` returns it as a :class:`ShieldedPredictor`,
 so it applies wherever a checkpoint is run (``vcs-env evaluate``, ``compare``, ``probe``, ``select``,
@@ -88,6 +97,9 @@ class Shield:
     """Smallest predicted gap to still bodies [m]: the nearest points on walls, parked robots and bodies at
     most ``robot_speed`` fast, whose prediction is exact (None: ``margin``, the rule of run records written
     before this field, 2026-12-04)."""
+    driving_guard: bool = True
+    """A replacement comes no closer to the driving robots than the policy's action, below ``margin`` (module
+    docstring; False: the rule of run records written before this field, 2026-12-04)."""
 
     def __post_init__(self):
         checks = [("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)]
@@ -102,6 +114,9 @@ class Shield:
             if high is not None and value > high:
                 raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
             object.__setattr__(self, name, float(value))
+        if not isinstance(self.driving_guard, (bool, np.bool_)):
+            raise ValueError(f"shield driving_guard must be true or false, got {self.driving_guard!r}")
+        object.__setattr__(self, "driving_guard", bool(self.driving_guard))
 
     def min_gaps(self, obs: np.ndarray, candidates: np.ndarray, layout: Layout) -> np.ndarray:
         """Smallest predicted gap [m] ``(N, K)`` of every robot under every candidate action.
@@ -115,21 +130,26 @@ class Shield:
             ``+inf`` where no neighbour counts; a gap to a still body as ``gap + margin - still_margin``
             (module docstring).
         """
+        return self._gaps(obs, candidates, layout)[..., 0]
+
+    def _gaps(self, obs: np.ndarray, candidates: np.ndarray, layout: Layout) -> np.ndarray:
+        """Smallest predicted gaps [m] ``(N, K, 2)``: to the counted neighbours (:meth:`min_gaps`), and to the
+        driving robots, the ones the shield leaves to the policy (``+inf`` where there are none)."""
         o = np.asarray(obs, dtype=np.float64)
         dt = step_of(o)
-        gap = np.full(candidates.shape[:2], np.inf)
+        gap = np.full((*candidates.shape[:2], 2), np.inf)
         for value in np.unique(dt):  # one step length at a time (one, unless rows of several scenarios)
             rows = dt == value
             gap[rows] = self._min_gaps(o[rows], candidates[rows], layout, float(value))
         return gap
 
     def _min_gaps(self, o: np.ndarray, candidates: np.ndarray, layout: Layout, dt: float) -> np.ndarray:
-        counted, pos, vel, _, _, reach, v0, v_max, a_max, w_max = self._neighbours(o, layout)
+        counted, pos, vel, _, _, reach, v0, v_max, a_max, w_max, driving = self._neighbours(o, layout)
         sub = max(1, math.ceil(dt / SAMPLE - 1e-9))  # samples along each step's straight segment
         speed = np.repeat(v0[:, None], candidates.shape[1], 1)
         heading = np.zeros_like(speed)
         x, y = np.zeros_like(speed), np.zeros_like(speed)
-        gap = np.full(speed.shape, np.inf)
+        gap = np.full((*speed.shape, 2), np.inf)
         for t in range(1, int(self.steps(dt)) + 1):
             speed = np.clip(speed + candidates[..., 0] * (a_max * dt)[:, None], 0.0, v_max[:, None])
             heading = heading + candidates[..., 1] * (w_max * dt)[:, None]
@@ -140,7 +160,8 @@ class Shield:
                 other = pos + vel * ((t - 1 + j / sub) * dt)  # (N, S, 2)
                 dx, dy = px[:, :, None] - other[:, None, :, 0], py[:, :, None] - other[:, None, :, 1]
                 d = np.sqrt(dx**2 + dy**2) - reach[:, None]
-                gap = np.minimum(gap, np.where(counted[:, None], d, np.inf).min(-1))
+                gap[..., 0] = np.minimum(gap[..., 0], np.where(counted[:, None], d, np.inf).min(-1))
+                gap[..., 1] = np.minimum(gap[..., 1], np.where(driving[:, None], d, np.inf).min(-1))
             x, y = px, py
         return gap
 
@@ -150,8 +171,9 @@ class Shield:
 
     def _neighbours(self, o: np.ndarray, layout: Layout) -> tuple[np.ndarray, ...]:
         """Per slot ``(N, S)``: counted mask, position and velocity ``(N, S, 2)`` in the robot frame [m, m/s],
-        gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``. The slots are the
-        neighbour slots, then the wall points if the observation has them (still, of radius 0)."""
+        gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``; and the driving robots'
+        mask ``(N, S)``. The slots are the neighbour slots, then the wall points if the observation has them
+        (still, of radius 0)."""
         v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
         v0, radius = o[:, 0] * v_max, o[:, 7] * R_REF
         slots = layout.read(o, "neighbors")
@@ -164,12 +186,14 @@ class Shield:
         if "parked" in fields:  # observation v2: parked robots stay where they are, whatever they read
             still |= slots[..., fields.index("parked")] > 0.5
         counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | still)
+        driving = (slots[..., 0] > 0.5) & ~counted
         reach = radius[:, None] + slots[..., 5] * R_REF
         gap = slots[..., 6] * SENSE_REF
         if "wall_points" in layout:  # the nearest points on walls: still points (radius 0)
             walls = layout.read(o, "wall_points")
             points = walls[..., 1:3] * SENSE_REF
             counted = np.concatenate((counted, walls[..., 0] > 0.5), axis=1)
+            driving = np.concatenate((driving, np.zeros(walls.shape[:2], dtype=bool)), axis=1)
             still = np.concatenate((still, np.ones(walls.shape[:2], dtype=bool)), axis=1)
             pos, vel = np.concatenate((pos, points), axis=1), np.concatenate((vel, np.zeros_like(points)), axis=1)
             speed = np.concatenate((speed, np.zeros(walls.shape[:2])), axis=1)
@@ -178,7 +202,7 @@ class Shield:
         if self.still_margin is not None:  # a still body's gap counts from its own margin: shifted by the difference
             shift = np.where(still, self.margin - self.still_margin, 0.0)
             reach, gap = reach - shift, gap + shift
-        return counted, pos, vel, speed, gap, reach, v0, v_max, a_max, w_max
+        return counted, pos, vel, speed, gap, reach, v0, v_max, a_max, w_max, driving
 
     def near(self, obs: np.ndarray, layout: Layout) -> np.ndarray:
         """``(N,)`` bool: some counted neighbour is within ``margin + T * (v_max + its speed)`` now, ``T`` the
@@ -221,8 +245,11 @@ class Shield:
         if unsafe.any():
             a = act[unsafe]
             candidates = np.concatenate((a[:, None], np.broadcast_to(GRID, (len(a), *GRID.shape))), axis=1)
-            gap = self.min_gaps(o[unsafe], candidates, layout)
-            score = np.minimum(gap, self.margin) * 1e6 - np.linalg.norm(candidates - a[:, None], axis=-1)
+            gaps = self._gaps(o[unsafe], candidates, layout)
+            score = np.minimum(gaps[..., 0], self.margin) * 1e6 - np.linalg.norm(candidates - a[:, None], axis=-1)
+            if self.driving_guard:  # no closer to the driving robots than the policy's action, below the margin
+                floor = np.minimum(gaps[:, :1, 1], self.margin) - NEAR_SLACK
+                score = np.where(gaps[..., 1] >= floor, score, -np.inf)
             out[unsafe] = np.take_along_axis(candidates, score.argmax(1)[:, None, None], 1)[:, 0]
         return out.reshape(*lead, 2), unsafe.reshape(lead)
 
@@ -285,6 +312,7 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
         keys = list(Shield.__dataclass_fields__)
         raise ValueError(f"the shield in {where} must be an object with keys of {keys}, got {spec!r}")
     try:
-        return Shield(**{"still_margin": None, **spec})  # records without the key keep the rule they were run with
+        # records without a key keep the rule they were run with
+        return Shield(**{"still_margin": None, "driving_guard": False, **spec})
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None

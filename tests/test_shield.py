@@ -36,27 +36,33 @@ def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tupl
         s = row[EGO_DIM + j * 9 : EGO_DIM + (j + 1) * 9]
         vx, vy = s[3] * 6.0 + v0, s[4] * 6.0
         still = math.hypot(vx, vy) <= shield.robot_speed or s[8] > 0.5
-        if s[0] > 0.5 and (s[7] < 0.5 or still):
+        counted = s[7] < 0.5 or still
+        if s[0] > 0.5:
             # the gap to a still body is kept at still_margin: it counts as that much farther than margin
             shift = shield.margin - shield.still_margin if still and shield.still_margin is not None else 0.0
-            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0 - shift))
+            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0 - shift, counted))
     steps = math.ceil(shield.horizon / SAMPLE - 1e-9)
     h = shield.horizon / steps
 
-    def smallest_gap(acc: float, turn: float) -> float:
+    def smallest_gap(acc: float, turn: float, counted: bool = True) -> float:
+        """To the counted bodies, or (counted False) to the driving robots the shield leaves to the policy."""
         speed, heading, x, y, best = v0, 0.0, 0.0, 0.0, math.inf
         for t in range(1, steps + 1):
             speed = min(max(speed + acc * a_max * h, 0.0), v_max)
             heading += turn * w_max * h
             x, y = x + speed * h * math.cos(heading), y + speed * h * math.sin(heading)
-            for ox, oy, vx, vy, r in others:
-                best = min(best, math.hypot(x - ox - vx * t * h, y - oy - vy * t * h) - radius - r)
+            for ox, oy, vx, vy, r, kind in others:
+                if kind == counted:
+                    best = min(best, math.hypot(x - ox - vx * t * h, y - oy - vy * t * h) - radius - r)
         return best
 
     action = np.clip(action, -1, 1)
     if smallest_gap(*action) >= shield.margin:
         return action, False
     candidates = [action, *GRID]
+    if shield.driving_guard:  # a replacement comes no closer to the driving robots, below the margin
+        floor = min(smallest_gap(*action, counted=False), shield.margin) - 1e-6
+        candidates = [c for c in candidates if smallest_gap(*c, counted=False) >= floor]
     score = [1e6 * min(smallest_gap(*c), shield.margin) - float(np.linalg.norm(c - action)) for c in candidates]
     return candidates[score.index(max(score))], True
 
@@ -77,14 +83,30 @@ def _world_observations(scenario, seeds, steps=30):
 STILL = make_scenario("random", n_robots=6, n_obstacles=8, obstacle_motion="static", arena_half_size=4.0)
 
 
-@pytest.mark.parametrize("name, still_margin", [("dynamic", None), ("dynamic", 0.02), ("still", 0.02), ("still", 0.15)])
-def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin):
-    shield = Shield(horizon=1.5, margin=0.1, still_margin=still_margin)
+@pytest.mark.parametrize(
+    "name, still_margin, guard",
+    [
+        ("dynamic", None, False),
+        ("dynamic", 0.02, True),
+        ("still", 0.02, False),
+        ("still", 0.15, True),
+        ("crowded", 0.02, True),
+        ("crowded", 0.02, False),
+    ],
+)
+def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard):
+    shield = Shield(horizon=1.5, margin=0.1, still_margin=still_margin, driving_guard=guard)
     obs, actions = _world_observations(STILL if name == "still" else SCENARIOS["dynamic"], range(40))
     if name == "still":
         assert observation_layout(STILL) == LAYOUT
-        old_rule = Shield(still_margin=None).filter(obs, actions, LAYOUT)[1]
+        old_rule = Shield(still_margin=None, driving_guard=guard).filter(obs, actions, LAYOUT)[1]
         assert (shield.filter(obs, actions, LAYOUT)[1] != old_rule).any()
+    if name == "crowded":
+        obs, actions = _crowded_rows(np.random.default_rng(1), 300)
+        # the guard changes choices here, never whether the shield steps in
+        other = Shield(still_margin=still_margin, driving_guard=not guard).filter(obs, actions, LAYOUT)
+        assert np.array_equal(other[1], shield.filter(obs, actions, LAYOUT)[1])
+        assert (other[0] != shield.filter(obs, actions, LAYOUT)[0]).any(1).sum() >= 5
     out, replaced = shield.filter(obs, actions, LAYOUT)
     assert 0 < replaced.sum() < len(obs)  # both branches are exercised
     for row, act, got, rep in zip(obs, actions, out, replaced):
@@ -122,6 +144,24 @@ def test_prediction_is_what_the_simulator_does(dt, speed):
                     d = np.hypot(*(q - p).T) - w.obs_radius[0] - w.radius[0, 0]
                     gaps.append(d[sensed].min())
             assert predicted == pytest.approx(min(gaps), abs=1e-5)
+
+
+def _crowded_rows(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``n`` observations (of :func:`_obs`) of a robot close to still bodies and to driving robots, with random
+    actions: where the shield steps in for the still ones, its choices may steer into the driving ones."""
+    rows = []
+    for _ in range(n):
+        bodies = []
+        for kind in ("still", "parked", "driving", "driving"):
+            x, y = rng.uniform(-0.8, 1.6), rng.uniform(-1.2, 1.2)
+            if math.hypot(x, y) < 0.55:  # keep the bodies off the robot
+                continue
+            if kind == "driving":
+                bodies.append((x, y, *rng.uniform(-0.8, 0.8, 2), 0.25, 1.0, 0.0))
+            else:
+                bodies.append((x, y, 0.0, 0.0, 0.25, float(kind == "parked"), float(kind == "parked")))
+        rows.append(_obs(rng.uniform(0.0, 1.0), bodies))
+    return np.stack(rows), rng.uniform(-1.2, 1.2, (n, 2))
 
 
 def _obs(speed=1.0, neighbours=(), layout=LAYOUT):
@@ -187,6 +227,22 @@ def test_still_bodies_keep_the_still_margin_and_passages_stay_open():
     assert replaced and gaps[0] < 0 < Shield().still_margin <= gaps[1]
 
 
+def test_a_replacement_does_not_steer_into_a_driving_robot():
+    """An obstacle ahead makes the shield step in; its old choice, a hard right turn, would meet a robot driving
+    slowly on that side (which the shield leaves to the policy: it never steps in for it). With the driving guard
+    it turns left instead, keeping the margin to both; without the guard (records before it) the turn meets it."""
+    ahead = (1.2, 0.0, 0.0, 0.0, 0.25, 0.0)
+    robot = (0.9, -0.8, 0.0, 0.1, 0.25, 1.0)  # a robot creeping left at 0.1 m/s, ahead on the right
+    row, full = _obs(1.0, [ahead, robot]), np.array([1.0, 0.0])
+    assert not Shield().filter(_obs(1.0, [robot]), full, LAYOUT)[1]  # the driving robot alone: left to the policy
+    old, replaced_old = Shield(driving_guard=False).filter(row, full, LAYOUT)
+    new, replaced = Shield().filter(row, full, LAYOUT)
+    assert replaced and replaced_old and old[1] < 0 < new[1]
+    gaps = Shield()._gaps(row[None], np.stack((full, old, new))[None], LAYOUT)[0]  # (candidate, counted/driving)
+    assert gaps[1, 1] < 0 < Shield().margin <= min(gaps[2, 0], gaps[2, 1])
+    assert gaps[1, 0] == pytest.approx(gaps[2, 0])  # both keep the margin to the obstacle
+
+
 @pytest.mark.parametrize(
     "kw, match",
     [
@@ -197,6 +253,7 @@ def test_still_bodies_keep_the_still_margin_and_passages_stay_open():
         ({"margin": float("nan")}, "margin must be a finite number"),
         ({"robot_speed": True}, "robot_speed must be a finite number"),
         ({"horizon": "1"}, "horizon must be a finite number"),
+        ({"driving_guard": "yes"}, "driving_guard must be true or false"),
     ],
 )
 def test_bad_parameters_are_named(kw, match):
@@ -268,6 +325,8 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     network, _ = shielded.model.predict(obs, deterministic=True)
     assert action.shape == (2,) and action.dtype == np.float32 and shielded.replaced == shielded.decisions == 1
     np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, V1)[0])
+    assert main(["shield", str(model), "--no-driving-guard"]) == 0  # the rule of records before the guard
+    assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(driving_guard=False)
     assert main(["shield", str(model), "--remove"]) == 0
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
     assert main(["shield", str(model), "--horizon", "0"]) == 2
@@ -276,9 +335,13 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     with pytest.raises(ValueError, match="keys of"):
         shield_from_record({"shield": {"horizon": 1.0, "reach": 2}})
     # Results name the still margin where the shield has one (records before it: margin for every body).
-    assert describe_shield(dataclasses.asdict(Shield())).endswith("robots at most 0.05 m/s, still bodies 0.02 m")
+    assert describe_shield(dataclasses.asdict(Shield())).endswith(
+        "robots at most 0.05 m/s, still bodies 0.02 m, no closer to driving robots"
+    )
     assert describe_shield(record_before := {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}).endswith("m/s")
     assert shield_from_record({"shield": record_before}).still_margin is None
+    assert not shield_from_record({"shield": {**record_before, "still_margin": 0.02}}).driving_guard
+    assert describe_shield(dataclasses.asdict(Shield(driving_guard=False))).endswith("still bodies 0.02 m")
     for bad in ("[1, 2]", "{}"):
         model.with_suffix(".json").write_text(bad)
         with pytest.raises(ValueError, match="has no run record to keep the shield in"):
@@ -299,7 +362,7 @@ def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     shielded_run = evaluate(GENERALIST, suite, progress=False)
     network_run = evaluate(GENERALIST, suite, progress=False, shield=False)
     # the release's record predates still_margin: it keeps margin for every body (None)
-    want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05, "still_margin": None}
+    want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05, "still_margin": None, "driving_guard": False}
     assert shielded_run.to_dict()["shield"] == want
     assert network_run.to_dict()["shield"] is None  # what ran is in the results
     shielded, network = shielded_run.summary, network_run.summary

@@ -208,7 +208,11 @@ def _add_select(sub) -> None:
 
 
 def cmd_shield(args) -> int:
-    guard = None if args.remove else shield.Shield(args.horizon, args.margin, args.robot_speed, args.still_margin)
+    guard = (
+        None
+        if args.remove
+        else shield.Shield(args.horizon, args.margin, args.robot_speed, args.still_margin, not args.no_driving_guard)
+    )
     attach_shield(args.checkpoint, guard)
     said = "removed the shield from" if guard is None else f"wrote {asdict(guard)} into"
     print(f"{said} the run record of {args.checkpoint}")
@@ -232,6 +236,11 @@ def _add_shield(sub) -> None:
         type=float,
         default=shield.Shield.still_margin,
         help="smallest predicted gap to keep to still bodies: walls, parked and slow robots [m]",
+    )
+    p.add_argument(
+        "--no-driving-guard",
+        action="store_true",
+        help="let a replacement steer closer to driving robots than the policy's action (the rule before 2026-12-04)",
     )
     p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
     p.set_defaults(func=cmd_shield)

@@ -92,11 +92,13 @@ def shield_lines(shields: Mapping[str, dict[str, float] | None]) -> list[str]:
 
 
 def describe_shield(shield: dict[str, float]) -> str:
-    """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s`` (and ``, still bodies 0.02 m`` with a still margin)."""
+    """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s`` (and ``, still bodies 0.02 m`` with a still margin,
+    ``, no closer to driving robots`` with the driving guard)."""
     text = f"horizon {shield['horizon']:g} s, margin {shield['margin']:g} m"
     text += f", robots at most {shield['robot_speed']:g} m/s"
     still = shield.get("still_margin")
-    return text if still is None else f"{text}, still bodies {still:g} m"
+    text = text if still is None else f"{text}, still bodies {still:g} m"
+    return f"{text}, no closer to driving robots" if shield.get("driving_guard") else text
 
 
 def fmt(x: float, spec: str = ".2f") -> str:
