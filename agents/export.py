@@ -31,6 +31,7 @@ import json
 import os
 import sys
 import warnings
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,7 @@ import numpy as np
 
 from .fits import CheckpointError, cause
 from .residual import GATE_RULE, RULE, Residual
+from .shield import shield_from_record
 
 OPSET = 17
 """The ONNX opset every export uses (recorded in the JSON beside the file)."""
@@ -172,10 +174,6 @@ def tanh_actor(net):
 def _shield(record: dict[str, Any]) -> dict[str, Any] | None:
     """The shield the record names with every parameter spelled out (a record written before a parameter
     existed keeps the rule it ran with, :func:`agents.shield.shield_from_record`), or None."""
-    from dataclasses import asdict
-
-    from .shield import shield_from_record
-
     shield = shield_from_record(record)
     return None if shield is None else asdict(shield)
 
