@@ -265,8 +265,9 @@ ROBOT = np.dtype(
 Work = namedtuple("Work", "robot sensed nbs order key cspeed ccol cstep ccos csin pending need rows cols blk adm js")
 """Scratch arrays of the neighbour and horizon stages (:func:`~baselines.vcs.kernel.neighbours.work`)."""
 
-Grid = namedtuple("Grid", "dv_row kv_row dth_col kt_col cth sth e_col g_col c_col h_col b_col cheap")
-"""Scratch arrays of the point search (:func:`~baselines.vcs.kernel.search.grid_work`)."""
+Grid = namedtuple("Grid", "dv_row kv_row dth_col kt_col cth sth e_col g_col c_col h_col b_col cheap live")
+"""Scratch arrays of the point search (:func:`~baselines.vcs.kernel.search.grid_work`); ``live``: the
+rows whose ``cheap`` values are set (the others cannot win)."""
 
 Window = namedtuple("Window", "k lo_v hi_v half full nv nth")
 """Window W_k of the search: k steps, speed-change range [m/s], half direction range [rad],

@@ -29,6 +29,7 @@ def grid_work(p):
     return Grid(
         np.empty(nv), np.empty(nv), np.empty(thmax), np.empty(thmax), np.empty(thmax), np.empty(thmax),
         np.empty(thmax), np.empty(thmax), np.empty(thmax), np.empty(thmax), np.empty(thmax), np.empty(nv * thmax),
+        np.zeros(nv, dtype=np.bool_),
     )  # fmt: skip
 
 
@@ -89,6 +90,8 @@ def holonomic_mask(g, r, win, wr):
     nth = win.nth
     v_r, vrx, vry, dv1 = r.v_r, r.vrx, r.vry, r.dv1
     for a in range(win.nv):
+        if not g.live[a]:
+            continue
         s = v_r + g.dv_row[a]
         for t in range(nth):
             steps = math.ceil(math.sqrt((s * g.cth[t] - vrx) ** 2 + (s * g.sth[t] - vry) ** 2) / dv1 - STEP_SLACK)
@@ -99,12 +102,19 @@ def holonomic_mask(g, r, win, wr):
                 g.cheap[c] += wr * (steps - max(g.kv_row[a], g.kt_col[t]))
 
 
+BOUND_SLACK = 1e-9
+"""Relative slack of a row's lower bound in :func:`cheap_grid`: a row is left out only when its bound
+beats ``best`` by more than the rounding of the per-point sums could."""
+
+
 @njit(cache=True)
-def cheap_grid(g, r, win):
+def cheap_grid(g, r, win, best):
     """The neighbour-free part of J ("cheap", a lower bound of J) at every grid point; its rows
     and columns are separable, so the per-point work is three square roots. Points outside a
-    holonomic window (the disc of radius k a_max dt) get inf. Returns the least and the largest
-    finite value."""
+    holonomic window (the disc of radius k a_max dt) get inf. A row whose lower bound (each term at
+    its least over the columns) is not below ``best`` is left out (``g.live[a]`` False, its values
+    unset): none of its points can win (J >= cheap). Returns the least and the largest finite value
+    of the rows kept (inf and 0 when none is kept)."""
     nv, nth = win.nv, win.nth
     cheap_columns(g, r, nth)
     inv_v = 1.0 / r.v_max
@@ -114,6 +124,12 @@ def cheap_grid(g, r, win):
     wh = r.wh * SQRT_HALF if r.has_prev else 0.0
     wr = r.wr / r.kmax
     v_r, pdv, gv, goal_vcs = r.v_r, r.pdv, r.gv, r.goal_vcs
+    e_lo, e_hi, g_lo, c_lo, h_lo, b_lo, kt_lo = INF, -INF, INF, INF, INF, INF, g.kt_col[0]
+    for t in range(nth):
+        e_lo, e_hi = min(e_lo, g.e_col[t]), max(e_hi, g.e_col[t])
+        g_lo, c_lo, h_lo = min(g_lo, g.g_col[t]), min(c_lo, g.c_col[t]), min(h_lo, g.h_col[t])
+        b_lo, kt_lo = min(b_lo, g.b_col[t]), min(kt_lo, g.kt_col[t])
+    cut = best + BOUND_SLACK * (1.0 + abs(best))
     for a in range(nv):
         s = v_r + g.dv_row[a]
         c_row = (g.dv_row[a] * inv_v) ** 2
@@ -126,6 +142,17 @@ def cheap_grid(g, r, win):
             g_mul = -2.0 * s
         kv = g.kv_row[a]
         base = a * nth
+        g_least = g_row + (g_lo if goal_vcs else g_mul * (e_hi if g_mul < 0.0 else e_lo))
+        bound = (
+            wg * math.sqrt(max(g_least, 0.0))
+            + wc * math.sqrt(c_row + c_lo)
+            + wh * math.sqrt(h_row + h_lo)
+            + (0.0 if r.holo else wr * max(kv, kt_lo))  # the holonomic mask may lower J_r
+            + b_lo
+        )
+        g.live[a] = bound < cut
+        if not g.live[a]:
+            continue
         for t in range(nth):
             steps = max(kv, g.kt_col[t])
             g.cheap[base + t] = (
@@ -139,11 +166,14 @@ def cheap_grid(g, r, win):
         holonomic_mask(g, r, win, wr)
     lo_c = INF
     hi_c = 0.0
-    for c in range(nv * nth):
-        if g.cheap[c] < lo_c:
-            lo_c = g.cheap[c]
-        if g.cheap[c] > hi_c and g.cheap[c] < INF:
-            hi_c = g.cheap[c]
+    for a in range(nv):
+        if not g.live[a]:
+            continue
+        for c in range(a * nth, (a + 1) * nth):
+            if g.cheap[c] < lo_c:
+                lo_c = g.cheap[c]
+            if g.cheap[c] > hi_c and g.cheap[c] < INF:
+                hi_c = g.cheap[c]
     return lo_c, hi_c
 
 
@@ -170,11 +200,13 @@ def extra_points(nbs, adm, na, js, nj, count, r, win, g1v, g1th):
 
 
 @njit(cache=True)
-def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
-    """Sweep thresholds upward from the least lower bound ``lo_c``: J = cheap + w_s J_s with
-    J_s in [0, 1], so points with cheap >= best cannot win. Each pass visits the points with
-    cheap in [t_prev, t) (each point once), the band doubling each pass. Returns the new
-    ``(best, dv, dth)``; of equal costs the first grid point wins."""
+def sweep_pass(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, checked):
+    """One sweep of the thresholds upward from the least lower bound ``lo_c``: J = cheap + w_s J_s
+    with J_s in [0, 1], so points with cheap >= best cannot win. Each pass visits the points with
+    cheap in [t_prev, t) (each point once), the band doubling each pass. The check along the way
+    (:func:`~.cost.ramp_clear`) is made as a point would win when ``checked``, else not at all.
+    Returns the best ``(J, grid point)`` (point -1: none beats ``best``); of equal costs the first
+    grid point wins."""
     nth = win.nth
     v_r, ws, tau_s = r.v_r, r.ws, r.tau_s
     best_c = -1
@@ -183,35 +215,52 @@ def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
     t_cur = lo_c + delta
     last = 0  # the last blocker (:func:`~.cost.blocker`)
     while True:
-        for c in range(win.nv * nth):
-            x = g.cheap[c]
-            if x < t_prev or x >= t_cur or x >= best:
+        for a in range(win.nv):
+            if not g.live[a]:
                 continue
-            a = c // nth
-            t = c % nth
             s = v_r + g.dv_row[a]
-            vx = s * g.cth[t]
-            vy = s * g.sth[t]
-            q = blocker(nbs, adm, na, vx, vy, last)
-            if q >= 0:
-                last = q
-                continue
-            j = x
-            if ws > 0.0:
-                j += ws * safety_term(nbs, js, nj, tau_s, vx, vy)
-            if j < best or (j == best and c < best_c):
-                if not ramp_clear(nbs, count, r, g.dv_row[a], g.dth_col[t]):
+            for t in range(nth):
+                c = a * nth + t
+                x = g.cheap[c]
+                if x < t_prev or x >= t_cur or x >= best:
                     continue
-                best = j
-                best_c = c
-                bdv = g.dv_row[a]
-                bdth = g.dth_col[t]
+                vx = s * g.cth[t]
+                vy = s * g.sth[t]
+                q = blocker(nbs, adm, na, vx, vy, last)
+                if q >= 0:
+                    last = q
+                    continue
+                j = x
+                if ws > 0.0:
+                    j += ws * safety_term(nbs, js, nj, tau_s, vx, vy)
+                if j < best or (j == best and c < best_c):
+                    if checked and not ramp_clear(nbs, count, r, g.dv_row[a], g.dth_col[t]):
+                        continue
+                    best = j
+                    best_c = c
         if t_cur >= best or t_cur > hi_c:
             break
         t_prev = t_cur
         delta *= 2.0
         t_cur = lo_c + delta
-    return best, bdv, bdth
+    return best, best_c
+
+
+@njit(cache=True)
+def sweep(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth):
+    """The grid swept by its neighbour-free lower bound (:func:`sweep_pass`). The check along the way,
+    the costliest test, is put off: the sweep finds the cheapest admissible point, and only that one
+    is checked; if it fails, it leaves the grid (its cheap set to inf) and a second sweep checks every
+    point that would win, as found. Either way the winner is the cheapest admissible point that is
+    clear along the way, the one a sweep checking every winner as found returns. Returns the new
+    ``(best, dv, dth)``."""
+    j, c = sweep_pass(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, False)
+    if c >= 0 and not ramp_clear(nbs, count, r, g.dv_row[c // win.nth], g.dth_col[c % win.nth]):
+        g.cheap[c] = INF
+        j, c = sweep_pass(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, True)
+    if c < 0:
+        return best, bdv, bdth
+    return j, g.dv_row[c // win.nth], g.dth_col[c % win.nth]
 
 
 @njit(cache=True)
@@ -225,7 +274,7 @@ def search_point(nbs, count, r, p, wk, g):
     grid_axes(g, r, win)
     na, nj = relevant(nbs, wk.order, count, r.tau_s, wk.adm, wk.js)
     best, bdv, bdth = extra_points(nbs, wk.adm, na, wk.js, nj, count, r, win, g1v, g1th)
-    lo_c, hi_c = cheap_grid(g, r, win)
+    lo_c, hi_c = cheap_grid(g, r, win, best)
     best, bdv, bdth = sweep(nbs, wk.adm, na, wk.js, nj, count, r, g, win, lo_c, hi_c, best, bdv, bdth)
     return best, bdv, bdth, win, tstar, n_threats, g1v, g1th
 

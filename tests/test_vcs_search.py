@@ -1,0 +1,116 @@
+"""The VCS point search finds the cheapest admissible point that is clear along the way.
+
+The kernel's search (:func:`baselines.vcs.kernel.search.search_point`) prunes: grid rows whose lower
+bound cannot beat the best extra point are never costed, the grid is swept in bands of its
+neighbour-free lower bound, and the check along the way is made for the winner only (again for the
+next if it fails). The oracle here costs every candidate of the same window (grid and extra points)
+with the stage functions one by one, no pruning: the search's point must be admissible, clear along
+the way, and within rounding as cheap as the oracle's least, on states of rollouts that cover
+robots, crowds, walls and holonomic robots, with and without the check along the way (the circle
+of 16 holds states whose cheapest admissible point is not clear along the way).
+"""
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from baselines.vcs import VCSPlanner
+from baselines.vcs.kernel.cost import admissible, cost, ramp_clear, relevant
+from baselines.vcs.kernel.neighbours import work
+from baselines.vcs.kernel.records import INF
+from baselines.vcs.kernel.scalar import reach_steps
+from baselines.vcs.kernel.search import grid_work, prepare_robot, search_point
+from baselines.vcs.kernel.window import candidate, goal_step, threats, window
+from vcs_env.engine import NavEngine
+from vcs_env.scenario import make_scenario
+
+SCENARIOS = {
+    "circle-16": ("circle", {"n_robots": 16, "jitter": 0.1, "on_collision": "continue"}),
+    "random-dense": ("random", {"n_robots": 10, "arena_half_size": 3.5, "on_collision": "continue"}),
+    "crowd": ("crowd", {"n_obstacles": 10, "on_collision": "continue"}),
+    "doorway": ("doorway", {"on_collision": "continue"}),
+    "holonomic": ("random", {"n_robots": 8, "arena_half_size": 3.0, "robot": {"holonomic": True}}),
+}
+TOL = 1e-9
+"""Rounding between the search's separable costs and :func:`~baselines.vcs.kernel.cost.cost`."""
+
+
+@njit
+def compare(world, inputs, st, out):
+    """For every active robot of world 0: the search's (dv, dth, J) and the oracle's least J, the
+    search point's admissibility and clearance along the way and its J by the oracle's formula,
+    into ``out`` rows; returns the number of rows."""
+    p = st.prm[0]
+    n = world.pos.shape[1]
+    g = grid_work(p)
+    wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
+    rows = 0
+    for i in range(n):
+        if not world.active[0, i]:
+            continue
+        count = prepare_robot(0, i, world, inputs, st, p, wk)
+        r = wk.robot[0]
+        nbs = wk.nbs
+        found, fdv, fdth = search_point(nbs, count, r, p, wk, g)[:3]
+        # the oracle: every candidate of the same window, costed one by one
+        tstar = threats(nbs, count)[0]
+        win = window(r, p, tstar)
+        g1v, g1th = goal_step(r)
+        na, nj = relevant(nbs, wk.order, count, r.tau_s, wk.adm, wk.js)
+        least = INF
+        ngrid = win.nv * win.nth
+        for c in range(ngrid + 3):
+            dv, dth = candidate(c, win, r, g1v, g1th)
+            steps = reach_steps(dv, dth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
+            if c < ngrid and r.holo and steps > win.k:
+                continue  # outside the holonomic window's disc
+            s = r.v_r + dv
+            vx, vy = s * math.cos(r.th + dth), s * math.sin(r.th + dth)
+            if admissible(nbs, wk.adm, na, vx, vy) and ramp_clear(nbs, count, r, dv, dth):
+                least = min(least, cost(nbs, wk.js, nj, r, dv, dth, vx, vy, steps))
+        s = r.v_r + fdv
+        vx, vy = s * math.cos(r.th + fdth), s * math.sin(r.th + fdth)
+        steps = reach_steps(fdv, fdth, r.dv1, r.dth1, r.holo, r.vrx, r.vry, r.th, r.v_r)
+        out[rows, 0] = found
+        out[rows, 1] = least
+        out[rows, 2] = admissible(nbs, wk.adm, na, vx, vy) and ramp_clear(nbs, count, r, fdv, fdth)
+        out[rows, 3] = cost(nbs, wk.js, nj, r, fdv, fdth, vx, vy, steps)
+        rows += 1
+    return rows
+
+
+def _rows(kind: str, overrides: dict, planner: VCSPlanner, steps: int = 80, every: int = 4) -> np.ndarray:
+    """Rows of :func:`compare` over states of a VCS rollout (one world)."""
+    eng = NavEngine(make_scenario(kind, **overrides), 1)
+    eng.reset([3])
+    rows = []
+    for step in range(steps):
+        world = eng.world
+        if step % every == 0:
+            planner.plan(world)  # the memory of this state
+            kworld = planner._kernel_world(world)
+            own, comm, detour = planner._inputs(world, kworld)
+            planned = np.ones((1, world.n_robots), dtype=bool)
+            args = planner._kernel_inputs(world, kworld, own, comm, detour, planned)
+            out = np.zeros((world.n_robots, 4))
+            rows.append(out[: compare(*args, out)])
+        eng.step(planner.act(world))
+    return np.concatenate(rows)
+
+
+@pytest.mark.parametrize("ramp_check", [True, False])
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_search_finds_the_cheapest_admissible_point(name, ramp_check):
+    kind, overrides = SCENARIOS[name]
+    rows = _rows(kind, overrides, VCSPlanner(ramp_check=ramp_check))
+    found, least, ok, again = rows.T
+    assert len(rows) >= 10
+    none = np.isinf(least)
+    assert np.array_equal(np.isinf(found), none), "the search and the oracle disagree on whether a point is admissible"
+    assert ok[~none].all(), "the search returned a point that is not admissible or not clear along the way"
+    gap = found[~none] - least[~none]
+    assert np.all(np.abs(gap) <= TOL * (1.0 + least[~none])), f"search above the least cost by up to {gap.max():.3g}"
+    assert np.allclose(again[~none], found[~none], rtol=TOL, atol=TOL)
+    assert (~none).sum() > 0.5 * len(rows)
