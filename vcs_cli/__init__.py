@@ -26,7 +26,19 @@ and sets ``func``. They must not import torch or stable-baselines3 at module lev
 imports them all to build ``--help``); heavy imports go inside the command functions."""
 
 
-COMPILING = ("rollout", "evaluate", "compare", "probe", "train", "collect", "bc", "collect-states", "select", "bench")
+COMPILING = (
+    "rollout",
+    "evaluate",
+    "compare",
+    "probe",
+    "train",
+    "collect",
+    "bc",
+    "distil",
+    "collect-states",
+    "select",
+    "bench",
+)
 """Commands that run the simulator (and the planners), whose kernels numba compiles on first use."""
 
 

@@ -1,4 +1,4 @@
-"""``vcs-env train``, ``collect``, ``bc`` and ``collect-states``: the training and imitation layers
+"""``vcs-env train``, ``collect``, ``bc``, ``distil`` and ``collect-states``: the training and imitation layers
 of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
 :mod:`agents.train.collect_states`) on the command line.
 
@@ -19,6 +19,7 @@ import agents.train.rllib
 from agents import imitation
 from agents.checkpoint import Checkpoint, latest_checkpoint
 from agents.config import add_config_args, config_command, config_from_args, config_from_dict
+from agents.imitation import distil
 from agents.runs import BENCHMARL_ONLY, FIXED_ON_RESUME, RLLIB_ONLY, BenchMARLConfig, RLlibConfig, TrainConfig
 from agents.train import collect_states
 
@@ -105,6 +106,11 @@ def cmd_bc(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_distil(args: argparse.Namespace) -> int:
+    distil.distil(config_from_args(distil.DistilConfig, args))
+    return 0
+
+
 def cmd_collect_states(args: argparse.Namespace) -> int:
     cfg = config_from_args(collect_states.StatesConfig, args)
     states = collect_states.collect_states(cfg)
@@ -122,7 +128,7 @@ def cmd_collect_states(args: argparse.Namespace) -> int:
 
 
 def add_commands(sub) -> None:
-    """Add ``train``, ``collect``, ``bc`` and ``collect-states`` to the ``vcs-env`` subcommands."""
+    """Add ``train``, ``collect``, ``bc``, ``distil`` and ``collect-states`` to the ``vcs-env`` subcommands."""
     p = sub.add_parser(
         "train",
         help="train a PPO policy shared by all robots",
@@ -153,6 +159,13 @@ def add_commands(sub) -> None:
     p = sub.add_parser("bc", help="behaviour cloning (and DAgger) of the expert into a PPO policy")
     add_config_args(p, imitation.BCConfig)
     p.set_defaults(func=cmd_bc)
+    p = sub.add_parser(
+        "distil",
+        help="distil teacher policies, each on its mixture entries, into one student network",
+        description=distil.__doc__.split("\n\n")[0],
+    )
+    add_config_args(p, distil.DistilConfig)
+    p.set_defaults(func=cmd_distil)
 
     p = sub.add_parser(
         "collect-states",

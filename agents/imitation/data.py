@@ -8,7 +8,8 @@ robot trajectory (one robot's part of one episode), in time order:
 key                shape / dtype   meaning
 ================== =============== ==========================================================
 observations       (N, D) float32  the robot's observation (:mod:`vcs_env.observations`)
-actions            (N, 2) float32  the expert's action for that observation (delta units)
+actions            (N, 2) float32  the expert's action for that observation (delta units; a
+                                   teacher network's in vcs-env distil's rounds)
 rewards            (N,) float32    reward of the step taken (scenario weights, no shaping)
 episode_starts     (N,) bool       first row of a trajectory
 traj_start         (K + 1,) int64  trajectory k = rows traj_start[k] : traj_start[k + 1]
@@ -55,8 +56,9 @@ def play(
     rng: np.random.Generator | None = None,
     n_worlds: int = 32,
     expert: str = "vcs",
+    teacher: Actor | None = None,
 ) -> dict[str, np.ndarray]:
-    """Play one episode per seed, labelling every active robot-step with the expert's action.
+    """Play one episode per seed, labelling every active robot-step with the expert's (or ``teacher``'s) action.
 
     Args:
         scenario: the episode family.
@@ -66,6 +68,8 @@ def play(
         rng: draws the beta mixing (needed when ``actor`` is given and ``0 < beta < 1``).
         n_worlds: worlds stepped together.
         expert: the labelling planner.
+        teacher: a policy that labels instead of ``expert`` (its actions for the observations, e.g. a
+            network's deterministic actions: :mod:`agents.imitation.distil`); it is also what beta executes.
 
     Returns:
         The dataset arrays of the module docstring (without ``meta``).
@@ -75,14 +79,23 @@ def play(
     labels = ExpertLabels()
 
     def control(world, obs: np.ndarray) -> np.ndarray:
+        B, n = world.batch_size, world.n_robots
+        if teacher is not None:
+            labels.current = np.asarray(teacher(obs.reshape(B * n, -1)), dtype=np.float64).reshape(B, n, 2)
         if actor is None:
             return labels.current
-        B, n = world.batch_size, world.n_robots
         own = np.asarray(actor(obs.reshape(B * n, -1)), dtype=np.float64).reshape(B, n, 2)
         return np.where((rng.random((B, n)) < beta)[..., None], labels.current, own)
 
     for c0 in range(0, len(seeds), n_worlds):
-        play_episodes(scenario, control, seeds[c0 : c0 + n_worlds], [labels], expert=expert, first=c0)
+        play_episodes(
+            scenario,
+            control,
+            seeds[c0 : c0 + n_worlds],
+            [labels],
+            expert=None if teacher is not None else expert,
+            first=c0,
+        )
     return labels.dataset()
 
 

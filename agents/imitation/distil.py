@@ -1,0 +1,170 @@
+"""Distillation (``vcs-env distil``): several teacher policies, each labelling its own mixture entries, into one
+student network, by DAgger with network teachers.
+
+Why: a PPO stage that weights some families up (the maps) gains there and loses elsewhere, and per-family
+fine-tunes of one network are each better on their family than any single network trained on the whole mixture
+(``docs/experiments.md``, "Distilling teachers by family"). Distillation keeps each family's best teacher: every
+round plays ``robots`` robot trajectories per entry (an entry listed k times in ``--mixture`` gets k times as
+many), each robot executing the teacher's action with probability ``beta_k`` and the student's deterministic
+action otherwise (``beta_k = beta * 0.5**k``, 0 in the last round, which the student plays alone), labels every
+acting robot-step with the deterministic action of the entry's teacher, and fits the student's action mean to the
+labels of all rounds so far (squared error, :func:`agents.imitation.bc_fit` with ``loss="mse"``: the student's
+``log_std`` and value head are left as they were, so PPO can continue from it).
+
+Teachers should share the student's conventions (which side to pass on, who yields): teachers fine-tuned from
+one parent distil into one network cleanly; specialists imitated from the expert from scratch each learned their
+own, and a student taught by both collides where their families look alike (measured, ``docs/experiments.md``).
+
+Files: ``<out>/model.zip`` (+ ``model.json``: the teachers, per-round losses and row counts) and
+``<out>/checkpoints/model_<rows>.zip`` after each round (``rows`` = labelled robot-steps so far), so that
+``vcs-env select`` chooses among the rounds on validation episodes.
+
+Example (the maps-stage checkpoint teaches the map entries, the checkpoint before it everything else)::
+
+    vcs-env distil --mixture circle-16-v0 corridor-narrow-v0 corridor-narrow-v0 --n-wall-points 6 --stall-clock \\
+        --teacher runs/before/model.zip --teacher-for corridor-narrow-v0=runs/maps/model.zip --out runs/distil
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vcs_env.checks import check_int, check_range
+
+from ..checkpoint import load_model, save_model
+from ..config import ScenarioConfig, config_command
+from ..mixture import mixture_scenarios
+from ..policies import load_checkpoint
+from ..runs import scenario_family
+from . import bc_fit
+from .data import concat_datasets, play
+
+FIRST_SEED = 900_000
+"""First episode seed of the rounds (past the suites', validation's, probes' and collect's seeds)."""
+
+
+@dataclass
+class DistilConfig(ScenarioConfig):
+    """``vcs-env distil``: teacher policies, each on its mixture entries, into one student (module docstring)."""
+
+    mixture: tuple[str, ...] = ()
+    """Entries to play (train's --mixture syntax); an entry listed k times gets k times the episodes."""
+    teacher: str = ""
+    """Checkpoint that labels every entry --teacher-for does not name."""
+    teacher_for: tuple[str, ...] = ()
+    """ENTRY=CHECKPOINT pairs: that checkpoint labels the states of that mixture entry (the entry as written in
+    --mixture)."""
+    init: str | None = None
+    """The student's starting checkpoint, an SB3 one (None: --teacher); its network is the student's."""
+    rounds: int = 4
+    """DAgger rounds (the last one plays the student alone)."""
+    beta: float = 1.0
+    """Probability of executing the teacher's action in the first round (halved every round, 0 in the last)."""
+    robots: int = 128
+    """Robot trajectories per entry and round (episodes = robots / the entry's robot count, at least one per grid
+    point of the entry)."""
+    epochs: int = 3
+    """Passes over all rounds' labels after each round."""
+    batch_size: int = 512
+    """Minibatch size."""
+    learning_rate: float = 1e-4
+    """Adam learning rate."""
+    seed: int = 0
+    """Seed of the beta mixing and the minibatch order; episode seeds start at FIRST_SEED + 100000 * round."""
+    out: str = "runs/distil"
+    """Run directory."""
+
+    def __post_init__(self):
+        for name, lo in (("rounds", 1), ("robots", 1), ("epochs", 1), ("batch_size", 1)):
+            check_int(f"DistilConfig.{name}", getattr(self, name), lo, 10**7)
+        check_range("DistilConfig.beta", self.beta, 0.0, 1.0)
+        check_range("DistilConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
+
+
+def teachers_of(cfg: DistilConfig) -> dict[str, str]:
+    """Each distinct mixture entry -> its teacher checkpoint; ``ValueError`` for a --teacher-for pair that is
+    malformed or names no entry of --mixture, and when --mixture or --teacher is missing."""
+    if not cfg.mixture:
+        raise ValueError("vcs-env distil needs --mixture (the entries to play)")
+    if not cfg.teacher:
+        raise ValueError("vcs-env distil needs --teacher (the checkpoint that labels the entries --teacher-for leaves)")
+    out = dict.fromkeys(cfg.mixture, cfg.teacher)
+    for pair in cfg.teacher_for:
+        entry, sep, ckpt = pair.rpartition("=")
+        if not sep or not entry or not ckpt:
+            raise ValueError(f"--teacher-for takes ENTRY=CHECKPOINT pairs, got {pair!r}")
+        if entry not in out:
+            raise ValueError(f"--teacher-for {pair!r}: {entry!r} is not an entry of --mixture ({list(out)})")
+        out[entry] = ckpt
+    return out
+
+
+def distil(cfg: DistilConfig) -> dict[str, Any]:
+    """Run the distillation of the module docstring; returns the report (paths, rows, losses)."""
+    import torch
+
+    torch.set_num_threads(1)
+    t_start = time.time()
+    counts = Counter(cfg.mixture)
+    teacher_of = teachers_of(cfg)
+    groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
+    first = groups[0][1][0]
+    family = scenario_family([s for _, scenarios in groups for s in scenarios])
+    loaded = {c: load_checkpoint(c, first, shield=False) for c in dict.fromkeys(teacher_of.values())}
+    model = load_model(cfg.init or cfg.teacher, first)
+    policy = model.policy
+
+    def actor_of(predictor):
+        return lambda o: predictor.predict(o, deterministic=True)[0]
+
+    student = actor_of(model)
+    rng = np.random.default_rng(cfg.seed)
+    data: dict[str, np.ndarray] | None = None
+    report: dict[str, Any] = {"teachers": teacher_of, "rounds": []}
+    for k in range(cfg.rounds):
+        beta = 0.0 if k == cfg.rounds - 1 else cfg.beta * 0.5**k
+        t0 = time.time()
+        for g, (entry, scenarios) in enumerate(groups):
+            mean_n = np.mean([s.n_robots for s in scenarios])
+            per_point = max(1, int(np.ceil(counts[entry] * cfg.robots / mean_n / len(scenarios))))
+            teacher = actor_of(loaded[teacher_of[entry]])
+            for p, sc in enumerate(scenarios):
+                base = FIRST_SEED + 100_000 * k + 1000 * g + 100 * p
+                seeds = range(base, base + per_point)
+                new = play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher)
+                data = new if data is None else concat_datasets(data, new)
+        losses = bc_fit(
+            policy,
+            data["observations"],
+            data["actions"],
+            None,
+            epochs=cfg.epochs,
+            batch_size=cfg.batch_size,
+            lr=cfg.learning_rate,
+            loss="mse",
+            seed=cfg.seed + k,
+        )
+        rows = len(data["actions"])
+        report["rounds"].append({"beta": beta, "rows": rows, "losses": losses, "wall_time": round(time.time() - t0, 1)})
+        print(
+            f"[round {k + 1}/{cfg.rounds}] beta {beta:.3f}: {rows} labelled robot-steps, loss {losses[0]:.4f} -> "
+            f"{losses[-1]:.4f} ({time.time() - t0:.0f} s)",
+            flush=True,
+        )
+        model.num_timesteps = rows
+        paths = [Path(cfg.out) / "checkpoints" / f"model_{rows}.zip"]
+        if k == cfg.rounds - 1:
+            paths.append(Path(cfg.out) / "model.zip")
+        for path in paths:
+            saved = save_model(
+                model, path, "distil", cfg, first, family, report=report, wall_time=round(time.time() - t_start, 1)
+            )
+    print(f"saved {saved} ({time.time() - t_start:.0f} s)")
+    print(f"reproduce: {config_command('distil', cfg)}")
+    return {"model": str(saved), **report}

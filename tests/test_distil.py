@@ -1,0 +1,98 @@
+"""vcs-env distil: network teachers label their own mixture entries, and the student learns each teacher's actions
+where that teacher teaches (agents/imitation/distil.py)."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+import torch  # noqa: E402
+from stable_baselines3 import PPO  # noqa: E402
+
+from agents.checkpoint import load_model, save_model  # noqa: E402
+from agents.imitation.data import play  # noqa: E402
+from agents.imitation.distil import DistilConfig, distil, teachers_of  # noqa: E402
+from agents.runs import TrainConfig  # noqa: E402
+from agents.vec_env import NavVecEnv  # noqa: E402
+from vcs_env.scenario import make_scenario  # noqa: E402
+
+torch.set_num_threads(1)
+
+
+def checkpoint(tmp_path: Path, name: str, seed: int, scale: float) -> Path:
+    """An untrained PPO checkpoint; ``scale`` multiplies its action head (teachers differ clearly)."""
+    scenario = make_scenario("circle", n_robots=3)
+    model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=dict(net_arch=[32]), seed=seed)
+    with torch.no_grad():
+        model.policy.action_net.weight.mul_(scale)
+    return save_model(model, tmp_path / name / "model", "ppo", TrainConfig(net_arch=(32,)), scenario)
+
+
+def test_play_labels_every_acting_step_with_the_teacher_and_executes_it():
+    scenario = make_scenario("circle", n_robots=3, max_steps=25)
+
+    def teacher(obs):  # a readable oracle: any function of the observation
+        return np.tanh(obs[:, :2] - 0.5 * obs[:, 2:4])
+
+    data = play(scenario, [0, 1], teacher=teacher)
+    np.testing.assert_allclose(data["actions"], teacher(data["observations"]).astype(np.float32), atol=1e-6)
+    # actor=None executes the labels: the same episodes as a controller that plays the teacher itself
+    again = play(scenario, [0, 1], actor=lambda o: np.zeros((len(o), 2)), beta=1.0, teacher=teacher)
+    np.testing.assert_array_equal(again["observations"], data["observations"])
+
+
+def test_student_learns_each_teacher_on_its_own_entries(tmp_path):
+    a, b, start = (
+        checkpoint(tmp_path, "a", 1, 60.0),
+        checkpoint(tmp_path, "b", 2, -60.0),
+        checkpoint(tmp_path, "s", 3, 1.0),
+    )
+    cfg = DistilConfig(
+        mixture=("circle:n_robots=3", "circle:n_robots=6"),  # observations that differ clearly
+        max_steps=30,
+        teacher=str(a),
+        teacher_for=(f"circle:n_robots=6={b}",),
+        init=str(start),
+        rounds=2,
+        robots=24,
+        epochs=30,
+        learning_rate=3e-3,
+        out=str(tmp_path / "distil"),
+    )
+    out = distil(cfg)
+    assert out["teachers"] == {"circle:n_robots=3": str(a), "circle:n_robots=6": str(b)}
+    assert len(list((tmp_path / "distil" / "checkpoints").glob("model_*.zip"))) == 2
+
+    def error(student, teacher, scenario):
+        obs = play(scenario, range(500, 504), teacher=lambda o: np.zeros((len(o), 2)))["observations"]
+        s, t = (load_model(p, scenario).predict(obs, deterministic=True)[0] for p in (student, teacher))
+        return float(np.linalg.norm(s - t, axis=1).mean())
+
+    circle, six = make_scenario("circle", n_robots=3, max_steps=30), make_scenario("circle", n_robots=6, max_steps=30)
+    final = out["model"]
+    # each entry follows its own teacher, far closer than at the start and than the other teacher
+    assert error(final, a, circle) < 0.3 * error(start, a, circle)
+    assert error(final, b, six) < 0.3 * error(start, b, six)
+    assert error(final, a, circle) < 0.3 * error(final, b, circle)
+    assert error(final, b, six) < 0.3 * error(final, a, six)
+
+
+def test_bad_teacher_pairs_are_named():
+    with pytest.raises(ValueError, match="needs --teacher"):
+        teachers_of(DistilConfig(mixture=("circle",)))
+    with pytest.raises(ValueError, match="needs --mixture"):
+        teachers_of(DistilConfig(teacher="t.zip"))
+    with pytest.raises(ValueError, match=r"'swap' is not an entry of --mixture"):
+        teachers_of(DistilConfig(mixture=("circle",), teacher="t.zip", teacher_for=("swap=u.zip",)))
+    with pytest.raises(ValueError, match="ENTRY=CHECKPOINT"):
+        teachers_of(DistilConfig(mixture=("circle",), teacher="t.zip", teacher_for=("u.zip",)))
+    with pytest.raises(ValueError, match=r"DistilConfig\.rounds must be"):
+        DistilConfig(rounds=0)
+
+
+def test_a_teacher_for_other_observations_is_refused(tmp_path):
+    a = checkpoint(tmp_path, "a", 1, 1.0)  # observes without wall points
+    cfg = DistilConfig(mixture=("corridor",), n_wall_points=6, teacher=str(a), rounds=1, out=str(tmp_path / "d"))
+    with pytest.raises(ValueError, match="observation"):
+        distil(cfg)
