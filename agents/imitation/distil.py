@@ -46,7 +46,10 @@ from . import bc_fit
 from .data import concat_datasets, play
 
 FIRST_SEED = 900_000
-"""First episode seed of the rounds (past the suites', validation's, probes' and collect's seeds)."""
+"""First episode seed of the rounds (past the suites', validation's, probes' and collect's seeds); each round's
+episodes take consecutive seeds from ``FIRST_SEED + ROUND_SEEDS * round``, entry by entry and grid point by point."""
+ROUND_SEEDS = 10_000_000
+"""Seeds set aside per round."""
 
 
 @dataclass
@@ -76,7 +79,7 @@ class DistilConfig(ScenarioConfig):
     learning_rate: float = 1e-4
     """Adam learning rate."""
     seed: int = 0
-    """Seed of the beta mixing and the minibatch order; episode seeds start at FIRST_SEED + 100000 * round."""
+    """Seed of the beta mixing and the minibatch order (episode seeds: FIRST_SEED)."""
     out: str = "runs/distil"
     """Run directory."""
 
@@ -113,11 +116,13 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     t_start = time.time()
     counts = Counter(cfg.mixture)
     teacher_of = teachers_of(cfg)
+    first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
-    first = groups[0][1][0]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
     loaded = {c: load_checkpoint(c, first, shield=False) for c in dict.fromkeys(teacher_of.values())}
     model = load_model(cfg.init or cfg.teacher, first)
+    if not hasattr(model, "policy"):
+        raise ValueError(f"the student {cfg.init or cfg.teacher!r} must be an SB3 checkpoint (--init), to be trained")
     policy = model.policy
 
     def actor_of(predictor):
@@ -129,14 +134,13 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     report: dict[str, Any] = {"teachers": teacher_of, "rounds": []}
     for k in range(cfg.rounds):
         beta = 0.0 if k == cfg.rounds - 1 else cfg.beta * 0.5**k
-        t0 = time.time()
-        for g, (entry, scenarios) in enumerate(groups):
+        t0, next_seed = time.time(), FIRST_SEED + ROUND_SEEDS * k
+        for entry, scenarios in groups:
             mean_n = np.mean([s.n_robots for s in scenarios])
             per_point = max(1, int(np.ceil(counts[entry] * cfg.robots / mean_n / len(scenarios))))
             teacher = actor_of(loaded[teacher_of[entry]])
-            for p, sc in enumerate(scenarios):
-                base = FIRST_SEED + 100_000 * k + 1000 * g + 100 * p
-                seeds = range(base, base + per_point)
+            for sc in scenarios:
+                seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
                 new = play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher)
                 data = new if data is None else concat_datasets(data, new)
         losses = bc_fit(
