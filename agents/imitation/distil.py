@@ -7,7 +7,8 @@ fine-tunes of one network are each better on their family than any single networ
 round plays ``robots`` robot trajectories per entry (an entry listed k times in ``--mixture`` gets k times as
 many), each robot executing the teacher's action with probability ``beta_k`` and the student's deterministic
 action otherwise (``beta_k = beta * 0.5**k``, 0 in the last round, which the student plays alone), labels every
-acting robot-step with the deterministic action of the entry's teacher, and fits the student's action mean to the
+acting robot-step with the deterministic action of the entry's teacher (its network alone: a shield named in a
+teacher's record is not applied), and fits the student's action mean to the
 labels of all rounds so far (squared error, :func:`agents.imitation.bc_fit` with ``loss="mse"``: the student's
 ``log_std`` and value head are left as they were, so PPO can continue from it).
 
