@@ -103,11 +103,7 @@ def play_mixture(scenarios: Sequence, seeds: Sequence[int], **kwargs) -> dict[st
     """:func:`play` over a mixture: episode ``j`` plays ``scenarios[j % len(scenarios)]`` with
     ``seeds[j]`` (as :func:`agents.evaluate.score_scenarios` scores them); the datasets of the
     scenarios follow each other. ``kwargs`` as :func:`play`."""
-    parts = [play(sc, part, **kwargs) for sc, part in mixture_split(scenarios, seeds)]
-    out = parts[0]
-    for part in parts[1:]:
-        out = concat_datasets(out, part)
-    return out
+    return concat_datasets(*(play(sc, part, **kwargs) for sc, part in mixture_split(scenarios, seeds)))
 
 
 class ExpertLabels(Hook):
@@ -214,9 +210,12 @@ def check_rows(data: dict[str, np.ndarray], what: str = "dataset") -> int:
     return n
 
 
-def concat_datasets(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    out = {k: np.concatenate((a[k], b[k])) for k in a if k != "traj_start"}
-    out["traj_start"] = np.concatenate((a["traj_start"][:-1], b["traj_start"] + a["traj_start"][-1]))
+def concat_datasets(*parts: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The datasets ``parts`` one after the other, in one copy (trajectory offsets shifted)."""
+    out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k != "traj_start"}
+    offsets = np.cumsum([0] + [p["traj_start"][-1] for p in parts])
+    starts = [p["traj_start"][:-1] + o for p, o in zip(parts, offsets)]
+    out["traj_start"] = np.concatenate(starts + [offsets[-1:]])
     return out
 
 

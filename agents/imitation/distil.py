@@ -135,15 +135,15 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     report: dict[str, Any] = {"teachers": teacher_of, "rounds": []}
     for k in range(cfg.rounds):
         beta = 0.0 if k == cfg.rounds - 1 else cfg.beta * 0.5**k
-        t0, next_seed = time.time(), FIRST_SEED + ROUND_SEEDS * k
+        t0, next_seed, parts = time.time(), FIRST_SEED + ROUND_SEEDS * k, [] if data is None else [data]
         for entry, scenarios in groups:
             mean_n = np.mean([s.n_robots for s in scenarios])
             per_point = max(1, int(np.ceil(counts[entry] * cfg.robots / mean_n / len(scenarios))))
             teacher = actor_of(loaded[teacher_of[entry]])
             for sc in scenarios:
                 seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
-                new = play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher)
-                data = new if data is None else concat_datasets(data, new)
+                parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher))
+        data = concat_datasets(*parts)  # one copy per round, not one per grid point
         losses = bc_fit(
             policy,
             data["observations"],
