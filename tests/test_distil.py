@@ -12,7 +12,7 @@ from stable_baselines3 import PPO  # noqa: E402
 
 from agents.checkpoint import load_model, save_model  # noqa: E402
 from agents.imitation.data import play  # noqa: E402
-from agents.imitation.distil import DistilConfig, distil, teachers_of  # noqa: E402
+from agents.imitation.distil import EXPERT, DistilConfig, distil, teachers_of  # noqa: E402
 from agents.runs import TrainConfig  # noqa: E402
 from agents.vec_env import NavVecEnv  # noqa: E402
 from vcs_env.scenario import make_scenario  # noqa: E402
@@ -78,6 +78,31 @@ def test_student_learns_each_teacher_on_its_own_entries(tmp_path):
     assert error(final, b, six) < 0.3 * error(final, a, six)
 
 
+def test_the_expert_teaches_the_entries_it_is_named_for(tmp_path):
+    start = checkpoint(tmp_path, "s", 3, 1.0)
+    cfg = DistilConfig(
+        mixture=("circle:n_robots=3",),
+        max_steps=30,
+        teacher=EXPERT,
+        init=str(start),
+        rounds=2,
+        robots=24,
+        epochs=30,
+        learning_rate=3e-3,
+        out=str(tmp_path / "distil"),
+    )
+    out = distil(cfg)
+    assert out["teachers"] == {"circle:n_robots=3": EXPERT}
+    scenario = make_scenario("circle", n_robots=3, max_steps=30)
+    expert = play(scenario, range(500, 504))  # the expert plays and labels episodes no round played
+
+    def error(student):
+        act = load_model(student, scenario).predict(expert["observations"], deterministic=True)[0]
+        return float(np.linalg.norm(act - expert["actions"], axis=1).mean())
+
+    assert error(out["model"]) < 0.5 * error(start)
+
+
 def test_bad_teacher_pairs_are_named():
     with pytest.raises(ValueError, match="needs --teacher"):
         teachers_of(DistilConfig(mixture=("circle",)))
@@ -87,6 +112,8 @@ def test_bad_teacher_pairs_are_named():
         teachers_of(DistilConfig(mixture=("circle",), teacher="t.zip", teacher_for=("swap=u.zip",)))
     with pytest.raises(ValueError, match="ENTRY=CHECKPOINT"):
         teachers_of(DistilConfig(mixture=("circle",), teacher="t.zip", teacher_for=("u.zip",)))
+    with pytest.raises(ValueError, match="needs --init"):
+        teachers_of(DistilConfig(mixture=("circle",), teacher=EXPERT))
     with pytest.raises(ValueError, match=r"DistilConfig\.rounds must be"):
         DistilConfig(rounds=0)
 

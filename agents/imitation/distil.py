@@ -1,5 +1,5 @@
 """Distillation (``vcs-env distil``): several teacher policies, each labelling its own mixture entries, into one
-student network, by DAgger with network teachers.
+student network, by DAgger with network teachers or the VCS expert (the teacher named :data:`EXPERT`).
 
 Why: a PPO stage that weights some families up (the maps) gains there and loses elsewhere, and per-family
 fine-tunes of one network are each better on their family than any single network trained on the whole mixture
@@ -8,9 +8,9 @@ round plays ``robots`` robot trajectories per entry (an entry listed k times in 
 many), each robot executing the teacher's action with probability ``beta_k`` and the student's deterministic
 action otherwise (``beta_k = beta * 0.5**k``, 0 in the last round, which the student plays alone), labels every
 acting robot-step with the deterministic action of the entry's teacher (its network alone: a shield named in a
-teacher's record is not applied), and fits the student's action mean to the
-labels of all rounds so far (squared error, :func:`agents.imitation.bc_fit` with ``loss="mse"``: the student's
-``log_std`` and value head are left as they were, so PPO can continue from it).
+teacher's record is not applied; for :data:`EXPERT`, the expert's action as ``vcs-env collect`` labels it), and
+fits the student's action mean to the labels of all rounds so far (squared error, :func:`agents.imitation.bc_fit`
+with ``loss="mse"``: the student's ``log_std`` and value head are left as they were, so PPO can continue from it).
 
 Teachers should share the student's conventions (which side to pass on, who yields): teachers fine-tuned from
 one parent distil into one network cleanly; specialists imitated from the expert from scratch each learned their
@@ -51,6 +51,8 @@ FIRST_SEED = 900_000
 episodes take consecutive seeds from ``FIRST_SEED + ROUND_SEEDS * round``, entry by entry and grid point by point."""
 ROUND_SEEDS = 10_000_000
 """Seeds set aside per round."""
+EXPERT = "vcs"
+"""The teacher name of the VCS expert, for --teacher or in --teacher-for (``ENTRY=vcs``); it is no checkpoint."""
 
 
 @dataclass
@@ -60,12 +62,13 @@ class DistilConfig(ScenarioConfig):
     mixture: tuple[str, ...] = ()
     """Entries to play (train's --mixture syntax); an entry listed k times gets k times the episodes."""
     teacher: str = ""
-    """Checkpoint that labels every entry --teacher-for does not name."""
+    """Checkpoint that labels every entry --teacher-for does not name (``vcs``: the VCS expert)."""
     teacher_for: tuple[str, ...] = ()
-    """ENTRY=CHECKPOINT pairs: that checkpoint labels the states of that mixture entry (the entry as written in
-    --mixture)."""
+    """ENTRY=CHECKPOINT pairs: that checkpoint (``vcs``: the VCS expert) labels the states of that mixture entry (the
+    entry as written in --mixture)."""
     init: str | None = None
-    """The student's starting checkpoint, an SB3 one (None: --teacher); its network is the student's."""
+    """The student's starting checkpoint, an SB3 one (None: --teacher, which must then be a checkpoint); its network
+    is the student's."""
     rounds: int = 4
     """DAgger rounds (the last one plays the student alone)."""
     beta: float = 1.0
@@ -106,6 +109,8 @@ def teachers_of(cfg: DistilConfig) -> dict[str, str]:
         if entry not in out:
             raise ValueError(f"--teacher-for {pair!r}: {entry!r} is not an entry of --mixture ({list(out)})")
         out[entry] = ckpt
+    if cfg.init is None and cfg.teacher == EXPERT:
+        raise ValueError(f"with --teacher {EXPERT} (the expert, no network) the student needs --init CHECKPOINT")
     return out
 
 
@@ -120,7 +125,7 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
-    loaded = {c: load_checkpoint(c, first, shield=False) for c in dict.fromkeys(teacher_of.values())}
+    loaded = {c: load_checkpoint(c, first, shield=False) for c in dict.fromkeys(teacher_of.values()) if c != EXPERT}
     model = load_model(cfg.init or cfg.teacher, first)
     if not hasattr(model, "policy"):
         raise ValueError(f"the student {cfg.init or cfg.teacher!r} must be an SB3 checkpoint (--init), to be trained")
@@ -139,7 +144,7 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
         for entry, scenarios in groups:
             mean_n = np.mean([s.n_robots for s in scenarios])
             per_point = max(1, int(np.ceil(counts[entry] * cfg.robots / mean_n / len(scenarios))))
-            teacher = actor_of(loaded[teacher_of[entry]])
+            teacher = None if teacher_of[entry] == EXPERT else actor_of(loaded[teacher_of[entry]])  # None: the expert
             for sc in scenarios:
                 seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
                 parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher))
