@@ -30,10 +30,11 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   with it (``docs/experiments.md``). Run records written before ``still_margin`` keep that rule.
 
 Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least
-``margin``; otherwise the candidate (the policy's action or one of :data:`GRID`, acceleration and turn
-in ``{-1, -0.5, 0, 0.5, 1}``) with the largest score ``1e6 * min(gap, margin) - |candidate - action|`` (gap
-in metres, the first candidate on ties): the largest smallest gap capped at ``margin``, and of those equal in
-it to within a few micrometres (all that reach the margin, say) the one nearest the policy's action.
+``margin``; otherwise the candidate (the policy's action, one of :data:`GRID`, acceleration and turn
+in ``{-1, -0.5, 0, 0.5, 1}``, or with ``keep_turn`` the policy's turn at one of those accelerations) with the
+largest score ``1e6 * min(gap, margin) - |candidate - action|`` (gap in metres, the first candidate on ties): the
+largest smallest gap capped at ``margin``, and of those equal in it to within a few micrometres (all that reach
+the margin, say) the one nearest the policy's action.
 
 No harm to the robots it leaves to the policy (``driving_guard``, on by default): a candidate may replace the
 policy's action only if it comes no closer to the sensed *driving* robots (those not counted above, each moving on
@@ -43,6 +44,13 @@ in; they only rule out replacements that would steer into them. Without the guar
 to a wall or a parked robot, replaced a robot's braking with speeding up into a robot creeping past at 0.07 m/s
 (``doorway-v0`` seed 1005, a contact the network alone does not make; ``docs/experiments.md``). Run records
 written before the field run without it.
+
+The policy's own steering first (``keep_turn``, on by default): the candidates include the policy's turn with each
+acceleration level of :data:`LEVELS`, so a robot that must not go on as the policy asks can brake (or speed up)
+while turning as the policy turns, before any other steering is imposed. Without them the nearest candidate that
+kept the margin was often "no turn": a robot wedged 0.02 m between a parked robot and a wall, whose every move came
+closer than the still margin to one of them, stood with its heading frozen for the rest of the episode
+(``corridor-narrow-v0`` seed 1019, ``docs/experiments.md``). Run records written before the field run without them.
 
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
 ``vcs-env shield``); :func:`agents.policies.load_checkpoint` returns it as a :class:`ShieldedPredictor`,
@@ -100,6 +108,9 @@ class Shield:
     driving_guard: bool = True
     """A replacement comes no closer to the driving robots than the policy's action, below ``margin`` (module
     docstring; False: the rule of run records written before this field, 2026-12-04)."""
+    keep_turn: bool = True
+    """The candidates include the policy's turn with every acceleration level (module docstring; False: the rule
+    of run records written before this field, 2026-12-05)."""
 
     def __post_init__(self):
         checks = [("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)]
@@ -114,9 +125,11 @@ class Shield:
             if high is not None and value > high:
                 raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
             object.__setattr__(self, name, float(value))
-        if not isinstance(self.driving_guard, (bool, np.bool_)):
-            raise ValueError(f"shield driving_guard must be true or false, got {self.driving_guard!r}")
-        object.__setattr__(self, "driving_guard", bool(self.driving_guard))
+        for name in ("driving_guard", "keep_turn"):
+            value = getattr(self, name)
+            if not isinstance(value, (bool, np.bool_)):
+                raise ValueError(f"shield {name} must be true or false, got {value!r}")
+            object.__setattr__(self, name, bool(value))
 
     def min_gaps(self, obs: np.ndarray, candidates: np.ndarray, layout: Layout) -> np.ndarray:
         """Smallest predicted gap [m] ``(N, K)`` of every robot under every candidate action.
@@ -245,6 +258,10 @@ class Shield:
         if unsafe.any():
             a = act[unsafe]
             candidates = np.concatenate((a[:, None], np.broadcast_to(GRID, (len(a), *GRID.shape))), axis=1)
+            if self.keep_turn:  # the policy's turn with every acceleration level
+                levels = np.broadcast_to(np.array(LEVELS), (len(a), len(LEVELS)))
+                own = np.stack((levels, np.broadcast_to(a[:, 1:], levels.shape)), axis=-1)
+                candidates = np.concatenate((candidates, own), axis=1)
             gaps = self._gaps(o[unsafe], candidates, layout)
             score = np.minimum(gaps[..., 0], self.margin) * 1e6 - np.linalg.norm(candidates - a[:, None], axis=-1)
             if self.driving_guard:  # no closer to the driving robots than the policy's action, below the margin
@@ -313,6 +330,6 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
         raise ValueError(f"the shield in {where} must be an object with keys of {keys}, got {spec!r}")
     try:
         # records without a key keep the rule they were run with
-        return Shield(**{"still_margin": None, "driving_guard": False, **spec})
+        return Shield(**{"still_margin": None, "driving_guard": False, "keep_turn": False, **spec})
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None

@@ -15,7 +15,7 @@ from agents.checkpoint import attach_shield
 from agents.evaluate import evaluate
 from agents.evaluate.report import describe_shield
 from agents.policies import load_checkpoint
-from agents.shield import GRID, SAMPLE, Shield, ShieldedPredictor, shield_from_record
+from agents.shield import GRID, LEVELS, SAMPLE, Shield, ShieldedPredictor, shield_from_record
 from vcs_cli import main
 from vcs_env.observations import EGO_DIM, observation_dim, observation_layout, observe
 from vcs_env.scenario import SCENARIOS, make_scenario
@@ -60,6 +60,8 @@ def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tupl
     if smallest_gap(*action) >= shield.margin:
         return action, False
     candidates = [action, *GRID]
+    if shield.keep_turn:  # the policy's own turn at every acceleration level
+        candidates += [np.array([level, action[1]]) for level in LEVELS]
     if shield.driving_guard:  # a replacement comes no closer to the driving robots, below the margin
         floor = min(smallest_gap(*action, counted=False), shield.margin) - 1e-6
         candidates = [c for c in candidates if smallest_gap(*c, counted=False) >= floor]
@@ -84,18 +86,18 @@ STILL = make_scenario("random", n_robots=6, n_obstacles=8, obstacle_motion="stat
 
 
 @pytest.mark.parametrize(
-    "name, still_margin, guard",
+    "name, still_margin, guard, keep_turn",
     [
-        ("dynamic", None, False),
-        ("dynamic", 0.02, True),
-        ("still", 0.02, False),
-        ("still", 0.15, True),
-        ("crowded", 0.02, True),
-        ("crowded", 0.02, False),
+        ("dynamic", None, False, False),
+        ("dynamic", 0.02, True, True),
+        ("still", 0.02, False, True),
+        ("still", 0.15, True, False),
+        ("crowded", 0.02, True, True),
+        ("crowded", 0.02, False, False),
     ],
 )
-def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard):
-    shield = Shield(horizon=1.5, margin=0.1, still_margin=still_margin, driving_guard=guard)
+def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard, keep_turn):
+    shield = Shield(horizon=1.5, margin=0.1, still_margin=still_margin, driving_guard=guard, keep_turn=keep_turn)
     obs, actions = _world_observations(STILL if name == "still" else SCENARIOS["dynamic"], range(40))
     if name == "still":
         assert observation_layout(STILL) == LAYOUT
@@ -104,9 +106,17 @@ def test_filter_matches_the_readable_oracle_on_real_observations(name, still_mar
     if name == "crowded":
         obs, actions = _crowded_rows(np.random.default_rng(1), 300)
         # the guard changes choices here, never whether the shield steps in
-        other = Shield(still_margin=still_margin, driving_guard=not guard).filter(obs, actions, LAYOUT)
+        other = Shield(still_margin=still_margin, driving_guard=not guard, keep_turn=keep_turn).filter(
+            obs, actions, LAYOUT
+        )
         assert np.array_equal(other[1], shield.filter(obs, actions, LAYOUT)[1])
         assert (other[0] != shield.filter(obs, actions, LAYOUT)[0]).any(1).sum() >= 5
+        # so does keeping the policy's turn: some replacements now turn as the policy does
+        kept = Shield(still_margin=still_margin, driving_guard=guard, keep_turn=not keep_turn)
+        kept = kept.filter(obs, actions, LAYOUT)
+        assert np.array_equal(kept[1], shield.filter(obs, actions, LAYOUT)[1])
+        changed = (kept[0] != shield.filter(obs, actions, LAYOUT)[0]).any(1)
+        assert changed.sum() >= 5
     out, replaced = shield.filter(obs, actions, LAYOUT)
     assert 0 < replaced.sum() < len(obs)  # both branches are exercised
     for row, act, got, rep in zip(obs, actions, out, replaced):
@@ -327,6 +337,8 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, V1)[0])
     assert main(["shield", str(model), "--no-driving-guard"]) == 0  # the rule of records before the guard
     assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(driving_guard=False)
+    assert main(["shield", str(model), "--no-keep-turn"]) == 0  # the rule of records before keep_turn
+    assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(keep_turn=False)
     assert main(["shield", str(model), "--remove"]) == 0
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
     assert main(["shield", str(model), "--horizon", "0"]) == 2
@@ -336,12 +348,14 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
         shield_from_record({"shield": {"horizon": 1.0, "reach": 2}})
     # Results name the still margin where the shield has one (records before it: margin for every body).
     assert describe_shield(dataclasses.asdict(Shield())).endswith(
-        "robots at most 0.05 m/s, still bodies 0.02 m, no closer to driving robots"
+        "robots at most 0.05 m/s, still bodies 0.02 m, no closer to driving robots, the policy's turn kept first"
     )
     assert describe_shield(record_before := {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}).endswith("m/s")
     assert shield_from_record({"shield": record_before}).still_margin is None
     assert not shield_from_record({"shield": {**record_before, "still_margin": 0.02}}).driving_guard
-    assert describe_shield(dataclasses.asdict(Shield(driving_guard=False))).endswith("still bodies 0.02 m")
+    assert not shield_from_record({"shield": {**record_before, "driving_guard": True}}).keep_turn
+    plain = Shield(driving_guard=False, keep_turn=False)
+    assert describe_shield(dataclasses.asdict(plain)).endswith("still bodies 0.02 m")
     for bad in ("[1, 2]", "{}"):
         model.with_suffix(".json").write_text(bad)
         with pytest.raises(ValueError, match="has no run record to keep the shield in"):
@@ -362,7 +376,8 @@ def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     shielded_run = evaluate(GENERALIST, suite, progress=False)
     network_run = evaluate(GENERALIST, suite, progress=False, shield=False)
     # the release's record predates still_margin: it keeps margin for every body (None)
-    want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05, "still_margin": None, "driving_guard": False}
+    want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}
+    want |= {"still_margin": None, "driving_guard": False, "keep_turn": False}
     assert shielded_run.to_dict()["shield"] == want
     assert network_run.to_dict()["shield"] is None  # what ran is in the results
     shielded, network = shielded_run.summary, network_run.summary

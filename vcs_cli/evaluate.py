@@ -211,7 +211,14 @@ def cmd_shield(args) -> int:
     guard = (
         None
         if args.remove
-        else shield.Shield(args.horizon, args.margin, args.robot_speed, args.still_margin, not args.no_driving_guard)
+        else shield.Shield(
+            args.horizon,
+            args.margin,
+            args.robot_speed,
+            args.still_margin,
+            driving_guard=not args.no_driving_guard,
+            keep_turn=not args.no_keep_turn,
+        )
     )
     attach_shield(args.checkpoint, guard)
     said = "removed the shield from" if guard is None else f"wrote {asdict(guard)} into"
@@ -241,6 +248,11 @@ def _add_shield(sub) -> None:
         "--no-driving-guard",
         action="store_true",
         help="let a replacement steer closer to driving robots than the policy's action (the rule before 2026-12-04)",
+    )
+    p.add_argument(
+        "--no-keep-turn",
+        action="store_true",
+        help="no candidates with the policy's own turn at other accelerations (the rule before 2026-12-05)",
     )
     p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
     p.set_defaults(func=cmd_shield)
