@@ -29,6 +29,21 @@ def checkpoint(tmp_path: Path, name: str, seed: int, scale: float) -> Path:
     return save_model(model, tmp_path / name / "model", "ppo", TrainConfig(net_arch=(32,)), scenario)
 
 
+def short_run(tmp_path: Path, start: Path, **teachers) -> DistilConfig:
+    """A distillation of 2 short rounds from the student ``start`` into ``tmp_path/distil``, fitted hard (30 epochs
+    at lr 3e-3) so that a student visibly follows its teachers; ``teachers``: the mixture and who teaches it."""
+    return DistilConfig(
+        max_steps=30,
+        init=str(start),
+        rounds=2,
+        robots=24,
+        epochs=30,
+        learning_rate=3e-3,
+        out=str(tmp_path / "distil"),
+        **teachers,
+    )
+
+
 def test_play_labels_every_acting_step_with_the_teacher_and_executes_it():
     scenario = make_scenario("circle", n_robots=3, max_steps=25)
 
@@ -48,19 +63,15 @@ def test_student_learns_each_teacher_on_its_own_entries(tmp_path):
         checkpoint(tmp_path, "b", 2, -60.0),
         checkpoint(tmp_path, "s", 3, 1.0),
     )
-    cfg = DistilConfig(
-        mixture=("circle:n_robots=3", "circle:n_robots=6"),  # observations that differ clearly
-        max_steps=30,
-        teacher=str(a),
-        teacher_for=(f"circle:n_robots=6={b}",),
-        init=str(start),
-        rounds=2,
-        robots=24,
-        epochs=30,
-        learning_rate=3e-3,
-        out=str(tmp_path / "distil"),
+    out = distil(
+        short_run(
+            tmp_path,
+            start,
+            mixture=("circle:n_robots=3", "circle:n_robots=6"),  # observations that differ clearly
+            teacher=str(a),
+            teacher_for=(f"circle:n_robots=6={b}",),
+        )
     )
-    out = distil(cfg)
     assert out["teachers"] == {"circle:n_robots=3": str(a), "circle:n_robots=6": str(b)}
     assert len(list((tmp_path / "distil" / "checkpoints").glob("model_*.zip"))) == 2
 
@@ -80,18 +91,7 @@ def test_student_learns_each_teacher_on_its_own_entries(tmp_path):
 
 def test_the_expert_teaches_the_entries_it_is_named_for(tmp_path):
     start = checkpoint(tmp_path, "s", 3, 1.0)
-    cfg = DistilConfig(
-        mixture=("circle:n_robots=3",),
-        max_steps=30,
-        teacher=EXPERT,
-        init=str(start),
-        rounds=2,
-        robots=24,
-        epochs=30,
-        learning_rate=3e-3,
-        out=str(tmp_path / "distil"),
-    )
-    out = distil(cfg)
+    out = distil(short_run(tmp_path, start, mixture=("circle:n_robots=3",), teacher=EXPERT))
     assert out["teachers"] == {"circle:n_robots=3": EXPERT}
     scenario = make_scenario("circle", n_robots=3, max_steps=30)
     expert = play(scenario, range(500, 504))  # the expert plays and labels episodes no round played
