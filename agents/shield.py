@@ -22,12 +22,19 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   (on circle-24, counting every robot cost 15 points of success, ``docs/experiments.md``);
 * the gap is the distance between centres minus both radii [m]; to a *still* body (a point on a wall, a
   parked robot, a body at most ``robot_speed`` fast), whose prediction is exact, the shield keeps
-  ``still_margin`` (0.02 m) instead of ``margin``, which is for the constant-velocity guess of moving
-  obstacles: it counts that gap as ``gap + margin - still_margin``, so one threshold, ``margin``, applies
-  below. With ``margin`` to still bodies too, a passage narrower than the robot's diameter plus twice the
-  margin (a 0.7 m door for a robot of 0.5 m, the 0.7 m between two robots parked side by side in a
-  corridor) could not be driven through: the v2 generalist deadlocked on every corridor and door suite
+  ``still_margin`` (0.01 m; 0.02 m in records before ``brake_backup``) instead of ``margin``, which is for the
+  constant-velocity guess of moving obstacles: it counts that gap as ``gap + margin - still_margin``, so one
+  threshold, ``margin``, applies below. With ``margin`` to still bodies too, a passage narrower than the robot's
+  diameter plus twice the margin (a 0.7 m door for a robot of 0.5 m, the 0.7 m between two robots parked side by
+  side in a corridor) could not be driven through: the v2 generalist deadlocked on every corridor and door suite
   with it (``docs/experiments.md``). Run records written before ``still_margin`` keep that rule.
+* with ``brake_backup`` (on by default), a still body is judged along the better of two ways on: the
+  candidate held over the horizon, or the candidate for one step and then full braking without a turn until
+  the robot stands (at least the horizon): a candidate is safe from still bodies if either way keeps the still
+  margin. Held alone, every move of a robot wedged 0.02 m between a parked robot and a wall came closer than
+  that at some point of the horizon, and it stood for good where the network alone drove through; braking
+  alone, a fast robot could not turn away from a still body it cannot stop before. Run records written before
+  the field judge by the held candidate alone (and keep the driving guard below without its exception).
 
 Choice (:meth:`Shield.filter`): the policy's action stands if its smallest predicted gap is at least
 ``margin``; otherwise the candidate (the policy's action, one of :data:`GRID`, acceleration and turn
@@ -42,17 +49,18 @@ at its observed velocity) than the policy's action does, below ``margin``: its s
 least ``min(that of the policy's action, margin)`` (to a micrometre). Driving robots never make the shield step
 in; they only rule out replacements that would steer into them. Without the guard the shield, keeping its margin
 to a wall or a parked robot, replaced a robot's braking with speeding up into a robot creeping past at 0.07 m/s
-(``doorway-v0`` seed 1005, a contact the network alone does not make; ``docs/experiments.md``). Run records
-written before the field run without it.
+(``doorway-v0`` seed 1005, a contact the network alone does not make; ``docs/experiments.md``). With
+``brake_backup`` full braking (acceleration -1, any turn) passes the guard whatever its gap: braking is never
+steering into a driving robot, and without the exception a robot beside a wall with a driving robot coming at it
+had only faster candidates left and was sent into the wall (a 1.0 m door: 0.72 against 0.96 with it,
+``docs/experiments.md``). Run records written before the field run without the guard.
 
 The policy's own steering first (``keep_turn``, on by default): the candidates include the policy's turn with each
 acceleration level of :data:`LEVELS`, so a robot that must not go on as the policy asks can brake (or speed up)
 while turning as the policy turns, before any other steering is imposed. Without them the nearest candidate that
 kept the margin was often "no turn": a robot held at an intersection or a door stood with its heading frozen; with
 them it turns as the policy turns (on the distilled v2: ``intersection-v0`` 1.00 against 0.97, 3 suite episodes with a
-new at-fault contact against 5). A robot wedged 0.02 m between a parked robot and a wall, whose every move comes
-closer than the still margin to one of them, still stands (``corridor-narrow-v0``, ``docs/experiments.md``). Run
-records written before the field run without them.
+new at-fault contact against 5). Run records written before the field run without them.
 
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
 ``vcs-env shield``); :func:`agents.policies.load_checkpoint` returns it as a :class:`ShieldedPredictor`,
@@ -81,7 +89,7 @@ SAMPLE = 0.1
 """Longest interval between predicted positions [s]."""
 HORIZON_MAX = 10.0
 """Longest horizon [s] (the neighbours' positions read at most 10 m away)."""
-STILL_MARGIN = 0.02
+STILL_MARGIN = 0.01
 """Default smallest predicted gap to still bodies [m] (:attr:`Shield.still_margin`)."""
 NEAR_SLACK = 1e-6
 """Slack of :meth:`Shield.near`'s bound [m], for rounding."""
@@ -113,6 +121,10 @@ class Shield:
     keep_turn: bool = True
     """The candidates include the policy's turn with every acceleration level (module docstring; False: the rule
     of run records written before this field, 2026-12-05)."""
+    brake_backup: bool = True
+    """Still bodies are judged along the better of two ways on: the candidate held over the horizon, or held for
+    one step and then full braking without a turn; and full braking passes the driving guard (module docstring;
+    False: held only, the rule of run records written before this field, 2026-12-05)."""
 
     def __post_init__(self):
         checks = [("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)]
@@ -127,7 +139,7 @@ class Shield:
             if high is not None and value > high:
                 raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
             object.__setattr__(self, name, float(value))
-        for name in ("driving_guard", "keep_turn"):
+        for name in ("driving_guard", "keep_turn", "brake_backup"):
             value = getattr(self, name)
             if not isinstance(value, (bool, np.bool_)):
                 raise ValueError(f"shield {name} must be true or false, got {value!r}")
@@ -159,15 +171,29 @@ class Shield:
         return gap
 
     def _min_gaps(self, o: np.ndarray, candidates: np.ndarray, layout: Layout, dt: float) -> np.ndarray:
-        counted, pos, vel, _, _, reach, v0, v_max, a_max, w_max, driving = self._neighbours(o, layout)
+        counted, pos, vel, _, _, reach, *_, driving, still = self._neighbours(o, layout)
+        if not self.brake_backup:
+            return self._path_gaps(o, candidates, pos, vel, reach, (counted, driving), dt, backup=False)
+        still = counted & still  # the better of holding on and braking after one step
+        held = self._path_gaps(o, candidates, pos, vel, reach, (counted & ~still, still, driving), dt, backup=False)
+        backup = self._path_gaps(o, candidates, pos, vel, reach, (still,), dt, backup=True)
+        return np.stack((np.minimum(held[..., 0], np.maximum(held[..., 1], backup[..., 0])), held[..., 2]), axis=-1)
+
+    def _path_gaps(self, o, candidates, pos, vel, reach, masks, dt: float, backup: bool) -> np.ndarray:
+        """Smallest predicted gaps [m] ``(N, K, len(masks))`` to the slots of each mask ``(N, S)``, along every
+        candidate held over the horizon, or (``backup``) held for one step, then full braking without a turn
+        until the robot stands (:meth:`backup_steps`)."""
+        v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
         sub = max(1, math.ceil(dt / SAMPLE - 1e-9))  # samples along each step's straight segment
-        speed = np.repeat(v0[:, None], candidates.shape[1], 1)
+        speed = np.repeat((o[:, 0] * v_max)[:, None], candidates.shape[1], 1)
         heading = np.zeros_like(speed)
         x, y = np.zeros_like(speed), np.zeros_like(speed)
-        gap = np.full((*speed.shape, 2), np.inf)
-        for t in range(1, int(self.steps(dt)) + 1):
-            speed = np.clip(speed + candidates[..., 0] * (a_max * dt)[:, None], 0.0, v_max[:, None])
-            heading = heading + candidates[..., 1] * (w_max * dt)[:, None]
+        gap = np.full((*speed.shape, len(masks)), np.inf)
+        n_steps = int(self.backup_steps(o, dt).max()) if backup else int(self.steps(dt))
+        for t in range(1, n_steps + 1):
+            acc, turn = (candidates[..., 0], candidates[..., 1]) if t == 1 or not backup else (-1.0, 0.0)
+            speed = np.clip(speed + acc * (a_max * dt)[:, None], 0.0, v_max[:, None])
+            heading = heading + turn * (w_max * dt)[:, None]
             cos, sin = np.cos(heading), np.sin(heading)
             for j in range(1, sub + 1):
                 tau = dt * j / sub
@@ -175,8 +201,8 @@ class Shield:
                 other = pos + vel * ((t - 1 + j / sub) * dt)  # (N, S, 2)
                 dx, dy = px[:, :, None] - other[:, None, :, 0], py[:, :, None] - other[:, None, :, 1]
                 d = np.sqrt(dx**2 + dy**2) - reach[:, None]
-                gap[..., 0] = np.minimum(gap[..., 0], np.where(counted[:, None], d, np.inf).min(-1))
-                gap[..., 1] = np.minimum(gap[..., 1], np.where(driving[:, None], d, np.inf).min(-1))
+                for m, mask in enumerate(masks):
+                    gap[..., m] = np.minimum(gap[..., m], np.where(mask[:, None], d, np.inf).min(-1))
             x, y = px, py
         return gap
 
@@ -184,11 +210,18 @@ class Shield:
         """Steps of ``dt`` [s] the prediction covers: the fewest that reach the horizon (at least one)."""
         return np.maximum(1, np.ceil(self.horizon / np.asarray(dt, dtype=np.float64) - 1e-9)).astype(int)
 
+    def backup_steps(self, o: np.ndarray, dt: float | np.ndarray) -> np.ndarray:
+        """Steps of ``dt`` [s] ``(N,)`` of the still bodies' prediction with ``brake_backup``: the horizon's, and
+        at least the candidate's step and enough full braking to stand from ``v_max``."""
+        v_max, a_max = o[:, 4] * V_REF, o[:, 5] * A_REF
+        brake = np.ceil(v_max / np.maximum(a_max * dt, 1e-9) - 1e-9).astype(int)
+        return np.maximum(self.steps(dt), 1 + brake)
+
     def _neighbours(self, o: np.ndarray, layout: Layout) -> tuple[np.ndarray, ...]:
         """Per slot ``(N, S)``: counted mask, position and velocity ``(N, S, 2)`` in the robot frame [m, m/s],
         gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``; and the driving robots'
-        mask ``(N, S)``. The slots are the neighbour slots, then the wall points if the observation has them
-        (still, of radius 0)."""
+        and the still bodies' masks ``(N, S)``. The slots are the neighbour slots, then the wall points if the
+        observation has them (still, of radius 0)."""
         v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
         v0, radius = o[:, 0] * v_max, o[:, 7] * R_REF
         slots = layout.read(o, "neighbors")
@@ -217,7 +250,7 @@ class Shield:
         if self.still_margin is not None:  # a still body's gap counts from its own margin: shifted by the difference
             shift = np.where(still, self.margin - self.still_margin, 0.0)
             reach, gap = reach - shift, gap + shift
-        return counted, pos, vel, speed, gap, reach, v0, v_max, a_max, w_max, driving
+        return counted, pos, vel, speed, gap, reach, v0, v_max, a_max, w_max, driving, still
 
     def near(self, obs: np.ndarray, layout: Layout) -> np.ndarray:
         """``(N,)`` bool: some counted neighbour is within ``margin + T * (v_max + its speed)`` now, ``T`` the
@@ -226,7 +259,7 @@ class Shield:
         o = np.asarray(obs, dtype=np.float64)
         counted, _, _, speed, gap, _, _, v_max, *_ = self._neighbours(o, layout)
         dt = step_of(o)
-        cover = (self.steps(dt) * dt)[:, None]
+        cover = ((self.backup_steps(o, dt) if self.brake_backup else self.steps(dt)) * dt)[:, None]
         return (counted & (gap < self.margin + NEAR_SLACK + cover * (v_max[:, None] + speed))).any(1)
 
     def filter(self, obs: np.ndarray, actions: np.ndarray, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
@@ -268,7 +301,10 @@ class Shield:
             score = np.minimum(gaps[..., 0], self.margin) * 1e6 - np.linalg.norm(candidates - a[:, None], axis=-1)
             if self.driving_guard:  # no closer to the driving robots than the policy's action, below the margin
                 floor = np.minimum(gaps[:, :1, 1], self.margin) - NEAR_SLACK
-                score = np.where(gaps[..., 1] >= floor, score, -np.inf)
+                keep = gaps[..., 1] >= floor
+                if self.brake_backup:  # full braking is never steering into a driving robot
+                    keep |= candidates[..., 0] <= -1.0
+                score = np.where(keep, score, -np.inf)
             out[unsafe] = np.take_along_axis(candidates, score.argmax(1)[:, None, None], 1)[:, 0]
         return out.reshape(*lead, 2), unsafe.reshape(lead)
 
@@ -332,6 +368,8 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
         raise ValueError(f"the shield in {where} must be an object with keys of {keys}, got {spec!r}")
     try:
         # records without a key keep the rule they were run with
-        return Shield(**{"still_margin": None, "driving_guard": False, "keep_turn": False, **spec})
+        return Shield(
+            **{"still_margin": None, "driving_guard": False, "keep_turn": False, "brake_backup": False, **spec}
+        )
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None

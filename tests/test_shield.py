@@ -40,21 +40,32 @@ def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tupl
         if s[0] > 0.5:
             # the gap to a still body is kept at still_margin: it counts as that much farther than margin
             shift = shield.margin - shield.still_margin if still and shield.still_margin is not None else 0.0
-            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0 - shift, counted))
+            others.append((s[1] * 10.0, s[2] * 10.0, vx, vy, s[5] * 2.0 - shift, counted, counted and still))
     steps = math.ceil(shield.horizon / SAMPLE - 1e-9)
-    h = shield.horizon / steps
+    h = shield.horizon / steps  # the observations' dt (0.1 s = SAMPLE)
+    brake = 1 + math.ceil(v_max / (a_max * h) - 1e-9)  # the candidate's step, then braking to a stand
+
+    def path_gap(acc: float, turn: float, bodies: list, backup: bool) -> float:
+        """Along the candidate held over the horizon, or held for one step and then braking without a turn."""
+        speed, heading, x, y, best = v0, 0.0, 0.0, 0.0, math.inf
+        for t in range(1, (max(steps, brake) if backup else steps) + 1):
+            a, w = (acc, turn) if t == 1 or not backup else (-1.0, 0.0)
+            speed = min(max(speed + a * a_max * h, 0.0), v_max)
+            heading += w * w_max * h
+            x, y = x + speed * h * math.cos(heading), y + speed * h * math.sin(heading)
+            for ox, oy, vx, vy, r, *_ in bodies:
+                best = min(best, math.hypot(x - ox - vx * t * h, y - oy - vy * t * h) - radius - r)
+        return best
 
     def smallest_gap(acc: float, turn: float, counted: bool = True) -> float:
         """To the counted bodies, or (counted False) to the driving robots the shield leaves to the policy."""
-        speed, heading, x, y, best = v0, 0.0, 0.0, 0.0, math.inf
-        for t in range(1, steps + 1):
-            speed = min(max(speed + acc * a_max * h, 0.0), v_max)
-            heading += turn * w_max * h
-            x, y = x + speed * h * math.cos(heading), y + speed * h * math.sin(heading)
-            for ox, oy, vx, vy, r, kind in others:
-                if kind == counted:
-                    best = min(best, math.hypot(x - ox - vx * t * h, y - oy - vy * t * h) - radius - r)
-        return best
+        if not counted:
+            return path_gap(acc, turn, [b for b in others if not b[5]], backup=False)
+        if not shield.brake_backup:
+            return path_gap(acc, turn, [b for b in others if b[5]], backup=False)
+        moving = path_gap(acc, turn, [b for b in others if b[5] and not b[6]], backup=False)
+        still = [b for b in others if b[6]]  # the better of holding on and braking after one step
+        return min(moving, max(path_gap(acc, turn, still, backup=False), path_gap(acc, turn, still, backup=True)))
 
     action = np.clip(action, -1, 1)
     if smallest_gap(*action) >= shield.margin:
@@ -64,7 +75,9 @@ def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tupl
         candidates += [np.array([level, action[1]]) for level in LEVELS]
     if shield.driving_guard:  # a replacement comes no closer to the driving robots, below the margin
         floor = min(smallest_gap(*action, counted=False), shield.margin) - 1e-6
-        candidates = [c for c in candidates if smallest_gap(*c, counted=False) >= floor]
+        # with the braking backup, full braking passes the guard whatever its gap
+        brake = shield.brake_backup
+        candidates = [c for c in candidates if smallest_gap(*c, counted=False) >= floor or (brake and c[0] <= -1)]
     score = [1e6 * min(smallest_gap(*c), shield.margin) - float(np.linalg.norm(c - action)) for c in candidates]
     return candidates[score.index(max(score))], True
 
@@ -86,37 +99,47 @@ STILL = make_scenario("random", n_robots=6, n_obstacles=8, obstacle_motion="stat
 
 
 @pytest.mark.parametrize(
-    "name, still_margin, guard, keep_turn",
+    "name, still_margin, guard, keep_turn, backup",
     [
-        ("dynamic", None, False, False),
-        ("dynamic", 0.02, True, True),
-        ("still", 0.02, False, True),
-        ("still", 0.15, True, False),
-        ("crowded", 0.02, True, True),
-        ("crowded", 0.02, False, False),
+        ("dynamic", None, False, False, False),
+        ("dynamic", 0.02, True, True, False),
+        ("dynamic", 0.01, True, True, True),
+        ("still", 0.02, False, True, False),
+        ("still", 0.15, True, False, False),
+        ("still", 0.01, True, True, True),
+        ("crowded", 0.01, True, True, True),
+        ("crowded", 0.02, False, False, False),
     ],
 )
-def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard, keep_turn):
-    shield = Shield(horizon=1.5, margin=0.1, still_margin=still_margin, driving_guard=guard, keep_turn=keep_turn)
+def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard, keep_turn, backup):
+    shield = Shield(
+        horizon=1.5,
+        margin=0.1,
+        still_margin=still_margin,
+        driving_guard=guard,
+        keep_turn=keep_turn,
+        brake_backup=backup,
+    )
     obs, actions = _world_observations(STILL if name == "still" else SCENARIOS["dynamic"], range(40))
     if name == "still":
         assert observation_layout(STILL) == LAYOUT
-        old_rule = Shield(still_margin=None, driving_guard=guard).filter(obs, actions, LAYOUT)[1]
+        old_rule = Shield(still_margin=None, driving_guard=guard, brake_backup=False).filter(obs, actions, LAYOUT)[1]
         assert (shield.filter(obs, actions, LAYOUT)[1] != old_rule).any()
+        if backup:  # the still bodies judged along the braking backup: the shield steps in less often
+            held = dataclasses.replace(shield, brake_backup=False).filter(obs, actions, LAYOUT)[1]
+            assert shield.filter(obs, actions, LAYOUT)[1].sum() < held.sum()
     if name == "crowded":
         obs, actions = _crowded_rows(np.random.default_rng(1), 300)
-        # the guard changes choices here, never whether the shield steps in
-        other = Shield(still_margin=still_margin, driving_guard=not guard, keep_turn=keep_turn).filter(
-            obs, actions, LAYOUT
-        )
-        assert np.array_equal(other[1], shield.filter(obs, actions, LAYOUT)[1])
-        assert (other[0] != shield.filter(obs, actions, LAYOUT)[0]).any(1).sum() >= 5
+        # the guard changes choices here, never whether the shield steps in (judged along held actions: with
+        # the braking backup few of these rows are replaced at all)
+        held = dataclasses.replace(shield, brake_backup=False)
+        other = dataclasses.replace(held, driving_guard=not guard).filter(obs, actions, LAYOUT)
+        assert np.array_equal(other[1], held.filter(obs, actions, LAYOUT)[1])
+        assert (other[0] != held.filter(obs, actions, LAYOUT)[0]).any(1).sum() >= 5
         # so does keeping the policy's turn: some replacements now turn as the policy does
-        kept = Shield(still_margin=still_margin, driving_guard=guard, keep_turn=not keep_turn)
-        kept = kept.filter(obs, actions, LAYOUT)
-        assert np.array_equal(kept[1], shield.filter(obs, actions, LAYOUT)[1])
-        changed = (kept[0] != shield.filter(obs, actions, LAYOUT)[0]).any(1)
-        assert changed.sum() >= 5
+        kept = dataclasses.replace(held, keep_turn=not keep_turn).filter(obs, actions, LAYOUT)
+        assert np.array_equal(kept[1], held.filter(obs, actions, LAYOUT)[1])
+        assert (kept[0] != held.filter(obs, actions, LAYOUT)[0]).any(1).sum() >= 5
     out, replaced = shield.filter(obs, actions, LAYOUT)
     assert 0 < replaced.sum() < len(obs)  # both branches are exercised
     for row, act, got, rep in zip(obs, actions, out, replaced):
@@ -237,6 +260,25 @@ def test_still_bodies_keep_the_still_margin_and_passages_stay_open():
     assert replaced and gaps[0] < 0 < Shield().still_margin <= gaps[1]
 
 
+def test_a_wedged_robot_may_creep_on_where_it_can_still_brake():
+    """A robot standing 0.025 m from a parked robot ahead-left and from a still obstacle behind-right (the wedge of
+    ``corridor-narrow-v0``, docs/experiments.md): held over the horizon, every move that is not a turn in place comes
+    closer than the still margin to one of them, so the rule of records before ``brake_backup`` makes it stand for
+    good; judged also along one step and braking, the policy's slow start stands (it could brake clear of both),
+    while speeding up towards a parked robot too close to brake for after that step is still replaced, by a
+    candidate that keeps the still margin."""
+    d = 0.5 + 0.025  # between centres [m]: the radii and 0.025 m
+    wedge = [(d * 0.7071, d * 0.7071, 0.0, 0.0, 0.25, 1.0, 1.0), (-d * 0.7071, -d * 0.7071, 0.0, 0.0, 0.25, 0.0)]
+    row, creep = _obs(0.0, wedge), np.array([0.5, 0.0])
+    held = Shield(still_margin=0.02, brake_backup=False)
+    act, replaced = held.filter(row, creep, LAYOUT)
+    assert replaced and act[0] <= 0.0  # it stands (at rest: no positive acceleration)
+    assert not Shield().filter(row, creep, LAYOUT)[1]
+    fast = _obs(0.6, [(0.95, 0.0, 0.0, 0.0, 0.25, 1.0, 1.0)])  # 0.45 m from a parked robot ahead at 0.6 m/s
+    act, replaced = Shield().filter(fast, np.array([1.0, 0.0]), LAYOUT)
+    assert replaced and Shield().min_gaps(fast[None], act[None, None], LAYOUT)[0, 0] >= Shield().margin
+
+
 def test_a_replacement_does_not_steer_into_a_driving_robot():
     """An obstacle ahead makes the shield step in; its old choice, a hard right turn, would meet a robot driving
     slowly on that side (which the shield leaves to the policy: it never steps in for it). With the driving guard
@@ -339,6 +381,9 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(driving_guard=False)
     assert main(["shield", str(model), "--no-keep-turn"]) == 0  # the rule of records before keep_turn
     assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(keep_turn=False)
+    assert main(["shield", str(model), "--no-brake-backup", "--still-margin", "0.02"]) == 0  # before brake_backup
+    want = Shield(still_margin=0.02, brake_backup=False)
+    assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == want
     assert main(["shield", str(model), "--remove"]) == 0
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
     assert main(["shield", str(model), "--horizon", "0"]) == 2
@@ -348,13 +393,15 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
         shield_from_record({"shield": {"horizon": 1.0, "reach": 2}})
     # Results name the still margin where the shield has one (records before it: margin for every body).
     assert describe_shield(dataclasses.asdict(Shield())).endswith(
-        "robots at most 0.05 m/s, still bodies 0.02 m, no closer to driving robots, the policy's turn kept first"
+        "robots at most 0.05 m/s, still bodies 0.01 m, no closer to driving robots, the policy's turn kept first, "
+        "still bodies also along braking"
     )
     assert describe_shield(record_before := {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}).endswith("m/s")
     assert shield_from_record({"shield": record_before}).still_margin is None
     assert not shield_from_record({"shield": {**record_before, "still_margin": 0.02}}).driving_guard
     assert not shield_from_record({"shield": {**record_before, "driving_guard": True}}).keep_turn
-    plain = Shield(driving_guard=False, keep_turn=False)
+    assert not shield_from_record({"shield": {**record_before, "keep_turn": True}}).brake_backup
+    plain = Shield(still_margin=0.02, driving_guard=False, keep_turn=False, brake_backup=False)
     assert describe_shield(dataclasses.asdict(plain)).endswith("still bodies 0.02 m")
     for bad in ("[1, 2]", "{}"):
         model.with_suffix(".json").write_text(bad)
@@ -377,7 +424,7 @@ def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     network_run = evaluate(GENERALIST, suite, progress=False, shield=False)
     # the release's record predates still_margin: it keeps margin for every body (None)
     want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}
-    want |= {"still_margin": None, "driving_guard": False, "keep_turn": False}
+    want |= {"still_margin": None, "driving_guard": False, "keep_turn": False, "brake_backup": False}
     assert shielded_run.to_dict()["shield"] == want
     assert network_run.to_dict()["shield"] is None  # what ran is in the results
     shielded, network = shielded_run.summary, network_run.summary

@@ -218,6 +218,7 @@ def cmd_shield(args) -> int:
             args.still_margin,
             driving_guard=not args.no_driving_guard,
             keep_turn=not args.no_keep_turn,
+            brake_backup=not args.no_brake_backup,
         )
     )
     attach_shield(args.checkpoint, guard)
@@ -253,6 +254,12 @@ def _add_shield(sub) -> None:
         "--no-keep-turn",
         action="store_true",
         help="no candidates with the policy's own turn at other accelerations (the rule before 2026-12-05)",
+    )
+    p.add_argument(
+        "--no-brake-backup",
+        action="store_true",
+        help="judge still bodies along the held candidate only, not also along one step and braking (the rule "
+        "before 2026-12-05, with --still-margin 0.02)",
     )
     p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
     p.set_defaults(func=cmd_shield)
