@@ -7,8 +7,9 @@ fine-tunes of one network are each better on their family than any single networ
 round plays ``robots`` robot trajectories per entry (an entry listed k times in ``--mixture`` gets k times as
 many), each robot executing the teacher's action with probability ``beta_k`` and the student's deterministic
 action otherwise (``beta_k = beta * 0.5**k``, 0 in the last round, which the student plays alone), labels every
-acting robot-step with the deterministic action of the entry's teacher (its network alone: a shield named in a
-teacher's record is not applied; for :data:`EXPERT`, the expert's action as ``vcs-env collect`` labels it), and
+acting robot-step with the deterministic action of the entry's teacher (its network alone, or with
+``--teacher-shield`` through the shield its record names; for :data:`EXPERT`, the expert's action as ``vcs-env
+collect`` labels it), and
 fits the student's action mean to the labels of all rounds so far (squared error, :func:`agents.imitation.bc_fit`
 with ``loss="mse"``: the student's ``log_std`` and value head are left as they were, so PPO can continue from it).
 
@@ -43,6 +44,7 @@ from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
 from ..runs import scenario_family
+from ..shield import ShieldedPredictor
 from . import bc_fit
 from .data import concat_datasets, play
 
@@ -66,6 +68,9 @@ class DistilConfig(ScenarioConfig):
     teacher_for: tuple[str, ...] = ()
     """ENTRY=CHECKPOINT pairs: that checkpoint (``vcs``: the VCS expert) labels the states of that mixture entry (the
     entry as written in --mixture)."""
+    teacher_shield: bool = False
+    """Network teachers act through the shield their run record names (:mod:`agents.shield`), so the student learns
+    the shielded actions (False: the network alone)."""
     init: str | None = None
     """The student's starting checkpoint, an SB3 one (None: --teacher, which must then be a checkpoint); its network
     is the student's."""
@@ -125,7 +130,11 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
-    loaded = {c: load_checkpoint(c, first, shield=False) for c in dict.fromkeys(teacher_of.values()) if c != EXPERT}
+    teachers = dict.fromkeys(c for c in teacher_of.values() if c != EXPERT)
+    loaded = {c: load_checkpoint(c, first, shield=cfg.teacher_shield) for c in teachers}
+    bare = [c for c, teacher in loaded.items() if cfg.teacher_shield and not isinstance(teacher, ShieldedPredictor)]
+    if bare:
+        raise ValueError(f"--teacher-shield: the run record of {bare[0]!r} names no shield (vcs-env shield adds one)")
     model = load_model(cfg.init or cfg.teacher, first)
     if not hasattr(model, "policy"):
         raise ValueError(f"the student {cfg.init or cfg.teacher!r} must be an SB3 checkpoint (--init), to be trained")
