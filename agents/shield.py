@@ -52,8 +52,8 @@ to a wall or a parked robot, replaced a robot's braking with speeding up into a 
 (``doorway-v0`` seed 1005, a contact the network alone does not make; ``docs/experiments.md``). With
 ``brake_backup`` full braking (acceleration -1, any turn) passes the guard whatever its gap: braking is never
 steering into a driving robot, and without the exception a robot beside a wall with a driving robot coming at it
-had only faster candidates left and was sent into the wall (a 1.0 m door: 0.72 against 0.96 with it,
-``docs/experiments.md``). Run records written before the field run without the guard.
+had only faster candidates left and was sent into the wall (the probe of a 1.0 m door: 0.68 without the exception,
+0.88 with it, ``docs/experiments.md``). Run records written before the field run without the guard.
 
 The policy's own steering first (``keep_turn``, on by default): the candidates include the policy's turn with each
 acceleration level of :data:`LEVELS`, so a robot that must not go on as the policy asks can brake (or speed up)
