@@ -101,6 +101,12 @@ def step_of(obs: np.ndarray) -> np.ndarray:
     return np.maximum(np.round(np.asarray(obs, dtype=np.float64)[:, 10] * DT_REF, 6), 1e-6)
 
 
+def limits(o: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The robot's ``v_max`` [m/s], ``a_max`` [m/s^2] and ``omega_max`` [rad/s], each ``(N,)``, from the ``ego``
+    features 4-6 of the observations ``o`` ``(N, D)`` (float64)."""
+    return o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
+
+
 @dataclass(frozen=True)
 class Shield:
     """Parameters of the shield (module docstring)."""
@@ -183,7 +189,7 @@ class Shield:
         """Smallest predicted gaps [m] ``(N, K, len(masks))`` to the slots of each mask ``(N, S)``, along every
         candidate held over the horizon, or (``backup``) held for one step, then full braking without a turn
         until the robot stands (:meth:`backup_steps`)."""
-        v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
+        v_max, a_max, w_max = limits(o)
         sub = max(1, math.ceil(dt / SAMPLE - 1e-9))  # samples along each step's straight segment
         speed = np.repeat((o[:, 0] * v_max)[:, None], candidates.shape[1], 1)
         heading = np.zeros_like(speed)
@@ -213,7 +219,7 @@ class Shield:
     def backup_steps(self, o: np.ndarray, dt: float | np.ndarray) -> np.ndarray:
         """Steps of ``dt`` [s] ``(N,)`` of the still bodies' prediction with ``brake_backup``: the horizon's, and
         at least the candidate's step and enough full braking to stand from ``v_max``."""
-        v_max, a_max = o[:, 4] * V_REF, o[:, 5] * A_REF
+        v_max, a_max, _ = limits(o)
         brake = np.ceil(v_max / np.maximum(a_max * dt, 1e-9) - 1e-9).astype(int)
         return np.maximum(self.steps(dt), 1 + brake)
 
@@ -222,7 +228,7 @@ class Shield:
         gap now and radius sum [m]; with the robot's speed, limits and radius ``(N,)``; and the driving robots'
         and the still bodies' masks ``(N, S)``. The slots are the neighbour slots, then the wall points if the
         observation has them (still, of radius 0)."""
-        v_max, a_max, w_max = o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
+        v_max, a_max, w_max = limits(o)
         v0, radius = o[:, 0] * v_max, o[:, 7] * R_REF
         slots = layout.read(o, "neighbors")
         pos = slots[..., 1:3] * SENSE_REF
