@@ -62,6 +62,16 @@ kept the margin was often "no turn": a robot held at an intersection or a door s
 them it turns as the policy turns (on the distilled v2: ``intersection-v0`` 1.00 against 0.97, 3 suite episodes with a
 new at-fault contact against 5). Run records written before the field run without them.
 
+Room to stop short of driving robots (``driving_stop``, off by default), before the rest: the simulator parks a
+robot dead on arrival, at whatever speed it has, and a robot cannot tell from its observation which neighbour is
+about to arrive; a follower at full speed close behind one that parks has neither the room to brake nor the time to
+swerve (the v2 network's every contact on ``circle-24-v0``, ``docs/experiments.md``). So every driving robot may
+also stop where it is now: the policy's acceleration is lowered, its turn kept, to the highest level of
+:data:`LEVELS` (never above the policy's) from which one step and then full braking without a turn keeps
+``still_margin`` (``margin`` without one) from where each driving robot is now; full braking if none does. The
+capped action is then the policy's action for the rest of the rule. A cap is not a prediction of the driving
+robot's motion: the robots it meets head-on or crossing still avoid each other as their policies do.
+
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
 ``vcs-env shield``); :func:`agents.policies.load_checkpoint` returns it as a :class:`ShieldedPredictor`,
 so it applies wherever a checkpoint is run (``vcs-env evaluate``, ``compare``, ``probe``, ``select``,
@@ -127,6 +137,9 @@ class Shield:
     keep_turn: bool = True
     """The candidates include the policy's turn with every acceleration level (module docstring; False: the rule
     of run records written before this field, 2026-12-05)."""
+    driving_stop: bool = False
+    """Room to stop short of where every driving robot is now: a speed cap before the rest of the rule (module
+    docstring)."""
     brake_backup: bool = True
     """Still bodies are judged along the better of two ways on: the candidate held over the horizon, or held for
     one step and then full braking without a turn; and full braking passes the driving guard (module docstring;
@@ -145,7 +158,7 @@ class Shield:
             if high is not None and value > high:
                 raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
             object.__setattr__(self, name, float(value))
-        for name in ("driving_guard", "keep_turn", "brake_backup"):
+        for name in ("driving_guard", "keep_turn", "brake_backup", "driving_stop"):
             value = getattr(self, name)
             if not isinstance(value, (bool, np.bool_)):
                 raise ValueError(f"shield {name} must be true or false, got {value!r}")
@@ -279,7 +292,8 @@ class Shield:
 
         Returns:
             actions ``(..., 2)`` float64, and the mask ``(...)`` bool of the rows whose action fell short
-            (replaced by the best candidate, which may be the action itself when no candidate does better).
+            (replaced by the best candidate, which may be the action itself when no candidate does better) or
+            was capped (``driving_stop``).
         """
         lead = np.shape(actions)[:-1]
         if np.shape(actions)[-1:] != (2,) or np.shape(obs)[:-1] != lead:
@@ -293,6 +307,9 @@ class Shield:
             raise ValueError(f"the shield reads observations of length {layout.dim} (its layout), got {o.shape[1]}")
         # Rows where a counted neighbour could come within the margin at all (near); there the policy's
         # action; the alternatives only where it falls short (row by row the same numbers as all at once).
+        capped = np.zeros(len(act), dtype=bool)
+        if self.driving_stop:
+            act, capped = self._cap(o, act, layout)
         unsafe = self.near(o, layout)
         unsafe[unsafe] = self.min_gaps(o[unsafe], act[unsafe, None], layout)[:, 0] < self.margin
         out = act.copy()
@@ -312,7 +329,44 @@ class Shield:
                     keep |= candidates[..., 0] <= -1.0
                 score = np.where(keep, score, -np.inf)
             out[unsafe] = np.take_along_axis(candidates, score.argmax(1)[:, None, None], 1)[:, 0]
-        return out.reshape(*lead, 2), unsafe.reshape(lead)
+        return out.reshape(*lead, 2), (unsafe | capped).reshape(lead)
+
+    def _cap(self, o: np.ndarray, act: np.ndarray, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
+        """The actions ``(N, 2)`` with the speed cap of ``driving_stop``, and the mask ``(N,)`` of the capped rows."""
+        o = np.asarray(o, dtype=np.float64)
+        out, capped = act.copy(), np.zeros(len(act), dtype=bool)
+        dt = step_of(o)
+        for value in np.unique(dt):
+            rows = np.flatnonzero(dt == value)
+            sub = o[rows]
+            _, pos, _, _, gap, reach, *_, driving, _ = self._neighbours(sub, layout)
+            v_max = limits(sub)[0]
+            cover = (self.backup_steps(sub, float(value)) * float(value))[:, None]
+            near = (driving & (gap < self.margin + NEAR_SLACK + cover * v_max[:, None])).any(1)
+            if not near.any():
+                continue
+            rows, sub, a = rows[near], sub[near], act[rows[near]]
+            levels = np.broadcast_to(np.array(LEVELS), (len(a), len(LEVELS)))
+            cand = np.concatenate((a[:, None], np.stack((levels, np.broadcast_to(a[:, 1:], levels.shape)), -1)), 1)
+            shift = 0.0 if self.still_margin is None else self.margin - self.still_margin
+            g = self._path_gaps(
+                sub,
+                cand,
+                pos[near],
+                np.zeros_like(pos[near]),
+                reach[near] - shift,
+                (driving[near],),
+                float(value),
+                backup=True,
+            )[..., 0]
+            ok = g >= self.margin
+            ok[:, 1:] &= cand[:, 1:, 0] <= a[:, :1]  # never faster than the policy asks
+            best = np.where(ok[:, 1:], np.arange(len(LEVELS)), -1).max(1)
+            best = np.where(best < 0, 0, best)  # none clear: full braking
+            replace = ~ok[:, 0]
+            out[rows[replace]] = cand[replace, 1 + best[replace]]
+            capped[rows[replace]] = True
+        return out, capped
 
 
 def check_scenario(scenario: Scenario) -> None:

@@ -18,7 +18,7 @@ from agents.policies import load_checkpoint
 from agents.shield import GRID, LEVELS, SAMPLE, Shield, ShieldedPredictor, shield_from_record
 from vcs_cli import main
 from vcs_env.observations import EGO_DIM, observation_dim, observation_layout, observe
-from vcs_env.scenario import SCENARIOS, make_scenario
+from vcs_env.scenario import SCENARIOS, CustomLayout, make_scenario
 from vcs_env.sim import Simulator
 from vcs_env.suites import Suite
 
@@ -67,9 +67,15 @@ def _oracle(shield: Shield, row: np.ndarray, action: np.ndarray, k: int) -> tupl
         still = [b for b in others if b[6]]  # the better of holding on and braking after one step
         return min(moving, max(path_gap(acc, turn, still, backup=False), path_gap(acc, turn, still, backup=True)))
 
-    action = np.clip(action, -1, 1)
+    action, capped = np.clip(action, -1, 1), False
+    if shield.driving_stop:  # the speed cap: stop short of where every driving robot is now, the turn kept
+        shift = shield.margin - shield.still_margin if shield.still_margin is not None else 0.0
+        twins = [(ox, oy, 0.0, 0.0, r - shift) for ox, oy, _, _, r, counted, _ in others if not counted]
+        if path_gap(*action, twins, backup=True) < shield.margin:
+            clear = [a for a in LEVELS if a <= action[0] and path_gap(a, action[1], twins, True) >= shield.margin]
+            action, capped = np.array([max(clear, default=-1.0), action[1]]), True
     if smallest_gap(*action) >= shield.margin:
-        return action, False
+        return action, capped
     candidates = [action, *GRID]
     if shield.keep_turn:  # the policy's own turn at every acceleration level
         candidates += [np.array([level, action[1]]) for level in LEVELS]
@@ -99,19 +105,23 @@ STILL = make_scenario("random", n_robots=6, n_obstacles=8, obstacle_motion="stat
 
 
 @pytest.mark.parametrize(
-    "name, still_margin, guard, keep_turn, backup",
+    "name, still_margin, guard, keep_turn, backup, stop",
     [
-        ("dynamic", None, False, False, False),
-        ("dynamic", 0.02, True, True, False),
-        ("dynamic", 0.01, True, True, True),
-        ("still", 0.02, False, True, False),
-        ("still", 0.15, True, False, False),
-        ("still", 0.01, True, True, True),
-        ("crowded", 0.01, True, True, True),
-        ("crowded", 0.02, False, False, False),
+        ("dynamic", None, False, False, False, False),
+        ("dynamic", 0.02, True, True, False, False),
+        ("dynamic", 0.01, True, True, True, False),
+        ("dynamic", 0.01, True, True, True, True),
+        ("still", 0.02, False, True, False, False),
+        ("still", 0.15, True, False, False, False),
+        ("still", 0.01, True, True, True, False),
+        ("still", 0.01, True, True, True, True),
+        ("crowded", 0.01, True, True, True, False),
+        ("crowded", 0.01, True, True, True, True),
+        ("crowded", None, False, False, False, True),
+        ("crowded", 0.02, False, False, False, False),
     ],
 )
-def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard, keep_turn, backup):
+def test_filter_matches_the_readable_oracle_on_real_observations(name, still_margin, guard, keep_turn, backup, stop):
     shield = Shield(
         horizon=1.5,
         margin=0.1,
@@ -119,6 +129,7 @@ def test_filter_matches_the_readable_oracle_on_real_observations(name, still_mar
         driving_guard=guard,
         keep_turn=keep_turn,
         brake_backup=backup,
+        driving_stop=stop,
     )
     obs, actions = _world_observations(STILL if name == "still" else SCENARIOS["dynamic"], range(40))
     if name == "still":
@@ -130,9 +141,12 @@ def test_filter_matches_the_readable_oracle_on_real_observations(name, still_mar
             assert shield.filter(obs, actions, LAYOUT)[1].sum() < held.sum()
     if name == "crowded":
         obs, actions = _crowded_rows(np.random.default_rng(1), 300)
+        if stop:  # the speed cap steps in for driving robots, which the shield without it never does
+            plain = dataclasses.replace(shield, driving_stop=False).filter(obs, actions, LAYOUT)[1]
+            assert (shield.filter(obs, actions, LAYOUT)[1] & ~plain).sum() >= 5
         # the guard changes choices here, never whether the shield steps in (judged along held actions: with
         # the braking backup few of these rows are replaced at all)
-        held = dataclasses.replace(shield, brake_backup=False)
+        held = dataclasses.replace(shield, brake_backup=False, driving_stop=False)
         ref = held.filter(obs, actions, LAYOUT)
         other = dataclasses.replace(held, driving_guard=not guard).filter(obs, actions, LAYOUT)
         assert np.array_equal(other[1], ref[1])
@@ -294,6 +308,30 @@ def test_a_replacement_does_not_steer_into_a_driving_robot():
     gaps = Shield()._gaps(row[None], np.stack((full, old, new))[None], LAYOUT)[0]  # (candidate, counted/driving)
     assert gaps[1, 1] < 0 < Shield().margin <= min(gaps[2, 0], gaps[2, 1])
     assert gaps[1, 0] == pytest.approx(gaps[2, 0])  # both keep the margin to the obstacle
+
+
+class _FullAhead:
+    """Full throttle, no turn, for every robot: a policy that leaves all care to the shield."""
+
+    def predict(self, observation, state=None, episode_start=None, deterministic=True):
+        return np.tile(np.float32([1.0, 0.0]), (*np.shape(observation)[:-1], 1)), state
+
+
+@pytest.mark.parametrize("gap", [0.15, 0.3])
+def test_a_follower_can_stop_behind_a_leader_that_parks_dead(gap):
+    """The simulator parks a robot dead on arrival, at whatever speed it has. A follower at full speed ``gap`` m
+    behind a leader on the same line runs into it where the leader stops: without the speed cap the shield leaves
+    the driving leader to the policy and, once it is parked, the follower can neither brake nor swerve in time.
+    With ``driving_stop`` the follower keeps the room to stop short of where the leader is, and no contact."""
+    start = ((0.0, 0.0), (-0.5 - gap, 0.0))
+    layout = CustomLayout(start=start, goal=((2.5, 0.0), (8.0, 0.0)), heading=(0.0, 0.0), speed=(1.0, 1.0))
+    scenario = make_scenario("custom", custom=layout, n_robots=2, n_obstacles=0, max_steps=80)
+    suite = Suite("follow", scenario, (0,))
+    rows = {}
+    for stop in (False, True):
+        rows[stop] = evaluate(ShieldedPredictor(_FullAhead(), Shield(driving_stop=stop), scenario), suite).rows[0]
+    assert rows[False]["at_fault_collision"] == 1.0 and rows[False]["parked_collision"] == 1.0
+    assert rows[True]["collision"] == 0.0 and rows[True]["min_separation"] >= Shield().still_margin - 1e-6
 
 
 @pytest.mark.parametrize(

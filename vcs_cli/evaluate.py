@@ -219,6 +219,7 @@ def cmd_shield(args) -> int:
             driving_guard=not args.no_driving_guard,
             keep_turn=not args.no_keep_turn,
             brake_backup=not args.no_brake_backup,
+            driving_stop=args.driving_stop,
         )
     )
     attach_shield(args.checkpoint, guard)
@@ -260,6 +261,12 @@ def _add_shield(sub) -> None:
         action="store_true",
         help="judge still bodies along the held candidate only, not also along one step and braking (the rule "
         "before 2026-12-05, with --still-margin 0.02)",
+    )
+    p.add_argument(
+        "--driving-stop",
+        action="store_true",
+        help="cap the policy's speed so that the robot can stop short of where every driving robot is now (any may "
+        "park dead on arrival); the policy's turn is kept",
     )
     p.add_argument("--remove", action="store_true", help="take the shield out of the run record")
     p.set_defaults(func=cmd_shield)

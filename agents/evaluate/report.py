@@ -94,14 +94,16 @@ def shield_lines(shields: Mapping[str, dict[str, float] | None]) -> list[str]:
 def describe_shield(shield: dict[str, float]) -> str:
     """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s`` (and ``, still bodies 0.02 m`` with a still margin,
     ``, no closer to driving robots`` with the driving guard, ``, the policy's turn kept first`` with ``keep_turn``,
-    ``, still bodies also along braking`` with ``brake_backup``)."""
+    ``, still bodies also along braking`` with ``brake_backup``, ``, room to stop short of driving robots`` with
+    ``driving_stop``)."""
     text = f"horizon {shield['horizon']:g} s, margin {shield['margin']:g} m"
     text += f", robots at most {shield['robot_speed']:g} m/s"
     still = shield.get("still_margin")
     text = text if still is None else f"{text}, still bodies {still:g} m"
     text = f"{text}, no closer to driving robots" if shield.get("driving_guard") else text
     text = f"{text}, the policy's turn kept first" if shield.get("keep_turn") else text
-    return f"{text}, still bodies also along braking" if shield.get("brake_backup") else text
+    text = f"{text}, still bodies also along braking" if shield.get("brake_backup") else text
+    return f"{text}, room to stop short of driving robots" if shield.get("driving_stop") else text
 
 
 def fmt(x: float, spec: str = ".2f") -> str:
