@@ -10,8 +10,8 @@
 # counted six times, from that checkpoint) and the same selection over its checkpoints; then a maps stage (more
 # PPO with the weak map and layout entries counted five times) and a distillation (vcs-env distil: the maps
 # stage teaches the narrow corridor, the doors and the intersection, the movers stage's checkpoint the rest),
-# then the shield distilled into that network (a shielded copy of it teaches it, vcs-env distil --teacher-shield),
-# whose last round is the policy, $ROOT/shielded$SHIELD_PASSES/model.zip. No shield in the record: the network alone
+# then the shield distilled into that network (a shielded copy of it teaches it, vcs-env distil --teacher-shield; a
+# second pass adds room to stop short of driving robots on the open-floor entries), whose last round is the policy, $ROOT/shielded$SHIELD_PASSES/model.zip. No shield in the record: the network alone
 # is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
@@ -33,7 +33,7 @@ SENSE=(--n-wall-points 6 --stall-clock)
 # Sizes: episodes of expert data, BC epochs, DAgger rounds and episodes, PPO steps, start-state rounds.
 if [ "$SMOKE" = 1 ]; then
   EPISODES=46 EPOCHS=1 DAGGER=1 DAGGER_EP=23 PPO=20000 WORLDS=120 ROUND=10000 ROUNDS=1 STATES_EP=2 EVAL=0 VAL=7000:7002
-  MOVERS=30000 MOVERS_EP=2 MAPS=30000 MAPS_EP=2 DISTIL_ROBOTS=4 SHIELD_PASSES=1
+  MOVERS=30000 MOVERS_EP=2 MAPS=30000 MAPS_EP=2 DISTIL_ROBOTS=4 SHIELD_PASSES=2
 else
   # Stage times of the run with these sizes (one run, 2026-11-28/29, this 2-core machine beside other jobs): 2300
   # expert episodes 6 min; BC and two DAgger rounds 65 min; PPO 4 M 46 min; two rounds of 1 M with their 100
@@ -45,8 +45,8 @@ else
   # The maps stage (3 M steps) and the distillation (5 rounds) took about 20 min each on the 2-core Intel Xeon
   # beside another job (2026-12-04; results/generalist-v2/README.md).
   MAPS=${MAPS:-3000000} MAPS_EP=${MAPS_EP:-150} DISTIL_ROBOTS=${DISTIL_ROBOTS:-128}
-  # Each pass of the shield's distillation took 29 min (2026-12-05, the same machine, other jobs beside it).
-  SHIELD_PASSES=${SHIELD_PASSES:-1}
+  # Each pass of the shield's distillation took 25-29 min (2026-12-05, the same machine, another pass beside it).
+  SHIELD_PASSES=${SHIELD_PASSES:-2}
 fi
 MIX=(
   "circle-8-v0:n_robots=6-8/2"
@@ -154,15 +154,24 @@ TEACH=(); for e in "${TAUGHT[@]}"; do TEACH+=("$e=$ROOT/maps/model.zip"); done
 # The shield distilled into the network: a shielded copy of the network (vcs-env shield, default shield) labels every
 # entry for the network itself (vcs-env distil --teacher-shield), the same entries and rounds; SHIELD_PASSES times, each
 # from the last; the last pass's last round is the policy (docs/experiments.md, "The shield distilled into the
-# network").
+# network"). From the second pass on, a copy shielded with room to stop short of driving robots (--driving-stop)
+# teaches the robot-only entries and the random layouts, where robots park dead among robots still driving
+# (docs/experiments.md, "Room to stop short of driving robots").
+OPEN=("${MIX[@]:0:5}" "${MIX[@]:12:1}")
 prev="$ROOT/distil/model.zip"
 for p in $(seq 1 "$SHIELD_PASSES"); do
   if [ ! -f "$ROOT/shielded$p/model.zip" ]; then
     mkdir -p "$ROOT/teacher$p" && cp "$prev" "${prev%.zip}.json" "$ROOT/teacher$p/"
     vcs-env shield "$ROOT/teacher$p/model.zip"
+    STOP=()
+    if [ "$p" -gt 1 ]; then
+      mkdir -p "$ROOT/teacher$p-stop" && cp "$prev" "${prev%.zip}.json" "$ROOT/teacher$p-stop/"
+      vcs-env shield "$ROOT/teacher$p-stop/model.zip" --driving-stop
+      STOP=(--teacher-for); for e in "${OPEN[@]}"; do STOP+=("$e=$ROOT/teacher$p-stop/model.zip"); done
+    fi
     vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision terminate \
-      --teacher "$ROOT/teacher$p/model.zip" --teacher-shield --init "$prev" --rounds 5 --robots "$DISTIL_ROBOTS" \
-      --out "$ROOT/shielded$p" > "$ROOT/shielded$p.log" 2>&1
+      --teacher "$ROOT/teacher$p/model.zip" "${STOP[@]}" --teacher-shield --init "$prev" --rounds 5 \
+      --robots "$DISTIL_ROBOTS" --out "$ROOT/shielded$p" > "$ROOT/shielded$p.log" 2>&1
   fi
   prev="$ROOT/shielded$p/model.zip"
 done
