@@ -46,14 +46,15 @@ the margin, say) the one nearest the policy's action.
 No harm to the robots it leaves to the policy (``driving_guard``, on by default): a candidate may replace the
 policy's action only if it comes no closer to the sensed *driving* robots (those not counted above, each moving on
 at its observed velocity) than the policy's action does, below ``margin``: its smallest predicted gap to them is at
-least ``min(that of the policy's action, margin)`` (to a micrometre). Driving robots never make the shield step
-in; they only rule out replacements that would steer into them. Without the guard the shield, keeping its margin
-to a wall or a parked robot, replaced a robot's braking with speeding up into a robot creeping past at 0.07 m/s
-(``doorway-v0`` seed 1005, a contact the network alone does not make; ``docs/experiments.md``). With
-``brake_backup`` full braking (acceleration -1, any turn) passes the guard whatever its gap: braking is never
-steering into a driving robot, and without the exception a robot beside a wall with a driving robot coming at it
-had only faster candidates left and was sent into the wall (the probe of a 1.0 m door: 0.68 without the exception,
-0.88 with it, ``docs/experiments.md``). Run records written before the field run without the guard.
+least ``min(that of the policy's action, margin)`` (to a micrometre). Driving robots never make the shield step in
+(but for ``driving_stop``'s cap, below); they only rule out replacements that would steer into them. Without the
+guard the shield, keeping its margin to a wall or a parked robot, replaced a robot's braking with speeding up into
+a robot creeping past at 0.07 m/s (``doorway-v0`` seed 1005, a contact the network alone does not make;
+``docs/experiments.md``). With ``brake_backup`` full braking (acceleration -1, any turn) passes the guard whatever
+its gap: braking is never steering into a driving robot, and without the exception a robot beside a wall with a
+driving robot coming at it had only faster candidates left and was sent into the wall (the probe of a 1.0 m door:
+0.68 without the exception, 0.88 with it, ``docs/experiments.md``). Run records written before the field run
+without the guard.
 
 The policy's own steering first (``keep_turn``, on by default): the candidates include the policy's turn with each
 acceleration level of :data:`LEVELS`, so a robot that must not go on as the policy asks can brake (or speed up)
@@ -65,11 +66,11 @@ new at-fault contact against 5). Run records written before the field run withou
 Room to stop short of driving robots (``driving_stop``, off by default), before the rest: the simulator parks a
 robot dead on arrival, at whatever speed it has, and a robot cannot tell from its observation which neighbour is
 about to arrive; a follower at full speed close behind one that parks has neither the room to brake nor the time to
-swerve (the v2 network's every contact on ``circle-24-v0``, ``docs/experiments.md``). So every driving robot may
-also stop where it is now: the policy's acceleration is lowered, its turn kept, to the highest level of
-:data:`LEVELS` (never above the policy's) from which one step and then full braking without a turn keeps
-``still_margin`` (``margin`` without one) from where each driving robot is now; full braking if none does. The
-capped action is then the policy's action for the rest of the rule. A cap is not a prediction of the driving
+swerve (every contact of the v2 network of the morning of 2026-12-05 on ``circle-24-v0``, ``docs/experiments.md``).
+So every driving robot may also stop where it is now: the policy's acceleration is lowered, its turn kept, to the
+highest level of :data:`LEVELS` (never above the policy's) from which one step and then full braking without a turn
+keeps ``still_margin`` (``margin`` without one) from where each driving robot is now; full braking if none does.
+The capped action is then the policy's action for the rest of the rule. A cap is not a prediction of the driving
 robot's motion: the robots it meets head-on or crossing still avoid each other as their policies do.
 
 A checkpoint carries its shield in its run record (``"shield"`` in ``model.json``, written by
