@@ -11,8 +11,8 @@
 # PPO with the weak map and layout entries counted five times) and a distillation (vcs-env distil: the maps
 # stage teaches the narrow corridor, the doors and the intersection, the movers stage's checkpoint the rest),
 # then the shield distilled into that network (a shielded copy of it teaches it, vcs-env distil --teacher-shield; a
-# second pass adds room to stop short of driving robots on the open-floor entries), whose last round is the policy, $ROOT/shielded$SHIELD_PASSES/model.zip. No shield in the record: the network alone
-# is the policy.
+# second pass adds room to stop short of driving robots on the open-floor entries), whose last round is the policy,
+# $ROOT/shielded$SHIELD_PASSES/model.zip. No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 set -euo pipefail
