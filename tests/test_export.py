@@ -108,13 +108,14 @@ def test_the_released_generalist_exports_with_a_note_on_its_shield(tmp_path, cap
     assert np.abs(onnx_actions(tmp_path / "g.onnx", obs) - want).max() <= 1e-5
     layout = json.loads((tmp_path / "g.json").read_text())
     assert "network only" in layout["shield_note"]
-    # every parameter spelled out: the release's record predates still_margin, driving_guard, keep_turn and
-    # brake_backup: its rule
+    # every parameter spelled out: the release's record predates still_margin, driving_guard, keep_turn,
+    # brake_backup and driving_stop: its rule
     assert layout["shield"] == meta["shield"] | {
         "still_margin": None,
         "driving_guard": False,
         "keep_turn": False,
         "brake_backup": False,
+        "driving_stop": False,
     }
     assert Shield(**layout["shield"]) == shield_from_record(meta)
 

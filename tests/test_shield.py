@@ -464,6 +464,7 @@ def test_the_shield_lowers_the_generalists_collisions_on_dynamic_obstacles():
     # the release's record predates still_margin: it keeps margin for every body (None)
     want = {"horizon": 1.5, "margin": 0.1, "robot_speed": 0.05}
     want |= {"still_margin": None, "driving_guard": False, "keep_turn": False, "brake_backup": False}
+    want |= {"driving_stop": False}
     assert shielded_run.to_dict()["shield"] == want
     assert network_run.to_dict()["shield"] is None  # what ran is in the results
     shielded, network = shielded_run.summary, network_run.summary
