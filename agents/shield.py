@@ -118,6 +118,12 @@ def limits(o: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
 
 
+def own_turn(actions: np.ndarray) -> np.ndarray:
+    """The turn of each action ``(N, 2)`` at every acceleration level of :data:`LEVELS`: ``(N, len(LEVELS), 2)``."""
+    levels = np.broadcast_to(np.array(LEVELS), (len(actions), len(LEVELS)))
+    return np.stack((levels, np.broadcast_to(actions[:, 1:], levels.shape)), axis=-1)
+
+
 @dataclass(frozen=True)
 class Shield:
     """Parameters of the shield (module docstring)."""
@@ -318,9 +324,7 @@ class Shield:
             a = act[unsafe]
             candidates = np.concatenate((a[:, None], np.broadcast_to(GRID, (len(a), *GRID.shape))), axis=1)
             if self.keep_turn:  # the policy's turn with every acceleration level
-                levels = np.broadcast_to(np.array(LEVELS), (len(a), len(LEVELS)))
-                own = np.stack((levels, np.broadcast_to(a[:, 1:], levels.shape)), axis=-1)
-                candidates = np.concatenate((candidates, own), axis=1)
+                candidates = np.concatenate((candidates, own_turn(a)), axis=1)
             gaps = self._gaps(o[unsafe], candidates, layout)
             score = np.minimum(gaps[..., 0], self.margin) * 1e6 - np.linalg.norm(candidates - a[:, None], axis=-1)
             if self.driving_guard:  # no closer to the driving robots than the policy's action, below the margin
@@ -347,8 +351,7 @@ class Shield:
             if not near.any():
                 continue
             rows, sub, a = rows[near], sub[near], act[rows[near]]
-            levels = np.broadcast_to(np.array(LEVELS), (len(a), len(LEVELS)))
-            cand = np.concatenate((a[:, None], np.stack((levels, np.broadcast_to(a[:, 1:], levels.shape)), -1)), 1)
+            cand = np.concatenate((a[:, None], own_turn(a)), axis=1)
             shift = 0.0 if self.still_margin is None else self.margin - self.still_margin
             g = self._path_gaps(
                 sub,
