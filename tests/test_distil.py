@@ -154,3 +154,62 @@ def test_a_shielded_teacher_teaches_its_shielded_actions(tmp_path):
         ).mean()
 
     assert error(out) < 0.8 * error(plain), (error(out), error(plain))
+
+
+def test_weights_pull_the_fit_toward_the_heavier_labels():
+    """bc_fit's weights: the same observations labelled two ways, weighed 9 to 1, fit near the heavier label (the
+    squared error's weighted mean, 0.8); unweighted, near the plain mean (0). Bad weights are named."""
+    from agents.imitation import bc_fit
+
+    scenario = make_scenario("circle", n_robots=3)
+    obs = np.repeat(NavVecEnv(scenario, 1).reset()[:1], 256, axis=0)
+    labels = np.tile(np.array([[1.0, 0.0], [-1.0, 0.0]], dtype=np.float32), (128, 1))
+    heavy = np.tile(np.array([9.0, 1.0]), 128)
+
+    def fitted(weights):
+        model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=dict(net_arch=[16]), seed=0)
+        bc_fit(model.policy, obs, labels, epochs=150, lr=1e-2, loss="mse", weights=weights)
+        return model.predict(obs[:1], deterministic=True)[0][0, 0]
+
+    assert abs(fitted(heavy) - 0.8) < 0.1 and abs(fitted(None)) < 0.1
+    model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=dict(net_arch=[16]), seed=0)
+    for bad in (np.ones(3), -heavy, np.zeros(256), np.full(256, np.nan)):
+        with pytest.raises(ValueError, match="weights must be"):
+            bc_fit(model.policy, obs, labels, epochs=1, weights=bad)
+
+
+def test_near_weights_mark_steps_close_to_a_neighbour_or_a_wall():
+    """The steps that weigh more: something sensed (a robot, an obstacle, a point on a wall) closer than near_gap to
+    the robot's surface, against the gaps measured in the world (oracle: positions and radii)."""
+    from agents.imitation.distil import near_weights
+    from vcs_env.engine import NavEngine
+    from vcs_env.observations import observation_layout
+
+    scenario = make_scenario("doorway", n_wall_points=6, max_steps=200)
+    layout = observation_layout(scenario)
+    eng = NavEngine(scenario, 1)
+    obs = eng.reset([5])
+    expert = play(scenario, [5])["observations"]
+    w = near_weights(expert, layout, 0.3, 7.0)
+    assert set(np.unique(w)) == {1.0, 7.0}  # a doorway brings robots near walls and each other
+    # the oracle at the first state: every robot's smallest gap to another robot or a wall segment
+    world = eng.world
+    gaps = []
+    for i in range(world.n_robots):
+        d = [
+            np.linalg.norm(world.pos[0, i] - world.pos[0, j]) - world.radius[0, i] - world.radius[0, j]
+            for j in range(world.n_robots)
+            if j != i
+        ]
+        for a, b, ok in zip(world.seg_a[0], world.seg_b[0], world.seg_present[0]):
+            if ok:
+                t = np.clip(np.dot(world.pos[0, i] - a, b - a) / np.dot(b - a, b - a), 0.0, 1.0)
+                d.append(np.linalg.norm(a + t * (b - a) - world.pos[0, i]) - world.radius[0, i])
+        gaps.append(min(d))
+    for near_gap in (min(gaps) + 1e-3, float(np.median(gaps)), max(gaps) + 1e-3):
+        want = np.where(np.array(gaps) < near_gap, 2.0, 1.0)
+        assert np.array_equal(near_weights(obs[0], layout, near_gap, 2.0), want), (near_gap, gaps)
+    with pytest.raises(ValueError, match=r"DistilConfig\.near_weight"):
+        DistilConfig(near_weight=0.5)
+    with pytest.raises(ValueError, match=r"DistilConfig\.near_gap"):
+        DistilConfig(near_gap=-0.1)
