@@ -118,21 +118,6 @@ def limits(o: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return o[:, 4] * V_REF, o[:, 5] * A_REF, o[:, 6] * OMEGA_REF
 
 
-def surface_gaps(o: np.ndarray, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
-    """Per slot ``(N, S)``: which slots hold something, and the gap between the robot's surface and its
-    [m], from observations ``(N, D)`` of ``layout``. The slots are the neighbour slots (their ``gap`` field),
-    then the nearest points on walls if the observation has them (distance minus the robot's radius)."""
-    slots = np.asarray(layout.read(o, "neighbors"), dtype=np.float64)
-    real, gap = slots[..., 0] > 0.5, slots[..., 6] * SENSE_REF
-    if "wall_points" in layout:
-        walls = np.asarray(layout.read(o, "wall_points"), dtype=np.float64)
-        points = walls[..., 1:3] * SENSE_REF
-        dist = np.hypot(points[..., 0], points[..., 1])
-        real = np.concatenate((real, walls[..., 0] > 0.5), axis=1)
-        gap = np.concatenate((gap, dist - (np.asarray(o[:, 7], dtype=np.float64) * R_REF)[:, None]), axis=1)
-    return real, gap
-
-
 def own_turn(actions: np.ndarray) -> np.ndarray:
     """The turn of each action ``(N, 2)`` at every acceleration level of :data:`LEVELS`: ``(N, len(LEVELS), 2)``."""
     levels = np.broadcast_to(np.array(LEVELS), (len(actions), len(LEVELS)))
@@ -277,7 +262,7 @@ class Shield:
         counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | still)
         driving = (slots[..., 0] > 0.5) & ~counted
         reach = radius[:, None] + slots[..., 5] * R_REF
-        gap = surface_gaps(o, layout)[1]
+        gap = slots[..., 6] * SENSE_REF
         if "wall_points" in layout:  # the nearest points on walls: still points (radius 0)
             walls = layout.read(o, "wall_points")
             points = walls[..., 1:3] * SENSE_REF
@@ -286,6 +271,7 @@ class Shield:
             still = np.concatenate((still, np.ones(walls.shape[:2], dtype=bool)), axis=1)
             pos, vel = np.concatenate((pos, points), axis=1), np.concatenate((vel, np.zeros_like(points)), axis=1)
             speed = np.concatenate((speed, np.zeros(walls.shape[:2])), axis=1)
+            gap = np.concatenate((gap, np.hypot(points[..., 0], points[..., 1]) - radius[:, None]), axis=1)
             reach = np.concatenate((reach, np.repeat(radius[:, None], walls.shape[1], axis=1)), axis=1)
         if self.still_margin is not None:  # a still body's gap counts from its own margin: shifted by the difference
             shift = np.where(still, self.margin - self.still_margin, 0.0)

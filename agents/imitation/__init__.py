@@ -132,7 +132,6 @@ def bc_fit(
     loss: str = "nll",
     value_coef: float = 0.5,
     seed: int = 0,
-    weights: np.ndarray | None = None,
 ) -> list[float]:
     """Fit an SB3 ``ActorCriticPolicy`` to expert pairs (module docstring).
 
@@ -142,8 +141,6 @@ def bc_fit(
         actions: ``(N, 2)`` expert actions in [-1, 1].
         returns: ``(N,)`` discounted returns for the value head (None: actor only).
         loss: ``"nll"`` (Gaussian log-likelihood) or ``"mse"`` (squared error of the mean).
-        weights: ``(N,)`` non-negative weight of each pair in the actor's loss (None: all 1); a minibatch's loss is
-            the weighted sum over its pairs divided by its size times the mean weight of all pairs.
 
     Returns:
         Mean training loss per epoch.
@@ -158,13 +155,6 @@ def bc_fit(
     obs_t = th.as_tensor(obs, dtype=th.float32)
     act_t = th.as_tensor(actions, dtype=th.float32)
     ret_t = None if returns is None else th.as_tensor(returns, dtype=th.float32)
-    if weights is None:
-        w_t = th.ones(len(obs_t))
-    else:
-        w = np.asarray(weights, dtype=np.float64)
-        if w.shape != (len(obs_t),) or not np.all(np.isfinite(w)) or (w < 0).any() or w.sum() <= 0:
-            raise ValueError(f"bc_fit: weights must be ({len(obs_t)},) finite, non-negative and not all 0")
-        w_t = th.as_tensor(w / w.mean(), dtype=th.float32)
     opt = th.optim.Adam(policy.parameters(), lr=lr)
     policy.set_training_mode(True)
     history = []
@@ -175,10 +165,10 @@ def bc_fit(
             idx = perm[k : k + batch_size]
             if loss == "nll":
                 values, log_prob, _ = policy.evaluate_actions(obs_t[idx], act_t[idx])
-                actor_loss = -(w_t[idx] * log_prob).mean()
+                actor_loss = -log_prob.mean()
             else:
                 dist = policy.get_distribution(obs_t[idx])
-                actor_loss = (w_t[idx] * ((dist.distribution.mean - act_t[idx]) ** 2).sum(-1)).mean()
+                actor_loss = ((dist.distribution.mean - act_t[idx]) ** 2).sum(-1).mean()
                 values = policy.predict_values(obs_t[idx])
             total_loss = actor_loss
             if ret_t is not None and value_coef > 0:

@@ -12,9 +12,6 @@ acting robot-step with the deterministic action of the entry's teacher (its netw
 collect`` labels it), and
 fits the student's action mean to the labels of all rounds so far (squared error, :func:`agents.imitation.bc_fit`
 with ``loss="mse"``: the student's ``log_std`` and value head are left as they were, so PPO can continue from it).
-With ``--near-gap G --near-weight W``, the steps where something sensed is closer than G [m] to the robot's surface
-weigh W times as much in that fit (:func:`near_weights`): the few steps next to a wall or a robot, where a small error
-of the student is a contact, against the many in free space.
 
 Teachers should share the student's conventions (which side to pass on, who yields): teachers fine-tuned from
 one parent distil into one network cleanly; specialists imitated from the expert from scratch each learned their
@@ -41,14 +38,13 @@ from typing import Any
 import numpy as np
 
 from vcs_env.checks import check_int, check_range
-from vcs_env.observations import observation_layout
 
 from ..checkpoint import load_model, save_model
 from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
 from ..runs import scenario_family
-from ..shield import ShieldedPredictor, surface_gaps
+from ..shield import ShieldedPredictor
 from . import bc_fit
 from .data import concat_datasets, play
 
@@ -91,11 +87,6 @@ class DistilConfig(ScenarioConfig):
     """Minibatch size."""
     learning_rate: float = 1e-4
     """Adam learning rate."""
-    near_gap: float = 0.0
-    """[m] A labelled robot-step whose observation holds something (a neighbour, a point on a wall) closer than this
-    to the robot's surface weighs ``near_weight`` times as much in the fit (0: every step weighs the same)."""
-    near_weight: float = 1.0
-    """The weight of those steps (against 1 for the others)."""
     seed: int = 0
     """Seed of the beta mixing and the minibatch order (episode seeds: FIRST_SEED)."""
     out: str = "runs/distil"
@@ -106,17 +97,6 @@ class DistilConfig(ScenarioConfig):
             check_int(f"DistilConfig.{name}", getattr(self, name), lo, 10**7)
         check_range("DistilConfig.beta", self.beta, 0.0, 1.0)
         check_range("DistilConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
-        check_range("DistilConfig.near_gap", self.near_gap, 0.0, 10.0)
-        check_range("DistilConfig.near_weight", self.near_weight, 1.0, 1000.0)
-
-
-def near_weights(obs: np.ndarray, layout, near_gap: float, near_weight: float) -> np.ndarray:
-    """``(N,)`` weights of labelled steps with observations ``(N, D)`` of ``layout``: ``near_weight`` where
-    something sensed is closer than ``near_gap`` [m] to the robot's surface, 1 elsewhere
-    (:func:`agents.shield.surface_gaps`)."""
-    real, gap = surface_gaps(obs, layout)
-    near = (real & (gap < near_gap)).any(axis=1)
-    return np.where(near, near_weight, 1.0)
 
 
 def teachers_of(cfg: DistilConfig) -> dict[str, str]:
@@ -148,7 +128,6 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     counts = Counter(cfg.mixture)
     teacher_of = teachers_of(cfg)
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
-    layout = observation_layout(first)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
     teachers = dict.fromkeys(c for c in teacher_of.values() if c != EXPERT)
@@ -179,9 +158,6 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
                 seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
                 parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher))
         data = concat_datasets(*parts)  # one copy per round, not one per grid point
-        weights = None
-        if cfg.near_gap > 0 and cfg.near_weight != 1.0:
-            weights = near_weights(data["observations"], layout, cfg.near_gap, cfg.near_weight)
         losses = bc_fit(
             policy,
             data["observations"],
@@ -192,7 +168,6 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
             lr=cfg.learning_rate,
             loss="mse",
             seed=cfg.seed + k,
-            weights=weights,
         )
         rows = len(data["actions"])
         report["rounds"].append({"beta": beta, "rows": rows, "losses": losses, "wall_time": round(time.time() - t0, 1)})
