@@ -154,29 +154,3 @@ def test_a_shielded_teacher_teaches_its_shielded_actions(tmp_path):
         ).mean()
 
     assert error(out) < 0.8 * error(plain), (error(out), error(plain))
-
-
-def test_stop_labels_keep_the_next_state_and_brake_fully():
-    """stop_labels: a label that stops a unicycle within the step becomes full braking, and the robots move exactly
-    as under the labels given (the oracle: two engines stepped side by side); labels that do not stop stay."""
-    from agents.imitation.distil import stop_labels
-    from vcs_env.engine import NavEngine
-
-    scenario = make_scenario("crowd", n_robots=4, max_steps=60)
-    a, b = NavEngine(scenario, 1), NavEngine(scenario, 1)
-    obs, _ = a.reset([11]), b.reset([11])
-    rng = np.random.default_rng(0)
-    changed = 0
-    for _ in range(50):
-        given = np.stack((rng.uniform(-1.0, 0.4, 4), rng.uniform(-1.0, 1.0, 4)), -1)
-        label = stop_labels(obs[0], given)
-        moved = label[:, 0] != given[:, 0]
-        assert np.all(label[moved, 0] == -1.0) and np.array_equal(label[:, 1], given[:, 1])
-        changed += int(moved.sum())
-        obs = a.step(given[None]).obs
-        b.step(label[None])
-        for field in ("pos", "speed", "heading"):
-            assert np.allclose(getattr(a.world, field), getattr(b.world, field), rtol=0.0, atol=1e-9), field
-    assert changed >= 20
-    stays = stop_labels(obs[0], np.array([[0.5, 0.2]] * 4))
-    assert np.array_equal(stays, np.array([[0.5, 0.2]] * 4))

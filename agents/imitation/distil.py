@@ -44,7 +44,7 @@ from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
 from ..runs import scenario_family
-from ..shield import ShieldedPredictor, limits, step_of
+from ..shield import ShieldedPredictor
 from . import bc_fit
 from .data import concat_datasets, play
 
@@ -87,9 +87,6 @@ class DistilConfig(ScenarioConfig):
     """Minibatch size."""
     learning_rate: float = 1e-4
     """Adam learning rate."""
-    stop_labels: bool = False
-    """A label that stops a unicycle robot within the step (its new speed clips at 0) is stored as full braking:
-    the same next state, with the most room for the student's error (:func:`stop_labels`)."""
     seed: int = 0
     """Seed of the beta mixing and the minibatch order (episode seeds: FIRST_SEED)."""
     out: str = "runs/distil"
@@ -100,20 +97,6 @@ class DistilConfig(ScenarioConfig):
             check_int(f"DistilConfig.{name}", getattr(self, name), lo, 10**7)
         check_range("DistilConfig.beta", self.beta, 0.0, 1.0)
         check_range("DistilConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
-
-
-def stop_labels(obs: np.ndarray, actions: np.ndarray) -> np.ndarray:
-    """The labels ``actions`` ``(N, 2)`` (delta units) of unicycle robots with observations ``obs`` ``(N, D)``, where
-    every acceleration that stops the robot within the step (its speed plus ``a_0 a_max dt`` at most 0, clipped to
-    0 by the simulator, :mod:`vcs_env.dynamics`) is replaced by -1, full braking: the robot's next state is the same
-    (it stands, turned as the label turns it), and a student whose output misses the label by a little still stands
-    instead of creeping forward."""
-    o = np.asarray(obs, dtype=np.float64)
-    v_max, a_max, _ = limits(o)
-    stops = o[:, 0] * v_max + actions[:, 0] * a_max * step_of(o) <= 0.0
-    out = np.array(actions, copy=True)
-    out[stops, 0] = -1.0
-    return out
 
 
 def teachers_of(cfg: DistilConfig) -> dict[str, str]:
@@ -173,10 +156,7 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
             teacher = None if teacher_of[entry] == EXPERT else actor_of(loaded[teacher_of[entry]])  # None: the expert
             for sc in scenarios:
                 seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
-                part = play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher)
-                if cfg.stop_labels and not sc.robot.holonomic:
-                    part["actions"] = stop_labels(part["observations"], part["actions"]).astype(part["actions"].dtype)
-                parts.append(part)
+                parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher))
         data = concat_datasets(*parts)  # one copy per round, not one per grid point
         losses = bc_fit(
             policy,
