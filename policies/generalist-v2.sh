@@ -158,15 +158,17 @@ TEACH=(); for e in "${TAUGHT[@]}"; do TEACH+=("$e=$ROOT/maps/model.zip"); done
 # teaches the robot-only entries and the random layouts, where robots park dead among robots still driving
 # (docs/experiments.md, "Room to stop short of driving robots").
 OPEN=("${MIX[@]:0:5}" "${MIX[@]:12:1}")
+shielded_copy() {  # CHECKPOINT DIR [vcs-env shield options]: a copy of the checkpoint in DIR, with a shield in its record
+  mkdir -p "$2" && cp "$1" "${1%.zip}.json" "$2/"
+  vcs-env shield "$2/model.zip" "${@:3}"
+}
 prev="$ROOT/distil/model.zip"
 for p in $(seq 1 "$SHIELD_PASSES"); do
   if [ ! -f "$ROOT/shielded$p/model.zip" ]; then
-    mkdir -p "$ROOT/teacher$p" && cp "$prev" "${prev%.zip}.json" "$ROOT/teacher$p/"
-    vcs-env shield "$ROOT/teacher$p/model.zip"
+    shielded_copy "$prev" "$ROOT/teacher$p"
     STOP=()
     if [ "$p" -gt 1 ]; then
-      mkdir -p "$ROOT/teacher$p-stop" && cp "$prev" "${prev%.zip}.json" "$ROOT/teacher$p-stop/"
-      vcs-env shield "$ROOT/teacher$p-stop/model.zip" --driving-stop
+      shielded_copy "$prev" "$ROOT/teacher$p-stop" --driving-stop
       STOP=(--teacher-for); for e in "${OPEN[@]}"; do STOP+=("$e=$ROOT/teacher$p-stop/model.zip"); done
     fi
     vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision terminate \
