@@ -4,7 +4,7 @@ Each checkpoint format (:mod:`agents.checkpoint`) builds its actor as a ``torch.
 ``actor()``): observations ``(N, D)`` float32 in, actions ``(N, 2)`` float32 in ``[-1, 1]`` out,
 exactly what its ``predict(obs, deterministic=True)`` returns:
 
-* SB3 PPO: the policy's features extractor (``flat``, ``contact`` or the learned ``slots`` encoder of
+* SB3 PPO: the policy's features extractor (``flat``, ``contact`` or the learned ``slots``/``slots-fine`` encoder of
   :mod:`agents.features`, the actor's own one when actor and critic have separate ones), its
   ``mlp_extractor`` actor branch and ``action_net`` (the Gaussian's mean), clipped to the action space as
   SB3's ``predict`` clips (:func:`sb3_actor`);

@@ -31,6 +31,20 @@ read them as flat numbers beside the lidar; their checkpoints keep doing so). It
 the order of the slots, and one set of weights judges every neighbour. Actor and critic each train
 their own encoder.
 
+``slots-fine``: ``slots`` whose encoder also reads, per slot, the same contact at millimetre resolution: the
+``contact`` block's scales put a 5 mm gap and a 20 mm one at 0.99 and 0.96 of ``exp(-g / G_REF)``, while the
+v2 network's last contacts on the maps are creeping ones, a robot edging into a wall or a robot by millimetres
+a step (``docs/experiments.md``, "What the v2 network's last contacts are"). Two numbers follow the robot's own
+block in each slot's input, 0 in padding slots:
+
+====== ==================================================================================
++0     ``exp(-max(g, 0) / FINE_G_REF)``, ``FINE_G_REF`` = 0.02 m
++1     ``exp(-t_c / FINE_T_REF)``, ``FINE_T_REF`` = 0.25 s (``t_c`` as in ``contact``)
+====== ==================================================================================
+
+:func:`widen_fine` turns a ``slots`` network into a ``slots-fine`` one that acts the same (the new inputs' weights
+start at zero), for ``vcs-env distil --init CHECKPOINT --widen-fine``.
+
 ``--features`` is part of the architecture a checkpoint stores (SB3 pickles the class into
 ``model.zip``, and ``--init`` refuses a checkpoint with other tensors). The oracles are in
 ``tests/test_features.py``. RLlib policies read the flat observation only.
@@ -46,7 +60,7 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from vcs_env.observations import EGO_DIM, SENSE_REF, Layout
 from vcs_env.scenario import R_REF, V_REF
 
-FEATURES = ("flat", "contact", "slots")
+FEATURES = ("flat", "contact", "slots", "slots-fine")
 """Names accepted by ``--features``."""
 CONTACT_DIM = 3
 """Features per neighbour slot added by ``contact``."""
@@ -57,6 +71,12 @@ G_REF = 0.5
 V1_NEIGHBOR_DIM = 8
 """Floats per neighbour slot of observation v1: what checkpoints without ``neighbor_dim`` in their
 ``features_extractor_kwargs`` read."""
+FINE_DIM = 2
+"""Inputs per slot added by ``slots-fine`` (module docstring)."""
+FINE_G_REF = 0.02
+"""Length scale of ``slots-fine``'s nearness input [m]."""
+FINE_T_REF = 0.25
+"""Time scale of ``slots-fine``'s contact-time input [s]."""
 SLOT_WIDTH = 64
 """Width of the ``slots`` encoder's hidden layer (its code has ``SLOT_WIDTH // 2`` numbers). Stored in
 every checkpoint's ``features_extractor_kwargs``; checkpoints without it were trained at 128."""
@@ -139,7 +159,8 @@ class SlotEncoder(BaseFeaturesExtractor):
     """``slots``: one small MLP shared by every neighbour slot, pooled over the real ones.
 
     Each slot reads its own features, its :func:`contact_features` and the robot's own block
-    (``EGO_DIM``), ``(N, k, neighbor_dim + CONTACT_DIM + EGO_DIM)``; the encoder (two layers of
+    (``EGO_DIM``), ``(N, k, neighbor_dim + CONTACT_DIM + EGO_DIM)``, and with ``fine`` the ``FINE_DIM`` inputs of
+    ``slots-fine`` (module docstring); the encoder (two layers of
     ``width``, ReLU) maps it to ``width // 2`` numbers; the masked maximum and mean over the real
     slots (0 with none) follow the robot's own block and whatever the observation has after the
     slots (wall points, lidar). The same object reads the same wherever it sorts, and the weights
@@ -153,12 +174,14 @@ class SlotEncoder(BaseFeaturesExtractor):
         width: int = 128,
         neighbor_dim: int = V1_NEIGHBOR_DIM,
         wall_slots: int = 0,
+        fine: bool = False,
     ):
         self.n_neighbors, self.width, self.neighbor_dim, self.wall_slots = n_neighbors, width, neighbor_dim, wall_slots
+        self.fine = fine
         rest = observation_space.shape[0] - n_neighbors * neighbor_dim - 3 * wall_slots
         super().__init__(observation_space, rest + 2 * (width // 2))  # + the maximum and the mean
         self.encoder = torch.nn.Sequential(
-            torch.nn.Linear(neighbor_dim + CONTACT_DIM + EGO_DIM, width),
+            torch.nn.Linear(neighbor_dim + CONTACT_DIM + EGO_DIM + FINE_DIM * fine, width),
             torch.nn.ReLU(),
             torch.nn.Linear(width, width // 2),
             torch.nn.ReLU(),
@@ -172,8 +195,14 @@ class SlotEncoder(BaseFeaturesExtractor):
         if walls:  # the nearest points on walls are slots too, read by the same encoder
             slots = torch.cat((slots, wall_slots(observations, walls, d)), dim=1)
         contact = slot_contacts(observations, slots)
-        x = torch.cat((slots, contact, ego[:, None, :].expand(n, slots.shape[1], EGO_DIM)), dim=-1)
         mask = slots[..., :1]  # (N, k, 1)
+        parts = [slots, contact, ego[:, None, :].expand(n, slots.shape[1], EGO_DIM)]
+        if self.fine:  # slots-fine: the gap and the time to contact at millimetre resolution (module docstring)
+            gap = (slots[..., 6] * SENSE_REF).clamp(min=0.0)  # [m]
+            near = torch.exp(-gap / FINE_G_REF)
+            soon = contact[..., 0] ** (T_REF / FINE_T_REF)  # exp(-t_c / T_REF) ** (T_REF / FINE_T_REF)
+            parts.append(torch.stack((near, soon), dim=-1) * mask)
+        x = torch.cat(parts, dim=-1)
         h = self.encoder(x) * mask  # ReLU outputs >= 0, so zeroed padding never wins the maximum
         pooled_max = h.max(dim=1).values
         pooled_mean = h.sum(dim=1) / mask.sum(dim=1).clamp(min=1.0)
@@ -186,16 +215,43 @@ def extractor_kwargs(features: str, layout: Layout) -> dict[str, Any]:
     ``layout`` (:func:`vcs_env.observations.observation_layout`)."""
     if check_features(features) == "flat":
         return {}
-    cls = {"contact": ContactFeatures, "slots": SlotEncoder}[features]
+    cls = ContactFeatures if features == "contact" else SlotEncoder
     nb = layout.block("neighbors")
     kwargs = {
         "features_extractor_class": cls,
         "features_extractor_kwargs": {"n_neighbors": nb.items, "neighbor_dim": nb.item_dim},
     }
-    if features == "slots":  # the encoder has weights: actor and critic each train their own
+    if cls is SlotEncoder:  # the encoder has weights: actor and critic each train their own
         kwargs["features_extractor_kwargs"]["width"] = SLOT_WIDTH
+        if features == "slots-fine":
+            kwargs["features_extractor_kwargs"]["fine"] = True
         kwargs["share_features_extractor"] = False
         if "wall_points" in layout:  # the last block (vcs_env.observations): the encoder reads it as slots
             assert layout.blocks[-1].name == "wall_points"
             kwargs["features_extractor_kwargs"]["wall_slots"] = layout.block("wall_points").items
     return kwargs
+
+
+def widen_fine(model) -> None:
+    """Turn the ``slots`` encoders of an SB3 ``model`` (actor's and critic's) into ``slots-fine`` ones in place: the
+    first layer gains ``FINE_DIM`` input columns of zero weights, so the model acts and values as before to the last
+    bit; ``model.policy_kwargs`` records the change (saved checkpoints load as ``slots-fine``) and the optimizer is
+    rebuilt over the new parameters. ``ValueError`` for a model without ``slots`` encoders or already fine."""
+    policy = getattr(model, "policy", None)
+    extractors = [getattr(policy, name, None) for name in ("pi_features_extractor", "vf_features_extractor")]
+    if not all(isinstance(e, SlotEncoder) for e in extractors):
+        raise ValueError("widen_fine takes an SB3 model with --features slots (a SlotEncoder for actor and critic)")
+    if any(e.fine for e in extractors):
+        raise ValueError("widen_fine: the model's encoders already read the slots-fine inputs")
+    kwargs = {**policy.features_extractor_kwargs, "fine": True}
+    for name, old in zip(("pi_features_extractor", "vf_features_extractor"), extractors):
+        new = SlotEncoder(policy.observation_space, **kwargs).to(policy.device)
+        state = old.state_dict()
+        w = state["encoder.0.weight"]
+        state["encoder.0.weight"] = torch.cat((w, w.new_zeros(w.shape[0], FINE_DIM)), dim=1)
+        new.load_state_dict(state)
+        setattr(policy, name, new)
+    policy.features_extractor = policy.pi_features_extractor
+    policy.features_extractor_kwargs = kwargs
+    model.policy_kwargs["features_extractor_kwargs"] = kwargs
+    policy.optimizer = policy.optimizer_class(policy.parameters(), lr=model.lr_schedule(1), **policy.optimizer_kwargs)

@@ -38,7 +38,8 @@ class PolicyConfig:
     features: str = "flat"
     """What the MLPs read: flat (the observation), contact (the observation plus per-neighbour
     contact-time and nearness features computed from it) or slots (a learned encoder shared by the
-    neighbour slots, pooled); agents.features. SB3 only."""
+    neighbour slots, pooled), slots-fine (slots that also read contacts at millimetre resolution);
+    agents.features. SB3 only."""
 
 
 def policy_kwargs(cfg: PolicyConfig, scenario: Scenario) -> dict[str, Any]:

@@ -154,3 +154,33 @@ def test_a_shielded_teacher_teaches_its_shielded_actions(tmp_path):
         ).mean()
 
     assert error(out) < 0.8 * error(plain), (error(out), error(plain))
+
+
+def test_widen_fine_gives_the_student_the_fine_inputs_and_it_learns_its_teacher(tmp_path):
+    """--widen-fine on a slots student: the rounds train a slots-fine network (saved as one) that follows its
+    teacher; a student without slots encoders is refused before any round is played."""
+    from agents.config import config_command
+    from agents.features import extractor_kwargs
+    from vcs_env.observations import observation_layout
+
+    scenario = make_scenario("circle", n_robots=3)
+    kwargs = dict(net_arch=[32], **extractor_kwargs("slots", observation_layout(scenario)))
+    model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=kwargs, seed=3)
+    start = save_model(model, tmp_path / "s" / "model", "ppo", TrainConfig(net_arch=(32,), features="slots"), scenario)
+    teacher = checkpoint(tmp_path, "t", 1, 60.0)
+    cfg = replace(short_run(tmp_path, start, mixture=("circle:n_robots=3",), teacher=str(teacher)), widen_fine=True)
+    assert "--widen-fine" in config_command("distil", cfg)
+    out = distil(cfg)["model"]
+    student = load_model(out, scenario).policy
+    assert student.pi_features_extractor.fine and student.vf_features_extractor.fine
+    obs = play(scenario, range(500, 504), teacher=lambda o: np.zeros((len(o), 2)))["observations"]
+
+    def error(path):
+        got = load_model(path, scenario).predict(obs, deterministic=True)[0]
+        want = load_model(teacher, scenario).predict(obs, deterministic=True)[0]
+        return float(np.linalg.norm(got - want, axis=1).mean())
+
+    assert error(out) < 0.3 * error(start)
+    flat = checkpoint(tmp_path, "f", 2, 1.0)
+    with pytest.raises(ValueError, match="--features slots"):
+        distil(replace(cfg, init=str(flat), out=str(tmp_path / "flat")))

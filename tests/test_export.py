@@ -76,8 +76,9 @@ def sb3_checkpoint(tmp_path: Path, scenario, features: str = "flat") -> Path:
         ("contact", "crowd", {}),
         ("slots", "crowd", {}),
         ("slots", "corridor", {"n_wall_points": 4}),
+        ("slots-fine", "corridor", {"n_wall_points": 4}),
     ],
-    ids=["flat", "contact", "slots", "slots-wall-points"],
+    ids=["flat", "contact", "slots", "slots-wall-points", "slots-fine"],
 )
 def test_sb3_onnx_gives_the_deterministic_actions(tmp_path, features, kind, extra):
     scenario = make_scenario(kind, **extra)

@@ -11,6 +11,9 @@ import torch
 
 from agents.features import (
     CONTACT_DIM,
+    FINE_DIM,
+    FINE_G_REF,
+    FINE_T_REF,
     G_REF,
     SLOT_WIDTH,
     T_REF,
@@ -18,6 +21,7 @@ from agents.features import (
     check_features,
     contact_features,
     slot_contacts,
+    widen_fine,
 )
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observation_layout, observe
 from vcs_env.sim import Simulator
@@ -90,7 +94,11 @@ def slots_oracle(enc: SlotEncoder, obs: np.ndarray) -> np.ndarray:
     for slot in slots:
         if slot[0] == 1.0:
             contact = slot_contacts(torch.as_tensor(obs[None]), torch.as_tensor(slot[None, None]))[0, 0].numpy()
-            x = torch.as_tensor(np.concatenate((slot, contact, ego)).astype(np.float32))
+            inputs = [slot, contact, ego]
+            if enc.fine:  # the gap [m] and the time to contact [s] (from exp(-t_c / T_REF)), at fine scales
+                t_c = -T_REF * np.log(contact[0]) if contact[0] > 0 else np.inf
+                inputs.append([np.exp(-max(slot[6] * 10.0, 0.0) / FINE_G_REF), np.exp(-t_c / FINE_T_REF)])
+            x = torch.as_tensor(np.concatenate(inputs).astype(np.float32))
             codes.append(enc.encoder(x).detach().numpy())
     width = enc.width // 2
     pooled = (np.max(codes, axis=0), np.mean(codes, axis=0)) if codes else (np.zeros(width), np.zeros(width))
@@ -101,17 +109,19 @@ def test_slot_encoder_matches_a_slot_by_slot_loop_and_ignores_the_order():
     """On real observations (some robots with padded slots, some with walls after the slots):
     the batched encoder equals the loop, and shuffling the real slots changes nothing."""
     torch.manual_seed(0)
-    for suite, extra, walls in (
-        ("dynamic-v0", {}, 0),
-        ("walls-v0", {"n_wall_points": 4}, 0),  # wall points read flat (runs before wall slots)
-        ("walls-v0", {"n_wall_points": 4}, 4),  # wall points as slots
+    for suite, extra, walls, fine in (
+        ("dynamic-v0", {}, 0, False),
+        ("walls-v0", {"n_wall_points": 4}, 0, False),  # wall points read flat (runs before wall slots)
+        ("walls-v0", {"n_wall_points": 4}, 4, False),  # wall points as slots
+        ("dynamic-v0", {}, 0, True),  # slots-fine
+        ("walls-v0", {"n_wall_points": 4}, 4, True),
     ):
         scenario = dataclasses.replace(get_suite(suite).scenario, n_robots=6, r_ca=3.0, **extra)
         sim = Simulator(scenario, 2)
         sim.reset([3, 4])
         obs = observe(sim.world, scenario).reshape(-1, observation_space(scenario).shape[0])
         space = observation_space(scenario)
-        enc = SlotEncoder(space, scenario.n_neighbors, neighbor_dim=NEIGHBOR_DIM, wall_slots=walls)
+        enc = SlotEncoder(space, scenario.n_neighbors, neighbor_dim=NEIGHBOR_DIM, wall_slots=walls, fine=fine)
         if walls:
             assert (obs[:, -12::3] == 1).any()  # some robots see walls: their slots are exercised
         got = enc(torch.as_tensor(obs)).detach().numpy()
@@ -145,13 +155,37 @@ def test_slot_encoder_default_width_is_the_one_older_checkpoints_were_trained_at
     assert SlotEncoder(space, **kwargs).encoder[0].out_features == SLOT_WIDTH
 
 
+def test_fine_inputs_resolve_millimetres_where_the_contact_block_does_not():
+    """One robot 5 mm and one 20 mm from a still robot ahead, each alone in its slot: the contact block's nearness
+    reads 0.99 and 0.96, the fine one exp(-0.25) and exp(-1); the time to contact at 0.1 m/s (0.05 s and 0.2 s)
+    reads 0.98 and 0.90 in the contact block, exp(-0.2) and exp(-0.8) in the fine one."""
+    scenario = dataclasses.replace(get_suite("circle-8-v0").scenario, n_robots=1, n_neighbors=1)
+    space = observation_space(scenario)
+    enc = SlotEncoder(space, 1, neighbor_dim=NEIGHBOR_DIM, fine=True)
+    obs = torch.zeros(2, space.shape[0])
+    obs[:, 0], obs[:, 4], obs[:, 7] = 0.1, 1.0 / 3.0, 0.25 / 2.0  # 0.1 of 1 m/s, v_max 1 m/s, radius 0.25 m
+    for row, gap in enumerate((0.005, 0.02)):
+        slot = obs[row, EGO_DIM : EGO_DIM + NEIGHBOR_DIM]
+        slot[0], slot[1], slot[3], slot[5] = 1.0, (0.5 + gap) / 10.0, -0.1 / 6.0, 0.25 / 2.0  # still, ahead
+        slot[6] = gap / 10.0
+    captured = []
+    enc.encoder[0].register_forward_hook(lambda mod, inp, out: captured.append(inp[0]))
+    enc(obs)
+    x = captured[0][:, 0]  # (2, inputs) of the one slot
+    contact, fine = x[:, NEIGHBOR_DIM : NEIGHBOR_DIM + CONTACT_DIM], x[:, -FINE_DIM:]
+    np.testing.assert_allclose(contact[:, 1], np.exp(-np.array([0.005, 0.02]) / G_REF), rtol=1e-5)
+    np.testing.assert_allclose(fine[:, 0], np.exp([-0.25, -1.0]), rtol=1e-4)
+    np.testing.assert_allclose(contact[:, 0], np.exp(-np.array([0.05, 0.2]) / T_REF), rtol=1e-4)
+    np.testing.assert_allclose(fine[:, 1], np.exp([-0.2, -0.8]), rtol=1e-3)
+
+
 def test_check_features_names_the_choices():
     assert check_features("contact") == "contact"
     with pytest.raises(ValueError, match="flat.*contact.*'lidar'"):
         check_features("lidar")
 
 
-@pytest.mark.parametrize("features", ["contact", "slots"])
+@pytest.mark.parametrize("features", ["contact", "slots", "slots-fine"])
 def test_features_travel_through_bc_init_and_evaluation(tmp_path, features):
     """A contact or slots checkpoint loads with its extractor, scores in the harness, and seeds
     only a run that reads the same features."""
@@ -172,6 +206,7 @@ def test_features_travel_through_bc_init_and_evaluation(tmp_path, features):
         assert isinstance(policy.pi_features_extractor, SlotEncoder)
         assert policy.pi_features_extractor is not policy.vf_features_extractor
         assert policy.pi_features_extractor.width == SLOT_WIDTH  # stored in the checkpoint
+        assert policy.pi_features_extractor.fine == (features == "slots-fine")
         rest = policy.observation_space.shape[0] - 8 * NEIGHBOR_DIM
         assert policy.mlp_extractor.policy_net[0].in_features == rest + 2 * (SLOT_WIDTH // 2)
     assert evaluate(path, "crowd-5-v0-smoke").summary["success"]["n"] > 0
@@ -185,3 +220,41 @@ def test_rllib_backend_refuses_contact_features():
 
     with pytest.raises(ValueError, match="SB3 only"):
         train(RLlibConfig(features="contact", out="unused"))
+
+
+def test_widen_fine_keeps_the_actions_and_the_values_and_saves_a_slots_fine_checkpoint(tmp_path):
+    """A trained slots network widened by the fine inputs acts and values as before, bit for bit, on observations
+    near walls and robots; saved, it loads as slots-fine and still does; a contact or already fine network is
+    refused by name."""
+    from agents.checkpoint import load_model, save_model
+    from agents.imitation import BCConfig, CollectConfig, behaviour_clone, collect
+    from agents.imitation.data import play
+    from agents.runs import TrainConfig
+
+    scenario = get_suite("doorway-v0-smoke").scenario
+    walled = dict(scenario="doorway", n_wall_points=4, max_steps=60)
+    data = str(collect(CollectConfig(**walled, episodes=3, out=str(tmp_path / "d.npz"))))
+    small = dict(data=data, net_arch=(16, 16), epochs=2, eval_episodes=0)
+    path = behaviour_clone(BCConfig(**small, out=str(tmp_path / "bc"), features="slots"))["model"]
+    sc = dataclasses.replace(scenario, n_wall_points=4)
+    model = load_model(path, sc)
+    obs = play(sc, [5, 6])["observations"]
+    near = obs[:, EGO_DIM + 6 : EGO_DIM + 8 * NEIGHBOR_DIM : NEIGHBOR_DIM] * 10.0  # gaps [m] of the slots
+    assert ((near > 0) & (near < 0.3)).any()  # some slots close enough for the fine inputs to be far from 0
+    before = model.predict(obs, deterministic=True)[0]
+    values = model.policy.predict_values(torch.as_tensor(obs)).detach().numpy()
+    widen_fine(model)
+    enc = model.policy.pi_features_extractor
+    assert enc.fine and model.policy.vf_features_extractor.fine and model.policy.features_extractor is enc
+    assert enc.encoder[0].in_features == NEIGHBOR_DIM + CONTACT_DIM + EGO_DIM + FINE_DIM
+    np.testing.assert_array_equal(model.predict(obs, deterministic=True)[0], before)
+    np.testing.assert_array_equal(model.policy.predict_values(torch.as_tensor(obs)).detach().numpy(), values)
+    saved = save_model(model, tmp_path / "fine" / "model", "bc", TrainConfig(features="slots-fine"), sc)
+    again = load_model(saved, sc)
+    assert again.policy.pi_features_extractor.fine and again.policy.vf_features_extractor.fine
+    np.testing.assert_array_equal(again.predict(obs, deterministic=True)[0], before)
+    with pytest.raises(ValueError, match="already"):
+        widen_fine(again)
+    contact = behaviour_clone(BCConfig(**small, out=str(tmp_path / "contact"), features="contact"))["model"]
+    with pytest.raises(ValueError, match="--features slots"):
+        widen_fine(load_model(contact, sc))

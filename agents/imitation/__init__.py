@@ -203,7 +203,8 @@ class BCConfig:
     log_std_init: float = -0.5
     """Initial log std of the Gaussian policy (kept as is by loss=mse)."""
     features: str = "flat"
-    """What the MLPs read: flat, contact or slots (agents.features; must match train's --features for --init)."""
+    """What the MLPs read: flat, contact, slots or slots-fine (agents.features; must match train's --features for
+    --init)."""
     loss: str = "nll"
     """nll (Gaussian log-likelihood, also fits log_std) or mse (mean only)."""
     min_log_std: float = -1.6

@@ -74,6 +74,10 @@ class DistilConfig(ScenarioConfig):
     init: str | None = None
     """The student's starting checkpoint, an SB3 one (None: --teacher, which must then be a checkpoint); its network
     is the student's."""
+    widen_fine: bool = False
+    """Give the student (a ``slots`` network) the ``slots-fine`` inputs before the first round, with zero weights
+    (:func:`agents.features.widen_fine`): it starts acting as --init does and learns to read contacts at millimetre
+    resolution."""
     rounds: int = 4
     """DAgger rounds (the last one plays the student alone)."""
     beta: float = 1.0
@@ -138,6 +142,10 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     model = load_model(cfg.init or cfg.teacher, first)
     if not hasattr(model, "policy"):
         raise ValueError(f"the student {cfg.init or cfg.teacher!r} must be an SB3 checkpoint (--init), to be trained")
+    if cfg.widen_fine:
+        from ..features import widen_fine
+
+        widen_fine(model)
     policy = model.policy
 
     def actor_of(predictor):
