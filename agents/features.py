@@ -244,13 +244,16 @@ def widen_fine(model) -> None:
     if any(e.fine for e in extractors):
         raise ValueError("widen_fine: the model's encoders already read the slots-fine inputs")
     kwargs = {**policy.features_extractor_kwargs, "fine": True}
+    widened = {}  # one new encoder per old one (actor and critic may share theirs)
     for name, old in zip(("pi_features_extractor", "vf_features_extractor"), extractors):
-        new = SlotEncoder(policy.observation_space, **kwargs).to(policy.device)
-        state = old.state_dict()
-        w = state["encoder.0.weight"]
-        state["encoder.0.weight"] = torch.cat((w, w.new_zeros(w.shape[0], FINE_DIM)), dim=1)
-        new.load_state_dict(state)
-        setattr(policy, name, new)
+        if id(old) not in widened:
+            new = SlotEncoder(policy.observation_space, **kwargs).to(policy.device)
+            state = old.state_dict()
+            w = state["encoder.0.weight"]
+            state["encoder.0.weight"] = torch.cat((w, w.new_zeros(w.shape[0], FINE_DIM)), dim=1)
+            new.load_state_dict(state)
+            widened[id(old)] = new
+        setattr(policy, name, widened[id(old)])
     policy.features_extractor = policy.pi_features_extractor
     policy.features_extractor_kwargs = kwargs
     model.policy_kwargs["features_extractor_kwargs"] = kwargs

@@ -255,6 +255,12 @@ def test_widen_fine_keeps_the_actions_and_the_values_and_saves_a_slots_fine_chec
     np.testing.assert_array_equal(again.predict(obs, deterministic=True)[0], before)
     with pytest.raises(ValueError, match="already"):
         widen_fine(again)
+    shared = load_model(path, sc)  # actor and critic sharing one encoder keep sharing one
+    shared.policy.vf_features_extractor = shared.policy.features_extractor = shared.policy.pi_features_extractor
+    widen_fine(shared)
+    pol = shared.policy
+    assert pol.vf_features_extractor is pol.pi_features_extractor is pol.features_extractor
+    np.testing.assert_array_equal(shared.predict(obs, deterministic=True)[0], before)
     contact = behaviour_clone(BCConfig(**small, out=str(tmp_path / "contact"), features="contact"))["model"]
     with pytest.raises(ValueError, match="--features slots"):
         widen_fine(load_model(contact, sc))
