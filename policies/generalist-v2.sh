@@ -11,8 +11,9 @@
 # PPO with the weak map and layout entries counted five times) and a distillation (vcs-env distil: the maps
 # stage teaches the narrow corridor, the doors and the intersection, the movers stage's checkpoint the rest),
 # then the shield distilled into that network (a shielded copy of it teaches it, vcs-env distil --teacher-shield; a
-# second pass adds room to stop short of driving robots on the open-floor entries), whose last round is the policy,
-# $ROOT/shielded$SHIELD_PASSES/model.zip. No shield in the record: the network alone is the policy.
+# second pass adds room to stop short of driving robots on the open-floor entries), then a pass that also reads
+# contacts at millimetre resolution (--widen-fine), two seeds, the better on validation: $ROOT/fine/model.zip is the
+# policy. No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 set -euo pipefail
@@ -45,7 +46,8 @@ else
   # The maps stage (3 M steps) and the distillation (5 rounds) took about 20 min each on the 2-core Intel Xeon
   # beside another job (2026-12-04; results/generalist-v2/README.md).
   MAPS=${MAPS:-3000000} MAPS_EP=${MAPS_EP:-150} DISTIL_ROBOTS=${DISTIL_ROBOTS:-128}
-  # Each pass of the shield's distillation took 25-29 min (2026-12-05, the same machine, another pass beside it).
+  # Each pass of the shield's distillation took 25-29 min (2026-12-05, the same machine, another pass beside it); the
+  # fine pass's two seeds side by side 23 min, its selection 3 min.
   SHIELD_PASSES=${SHIELD_PASSES:-2}
 fi
 MIX=(
@@ -177,4 +179,24 @@ for p in $(seq 1 "$SHIELD_PASSES"); do
   fi
   prev="$ROOT/shielded$p/model.zip"
 done
-echo "the policy: $prev"
+# The fine pass: the last pass's network widened by the slots-fine inputs (contacts at millimetre resolution,
+# vcs-env distil --widen-fine: the new weights start at zero), taught as the second pass teaches, by copies of itself
+# shielded as there; two seeds of the distillation side by side (runs of one method differ by up to 17 points on a
+# map suite), and the one that solves most validation episodes is the policy (docs/experiments.md, "Contacts at
+# millimetre resolution").
+if [ ! -f "$ROOT/fine/model.zip" ]; then
+  shielded_copy "$prev" "$ROOT/teacher-fine"
+  shielded_copy "$prev" "$ROOT/teacher-fine-stop" --driving-stop
+  STOP=(--teacher-for); for e in "${OPEN[@]}"; do STOP+=("$e=$ROOT/teacher-fine-stop/model.zip"); done
+  pids=()
+  for seed in 0 1; do
+    [ -f "$ROOT/fine$seed/model.zip" ] || vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision \
+      terminate --teacher "$ROOT/teacher-fine/model.zip" "${STOP[@]}" --teacher-shield --init "$prev" --widen-fine \
+      --seed "$seed" --rounds 5 --robots "$DISTIL_ROBOTS" --out "$ROOT/fine$seed" > "$ROOT/fine$seed.log" 2>&1 &
+    pids+=($!)
+  done
+  for pid in "${pids[@]}"; do wait "$pid" || { echo "a fine pass failed: see $ROOT/fine0.log, $ROOT/fine1.log" >&2; exit 1; }; done
+  vcs-env select "$ROOT/fine0/model.zip" "$ROOT/fine1/model.zip" --no-progress --out "$ROOT/fine" \
+    --validation "${VALIDATION[@]}"
+fi
+echo "the policy: $ROOT/fine/model.zip"
