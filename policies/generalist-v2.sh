@@ -164,18 +164,20 @@ shielded_copy() {  # CHECKPOINT DIR [vcs-env shield options]: a copy of the chec
   mkdir -p "$2" && cp "$1" "${1%.zip}.json" "$2/"
   vcs-env shield "$2/model.zip" "${@:3}"
 }
+shield_pass() {  # INIT TEACHER_DIR STOP OUT [distil options]: INIT taught by the shielded copy in TEACHER_DIR; with
+  # STOP=1, by the --driving-stop copy in TEACHER_DIR-stop on the OPEN entries; log in OUT.log
+  local stop=() e
+  if [ "$3" = 1 ]; then stop=(--teacher-for); for e in "${OPEN[@]}"; do stop+=("$e=$2-stop/model.zip"); done; fi
+  vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision terminate --teacher "$2/model.zip" \
+    "${stop[@]}" --teacher-shield --init "$1" --rounds 5 --robots "$DISTIL_ROBOTS" --out "$4" "${@:5}" > "$4.log" 2>&1
+}
 prev="$ROOT/distil/model.zip"
 for p in $(seq 1 "$SHIELD_PASSES"); do
   if [ ! -f "$ROOT/shielded$p/model.zip" ]; then
     shielded_copy "$prev" "$ROOT/teacher$p"
-    STOP=()
-    if [ "$p" -gt 1 ]; then
-      shielded_copy "$prev" "$ROOT/teacher$p-stop" --driving-stop
-      STOP=(--teacher-for); for e in "${OPEN[@]}"; do STOP+=("$e=$ROOT/teacher$p-stop/model.zip"); done
-    fi
-    vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision terminate \
-      --teacher "$ROOT/teacher$p/model.zip" "${STOP[@]}" --teacher-shield --init "$prev" --rounds 5 \
-      --robots "$DISTIL_ROBOTS" --out "$ROOT/shielded$p" > "$ROOT/shielded$p.log" 2>&1
+    stop=0
+    if [ "$p" -gt 1 ]; then shielded_copy "$prev" "$ROOT/teacher$p-stop" --driving-stop; stop=1; fi
+    shield_pass "$prev" "$ROOT/teacher$p" "$stop" "$ROOT/shielded$p"
   fi
   prev="$ROOT/shielded$p/model.zip"
 done
@@ -187,12 +189,10 @@ done
 if [ ! -f "$ROOT/fine/model.zip" ]; then
   shielded_copy "$prev" "$ROOT/teacher-fine"
   shielded_copy "$prev" "$ROOT/teacher-fine-stop" --driving-stop
-  STOP=(--teacher-for); for e in "${OPEN[@]}"; do STOP+=("$e=$ROOT/teacher-fine-stop/model.zip"); done
   pids=()
   for seed in 0 1; do
-    [ -f "$ROOT/fine$seed/model.zip" ] || vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision \
-      terminate --teacher "$ROOT/teacher-fine/model.zip" "${STOP[@]}" --teacher-shield --init "$prev" --widen-fine \
-      --seed "$seed" --rounds 5 --robots "$DISTIL_ROBOTS" --out "$ROOT/fine$seed" > "$ROOT/fine$seed.log" 2>&1 &
+    [ -f "$ROOT/fine$seed/model.zip" ] || shield_pass "$prev" "$ROOT/teacher-fine" 1 "$ROOT/fine$seed" --widen-fine \
+      --seed "$seed" &
     pids+=($!)
   done
   for pid in "${pids[@]}"; do wait "$pid" || { echo "a fine pass failed: see $ROOT/fine0.log, $ROOT/fine1.log" >&2; exit 1; }; done
