@@ -149,6 +149,23 @@ def test_obstacle_motion_keyword_is_the_scenario_field_in_every_adapter():
         vcs_env.parallel_env(scenario="dynamic", obstacle_motion=3)
 
 
+def test_obstacle_motion_keyword_takes_the_fields_that_need_it():
+    """``obstacle_motion="pedestrians"`` and ``pedestrians=...`` given together to an env are one scenario (the
+    spec was checked against the preset's motion before the keyword was applied, and refused)."""
+    from vcs_env.pedestrians import PedestrianSpec
+
+    spec = PedestrianSpec(model="social_force")
+    kw = {"obstacle_motion": "pedestrians", "pedestrians": spec}
+    pz = vcs_env.parallel_env(scenario="crowd", **kw)
+    single = gym.make("vcs_env/Crowd-v2", **kw)
+    vec = gym.make_vec("vcs_env/Crowd-v2", num_envs=2, vectorization_mode="vector_entry_point", **kw)
+    for env in (pz, single.unwrapped, vec.unwrapped):
+        assert env.scenario.obstacle_motion == "pedestrians" and env.scenario.pedestrians == spec
+        assert env.engine.scenario == env.scenario
+    with pytest.raises(ValueError, match="pedestrians needs obstacle_motion='pedestrians'"):
+        vcs_env.parallel_env(scenario="crowd", pedestrians=spec)
+
+
 def test_engine_arguments_are_checked_by_name():
     from vcs_env.engine import NavEngine
 

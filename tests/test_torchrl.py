@@ -13,6 +13,7 @@ from tensordict import TensorDict
 from torchrl.envs.utils import check_env_specs, step_mdp
 
 from vcs_env.engine import NavEngine
+from vcs_env.pedestrians import PedestrianSpec
 from vcs_env.scenario import make_scenario
 from vcs_env.torchrl import VcsNavEnv
 
@@ -37,6 +38,7 @@ def replay(actions: np.ndarray):
         ("circle", 4, {"n_robots": 3}),
         ("corridor", 2, {}),  # a map: static walls
         ("crowd", 3, {"expert": "straight"}),  # moving obstacles, expert action in the specs
+        ("crowd", 2, {"obstacle_motion": "pedestrians", "pedestrians": PedestrianSpec()}),  # the keyword + its field
     ],
 )
 def test_check_env_specs(scenario, num_envs, kwargs):

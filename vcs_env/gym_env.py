@@ -14,7 +14,7 @@ from .dynamics import check_actions
 from .engine import NavEngine, RewardFn, check_max_steps
 from .planning import Planner, make_planner
 from .render import Renderer, RenderMixin
-from .scenario import Scenario, make_scenario
+from .scenario import Scenario, env_scenario
 from .spaces import action_space, observation_space
 
 
@@ -102,9 +102,8 @@ class VcsNavEnv(RenderMixin, gym.Env):
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        self.scenario = make_scenario(scenario, **scenario_overrides)
+        self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma)
-        self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         n = self.scenario.n_robots
         others = make_planner(others)  # checked even when no other robot needs it
         self.others = others if n > 1 else None
@@ -194,14 +193,13 @@ class VcsNavVectorEnv(VectorEnv):
             raise ValueError(f"VcsNavVectorEnv does not render; render_mode must be None, got {render_mode!r}")
         self.num_envs = int(num_envs)
         self.render_mode = None
-        self.scenario = make_scenario(scenario, **scenario_overrides)
+        self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         limit = self.scenario.max_steps
         if max_episode_steps is not None:
             limit = min(limit, check_max_steps(max_episode_steps, "max_episode_steps"))
         self.engine = NavEngine(
             self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
         )
-        self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         others = make_planner(others)  # checked even when no other robot needs it
         self.others = others if self.scenario.n_robots > 1 else None
         self._others_mask = np.arange(self.scenario.n_robots) > 0  # robots `others` drives (not robot_0)

@@ -16,7 +16,7 @@ from .engine import NavEngine, RewardFn, check_max_steps
 from .observations import state_vector
 from .planning import Planner
 from .render import Renderer, RenderMixin
-from .scenario import Scenario, make_scenario
+from .scenario import Scenario, env_scenario
 
 
 class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
@@ -131,11 +131,10 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
-        self.scenario = make_scenario(scenario, **scenario_overrides)
+        self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         if max_cycles is not None:
             max_cycles = check_max_steps(max_cycles, "max_cycles")
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles)
-        self.scenario = self.engine.scenario  # with obstacle_motion=NAME applied (NavEngine)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.scenario.dt}  # one step per frame: real time
         self.render_mode = render_mode
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]

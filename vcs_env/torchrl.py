@@ -18,7 +18,7 @@ from torchrl.envs import EnvBase
 from .engine import NavEngine, RewardFn, check_max_steps
 from .observations import observation_bounds
 from .planning import Planner
-from .scenario import Scenario, make_scenario
+from .scenario import Scenario, env_scenario
 
 GROUP = "agents"
 """The one agent group: every robot shares the specs (TorchRL's ``MarlGroupMapType.ALL_IN_ONE_GROUP``)."""
@@ -132,13 +132,13 @@ class VcsNavEnv(EnvBase):
             device = torch.device(device)
         except (RuntimeError, TypeError) as e:
             raise ValueError(f"device must be a torch device such as 'cpu', got {device!r} ({e})") from None
-        scen = make_scenario(scenario, **scenario_overrides)
+        scen, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         if max_steps is not None:
             max_steps = check_max_steps(max_steps)
         engine = NavEngine(scen, int(num_envs), action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps)
         super().__init__(device=device, batch_size=torch.Size([int(num_envs)]))
         self.engine = engine
-        self.scenario = engine.scenario  # with obstacle_motion=NAME applied
+        self.scenario = scen
         self.num_envs = int(num_envs)
         self.n_robots = self.scenario.n_robots
         self.agent_names = [f"robot_{i}" for i in range(self.n_robots)]
