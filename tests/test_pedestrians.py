@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+import vcs_env
 from vcs_env.engine import NavEngine
 from vcs_env.obstacles import Pedestrians
 from vcs_env.orca_kernel import orca_velocities
@@ -161,6 +162,8 @@ def test_bad_input_names_the_field():
         PedestrianSpec(v_pref=-0.5)
     with pytest.raises(ValueError, match="pedestrians.goal_policy"):
         PedestrianSpec(goal_policy="dance")
+    with pytest.raises(ValueError, match="social force pedestrians must be at most 2.308 m/s"):
+        PedestrianSpec(model="social_force", v_pref=3.0)  # they would walk at 3.9 m/s
     with pytest.raises(ValueError, match="pedestrians needs obstacle_motion='pedestrians'"):
         make_scenario("crowd", pedestrians=PedestrianSpec())
     lay = Layout(
@@ -170,6 +173,25 @@ def test_bad_input_names_the_field():
     )  # fmt: skip
     with pytest.raises(ValueError, match="pedestrians: obstacle 0 at \\[3.0, 0.1\\] is inside a wall"):
         Pedestrians().place(np.random.default_rng(0), crowd(), lay)
+
+
+def test_no_pedestrian_is_faster_than_any_obstacle_may_be():
+    """Social force pedestrians walk up to SF_MAX_SPEED times their preferred speed: the fastest spec allowed
+    stays within the obstacles' speed limit V_REF (the observation's velocity scale)."""
+    from vcs_env.pedestrians import SF_MAX_SPEED, TOP_SPEED_LIMIT
+    from vcs_env.scenario import V_REF
+
+    assert TOP_SPEED_LIMIT == V_REF
+    spec = PedestrianSpec(model="social_force", v_pref=V_REF / SF_MAX_SPEED)
+    assert spec.top_speed <= V_REF and PedestrianSpec(v_pref=V_REF).top_speed == V_REF
+    scen = make_scenario("crowd", n_obstacles=10, layout_radius=6.0, obstacle_motion="pedestrians", pedestrians=spec)
+    env = vcs_env.parallel_env(scenario=scen)
+    env.reset(seed=0)
+    top = 0.0
+    while env.agents:
+        env.step({a: np.zeros(2) for a in env.agents})
+        top = max(top, float(np.linalg.norm(env.engine.world.obs_vel, axis=-1).max()))
+    assert spec.v_pref < top <= V_REF + 1e-9  # faster than preferred when pushed, never above the limit
 
 
 # --------------------------------------------------------------------------- conformance

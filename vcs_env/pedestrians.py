@@ -53,6 +53,9 @@ SF_OUT_OF_VIEW = 0.5
 """Weight of forces from outside the field of view (socialforce ``out_of_view_factor``)."""
 SF_MAX_SPEED = 1.3
 """Top speed as a multiple of the preferred speed (socialforce ``MAX_SPEED_MULTIPLIER``)."""
+TOP_SPEED_LIMIT = 3.0
+"""Fastest a pedestrian may walk [m/s]: ``vcs_env.scenario.V_REF``, the speed limit of every obstacle (the
+observation's velocity scale)."""
 ARRIVAL_TIME = 1.0
 """A pedestrian walks at its preferred speed until it is this time [s] from its goal, then at
 ``distance / ARRIVAL_TIME`` (CrowdNav: ``pref_vel = velocity / speed if speed > 1 else velocity``)."""
@@ -65,7 +68,8 @@ class PedestrianSpec:
     model: str = "orca"
     """``"orca"`` or ``"social_force"`` (module docstring)."""
     v_pref: float = 1.0
-    """Preferred speed [m/s], in [0, 3]; ORCA's max speed is the same (CrowdNav)."""
+    """Preferred speed [m/s], in [0, 3]; ORCA's max speed is the same (CrowdNav), social force's
+    ``SF_MAX_SPEED`` times it, so at most 3 / 1.3 = 2.31 m/s there (:attr:`top_speed`)."""
     goal_policy: str = "circle"
     """``"circle"``, ``"square"`` or ``"wander"`` (module docstring)."""
     sees_robots: bool = False
@@ -81,7 +85,13 @@ class PedestrianSpec:
 
     def __post_init__(self) -> None:
         check_choice("pedestrians.model", self.model, PEDESTRIAN_MODELS)
-        check_range("pedestrians.v_pref", self.v_pref, 0.0, 3.0)
+        check_range("pedestrians.v_pref", self.v_pref, 0.0, TOP_SPEED_LIMIT)
+        if self.top_speed > TOP_SPEED_LIMIT:
+            raise ValueError(
+                f"pedestrians.v_pref of social force pedestrians must be at most {TOP_SPEED_LIMIT / SF_MAX_SPEED:.3f} "
+                f"m/s: they walk up to {SF_MAX_SPEED} times it, and no obstacle may be faster than "
+                f"{TOP_SPEED_LIMIT} m/s; got {self.v_pref}"
+            )
         check_choice("pedestrians.goal_policy", self.goal_policy, GOAL_POLICIES)
         if not isinstance(self.sees_robots, bool):
             raise ValueError(f"pedestrians.sees_robots must be a bool, got {self.sees_robots!r}")
@@ -89,6 +99,11 @@ class PedestrianSpec:
         check_range("pedestrians.neighbor_dist", self.neighbor_dist, 0.0, 1e4, lo_open=True)
         check_int("pedestrians.max_neighbors", self.max_neighbors, 1, 512)
         check_range("pedestrians.radius_margin", self.radius_margin, 0.0, 1.0)
+
+    @property
+    def top_speed(self) -> float:
+        """Fastest the pedestrians walk [m/s]: ``v_pref`` (ORCA), ``SF_MAX_SPEED v_pref`` (social force)."""
+        return self.v_pref * (SF_MAX_SPEED if self.model == "social_force" else 1.0)
 
 
 def preferred_velocity(pos: np.ndarray, goal: np.ndarray, v_pref: np.ndarray) -> np.ndarray:
