@@ -59,6 +59,8 @@ class MapKind(ScenarioKind):
         seg = self.walls(s, start, goal)
         # Jitter moves starts by up to ``jitter``: the unjittered places keep that much more room.
         check_walls(s, finish(s, start, goal, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)), seg, s.jitter)
+        if s.n_obstacles:  # obstacles between the walls: a map too dense for them is refused here, not at reset
+            check_trial_layouts(self, s, "reduce n_obstacles / obstacle_radius or increase arena_half_size")
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         obs_radius = obstacle_radii(s, rng)
@@ -213,7 +215,21 @@ class Intersection(MapKind):
 
 
 TRIAL_LAYOUTS = 8
-"""Layouts the ``walls`` kind draws at construction (seeds 0-7): if one fails, the scenario is refused."""
+"""Layouts a map drawn at random (the ``walls`` kind; any map with obstacles) draws at construction (seeds 0-7):
+if one fails, the scenario is refused."""
+
+
+def check_trial_layouts(kind: ScenarioKind, s: Scenario, hint: str) -> None:
+    """Layouts are drawn at reset; a map too dense to draw reliably is refused here (``hint``: what to change),
+    not by a reset that fails at random (an autoreset in the middle of training)."""
+    for seed in range(TRIAL_LAYOUTS):
+        try:
+            kind.generate(s, np.random.default_rng(seed))
+        except ValueError as e:
+            raise ValueError(
+                f"{s.kind}: trial layout {seed} of the {TRIAL_LAYOUTS} trial layouts found no place and route for "
+                f"every robot and obstacle, so resets would fail at random; {hint} ({e})"
+            ) from None
 
 
 class Walls(MapKind):
@@ -231,20 +247,7 @@ class Walls(MapKind):
         check_arena(s)
         if s.wall_length[0] >= 2.0 * s.arena_half_size:
             raise ValueError(f"wall_length={s.wall_length} does not fit an arena of half size {s.arena_half_size:g}")
-        # Layouts are drawn at reset; a map too dense to draw reliably is refused here, not by a
-        # reset that fails at random (an autoreset in the middle of training).
-        failed = []
-        for seed in range(TRIAL_LAYOUTS):
-            try:
-                self.generate(s, np.random.default_rng(seed))
-            except ValueError as e:
-                failed.append(str(e))
-        if failed:
-            raise ValueError(
-                f"walls: {len(failed)} of {TRIAL_LAYOUTS} trial layouts found no place and route for every robot, so "
-                f"resets would fail at random; reduce n_robots / n_walls / wall_length or increase arena_half_size "
-                f"(first: {failed[0]})"
-            )
+        check_trial_layouts(self, s, "reduce n_robots / n_walls / wall_length or increase arena_half_size")
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         from .routes import Roadmap

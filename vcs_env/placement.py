@@ -19,6 +19,10 @@ MIN_GOAL_DISTANCE = 1.0
 """Random layouts put every goal at least this far from its start [m]."""
 MAX_TRIES = 2000
 """Rejection-sampling attempts per body before a random layout is declared impossible."""
+OBSTACLE_ROUNDS = 20
+"""Times :func:`place_obstacles` starts its obstacles over when one finds no place (sequential placement
+can wedge itself in a dense arena where a fresh draw fits); the first round is the layout of every seed
+whose first draw fits."""
 
 
 @dataclass
@@ -150,15 +154,21 @@ def place_obstacles(
     m = s.n_obstacles
     obs_pos, obs_target = np.zeros((m, 2)), np.zeros((m, 2))
     if m:
-        sampler = Sampler(rng, s.arena_half_size, s.min_separation)
-        for p in np.concatenate((start, goal)):
-            sampler.add(p, s.robot.radius)
-        for k in range(m):
-            if segments is None or len(segments) == 0:
-                obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}")
-            else:
-                clear = lambda p, k=k: clearance(p, segments) - radius[k] >= s.min_separation  # noqa: E731
-                obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}", clear)
+        for rounds in range(1, OBSTACLE_ROUNDS + 1):
+            sampler = Sampler(rng, s.arena_half_size, s.min_separation)
+            for p in np.concatenate((start, goal)):
+                sampler.add(p, s.robot.radius)
+            try:
+                for k in range(m):
+                    if segments is None or len(segments) == 0:
+                        obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}")
+                    else:
+                        clear = lambda p, k=k: clearance(p, segments) - radius[k] >= s.min_separation  # noqa: E731
+                        obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}", clear)
+                break
+            except ValueError as e:
+                if rounds == OBSTACLE_ROUNDS:
+                    raise ValueError(f"{e} (the obstacles started over {OBSTACLE_ROUNDS} times)") from None
         lim = s.arena_half_size - radius[:, None]
         obs_target = rng.uniform(-lim, lim, size=(m, 2))
     return obs_pos, obs_target, radius
