@@ -73,7 +73,21 @@ def check_out_path(out: str | os.PathLike) -> Path:
         raise CheckpointError(f"--onnx {str(path)!r} must end in .onnx (the layout is written beside it as .json)")
     if path.is_dir():
         raise CheckpointError(f"--onnx {str(path)!r} is a directory; give a file name ending in .onnx")
+    side = path.with_suffix(".json")
+    if side.exists() and not _is_layout(side):
+        raise CheckpointError(
+            f"--onnx {str(path)!r} writes its layout to {str(side)!r}, which holds another file (a run record?); "
+            "give the ONNX file another name"
+        )
     return path
+
+
+def _is_layout(path: Path) -> bool:
+    """``path`` holds a layout that :func:`export_onnx` wrote (it may be replaced)."""
+    try:
+        return json.loads(path.read_text()).get("format") == LAYOUT_FORMAT
+    except (OSError, ValueError, AttributeError):
+        return False
 
 
 def sb3_actor(model):
@@ -268,6 +282,7 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
             file=sys.stderr,
         )
     path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_name(path.name + ".part")  # moved onto ``path`` once checked: a failure leaves ``path`` as it was
     example = torch.zeros(2, dim, dtype=torch.float32)  # not 1: no size-1 broadcast baked into the graph
     obs = np.random.default_rng(0).uniform(space.low, space.high, size=(CHECK_ROWS, dim)).astype(np.float32)
     try:
@@ -276,7 +291,7 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
             torch.onnx.export(
                 actor,
                 (example,),
-                str(path),
+                str(part),
                 dynamo=False,
                 opset_version=opset,
                 input_names=[INPUT],
@@ -284,18 +299,19 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
                 dynamic_axes={INPUT: {0: "batch"}, OUTPUT: {0: "batch"}},
             )
             expected = actor(torch.as_tensor(obs)).numpy()
-        onnx.checker.check_model(onnx.load(str(path)))
-        session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+        onnx.checker.check_model(onnx.load(str(part)))
+        session = ort.InferenceSession(str(part), providers=["CPUExecutionProvider"])
         got = session.run([OUTPUT], {INPUT: obs})[0]
     except Exception as e:  # an opset torch cannot write, an operator it cannot export, a file onnx refuses ...
-        path.unlink(missing_ok=True)
+        part.unlink(missing_ok=True)
         raise CheckpointError(f"{checkpoint.describe()} could not be exported at opset {opset}: {cause(e)}") from None
     if not np.allclose(got, expected, atol=TOLERANCE, rtol=0):
-        path.unlink()
+        part.unlink()
         raise CheckpointError(
             f"the ONNX file of {checkpoint.describe()} differs from the network by up to "
             f"{float(np.abs(got - expected).max()):.2g} (more than {TOLERANCE}); not exported"
         )
+    os.replace(part, path)
     side = path.with_suffix(".json")
     side.write_text(json.dumps(layout(checkpoint, dim, opset, note, residual), indent=2, allow_nan=False) + "\n")
     return path, side

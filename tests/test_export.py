@@ -184,6 +184,19 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     # An opset torch cannot write.
     assert main(["export", str(path), "--onnx", str(tmp_path / "w.onnx"), "--opset", "1"]) == 2
     assert "could not be exported at opset 1" in one_error(capsys)
+    # The layout would overwrite the run record beside the checkpoint: refused, the record kept.
+    record_text = path.with_suffix(".json").read_text()
+    assert main(["export", str(path), "--onnx", str(path.with_suffix(".onnx"))]) == 2
+    assert "which holds another file (a run record?)" in one_error(capsys)
+    assert path.with_suffix(".json").read_text() == record_text and not path.with_suffix(".onnx").exists()
+    # An export again over an earlier one replaces it; a failed one leaves the earlier file as it was.
+    assert main(["export", str(path), "--onnx", str(tmp_path / "v.onnx")]) == 0
+    assert main(["export", str(path), "--onnx", str(tmp_path / "v.onnx")]) == 0
+    capsys.readouterr()
+    before = (tmp_path / "v.onnx").read_bytes()
+    assert main(["export", str(path), "--onnx", str(tmp_path / "v.onnx"), "--opset", "1"]) == 2
+    assert "could not be exported at opset 1" in one_error(capsys)
+    assert (tmp_path / "v.onnx").read_bytes() == before and not list(tmp_path.glob("*.part"))
     # A record for another observation size than the network's.
     record = json.loads(path.with_suffix(".json").read_text())
     record["observation_dim"] = 99
