@@ -37,8 +37,8 @@ from vcs_env.rollout import Controller, planner_controller
 from vcs_env.scenario import Scenario
 from vcs_env.state import WorldState
 
-from .checkpoint import Checkpoint, check_observation_space, find_checkpoint, open_checkpoint
-from .residual import Residual, ResidualPolicy
+from .checkpoint import Checkpoint, CheckpointError, check_observation_space, find_checkpoint, open_checkpoint
+from .residual import RULE, Residual, ResidualPolicy
 from .shield import ShieldedPredictor, shield_from_record
 
 
@@ -90,7 +90,9 @@ def _check_action_space(space: Any, what: str) -> None:
         raise ValueError(f"{what} produces actions of shape {tuple(shape)}, the env needs (2,)")
 
 
-def load_checkpoint(path: str | os.PathLike | Checkpoint, scenario: Scenario, shield: bool = True):
+def load_checkpoint(
+    path: str | os.PathLike | Checkpoint, scenario: Scenario, shield: bool = True, network_only: bool = False
+):
     """Load a checkpoint of any format on the CPU and check it fits ``scenario``.
 
     Args:
@@ -98,6 +100,9 @@ def load_checkpoint(path: str | os.PathLike | Checkpoint, scenario: Scenario, sh
             may be left out, or a run directory; an RLlib checkpoint or run directory).
         scenario: the scenario whose observation space the model must take.
         shield: apply the safety shield the checkpoint's run record names, if any (:mod:`agents.shield`).
+        network_only: load the network of a residual policy (``vcs-env train --residual``), whose actions are
+            corrections of a planner's (:mod:`agents.residual`); without it such a checkpoint is refused, since
+            an observation alone does not give the policy's action (:func:`resolve_policy` runs it whole).
 
     Returns:
         The loaded model (a ``PolicyPredictor``: ``stable_baselines3.PPO`` or
@@ -110,6 +115,14 @@ def load_checkpoint(path: str | os.PathLike | Checkpoint, scenario: Scenario, sh
         ImportError: stable-baselines3 (or Ray RLlib, for an RLlib checkpoint) is not installed.
     """
     ckpt = open_checkpoint(path)
+    residual = Residual.of(ckpt.record.get("config", {}))
+    if residual is not None and not network_only:
+        raise CheckpointError(
+            f"{ckpt.describe()} is a residual policy: its network's action is a correction of the {residual.planner} "
+            f"planner's action for the same world state ({RULE}, scale {residual.scale}), not an action; run it whole "
+            "with agents.policies.resolve_policy (vcs-env evaluate, compare), or load the correction network with "
+            "load_checkpoint(..., network_only=True)"
+        )
     try:
         model = ckpt.load(scenario)
     except ModuleNotFoundError as e:
@@ -213,7 +226,7 @@ def resolve_policy(
             )
         label = name or policy_label(str(policy))
         scenario = sensed_as_trained(ckpt, scenario, label)
-        model = load_checkpoint(ckpt, scenario, shield)
+        model = load_checkpoint(ckpt, scenario, shield, network_only=True)
         guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
         controller = predictor_controller(model, deterministic, label)
         resolved = ResolvedPolicy(label, controller, "checkpoint", guard, scenario=scenario)

@@ -125,6 +125,14 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
     seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.eval_episodes))
     again = scalar_results(score_scenarios(resolved.controller, [make_scenario("circle", n_robots=4)], seeds))
     assert same([again], [{k: res["evaluation"][k] for k in again}])
+    # Loaded as a predictor of observations it would act as the correction alone: refused unless asked for.
+    from agents.checkpoint import CheckpointError
+    from agents.policies import load_checkpoint
+
+    with pytest.raises(CheckpointError, match="is a residual policy: its network's action is a correction of the vcs"):
+        load_checkpoint(res["model"], make_scenario("circle", n_robots=4))
+    net = load_checkpoint(res["model"], make_scenario("circle", n_robots=4), network_only=True)
+    assert net.predict(np.zeros(net.observation_space.shape, dtype=np.float32), deterministic=True)[0].shape == (2,)
     pytest.importorskip("onnxruntime", reason="the export extra")
     from agents.checkpoint import open_checkpoint
 
