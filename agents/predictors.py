@@ -1,6 +1,7 @@
 """Networks of other libraries as SB3-style ``PolicyPredictor`` objects for :mod:`agents.evaluate`:
-``predict(obs (N, D)) -> (actions (N, 2) in [-1, 1], state)``. :mod:`agents.checkpoint` builds them when it
-loads an RLlib or a BenchMARL checkpoint. torch is imported when one predicts, not before."""
+``predict(obs (N, D)) -> (actions (N, 2) in [-1, 1], state)``, and one action ``(2,)`` for one observation
+``(D,)``, as SB3. :mod:`agents.checkpoint` builds them when it loads an RLlib or a BenchMARL checkpoint. torch is
+imported when one predicts, not before."""
 
 from __future__ import annotations
 
@@ -26,12 +27,13 @@ class RLlibPolicy:
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
         import torch
 
-        obs = torch.as_tensor(np.asarray(observation, dtype=np.float32)).reshape(-1, self.observation_space.shape[0])
+        observation = np.asarray(observation, dtype=np.float32)
+        obs = torch.as_tensor(observation).reshape(-1, self.observation_space.shape[0])
         with torch.no_grad():
             out = self.module.forward_inference({"obs": obs})["action_dist_inputs"].numpy()
         mean, log_std = np.split(out.astype(np.float64), 2, axis=-1)
         actions = mean if deterministic else mean + np.exp(log_std) * self.rng.standard_normal(mean.shape)
-        return np.clip(actions, -1.0, 1.0).astype(np.float32), state
+        return np.clip(actions, -1.0, 1.0).astype(np.float32).reshape(*observation.shape[:-1], 2), state
 
 
 class BenchMARLPolicy:
@@ -56,11 +58,12 @@ class BenchMARLPolicy:
     def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
         import torch
 
-        obs = torch.as_tensor(np.asarray(observation, dtype=np.float32)).reshape(-1, self.observation_space.shape[0])
+        observation = np.asarray(observation, dtype=np.float32)
+        obs = torch.as_tensor(observation).reshape(-1, self.observation_space.shape[0])
         with torch.no_grad():
             out = self.net(obs).numpy().astype(np.float64)
         loc, raw = out[:, :2], out[:, 2:]
         if not deterministic:  # BenchMARL's scale: softplus(raw + bias) + min
             scale = np.logaddexp(0.0, raw + self.scale["bias"]) + self.scale["min"]
             loc = loc + scale * self.rng.standard_normal(loc.shape)
-        return np.tanh(loc).astype(np.float32), state
+        return np.tanh(loc).astype(np.float32).reshape(*observation.shape[:-1], 2), state

@@ -88,6 +88,8 @@ def test_the_saved_actor_acts_as_benchmarls_deterministic_policy_and_exports_to_
     assert isinstance(ckpt, BenchMARLCheckpoint) and ckpt.path == path.path
     got, _ = load_model(tmp_path / "run").predict(obs, deterministic=True)
     assert np.abs(got - want).max() <= 1e-6 and np.abs(want).max() > 0.01
+    one = load_model(tmp_path / "run").predict(obs[0], deterministic=True)[0]  # one observation, one action
+    assert one.shape == (2,) and np.abs(one - got[0]).max() <= 1e-6  # (a batch of one rounds alike)
     sampled, _ = load_model(tmp_path / "run").predict(obs, deterministic=False)
     assert np.all(np.abs(sampled) <= 1.0) and np.abs(sampled - got).mean() > 0.05  # BenchMARL's scale ~ 1
     onnx_path, json_path = ckpt.export_onnx(tmp_path / "policy.onnx")

@@ -145,6 +145,8 @@ def test_policy_predicts_the_clipped_mean_or_samples():
     act, state = pol.predict(obs, deterministic=True)
     assert state is None and act.shape == (5, 2) and act.dtype == np.float32
     np.testing.assert_allclose(act, np.clip(3 * obs[:, :2], -1, 1), atol=1e-6)
+    one = pol.predict(obs[0], deterministic=True)[0]  # one observation, one action: what env.step takes
+    assert one.shape == (2,) and np.array_equal(one, act[0])
     noisy = pol.predict(obs, deterministic=False)[0]
     assert np.all(np.abs(noisy) <= 1) and not np.allclose(noisy, act)
 
