@@ -414,6 +414,13 @@ def test_compare_uses_episodes_every_policy_solved():
         expected = metrics.aggregate(res.rows, solved_mask=solved)
         assert comp.summaries[name]["time_to_goal"]["n"] == expected["time_to_goal"]["n"] == int(solved.sum())
         assert comp.summaries[name]["success"] == res.summary["success"]
+    # One policy alone: evaluate's summary is compare's (time and path over the episodes it solved).
+    alone = comp.results["b"]  # straight solves none, yet some of its robots arrive in every episode
+    assert np.isfinite([r["time_to_goal"] for r in alone.rows]).all()
+    assert alone.summary["time_to_goal"]["n"] == alone.solved.sum() == 0
+    again = compare({"b": "straight"}, "crossing-v0-smoke", progress=False).summaries["b"]
+    timing = "compute_per_decision"  # a measured time: differs from run to run
+    assert {k: v for k, v in alone.summary.items() if k != timing} == {k: v for k, v in again.items() if k != timing}
     with pytest.raises(ValueError, match="distinct names"):
         compare(["straight", "straight"], "crossing-v0-smoke", progress=False)
     with pytest.raises(ValueError, match="two policies"):

@@ -91,7 +91,8 @@ class EvalResult:
     rows: list[dict[str, float]]
     """Per-episode metrics (:func:`~vcs_env.metrics.episode_metrics`), in the order of ``suite.seeds``."""
     summary: dict[str, dict[str, float]]
-    """:func:`~vcs_env.metrics.aggregate` of ``rows`` over all episodes."""
+    """:func:`~vcs_env.metrics.aggregate` of ``rows``: rates over all episodes, time and path over the episodes the
+    policy solved (as :func:`compare` of this policy alone)."""
     compute_time: float
     """Controller wall time summed over the suite [s]."""
     decisions: int
@@ -208,7 +209,7 @@ def evaluate(
         policy=resolved.name,
         suite=suite,
         rows=rows,
-        summary=aggregate(rows),
+        summary=aggregate(rows, solved_mask=[r["success"] == 1.0 for r in rows]),
         compute_time=compute,
         decisions=decisions,
         wall_time=time.perf_counter() - t0,
