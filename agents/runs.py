@@ -15,6 +15,7 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -213,6 +214,22 @@ def check_run(cfg: TrainConfig) -> None:
         )
     if cfg.n_worlds < 1 or cfg.eval_episodes < 1:
         raise ValueError(f"n_worlds and eval_episodes must be >= 1, got {cfg.n_worlds} and {cfg.eval_episodes}")
+
+
+RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl", "checkpoints")
+"""What a training run (``vcs-env train`` of every backend, ``bc``, ``distil``) writes into its ``--out``."""
+
+
+def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False) -> None:
+    """A one-line ``ValueError`` when ``out`` already holds a run's files: a new run there would replace its model
+    and append its evaluations to the other run's (``resume_hint``: name ``--resume``, for a run that can go on)."""
+    held = [f for f in RUN_FILES if (Path(out) / f).exists()]
+    if held:
+        other = f", or --resume {str(out)!r} to continue that run" if resume_hint else ""
+        raise ValueError(
+            f"--out {str(out)!r} already holds a run ({', '.join(held)}): a new run there would replace its model and "
+            f"mix its logs with this one's; give another --out, or remove that one first{other}"
+        )
 
 
 def run_command(kind: str, cfg: Any) -> str:

@@ -66,6 +66,28 @@ def test_a_run_killed_before_its_end_resumes_from_its_newest_checkpoint(tmp_path
     assert json.loads((run / "model.json").read_text())["num_timesteps"] == 6144
 
 
+def test_a_new_run_into_another_runs_directory_is_refused(tmp_path, capsys):
+    """train, bc and distil into an --out that holds a run (its model.zip, its eval.jsonl): refused before anything
+    is written (the new model replaced the old one and its evaluations were appended to the old run's)."""
+    run = tmp_path / "run"
+    args = ["train", *TINY, "--timesteps", "1000", "--eval-freq", "0"]
+    assert cli.main([*args, "--out", str(run)]) == 0
+    before = {p.name: p.stat().st_mtime_ns for p in run.iterdir()}
+    data = tmp_path / "expert.npz"
+    assert cli.main(["collect", "--n-robots", "4", "--episodes", "2", "--out", str(data)]) == 0
+    capsys.readouterr()
+    for argv, hint in (
+        ([*args, "--out", str(run)], "--resume"),
+        (["bc", "--data", str(data), "--epochs", "1", "--out", str(run)], "remove that one first"),
+        (["distil", "--scenario", "circle", "--teacher", str(run / "model.zip"), "--out", str(run)], "remove that one"),
+    ):
+        assert cli.main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and f"--out {str(run)!r} already holds a run (model.zip, model.json" in err, err
+        assert hint in err
+    assert {p.name: p.stat().st_mtime_ns for p in run.iterdir()} == before
+
+
 @pytest.mark.parametrize("backend", ["sb3", "rllib"])
 def test_a_run_of_zero_timesteps_is_refused(backend, tmp_path, capsys):
     out = tmp_path / "x"

@@ -48,7 +48,7 @@ from ..config import ScenarioConfig, config_command, config_from_dict, print_sui
 from ..evaluate import scalar_results, score_scenarios
 from ..mixture import scenarios_of
 from ..policies import predictor_controller
-from ..runs import PolicyConfig, policy_kwargs, scenario_family
+from ..runs import PolicyConfig, check_fresh_out, policy_kwargs, scenario_family
 from .data import (
     DATASET_FORMAT,
     check_rows,
@@ -267,6 +267,7 @@ def _split(data: dict[str, np.ndarray], frac: float, seed: int) -> tuple[np.ndar
 
 def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     """BC (+ DAgger) per ``cfg``; saves ``<out>/model.zip``; returns errors, evaluations, paths."""
+    check_fresh_out(cfg.out)
     import torch
 
     torch.set_num_threads(1)

@@ -43,7 +43,7 @@ from ..checkpoint import load_model, save_model
 from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
-from ..runs import scenario_family
+from ..runs import check_fresh_out, scenario_family
 from ..shield import ShieldedPredictor
 from . import bc_fit
 from .data import concat_datasets, play
@@ -125,6 +125,7 @@ def teachers_of(cfg: DistilConfig) -> dict[str, str]:
 
 def distil(cfg: DistilConfig) -> dict[str, Any]:
     """Run the distillation of the module docstring; returns the report (paths, rows, losses)."""
+    check_fresh_out(cfg.out)
     import torch
 
     torch.set_num_threads(1)

@@ -44,7 +44,7 @@ from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_
 from ..config import build_scenario, config_command, print_suite_differences
 from ..mixture import mixture_scenarios
 from ..residual import Residual
-from ..runs import TrainConfig, check_run, jsonable, policy_kwargs, scenario_family
+from ..runs import TrainConfig, check_fresh_out, check_run, jsonable, policy_kwargs, scenario_family
 from .guide import GUIDES, ImitationLoss, JumpStart, annealed
 from .periodic import PeriodicEval
 
@@ -253,6 +253,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     """Train (or resume from the checkpoint ``resume``) a shared PPO policy; returns the final
     evaluation and paths."""
     check_run(cfg)
+    if resume is None:
+        check_fresh_out(cfg.out, resume_hint=True)
     scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
     scenario = scenarios[0]
     print_suite_differences(scenarios)
