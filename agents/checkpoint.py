@@ -392,9 +392,9 @@ def config_path(checkpoint: str | os.PathLike) -> Path:
     return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
 
 
-def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str, Any]:
+def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str, Any] | None:
     """Write ``shield`` (an :class:`agents.shield.Shield`) into the run record of ``checkpoint`` (None removes
-    it); return the record."""
+    it); return the shield the record held before (its JSON object), or None."""
     ckpt = open_checkpoint(checkpoint)
     if ckpt.format != "sb3":
         raise ValueError(
@@ -406,11 +406,11 @@ def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str
             f"{str(ckpt.path)!r} has no run record to keep the shield in ({ckpt.record_path.name} is missing, empty "
             "or not a JSON object)"
         )
-    record.pop("shield", None)
+    before = record.pop("shield", None)
     if shield is not None:
         record["shield"] = dataclasses.asdict(shield)
     ckpt.record_path.write_text(json.dumps(record, indent=2) + "\n")
-    return record
+    return before
 
 
 # --------------------------------------------------------------------------- SB3 and RLlib

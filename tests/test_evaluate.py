@@ -457,6 +457,11 @@ def test_cli_compare_writes_report(tmp_path):
     assert set(data["policies"]) == {"vcs", "straight"}
     for name in ("bar_success.png", "bar_extra_time.png", "trajectory_vcs_ep1.png", "trajectory_straight_ep1.png"):
         assert (out / name).stat().st_size > 0, name
+    # Again into the same directory, one policy, no plots: no plot of the earlier report stays beside it.
+    (out / "notes.txt").write_text("mine")
+    again = ["compare", "--suite", "dynamic-v0-smoke", "--policies", "vcs", "--out", str(out), "--no-plots"]
+    assert cli.main(again) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "results.json", "results.md"]
 
 
 def test_a_run_directory_named_without_a_slash_is_a_checkpoint(tmp_path, monkeypatch):

@@ -38,6 +38,16 @@ def test_each_probe_changes_only_its_fields_and_uses_no_suite_seed():
         assert suite.scenario.on_collision == "continue"
 
 
+def test_a_probe_out_that_is_a_file_is_refused_before_any_episode(tmp_path, capsys):
+    import vcs_cli as cli
+
+    (tmp_path / "table.zip").write_text("")
+    args = ["probe", "--policies", "vcs", "--families", "circle", "--episodes", "1", "--no-progress"]
+    assert cli.main([*args, "--out", str(tmp_path / "table.zip")]) == 2
+    captured = capsys.readouterr()
+    assert "is a file; give a directory" in captured.err and "circle" not in captured.out  # no table: no episode run
+
+
 def test_bad_probe_requests_are_named():
     with pytest.raises(ValueError, match="unknown probe families \\['circel'\\]"):
         select_probes("circle,circel")

@@ -416,15 +416,23 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     network, _ = shielded.model.predict(obs, deterministic=True)
     assert action.shape == (2,) and action.dtype == np.float32 and shielded.replaced == shielded.decisions == 1
     np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, V1)[0])
+    capsys.readouterr()
     assert main(["shield", str(model), "--no-driving-guard"]) == 0  # the rule of records before the guard
+    assert "(it replaces {'horizon': 1.0, 'margin': 0.2" in capsys.readouterr().out  # the earlier shield is named
     assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(driving_guard=False)
     assert main(["shield", str(model), "--no-keep-turn"]) == 0  # the rule of records before keep_turn
     assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == Shield(keep_turn=False)
     assert main(["shield", str(model), "--no-brake-backup", "--still-margin", "0.02"]) == 0  # before brake_backup
     want = Shield(still_margin=0.02, brake_backup=False)
     assert shield_from_record(json.loads(model.with_suffix(".json").read_text())) == want
+    capsys.readouterr()
+    assert main(["shield", str(model), "--remove", "--margin", "0.3"]) == 2  # settings with --remove: refused
+    assert "--remove takes the shield out; it takes no shield settings (--margin)" in capsys.readouterr().err
     assert main(["shield", str(model), "--remove"]) == 0
+    assert "removed the shield from" in capsys.readouterr().out
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())
+    assert main(["shield", str(model), "--remove"]) == 0
+    assert "no shield to remove in" in capsys.readouterr().out
     assert main(["shield", str(model), "--horizon", "0"]) == 2
     assert "error: shield horizon must be > 0, got 0.0" in capsys.readouterr().err
     assert "shield" not in json.loads(model.with_suffix(".json").read_text())

@@ -97,8 +97,7 @@ def cmd_compare(args) -> int:
     suite = episodes_of(args)
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
-    if Path(args.out).exists() and not Path(args.out).is_dir():  # before the episodes, not after them
-        raise ValueError(f"--out {args.out!r} is a file; give a directory for the report")
+    check_out_dir(args.out)
     comp = compare(
         policies,
         suite,
@@ -114,7 +113,14 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def check_out_dir(out) -> None:
+    """Refuse an ``--out`` that is a file before the episodes are run, not after them."""
+    if Path(out).exists() and not Path(out).is_dir():
+        raise ValueError(f"--out {str(out)!r} is a file; give a directory for the report")
+
+
 def cmd_probe(args) -> int:
+    check_out_dir(args.out)
     specs = [p.strip() for p in args.policies.split(",") if p.strip()]
     policies = probe_table.policy_labels(specs)
     probes = probe_table.select_probes(args.families)
@@ -207,7 +213,18 @@ def _add_select(sub) -> None:
     p.set_defaults(func=cmd_select)
 
 
+SHIELD_FLAGS = {
+    "horizon": shield.Shield.horizon, "margin": shield.Shield.margin, "robot_speed": shield.Shield.robot_speed,
+    "still_margin": shield.Shield.still_margin, "no_driving_guard": False, "no_keep_turn": False,
+    "no_brake_backup": False, "driving_stop": False,
+}  # fmt: skip
+"""The shield's settings on the command line, and their defaults."""
+
+
 def cmd_shield(args) -> int:
+    given = ["--" + k.replace("_", "-") for k, default in SHIELD_FLAGS.items() if getattr(args, k) != default]
+    if args.remove and given:
+        raise ValueError(f"--remove takes the shield out; it takes no shield settings ({', '.join(given)})")
     guard = (
         None
         if args.remove
@@ -222,8 +239,12 @@ def cmd_shield(args) -> int:
             driving_stop=args.driving_stop,
         )
     )
-    attach_shield(args.checkpoint, guard)
-    said = "removed the shield from" if guard is None else f"wrote {asdict(guard)} into"
+    before = attach_shield(args.checkpoint, guard)
+    if guard is None:
+        said = "removed the shield from" if before is not None else "no shield to remove in"
+    else:
+        said = f"wrote {asdict(guard)}" + (f" (it replaces {before})" if before not in (None, asdict(guard)) else "")
+        said += " into"
     print(f"{said} the run record of {args.checkpoint}")
     return 0
 

@@ -189,16 +189,24 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
     return written
 
 
+PLOT_FILES = ("bar_*.png", "trajectory_*.png")
+"""The plots a report writes (:func:`write_plots`)."""
+
+
 def write_report(
     comparison: Comparison, out_dir: str | os.PathLike, episode: int | None = 0, plots: bool = True
 ) -> list[Path]:
-    """Write ``results.md``, ``results.json`` and (``plots``) the PNGs into ``out_dir``.
+    """Write ``results.md``, ``results.json`` and (``plots``) the PNGs into ``out_dir``; the plots of an earlier report
+    there (``bar_*.png``, ``trajectory_*.png``) go first, so that every file of the report is of this comparison.
 
     Returns:
         The written files.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    for pattern in PLOT_FILES:
+        for old in out.glob(pattern):
+            old.unlink()
     md, js = out / "results.md", out / "results.json"
     md.write_text(markdown_table(comparison))
     js.write_text(results_json(comparison.to_dict()))
