@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -125,6 +126,13 @@ def load_checkpoint(
         )
     try:
         model = ckpt.load(scenario)
+    except CheckpointError as e:
+        if ckpt.record or "observation space" not in str(e):
+            raise
+        raise CheckpointError(
+            f"{e} (no run record beside it: {str(ckpt.record_path)!r} is missing, and a vcs-env run keeps there the "
+            "sensing it was trained with, which would be used instead of the scenario's; copy it beside the checkpoint)"
+        ) from None
     except ModuleNotFoundError as e:
         raise ImportError(
             f"loading the {ckpt.describe()} needs {e.name}; install it with: pip install 'vcs-env[train]' ({e})"
@@ -166,7 +174,24 @@ def predictor_controller(predictor: Any, deterministic: bool = True, name: str =
 
 
 class BlindWarning(UserWarning):
-    """A policy whose observation has no wall sensing runs among walls."""
+    """A policy whose observation has no wall sensing runs (or trains) among walls."""
+
+
+def blind(scenario: Scenario) -> bool:
+    """``scenario`` has walls that its observation does not show (no lidar, no wall points)."""
+    return scenario.has_walls and not sees_walls(scenario)
+
+
+def warn_blind_training(scenarios: Sequence[Scenario]) -> None:
+    """Warn (:class:`BlindWarning`) when a run trains among walls that its observation does not show."""
+    kinds = sorted({s.kind for s in scenarios if blind(s)})
+    if kinds:
+        warnings.warn(
+            f"this run trains on {', '.join(kinds)}, whose walls its observation does not show (no --n-wall-points, "
+            "no --lidar-beams): its policy cannot learn to keep off them",
+            BlindWarning,
+            stacklevel=3,
+        )
 
 
 def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scenario:
@@ -179,7 +204,7 @@ def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scena
             scenario = with_sensors(scenario, config)
         except (ValueError, KeyError, TypeError):
             pass  # left to the fit check, which names what differs
-    if scenario.has_walls and not sees_walls(scenario):
+    if blind(scenario):
         warnings.warn(
             f"policy {label!r} cannot see walls (its observation has no lidar or wall-point block), but "
             f"kind={scenario.kind!r} has walls: expect it to drive into them",
@@ -232,6 +257,8 @@ def resolve_policy(
         resolved = ResolvedPolicy(label, controller, "checkpoint", guard, scenario=scenario)
         return resolved if residual is None else _residual(resolved, residual, action_mode)
     if isinstance(policy, str):
+        if os.path.exists(policy):  # a path, not a planner name: say which checkpoint is missing
+            open_checkpoint(policy)
         planner = make_planner(policy)
         return ResolvedPolicy(name or policy, planner_controller(planner, action_mode), "planner")
     if callable(getattr(policy, "predict", None)):

@@ -323,6 +323,15 @@ def test_bad_checkpoint_paths_give_clear_errors(tmp_path):
     bad.write_bytes(b"not a zip file")
     with pytest.raises(ValueError, match="corrupt"):
         evaluate(str(bad), "swap-v0-smoke", progress=False)
+    # A directory with no checkpoint in it is named as such (it was read as an unknown planner's name).
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="checkpoint not found: .*empty"):
+        evaluate(str(tmp_path / "empty"), "swap-v0-smoke", progress=False)
+    # A checkpoint without its run record, whose sensing then differs from the scenario's: the message says why.
+    (tmp_path / "nojson").mkdir()
+    shutil.copy("policies/circle8/model.zip", tmp_path / "nojson" / "model.zip")
+    with pytest.raises(ValueError, match="observation space Box\\(75,\\).*\\(no run record beside it: .*model.json"):
+        evaluate(str(tmp_path / "nojson"), "crowd-5-v0-smoke", progress=False)
 
 
 def test_checkpoint_formats_detect_themselves_and_a_run_resumes_from_its_newest(tmp_path):

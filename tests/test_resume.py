@@ -88,6 +88,21 @@ def test_a_new_run_into_another_runs_directory_is_refused(tmp_path, capsys):
     assert {p.name: p.stat().st_mtime_ns for p in run.iterdir()} == before
 
 
+def test_training_among_walls_it_cannot_see_warns(tmp_path, recwarn):
+    """A run on a map with no wall sensing warns that its policy cannot learn the walls (it warned only when
+    evaluated); with wall points it does not."""
+    from agents.policies import BlindWarning
+
+    base = ["train", "--scenario", "corridor", "--n-robots", "2", "--n-worlds", "2", "--timesteps", "256"]
+    base += ["--n-steps", "64", "--batch-size", "64", "--eval-freq", "0", "--eval-episodes", "1", "--no-progress-bar"]
+    assert cli.main([*base, "--out", str(tmp_path / "blind")]) == 0
+    said = [str(w.message) for w in recwarn if issubclass(w.category, BlindWarning)]
+    assert len(said) == 1 and "trains on corridor, whose walls its observation does not show" in said[0]
+    recwarn.clear()
+    assert cli.main([*base, "--n-wall-points", "2", "--out", str(tmp_path / "sees")]) == 0
+    assert not [w for w in recwarn if issubclass(w.category, BlindWarning)]
+
+
 @pytest.mark.parametrize("backend", ["sb3", "rllib"])
 def test_a_run_of_zero_timesteps_is_refused(backend, tmp_path, capsys):
     out = tmp_path / "x"

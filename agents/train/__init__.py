@@ -43,6 +43,7 @@ from vcs_env.suites import get_suite
 from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_model
 from ..config import build_scenario, config_command, print_suite_differences
 from ..mixture import mixture_scenarios
+from ..policies import warn_blind_training
 from ..residual import Residual
 from ..runs import TrainConfig, check_fresh_out, check_run, jsonable, policy_kwargs, scenario_family
 from .guide import GUIDES, ImitationLoss, JumpStart, annealed
@@ -258,6 +259,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
     scenario = scenarios[0]
     print_suite_differences(scenarios)
+    warn_blind_training(scenarios)
     check_ppo_settings(cfg)
     residual, anneal, guide = residual_of(cfg), shaping_schedule(cfg, scenario), guide_of(cfg)
     expert = "vcs" if guide is not None else None

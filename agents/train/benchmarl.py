@@ -42,6 +42,7 @@ from vcs_env.suites import get_suite
 from ..checkpoint import BenchMARLCheckpoint, BenchMARLPolicy
 from ..config import build_scenario
 from ..export import mlp_network
+from ..policies import warn_blind_training
 from ..runs import BENCHMARL_ALGORITHMS, BenchMARLConfig, check_fresh_out, check_run, jsonable, run_command, run_record
 from . import check_ppo_settings
 from .periodic import PeriodicEval
@@ -247,6 +248,7 @@ def train(cfg: BenchMARLConfig) -> Path:
 
     scenario = build_scenario(cfg)
     check_fresh_out(cfg.out)
+    warn_blind_training([scenario])
     n = scenario.n_robots
     out = Path(cfg.out)
     kind = f"benchmarl_{cfg.algorithm}"

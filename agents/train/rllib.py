@@ -48,6 +48,7 @@ from vcs_env.suites import get_suite
 
 from ..checkpoint import Checkpoint, RLlibCheckpoint, RLlibPolicy, open_checkpoint
 from ..config import build_scenario
+from ..policies import warn_blind_training
 from ..runs import ADAPTERS, RLlibConfig, check_fresh_out, check_run, jsonable, run_command, run_record
 from .periodic import PeriodicEval
 from .rllib_cluster import init_ray
@@ -200,6 +201,7 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
     the final evaluation, paths and throughput."""
     scenario = build_scenario(cfg)
     check_config(cfg)
+    warn_blind_training([scenario])
     if resume is None:
         check_fresh_out(cfg.out, resume_hint=True)
     if resume is not None:
