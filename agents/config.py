@@ -252,14 +252,17 @@ def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
     return out
 
 
-def check_out_file(path: str | None, flag: str, suffixes: tuple[str, ...] = ()) -> None:
+def check_out_file(path: str | None, flag: str, suffixes: tuple[str, ...] = (), new: bool = False) -> None:
     """Before any work: ``ValueError`` if the output file ``path`` of ``flag`` is an existing
-    directory or lacks one of ``suffixes``; its parent directory is made."""
+    directory or lacks one of ``suffixes`` (``new``: or exists at all, also with ``.npz`` added, as numpy
+    adds it; for data that took long to make); its parent directory is made."""
     if path is None:
         return
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{flag} {path!r} is a directory; give a file name")
+    if new and (p.exists() or p.with_name(p.name + ".npz").exists()):
+        raise ValueError(f"{flag} {path!r} exists: the new data would replace it; give another name or remove it first")
     if suffixes and p.suffix.lower() not in suffixes:
         raise ValueError(f"{flag} must end in {' or '.join(suffixes)}, got {path!r}")
     p.parent.mkdir(parents=True, exist_ok=True)

@@ -27,6 +27,16 @@ MIXTURE_FIELDS = {
 scenario's speed interval (drawn per obstacle and episode); the others give a value or a grid."""
 
 
+def _split_range(body: str) -> tuple[str, str, str]:
+    """``"LO-HI"`` -> ``("LO", "-", "HI")`` (``(body, "", "")`` without a range); the dash of an exponent
+    (``1e-2``) or a leading sign is a number's, not the range's."""
+    body = body.strip()
+    for i, ch in enumerate(body):
+        if ch == "-" and i > 0 and body[i - 1] not in "eE":
+            return body[:i], "-", body[i + 1 :]
+    return body, "", ""
+
+
 def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
     """``"circle:n_robots=4-16/4,jitter=0-0.4"`` -> ``("circle", {"n_robots": (4, 8, 12, 16),
     "jitter": (0.0, 0.2, 0.4)})``.
@@ -56,7 +66,7 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
             raise ValueError(f"mixture entry {text!r}: {name} is set twice")
         conv = MIXTURE_FIELDS[name]
         body, _, step_text = value.partition("/")
-        lo_text, dash, hi_text = body.strip().partition("-")
+        lo_text, dash, hi_text = _split_range(body)
         try:
             lo = conv(lo_text)
             hi = conv(hi_text) if dash else lo

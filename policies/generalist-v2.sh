@@ -96,8 +96,8 @@ train_run() {
   local prev="$DIR/ppo/model.zip" lr=1.5e-4 r
   for r in $(seq 1 "$ROUNDS"); do
     if [ ! -f "$DIR/round$r/model.zip" ]; then
-      vcs-env collect-states --policy "$prev" --on-collision terminate --mixture "${DANGER[@]}" "${SENSE[@]}" \
-        --episodes "$STATES_EP" --seed $((80000 + 100000 * r)) --out "$DIR/states$r.npz"
+      [ -f "$DIR/states$r.npz" ] || vcs-env collect-states --policy "$prev" --on-collision terminate \
+        --mixture "${DANGER[@]}" "${SENSE[@]}" --episodes "$STATES_EP" --seed $((80000 + 100000 * r)) --out "$DIR/states$r.npz"
       vcs-env train --mixture "${MIX[@]}" "${SENSE[@]}" --mixture-balance robots --on-collision terminate \
         --rewards collision=300,stuck=10 --net-arch 256 256 --features slots --init "$prev" --timesteps "$ROUND" \
         --seed $((S0 + r)) --n-worlds "$WORLDS" --learning-rate $lr --lr-schedule linear --eval-freq 0 \

@@ -52,7 +52,8 @@ train_run() {
   local prev="$DIR/ppo/model.zip" lr=1.5e-4 r
   for r in 1 2 3 4; do
     if [ ! -f "$DIR/round$r/model.zip" ]; then
-      vcs-env collect-states --policy "$prev" --on-collision terminate --mixture "${OBST[@]}" --episodes 400 \
+      [ -f "$DIR/states$r.npz" ] || vcs-env collect-states --policy "$prev" --on-collision terminate \
+        --mixture "${OBST[@]}" --episodes 400 \
         --seed $((80000 + 100000 * r)) --out "$DIR/states$r.npz"
       vcs-env train --mixture "${MIX[@]}" "circle-24-v0:jitter=0.1-0.2/0.1" --mixture-balance robots \
         --on-collision terminate --rewards collision=300 --net-arch 256 256 --features slots --init "$prev" \

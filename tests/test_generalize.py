@@ -123,6 +123,9 @@ def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
         "crowd",
         {"n_obstacles": (3,), "obstacle_speed": ((1.0, 1.5),)},
     )
+    # Numbers in exponent notation: the exponent's dash is not the range's.
+    assert parse_mixture_entry("circle:jitter=1e-2") == ("circle", {"jitter": (0.01,)})
+    assert parse_mixture_entry("circle:jitter=1e-2-3e-2/1e-2") == ("circle", {"jitter": (0.01, 0.02, 0.03)})
     scenarios = mixture_scenarios(
         ScenarioConfig(on_collision="continue"), ("circle:n_robots=4-8/4,jitter=0-0.2/0.2", "crowd")
     )
@@ -355,6 +358,12 @@ def test_collect_and_dagger_on_a_mixture_play_every_scenario(tmp_path, capsys):
     args = ["collect", "--mixture", "circle:n_robots=2-3", "crowd:n_obstacles=2", "--max-steps", "30"]
     assert cli.main([*args, "--episodes", "6", "--seed", "3", "--out", str(data_path)]) == 0
     data, meta = load_dataset(data_path)
+    # The dataset is not written over, and a dataset keeps the scenario's own reward (no shaping).
+    assert cli.main([*args, "--episodes", "6", "--out", str(data_path)]) == 2
+    assert f"--out {str(data_path)!r} exists: the new data would replace it" in capsys.readouterr().err
+    assert cli.main([*args, "--episodes", "6", "--shaping", "vcs_potential", "--out", str(tmp_path / "s.npz")]) == 2
+    assert "--shaping vcs_potential shapes PPO's reward; a dataset keeps the scenario's own" in capsys.readouterr().err
+    assert not (tmp_path / "s.npz").exists()
     robots_per_seed = {}
     for seed, robot in zip(data["traj_seed"], data["traj_robot"]):
         robots_per_seed.setdefault(int(seed), set()).add(int(robot))
@@ -369,3 +378,10 @@ def test_collect_and_dagger_on_a_mixture_play_every_scenario(tmp_path, capsys):
     assert meta["report"]["dagger_env_steps"] > 0
     assert meta["report"]["rows"] + meta["report"]["held_out_rows"] == len(data["actions"])
     capsys.readouterr()
+    # A dataset whose arrays were cut by hand (meta edited to match) is refused by name, not inside torch.
+    cut = {k: v for k, v in data.items()}
+    cut["observations"] = data["observations"][:, :60]
+    narrow = dict(load_dataset(data_path)[1], observation_dim=60)
+    np.savez_compressed(tmp_path / "cut.npz", **cut, meta=np.array(json.dumps(narrow)))
+    assert cli.main(["bc", "--data", str(tmp_path / "cut.npz"), "--epochs", "1", "--out", str(tmp_path / "bc2")]) == 2
+    assert "holds observations of size 60, but the scenario its record names observes" in capsys.readouterr().err

@@ -160,6 +160,9 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     assert main(["collect-states", *args, "--before", "0.5", "1.0", "--danger-time", "0", "--out", str(only)]) == 0
     assert main(["collect-states", *args, "--before", "0.5", "1.0", "--out", str(out)]) == 0
     assert "pre-contact" in capsys.readouterr().out
+    kept = out.read_bytes()
+    assert main(["collect-states", *args, "--episodes", "1", "--out", str(out)]) == 2  # not written over
+    assert "exists: the new data would replace it" in capsys.readouterr().err and out.read_bytes() == kept
     ((key, contacts),) = StartStates.load(only).pools.items()
     ((_, pool),) = StartStates.load(out).pools.items()
     k = len(contacts)

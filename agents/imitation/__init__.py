@@ -44,7 +44,7 @@ from vcs_env.checks import check_choice, check_int, check_range
 from vcs_env.observations import observation_config, observation_dim
 
 from ..checkpoint import load_policy_weights, save_model
-from ..config import ScenarioConfig, config_command, config_from_dict, print_suite_differences
+from ..config import ScenarioConfig, check_out_file, config_command, config_from_dict, print_suite_differences
 from ..evaluate import scalar_results, score_scenarios
 from ..mixture import scenarios_of
 from ..policies import predictor_controller
@@ -87,6 +87,12 @@ def collect(cfg: CollectConfig) -> Path:
     """Run the expert on ``cfg.episodes`` seeds and save the dataset; returns its path."""
     if cfg.episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
+    if cfg.shaping != "none":
+        raise ValueError(
+            f"--shaping {cfg.shaping} shapes PPO's reward; a dataset keeps the scenario's own reward (vcs-env bc "
+            "rebuilds its scenario without shaping): collect without it"
+        )
+    check_out_file(cfg.out, "--out", new=True)
     scenarios = scenarios_of(cfg, cfg.mixture)
     if cfg.episodes < len(scenarios):
         raise ValueError(
@@ -283,6 +289,11 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     scenario = scenarios[0]
     if meta.get("observation_dim") != data["observations"].shape[1]:
         raise ValueError(f"dataset {cfg.data!r}: observation_dim in meta does not match the arrays")
+    if data["observations"].shape[1] != observation_dim(scenario):
+        raise ValueError(
+            f"dataset {cfg.data!r} holds observations of size {data['observations'].shape[1]}, but the scenario its "
+            f"record names observes {observation_dim(scenario)} numbers: the file was changed by hand; collect it again"
+        )
     if meta.get("observation") != observation_config(scenario):
         raise ValueError(
             f"dataset {cfg.data!r} was collected with observation config {meta.get('observation')} (None: "

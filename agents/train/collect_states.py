@@ -33,7 +33,7 @@ from vcs_env.rollout import Hook, Step, play
 from vcs_env.start_states import StartStates, StatePool, scenario_key
 
 from ..checkpoint import load_model, open_checkpoint
-from ..config import ScenarioConfig
+from ..config import ScenarioConfig, check_out_file
 from ..mixture import scenarios_of
 from ..policies import predictor_controller, sensed_as_trained
 
@@ -111,6 +111,7 @@ def collect_states(cfg: StatesConfig) -> StartStates:
         raise ValueError(f"before must be times > 0 [s], got {cfg.before}")
     if cfg.danger_time < 0:
         raise ValueError(f"danger_time must be >= 0 [s], got {cfg.danger_time}")
+    check_out_file(cfg.out, "--out", new=True)
     scenarios = scenarios_of(cfg, cfg.mixture)
     ckpt = open_checkpoint(cfg.policy)
     sensed = [sensed_as_trained(ckpt, sc, str(cfg.policy)) for sc in scenarios]  # the policy's own sensing
