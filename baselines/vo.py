@@ -304,9 +304,13 @@ class SamplingVOPlanner(VelocityPlanner):
             or not (1 <= n_samples <= MAX_SAMPLES)
         ):
             raise ValueError(f"n_samples must be an int in [1, {MAX_SAMPLES}], got {n_samples!r}")
-        if not (isinstance(weight, (int, float, np.number)) and np.isfinite(weight) and weight > 0.0):
+
+        def number(x) -> bool:  # a bool is no number here (True would be 1)
+            return isinstance(x, (int, float, np.number)) and not isinstance(x, (bool, np.bool_)) and np.isfinite(x)
+
+        if not (number(weight) and weight > 0.0):
             raise ValueError(f"weight must be finite and > 0 [s m/s], got {weight!r}")
-        if r_ca is not None and not (isinstance(r_ca, (int, float, np.number)) and np.isfinite(r_ca) and r_ca > 0.0):
+        if r_ca is not None and not (number(r_ca) and r_ca > 0.0):
             raise ValueError(f"r_ca must be finite and > 0 [m] (or None), got {r_ca!r}")
         self.name = method
         self.method = method

@@ -97,3 +97,43 @@ def test_planner_output_depends_only_on_the_state():
     first = p.plan(eng.world)
     p._cache_key = None  # force a recomputation on the same state
     np.testing.assert_array_equal(p.plan(eng.world), first)
+
+
+def test_a_planner_never_reuses_a_plan_made_for_another_world():
+    """Two worlds alike in positions, speeds and episode key but not in goals (or headings): each gets its own
+    plan, as from a fresh planner (the plan of the first was returned for the second)."""
+    import dataclasses
+
+    def world(goal, heading=0.0):
+        custom = vcs_env.CustomLayout(start=[(0.0, 0.0)], goal=[goal], heading=[heading])
+        eng = NavEngine(vcs_env.Scenario(kind="custom", n_robots=1, custom=custom))
+        eng.reset([0])
+        return eng.world
+
+    shared = vcs_env.make_planner("vcs")
+    for w in (world((5.0, 0.0)), world((0.0, 5.0)), world((0.0, 5.0), heading=1.0)):
+        np.testing.assert_array_equal(shared.plan(w), vcs_env.make_planner("vcs").plan(w))
+    w = world((5.0, 0.0))
+    assert dataclasses.replace(w, goal=w.goal + 1.0).key.tobytes() == w.key.tobytes()  # the same episode key
+
+
+def test_one_planner_instance_given_to_several_envs_drives_each_as_its_own():
+    """An env copies a planner instance it is given: envs stepped in turn with one instance have the episodes of
+    envs with one planner each (they cleared each other's memory across periods)."""
+    from baselines.vcs import VCSPlanner
+
+    def run(planners):
+        envs = [vcs_env.parallel_env(scenario="random", n_robots=8, expert=p) for p in planners]
+        out = [[] for _ in envs]
+        for k, env in enumerate(envs):
+            env.reset(seed=k)
+        for _ in range(60):
+            for k, env in enumerate(envs):
+                if env.agents:
+                    infos = env.step({a: np.zeros(2, np.float32) for a in env.agents})[-1]
+                    out[k].append(np.array([infos[a]["expert_action"] for a in sorted(infos)]))
+        return [np.concatenate(o) for o in out]
+
+    shared = VCSPlanner()
+    for a, b in zip(run([shared, shared]), run([VCSPlanner(), VCSPlanner()]), strict=True):
+        np.testing.assert_array_equal(a, b)

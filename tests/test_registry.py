@@ -1,6 +1,8 @@
 """The planner registry of ``vcs_env``: entry points of installed packages plus planners
 registered in the process; one registry, re-exported by ``baselines``."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -41,6 +43,27 @@ def test_unknown_planner_lists_the_registered_names():
         make_planner(3)
     with pytest.raises(ValueError, match="keyword arguments"):
         make_planner(StandStill(), speed=1.0)
+
+
+def test_planner_options_and_masks_are_checked_by_name():
+    """Options a planner does not take are bad input (a ValueError naming them), not a TypeError; a bool is no
+    number of the VO planners; every planner's plan_for checks its mask."""
+    for name, opts, said in (
+        ("vcs", {"horizn": 1.0}, "'horizn'"),
+        ("straight", {"bogus": 1}, "['bogus']"),
+        ("vo", {"method": "rvo"}, "'method'"),
+    ):
+        with pytest.raises(ValueError, match=f"planner '{name}' does not take the options .*{re.escape(said)}"):
+            make_planner(name, **opts)
+    for opts in ({"r_ca": True}, {"weight": True}):
+        with pytest.raises(ValueError, match="must be finite and > 0"):
+            make_planner("vo", **opts)
+    s = vcs_env.make_scenario("circle", n_robots=3)
+    eng = vcs_env.engine.NavEngine(s)
+    eng.reset([0])
+    for name in ("vcs", "vo", "straight"):
+        with pytest.raises(ValueError, match=r"robots must be a bool mask of shape \(3,\), got shape \(2,\)"):
+            make_planner(name).plan_for(eng.world, np.ones(2, dtype=bool))
 
 
 def test_register_a_planner_and_use_it_as_the_expert(registry):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .observations import observe
-from .planning import Planner, make_planner
+from .planning import Planner, own_planner
 from .rewards import RewardFn, RewardTerm, StepInput, build_terms, weighted_sum
 from .scenario import Scenario
 from .sim import Simulator, StepEvents
@@ -125,7 +125,7 @@ class NavEngine:
         self.terms, self.weights = build_terms(scenario.rewards.as_dict(), reward_terms)
         if expert is None and any(t.needs_expert for t in self.terms.values()):
             expert = "vcs"
-        self.expert: Planner | None = None if expert is None else make_planner(expert)
+        self.expert: Planner | None = None if expert is None else own_planner(expert)
         for term in self.terms.values():
             term.check(self.expert)
         if isinstance(gamma, bool) or not isinstance(gamma, (int, float, np.integer, np.floating)):

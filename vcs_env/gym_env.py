@@ -12,7 +12,7 @@ from gymnasium.vector.utils import batch_space
 
 from .dynamics import check_actions
 from .engine import NavEngine, RewardFn, check_max_steps
-from .planning import Planner, make_planner
+from .planning import Planner, own_planner
 from .render import Renderer, RenderMixin
 from .scenario import Scenario, env_scenario
 from .spaces import action_space, observation_space
@@ -48,7 +48,8 @@ class VcsNavEnv(RenderMixin, gym.Env):
     (or the ``max_episode_steps`` of ``gym.make``).
 
     ## Arguments
-    ``scenario`` (name or Scenario), ``others`` (planner for the other robots), ``render_mode``
+    ``scenario`` (name or Scenario), ``others`` (planner for the other robots; a planner instance given as
+    ``others`` or ``expert`` is copied, so that envs never share a planner's memory), ``render_mode``
     (``human``, ``rgb_array``, ``ansi``), ``action_mode``, ``expert``, ``reward_terms``,
     ``obstacle_motion`` (an ``ObstacleMotion`` model, or a model's name as for the Scenario field),
     ``gamma``, and Scenario fields as keyword overrides.
@@ -105,7 +106,9 @@ class VcsNavEnv(RenderMixin, gym.Env):
         self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma)
         n = self.scenario.n_robots
-        others = make_planner(others)  # checked even when no other robot needs it
+        # Checked even when no other robot needs it; an instance is the env's own copy (own_planner), the expert's
+        # copy when the same instance drives the others and labels (its plan is then reused, _others_actions).
+        others = self.engine.expert if others is expert and isinstance(others, Planner) else own_planner(others)
         self.others = others if n > 1 else None
         self._others_mask = np.arange(n) > 0  # robots the `others` planner drives (not robot_0)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.scenario.dt}  # one step per frame: real time
@@ -200,7 +203,9 @@ class VcsNavVectorEnv(VectorEnv):
         self.engine = NavEngine(
             self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
         )
-        others = make_planner(others)  # checked even when no other robot needs it
+        # Checked even when no other robot needs it; an instance is the env's own copy (own_planner), the expert's
+        # copy when the same instance drives the others and labels (its plan is then reused, _others_actions).
+        others = self.engine.expert if others is expert and isinstance(others, Planner) else own_planner(others)
         self.others = others if self.scenario.n_robots > 1 else None
         self._others_mask = np.arange(self.scenario.n_robots) > 0  # robots `others` drives (not robot_0)
         self.single_observation_space = observation_space(self.scenario)

@@ -66,7 +66,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     ## Arguments
     ``scenario`` (name or Scenario), ``render_mode`` (``human``, ``rgb_array``, ``ansi``),
     ``max_cycles`` (default ``scenario.max_steps``), ``action_mode``, ``expert`` (planner or
-    name, e.g. ``"vcs"``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion`` (an
+    name, e.g. ``"vcs"``; an instance is copied, so that envs never share a planner's memory: read the env's
+    at ``env.engine.expert``), ``reward_terms`` (``{name: (weight, fn)}``), ``obstacle_motion`` (an
     ``ObstacleMotion`` model, or a model's name as for the Scenario field),
     ``gamma`` (discount of the ``vcs_potential`` shaping; the learner's), and any Scenario
     field as a keyword override (``n_robots=16``).

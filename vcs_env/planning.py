@@ -15,6 +15,7 @@ the entry-point group ``vcs_env.planners`` (``name = "module:factory"`` in their
 
 from __future__ import annotations
 
+import copy
 import functools
 from collections.abc import Callable, Iterator, Mapping
 from importlib.metadata import EntryPoint, entry_points
@@ -49,6 +50,7 @@ class Planner:
         rows of ``robots`` ``(n,)`` bool (e.g. not the learner's); a planner may skip the other
         robots (their rows are then unspecified). The plans of the robots read are those of
         :meth:`plan`. The default plans every robot."""
+        robots_mask(world, robots)
         return self.plan(world)
 
     def act(self, world: WorldState, action_mode: str = "delta", robots: np.ndarray | None = None) -> np.ndarray:
@@ -127,6 +129,14 @@ PLANNERS: Mapping[str, PlannerFactory] = _Registry()
 """The one planner registry: name -> factory (keyword arguments go to the planner)."""
 
 
+def robots_mask(world: WorldState, robots) -> np.ndarray:
+    """``robots`` as the ``(n,)`` bool mask of :meth:`Planner.plan_for`, or a ``ValueError`` naming its shape."""
+    mask = np.asarray(robots, dtype=bool)
+    if mask.shape != (world.n_robots,):
+        raise ValueError(f"robots must be a bool mask of shape ({world.n_robots},), got shape {mask.shape}")
+    return mask
+
+
 def make_planner(spec: str | Planner, **kwargs) -> Planner:
     """A planner instance from a registered name (see :data:`PLANNERS`) or as given."""
     if isinstance(spec, Planner):
@@ -138,4 +148,16 @@ def make_planner(spec: str | Planner, **kwargs) -> Planner:
     if spec not in PLANNERS:
         hint = "" if len(PLANNERS) else " (none: is vcs-env installed, e.g. `pip install -e .`?)"
         raise ValueError(f"unknown planner {spec!r}; registered planners are {list(PLANNERS)}{hint}")
-    return PLANNERS[spec](**kwargs)
+    try:
+        return PLANNERS[spec](**kwargs)
+    except TypeError as e:  # an option the planner does not take: said as bad input, not as a crash
+        if not kwargs:
+            raise
+        raise ValueError(f"planner {spec!r} does not take the options {sorted(kwargs)} ({e})") from None
+
+
+def own_planner(spec: str | Planner) -> Planner:
+    """:func:`make_planner` for an env: a planner instance given is copied, so that envs never share one (a
+    planner keeps memory across periods, per batch of worlds: two envs planning in turn with one instance
+    would clear each other's, and their episodes would differ from those with a planner each)."""
+    return copy.deepcopy(spec) if isinstance(spec, Planner) else make_planner(spec)

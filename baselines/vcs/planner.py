@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+import operator
 
 import numpy as np
 
 from vcs_env.geometry import rotate, wrap_angle
-from vcs_env.planning import Planner
+from vcs_env.planning import Planner, robots_mask
 from vcs_env.routes import route_direction
 from vcs_env.stall import goal_distances
 from vcs_env.state import WorldState
@@ -270,18 +271,11 @@ class VCSPlanner(Planner):
         rows keep their speed and heading, and their ``last`` entries are those of a robot
         that is done; the robots planned get the same targets either way)."""
         if robots is not None:
-            robots = np.asarray(robots, dtype=bool)
-            if robots.shape != (world.n_robots,):
-                raise ValueError(f"robots must be a bool mask of shape ({world.n_robots},), got shape {robots.shape}")
-        key = (
-            None if robots is None else robots.tobytes(),
-            world.key.tobytes(),
-            world.steps.tobytes(),
-            world.pos.tobytes(),
-            world.active.tobytes(),
-            world.obs_pos.tobytes(),
-            world.speed.tobytes(),
-        )
+            robots = robots_mask(world, robots)
+        # The same state asked again (the env's expert action, then a policy that follows it) is planned once:
+        # every field of the state is in the key (goals, limits, walls, obstacle velocities, dt, ...), so a plan
+        # is never reused for another world that happens to share positions, speeds and episode key.
+        key = (None if robots is None else robots.tobytes(), *[_bytes(v) for v in STATE_FIELDS(world)])
         if key == self._cache_key:
             return self._cache_target.copy()
         B, n = world.batch_size, world.n_robots
@@ -366,6 +360,15 @@ class VCSPlanner(Planner):
         )
         n, m0 = world.n_robots, world.n_obstacles
         return ok, cost, np.concatenate((horizon[: n + m0], horizon[n + m : n + m + n], horizon[2 * n + m :]))
+
+
+STATE_FIELDS = operator.attrgetter(*(f.name for f in dataclasses.fields(WorldState)))
+"""Every field of a world state (the key of :meth:`VCSPlanner.plan`'s cache of its last plan)."""
+
+
+def _bytes(value):
+    """An array's bytes (a field of :data:`STATE_FIELDS` in the cache key), any other value as it is."""
+    return value.tobytes() if type(value) is np.ndarray else value
 
 
 MAX_TURN_RATE = 2.0
