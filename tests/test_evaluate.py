@@ -137,6 +137,11 @@ def test_aggregate_takes_time_over_the_solved_mask_only():
     assert agg["time_to_goal"]["mean"] == pytest.approx(11.0) and agg["time_to_goal"]["n"] == 2
     assert agg["success"]["mean"] == pytest.approx(2 / 3) and agg["success"]["n"] == 3
     assert agg["jerk"]["mean"] == pytest.approx(2.0)
+    # A rate undefined in an episode (NaN: at fault without the hit matrices) is left out, as for the other metrics.
+    rated = metrics.aggregate([{"at_fault_collision": 1.0}, {"at_fault_collision": float("nan")}])
+    assert rated["at_fault_collision"]["mean"] == 1.0 and rated["at_fault_collision"]["n"] == 1
+    with pytest.raises(ValueError, match="solved_mask must have one entry per row \\(3\\)"):
+        metrics.aggregate(rows, solved_mask=[True, False])
 
 
 @pytest.mark.slow
@@ -236,6 +241,12 @@ def test_suites_are_fixed_and_versioned():
         get_suite("circle-9-v0")
     with pytest.raises(ValueError, match="seeds"):
         Suite("x", SUITES["swap-v0"].scenario, (1, 1))
+    for seeds in ((1.5, 2.7), "123", (True, 2), 5):  # each was turned into other seeds (or a TypeError)
+        with pytest.raises(ValueError, match="seeds must be a sequence of integers"):
+            Suite("x", SUITES["swap-v0"].scenario, seeds)
+    assert Suite("x", SUITES["swap-v0"].scenario, np.arange(3)).seeds == (0, 1, 2)
+    with pytest.raises(ValueError, match="batch_size must be an integer >= 1, got None"):
+        evaluate("straight", "swap-v0-smoke", batch_size=None)
 
 
 @pytest.mark.slow

@@ -336,12 +336,18 @@ def aggregate(
         return out
     keys = list(rows[0])
     mask = np.ones(len(rows), dtype=bool) if solved_mask is None else np.asarray(solved_mask, dtype=bool)
+    if mask.shape != (len(rows),):
+        raise ValueError(f"solved_mask must have one entry per row ({len(rows)}), got shape {mask.shape}")
     by_name = {m.name: m for m in METRICS}
     for k in keys:
         vals = np.array([r[k] for r in rows], dtype=np.float64)
         metric = by_name.get(k)
         if metric is not None and metric.rate:
+            vals = vals[~np.isnan(vals)]  # undefined in an episode (e.g. fault without the hit matrices)
             n = len(vals)
+            if n == 0:
+                out[k] = {"mean": math.nan, "low": math.nan, "high": math.nan, "n": 0}
+                continue
             lo, hi = wilson_interval(float(vals.sum()), n)
             out[k] = {"mean": float(vals.mean()), "low": lo, "high": hi, "n": n}
             continue

@@ -81,7 +81,10 @@ import dataclasses
 import hashlib
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
 
 from .pedestrians import PedestrianSpec
 from .scenario import RobotSpec, Scenario
@@ -125,7 +128,15 @@ class Suite:
     """One line for humans."""
 
     def __post_init__(self) -> None:
-        seeds = tuple(int(s) for s in self.seeds)
+        given = self.seeds
+
+        def whole(s) -> bool:
+            return isinstance(s, (int, np.integer)) and not isinstance(s, (bool, np.bool_))
+
+        listed = isinstance(given, (Sequence, np.ndarray)) and not isinstance(given, (str, bytes))
+        if not listed or not all(map(whole, given)):
+            raise ValueError(f"suite {self.name!r}: seeds must be a sequence of integers, got {given!r}")
+        seeds = tuple(int(s) for s in given)
         if not seeds or len(set(seeds)) != len(seeds) or min(seeds) < 0:
             raise ValueError(f"suite {self.name!r}: seeds must be distinct non-negative integers, at least one")
         object.__setattr__(self, "seeds", seeds)

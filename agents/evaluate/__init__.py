@@ -176,8 +176,8 @@ def evaluate(
         The per-episode rows, their aggregate and the timing.
     """
     suite = get_suite(suite)
-    if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+    if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)) or batch_size < 1:
+        raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
     keep = {int(k) for k in keep_episodes}
     bad = [k for k in keep if not 0 <= k < suite.n_episodes]
     if bad:
