@@ -16,6 +16,8 @@
 # policy. No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
+# Run again, it skips every stage whose result is there; a stage that died leaves its directory without model.zip,
+# which vcs-env refuses to train into: remove that directory first.
 set -euo pipefail
 ROOT=${ROOT:-runs/generalist-v2}
 RUNS=${RUNS:-"0:0 1:10"}

@@ -10,6 +10,8 @@
 # (docs/experiments.md, the safety shield). The recipe is seed-sensitive (one seed pair of two kept circle-24 at 0.86),
 # so both runs are part of it; docs/experiments.md, stage N.
 # Usage: [ROOT=runs/generalist] [RUNS="0:0 1:10"] bash policies/generalist.sh
+# Run again, it skips every stage whose result is there; a stage that died leaves its directory without model.zip,
+# which vcs-env refuses to train into: remove that directory first.
 # RUNS: one BC_SEED:S0 pair per run, run side by side (BC seed BC_SEED, the 8 M PPO steps seed S0, round r
 # seed S0 + r), into $ROOT/run-BC_SEED-S0. Steps with a model.zip are skipped; the selection always runs.
 set -euo pipefail
