@@ -15,13 +15,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from .observations import observe
 from .planning import Planner, own_planner
 from .rewards import RewardFn, RewardTerm, StepInput, build_terms, weighted_sum
-from .scenario import Scenario
+from .scenario import Scenario, make_scenario
 from .sim import Simulator, StepEvents
 from .start_states import StartStates
 from .state import WorldState
@@ -80,6 +81,16 @@ def check_max_steps(value, name: str = "max_steps") -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
         raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
     return int(value)
+
+
+def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict) -> tuple[Scenario, Any]:
+    """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
+    given as a model's name is the Scenario field, set together with ``overrides`` (so that
+    ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario); an
+    ``ObstacleMotion`` object (or None) goes to the engine as it is."""
+    if isinstance(obstacle_motion, str):
+        return make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
+    return make_scenario(scenario, **overrides), obstacle_motion
 
 
 class NavEngine:

@@ -11,10 +11,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from .dynamics import check_actions
-from .engine import NavEngine, RewardFn, check_max_steps
+from .engine import NavEngine, RewardFn, check_max_steps, env_scenario
 from .planning import Planner, own_planner
 from .render import Renderer, RenderMixin
-from .scenario import Scenario, env_scenario
+from .scenario import Scenario
 from .spaces import action_space, observation_space
 
 

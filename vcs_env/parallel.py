@@ -12,11 +12,11 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from . import spaces as nav_spaces
 from .dynamics import check_actions
-from .engine import NavEngine, RewardFn, check_max_steps
+from .engine import NavEngine, RewardFn, check_max_steps, env_scenario
 from .observations import state_vector
 from .planning import Planner
 from .render import Renderer, RenderMixin
-from .scenario import Scenario, env_scenario
+from .scenario import Scenario
 
 
 class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):

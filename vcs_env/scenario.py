@@ -20,7 +20,6 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -461,16 +460,6 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
     if base.kind == "custom" and overrides.get("kind", "custom") != "custom":
         overrides.setdefault("custom", None)
     return dataclasses.replace(base, **overrides)
-
-
-def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict) -> tuple[Scenario, Any]:
-    """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
-    given as a model's name is the Scenario field, set together with ``overrides`` (so that
-    ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario); an
-    ``ObstacleMotion`` object (or None) goes to the engine as it is."""
-    if isinstance(obstacle_motion, str):
-        return make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
-    return make_scenario(scenario, **overrides), obstacle_motion
 
 
 TIME_MARGIN = 2.0

@@ -15,10 +15,10 @@ from tensordict import TensorDict, TensorDictBase
 from torchrl.data import Bounded, Categorical, Composite, Unbounded
 from torchrl.envs import EnvBase
 
-from .engine import NavEngine, RewardFn, check_max_steps
+from .engine import NavEngine, RewardFn, check_max_steps, env_scenario
 from .observations import observation_bounds
 from .planning import Planner
-from .scenario import Scenario, env_scenario
+from .scenario import Scenario
 
 GROUP = "agents"
 """The one agent group: every robot shares the specs (TorchRL's ``MarlGroupMapType.ALL_IN_ONE_GROUP``)."""
