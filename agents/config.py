@@ -18,6 +18,7 @@ import ast
 import dataclasses
 import functools
 import inspect
+import os
 import shlex
 import textwrap
 import types
@@ -252,10 +253,12 @@ def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
     return out
 
 
-def check_out_file(path: str | None, flag: str, suffixes: tuple[str, ...] = (), new: bool = False) -> None:
+def check_out_file(
+    path: str | None, flag: str, suffixes: tuple[str, ...] = (), new: bool = False, writable: bool = False
+) -> None:
     """Before any work: ``ValueError`` if the output file ``path`` of ``flag`` is an existing
     directory or lacks one of ``suffixes`` (``new``: or exists at all, also with ``.npz`` added, as numpy
-    adds it; for data that took long to make); its parent directory is made."""
+    adds it; for data that took long to make; ``writable``: or cannot be written); its parent directory is made."""
     if path is None:
         return
     p = Path(path)
@@ -265,7 +268,15 @@ def check_out_file(path: str | None, flag: str, suffixes: tuple[str, ...] = (), 
         raise ValueError(f"{flag} {path!r} exists: the new data would replace it; give another name or remove it first")
     if suffixes and p.suffix.lower() not in suffixes:
         raise ValueError(f"{flag} must end in {' or '.join(suffixes)}, got {path!r}")
-    p.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if writable and not p.exists():  # a file that cannot be made fails here, not after the run
+            p.touch()
+            p.unlink()
+        elif writable and not os.access(p, os.W_OK):
+            raise PermissionError(f"{path!r} is not writable")
+    except OSError as e:
+        raise ValueError(f"{flag} {path!r} cannot be written ({e.strerror or e})") from None
 
 
 def parse_seeds(text: str) -> tuple[int, ...]:

@@ -1,5 +1,6 @@
 """Conformance with the PettingZoo and Gymnasium APIs, through their own checkers."""
 
+import json
 import pickle
 
 import gymnasium as gym
@@ -200,7 +201,14 @@ def test_bad_seeds_and_limits_are_named(tmp_path, capsys):
     assert "--seed must be >= 0" in capsys.readouterr().err
     out = tmp_path / "new" / "dir" / "metrics.json"
     assert cli.main(["rollout", "--episodes", "1", "--n-robots", "2", "--max-steps", "5", "--json", str(out)]) == 0
-    assert out.exists()
+    rows = json.loads(out.read_text(), parse_constant=lambda c: pytest.fail(f"{c} is not JSON"))
+    assert rows[0]["time_to_goal"] is None  # no robot arrived in 5 steps: no value, null (it was a bare NaN)
+    # Outputs that cannot be written are refused before the episodes, not after them (a later output lost).
+    capsys.readouterr()
+    bad = (("--json", "/proc/x/m.json", "cannot be written"), ("--plot", "p.xyz", "must end in .png"))
+    for flag, path, said in bad:
+        assert cli.main(["rollout", "--episodes", "1", "--max-steps", "5", flag, path]) == 2
+        assert said in capsys.readouterr().err
 
 
 def test_pickle_round_trip():

@@ -6,8 +6,11 @@ import argparse
 import json
 
 from agents.config import ScenarioConfig, add_config_args, build_scenario, check_out_file, config_from_args
+from agents.runs import jsonable
 from vcs_env.planning import PLANNERS
 
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg")
+"""File types ``--plot`` writes (by its suffix)."""
 ROLLOUT_SKIP = ("rewards", "shaping", "shaping_weight")
 """Scenario flags a planner rollout has no use for (rewards do not change what a planner does)."""
 
@@ -26,8 +29,8 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     planner = make_planner(args.planner)
     # Before the episodes, not after them.
     for out, flag, suffixes in ((args.gif, "--gif", (".gif",)), (args.video, "--video", (".mp4",)),
-                                (args.plot, "--plot", ()), (args.json, "--json", ())):  # fmt: skip
-        check_out_file(out, flag, suffixes)
+                                (args.plot, "--plot", PLOT_SUFFIXES), (args.json, "--json", ())):  # fmt: skip
+        check_out_file(out, flag, suffixes, writable=True)
     seeds = list(range(args.seed, args.seed + args.episodes))
     render = range(len(seeds)) if (args.gif or args.video) else ()
     controller = planner_controller(planner)
@@ -50,11 +53,11 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     if render:
         from vcs_env.render import write_video
 
-        video = [f for ep in episodes for f in ep.frames]
+        count = sum(len(ep.frames) for ep in episodes)
         for path in (args.gif, args.video):
             if path:
-                write_video(video, path, fps=int(round(1.0 / scenario.dt)))
-                print(f"wrote {path} ({len(video)} frames)")
+                write_video((f for ep in episodes for f in ep.frames), path, fps=int(round(1.0 / scenario.dt)))
+                print(f"wrote {path} ({count} frames)")
     if args.plot:
         from matplotlib.figure import Figure
 
@@ -75,7 +78,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
         print(f"wrote {args.plot}")
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(rows, f, indent=2)
+            json.dump(jsonable(rows), f, indent=2, allow_nan=False)  # no value (NaN) is null, as JSON has it
         print(f"wrote {args.json}")
     return 0
 

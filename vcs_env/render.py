@@ -6,8 +6,9 @@ and a matplotlib trajectory plot. pygame, Pillow, imageio and matplotlib are imp
 from __future__ import annotations
 
 import colorsys
+import itertools
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -164,18 +165,23 @@ def ansi(world: WorldState) -> str:
     return "\n".join(lines)
 
 
-def write_video(frames: Sequence[np.ndarray], path: str, fps: int = 10) -> str:
-    """Write ``(H, W, 3)`` uint8 frames to a ``.gif`` (Pillow) or ``.mp4`` (imageio-ffmpeg)."""
-    if not frames:
+def write_video(frames: Iterable[np.ndarray], path: str, fps: int = 10) -> str:
+    """Write ``(H, W, 3)`` uint8 frames to a ``.gif`` (Pillow) or ``.mp4`` (imageio-ffmpeg). The frames are
+    converted one at a time as they are written (a generator of them never holds them all)."""
+    frames = iter(frames)
+    first = next(frames, None)
+    if first is None:
         raise ValueError("no frames to write")
+    frames = itertools.chain([first], frames)
     ext = os.path.splitext(path)[1].lower()
     if ext == ".gif":
         try:
             from PIL import Image
         except ImportError as e:
             raise _missing("Pillow", e) from None
-        images = [Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames]
-        images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0, optimize=True)
+        images = (Image.fromarray(np.asarray(f, dtype=np.uint8)) for f in frames)
+        head = next(images)
+        head.save(path, save_all=True, append_images=images, duration=int(1000 / fps), loop=0, optimize=True)
     elif ext == ".mp4":
         try:
             import imageio.v2 as imageio
