@@ -213,6 +213,10 @@ def test_same_seed_same_rollout():
     a, b, c = (r["next", "agents", "observation"] for r in runs)
     assert torch.equal(a, b) and torch.equal(runs[0]["next", "agents", "reward"], runs[1]["next", "agents", "reward"])
     assert not torch.equal(a, c)
+    # reset(seed=s) is set_seed(s) then reset() (the seed was ignored: fresh entropy every time).
+    first = runs[0]["agents", "observation"][:, 0]
+    for seed in (5, torch.tensor(5)):
+        assert torch.equal(VcsNavEnv("random", B, max_steps=10).reset(seed=seed)["agents", "observation"], first)
 
 
 @pytest.mark.parametrize("scenario, expert", [("crossing", "straight"), ("swap", "vcs")])
@@ -241,6 +245,7 @@ def test_expert_action_is_the_engine_expert_for_the_observation(scenario, expert
         ({"expert": "nope"}, "unknown planner 'nope'"),
         ({"max_steps": 0}, "max_steps must be an integer >= 1"),
         ({"device": "warp-drive"}, "device must be a torch device"),
+        ({"device": "meta"}, "the meta device holds no data"),
     ],
 )
 def test_bad_arguments_raise_one_line_value_errors(kwargs, match):

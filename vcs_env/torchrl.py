@@ -27,6 +27,8 @@ GROUP = "agents"
 def _check_seed(seed) -> int | None:
     if seed is None:
         return None
+    if isinstance(seed, torch.Tensor) and seed.numel() == 1 and not seed.is_floating_point():
+        seed = seed.item()  # a one-element integer tensor, as TorchRL code passes seeds around
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer or None, got {seed!r}")
     return int(seed)
@@ -130,7 +132,10 @@ class VcsNavEnv(EnvBase):
             raise ValueError(f"scenario must be a preset name or a vcs_env.Scenario, got {type(scenario).__name__}")
         try:
             device = torch.device(device)
-        except (RuntimeError, TypeError) as e:
+            if device.type == "meta":
+                raise RuntimeError("the meta device holds no data")
+            torch.empty(1, device=device)  # an accelerator this torch was not built for, or that is absent
+        except (RuntimeError, TypeError, AssertionError) as e:
             raise ValueError(f"device must be a torch device such as 'cpu', got {device!r} ({e})") from None
         scen, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         if max_steps is not None:
@@ -214,7 +219,12 @@ class VcsNavEnv(EnvBase):
                 return per_robot.reshape(B, self.n_robots).all(dim=1).cpu().numpy()
         return np.ones(B, dtype=bool)
 
-    def _reset(self, tensordict: TensorDictBase | None = None, **kwargs) -> TensorDictBase:
+    def _reset(self, tensordict: TensorDictBase | None = None, seed=None, **kwargs) -> TensorDictBase:
+        """``reset(seed=s)`` is ``set_seed(s)`` then ``reset()``: world ``b`` starts from seed ``s + b``."""
+        if kwargs:
+            raise ValueError(f"reset takes a tensordict and seed=..., got {sorted(kwargs)}")
+        if seed is not None:
+            self._set_seed(seed)
         worlds = np.flatnonzero(self._reset_worlds(tensordict))
         if worlds.size:
             seeds = [self._pending_seeds[b] for b in worlds]
