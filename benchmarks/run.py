@@ -371,6 +371,14 @@ def run(
     data: dict = {"peers": peers.status()}
     if merge and out.with_suffix(".json").exists():
         old = json.loads(out.with_suffix(".json").read_text())
+        meta = old.get("meta") if isinstance(old, dict) else None
+        if not isinstance(meta, dict) or not {"date", "commit", "quick"} <= set(meta):
+            raise ValueError(f"--merge: {out.with_suffix('.json')} is no results file of python -m benchmarks")
+        if bool(meta["quick"]) != quick:
+            raise ValueError(
+                f"--merge: {out.with_suffix('.json')} holds a {'quick' if meta['quick'] else 'full'} run; a "
+                f"{'quick' if quick else 'full'} run does not merge with it (tiny sizes mean nothing beside real ones)"
+            )
         kept = [k for k in SECTIONS if k in old and k not in sections]
         data.update({k: old[k] for k in kept})
         run_of = {"date": old["meta"]["date"], "commit": old["meta"]["commit"]}
@@ -449,8 +457,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def cmd_bench(args: argparse.Namespace) -> int:
     sections = [s.strip() for s in args.sections.split(",") if s.strip()]
     unknown = sorted(set(sections) - set(SECTIONS))
-    if unknown:
-        raise ValueError(f"unknown sections {unknown}; choose from {list(SECTIONS)}")
+    if unknown or not sections:
+        raise ValueError(f"unknown sections {unknown or args.sections!r}; choose from {list(SECTIONS)}")
     data = run(args.quick, args.out, sections, command=_command_line(), merge=args.merge)
     for t in data["targets"]:
         print(f"{t['met']:>14}  {t['target']}")

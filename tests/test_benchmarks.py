@@ -98,7 +98,7 @@ def test_gym_vector_rows_and_issue14_targets(quick):
 
 
 @pytest.mark.slow
-def test_merge_keeps_the_sections_not_run(quick, tmp_path):
+def test_merge_keeps_the_sections_not_run(quick, tmp_path, capsys):
     out, data = quick
     merged = tmp_path / "RESULTS.md"
     merged.with_suffix(".json").write_text(out.with_suffix(".json").read_text())
@@ -115,6 +115,17 @@ def test_merge_keeps_the_sections_not_run(quick, tmp_path):
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-4000:]
     assert json.loads(merged.with_suffix(".json").read_text())["kept"] == new["kept"]
+    # A full run does not merge with a quick one, a file without meta is named, and no section is no run.
+    from benchmarks.run import main
+
+    def refused(argv, said):
+        assert main(argv) == 2 and said in capsys.readouterr().err
+
+    capsys.readouterr()
+    refused(["--sections", "profiles", "--merge", "--out", str(merged)], "holds a quick run; a full run does not merge")
+    merged.with_suffix(".json").write_text("{}")
+    refused(["--quick", "--sections", "profiles", "--merge", "--out", str(merged)], "is no results file of python -m")
+    refused(["--quick", "--sections", ",", "--out", str(merged)], "choose from")
 
 
 def test_missing_peer_is_reported_not_skipped():
