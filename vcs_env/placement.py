@@ -103,8 +103,10 @@ def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, ex
         gap = clearance(pts, seg) - rad
         if np.any(gap < s.min_separation + more):
             i = int(np.argmin(gap))
+            body = float(np.broadcast_to(rad, gap.shape)[i])
             raise ValueError(
-                f"{s.kind} layout: {what} {i} at {np.round(pts[i], 3).tolist()} is {gap[i]:.3f} m from a wall, "
+                f"{s.kind} layout: the body at {what} {i} ({np.round(pts[i], 3).tolist()}, radius {body:g} m) "
+                f"is {gap[i]:.3f} m from a wall{' (it overlaps the wall)' if gap[i] < 0 else ''}, "
                 f"need >= min_separation = {s.min_separation} m" + (f" + jitter = {more} m" if more else "")
             )
     from .routes import Roadmap
