@@ -45,6 +45,23 @@ def test_unknown_planner_lists_the_registered_names():
         make_planner(StandStill(), speed=1.0)
 
 
+def test_an_env_copies_a_planner_it_is_given_or_says_why_it_cannot():
+    import threading
+
+    import vcs_env.planning as planning
+
+    class Locked(StandStill):
+        def __init__(self):
+            self.lock = threading.Lock()  # no copy of a lock
+
+    free = StandStill()
+    assert planning.own_planner(free) is not free and isinstance(planning.own_planner(free), StandStill)
+    locked = Locked()
+    with pytest.warns(UserWarning, match="cannot be copied .* give every env its own"):
+        assert planning.own_planner(locked) is locked
+    assert planning.own_planner("straight").name == "straight"
+
+
 def test_planner_options_and_masks_are_checked_by_name():
     """Options a planner does not take are bad input (a ValueError naming them), not a TypeError; a bool is no
     number of the VO planners; every planner's plan_for checks its mask."""

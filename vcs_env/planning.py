@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import warnings
 from collections.abc import Callable, Iterator, Mapping
 from importlib.metadata import EntryPoint, entry_points
 
@@ -159,5 +160,16 @@ def make_planner(spec: str | Planner, **kwargs) -> Planner:
 def own_planner(spec: str | Planner) -> Planner:
     """:func:`make_planner` for an env: a planner instance given is copied, so that envs never share one (a
     planner keeps memory across periods, per batch of worlds: two envs planning in turn with one instance
-    would clear each other's, and their episodes would differ from those with a planner each)."""
-    return copy.deepcopy(spec) if isinstance(spec, Planner) else make_planner(spec)
+    would clear each other's, and their episodes would differ from those with a planner each). A planner that
+    cannot be copied (one holding a file or a lock, say) is used as it is, with a warning."""
+    if not isinstance(spec, Planner):
+        return make_planner(spec)
+    try:
+        return copy.deepcopy(spec)
+    except Exception as e:  # deepcopy raises what the object's own parts raise (TypeError, PicklingError, ...)
+        warnings.warn(
+            f"planner {type(spec).__name__} cannot be copied ({e}); this env uses the instance itself: give every env "
+            "its own",
+            stacklevel=3,
+        )
+        return spec
