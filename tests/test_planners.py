@@ -45,7 +45,7 @@ def test_invalid_arguments():
         make_planner("vo", weight=-1.0)
     with pytest.raises(ValueError, match="time_horizon"):
         make_planner("orca", time_horizon=0.0)
-    with pytest.raises(TypeError):
+    with pytest.raises(ValueError, match="planner 'hrvo' does not take the options \\['horizon'\\]"):
         make_planner("hrvo", horizon=3.0)
 
 
