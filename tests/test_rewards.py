@@ -75,6 +75,62 @@ def test_bad_reward_terms_raise(terms, match):
         NavEngine(vcs_env.make_scenario("swap"), reward_terms=terms)
 
 
+def test_a_term_that_gives_other_than_one_number_per_robot_is_named():
+    """A custom term's value must be (B, n) finite numbers: other shapes were broadcast into the reward (or failed in
+    the adapter, far from the term), None became NaN."""
+    for fn, said in (
+        (lambda w, e, a: np.ones((1, 2, 2)), r"'x' returned shape \(1, 2, 2\); a term gives one number per robot"),
+        (lambda w, e, a: np.ones(3), r"'x' returned shape \(3,\)"),
+        (lambda w, e, a: None, "'x' returned a NoneType, not numbers"),
+        (lambda w, e, a: np.full((1, 2), np.nan), "'x' returned a NaN or infinite value"),
+        (lambda w, e, a: "many", "'x' returned a str, not numbers"),
+    ):
+        eng = NavEngine(vcs_env.make_scenario("swap", n_robots=2), reward_terms={"x": (1.0, fn)})
+        eng.reset([0])
+        with pytest.raises(ValueError, match=said):
+            eng.step(np.zeros((1, 2, 2)))
+
+
+class Moved(RewardTerm):
+    """Distance each robot moved in the step [m], from positions it keeps across steps (state, as in
+    docs/extending.md)."""
+
+    name = "moved"
+
+    def __init__(self):
+        self.prev = None
+
+    def start(self, world, expert, worlds):
+        if self.prev is None or self.prev.shape != world.pos.shape:
+            self.prev = world.pos.copy()
+        else:
+            self.prev[worlds] = world.pos[worlds]
+
+    def __call__(self, x: StepInput) -> np.ndarray:
+        d = np.linalg.norm(x.world.pos - self.prev, axis=-1)
+        self.prev = x.world.pos.copy()
+        return np.where(x.events.acted, d, 0.0)
+
+
+def test_one_term_object_given_to_several_envs_keeps_a_state_per_env():
+    """An env copies a reward term object it is given: two envs stepped in turn with one object get the rewards of
+    envs with one each (they measured against each other's positions)."""
+
+    def run(terms):
+        envs = [vcs_env.parallel_env(scenario="random", n_robots=4, reward_terms={"moved": (1.0, t)}) for t in terms]
+        for k, env in enumerate(envs):
+            env.reset(seed=k)
+        out = []
+        for _ in range(20):
+            for env in envs:
+                rewards = env.step({a: np.ones(2, np.float32) for a in env.agents})[1]
+                out.append(sorted(rewards.items()))
+        return out
+
+    shared = Moved()
+    assert run([shared, shared]) == run([Moved(), Moved()])
+
+
 def test_potential_shaping_needs_a_planner_with_a_potential():
     with pytest.raises(ValueError, match="'straight' has none"):
         NavEngine(vcs_env.make_scenario("swap", rewards={"vcs_potential": 1.0}), expert="straight")

@@ -21,7 +21,7 @@ import numpy as np
 
 from .observations import observe
 from .planning import Planner, own_planner
-from .rewards import RewardFn, RewardTerm, StepInput, build_terms, weighted_sum
+from .rewards import RewardFn, RewardTerm, StepInput, build_terms, checked_term, weighted_sum
 from .scenario import Scenario, make_scenario
 from .sim import Simulator, StepEvents
 from .start_states import StartStates
@@ -197,7 +197,7 @@ class NavEngine:
         terminated = events.reached | crashed
         truncated = world.active & (world.steps >= self.max_steps)[:, None]
         x = StepInput(world, events, actions, crashed, self.scenario.dt, self.gamma, self.expert, prev_expert)
-        terms = {name: term(x) for name, term in self.terms.items()}
+        terms = {name: checked_term(name, term(x), world.active.shape) for name, term in self.terms.items()}
         obs = self.observe()
         final_obs, ended = None, np.zeros(self.batch_size, dtype=bool)
         if autoreset:

@@ -60,7 +60,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
 
     ## Info
     ``reward_terms``, ``reached_goal`` (bool), ``collided_with`` (list of ``robot_i`` /
-    ``obstacle_k``), ``min_separation`` (smallest swept gap this step [m]) and, with an expert,
+    ``obstacle_k`` / ``wall_k``), ``min_separation`` (smallest swept gap this step [m]) and, with an expert,
     ``expert_action`` (the expert's action for the returned observation).
 
     ## Arguments

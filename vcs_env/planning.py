@@ -160,16 +160,17 @@ def make_planner(spec: str | Planner, **kwargs) -> Planner:
 def own_planner(spec: str | Planner) -> Planner:
     """:func:`make_planner` for an env: a planner instance given is copied, so that envs never share one (a
     planner keeps memory across periods, per batch of worlds: two envs planning in turn with one instance
-    would clear each other's, and their episodes would differ from those with a planner each). A planner that
-    cannot be copied (one holding a file or a lock, say) is used as it is, with a warning."""
-    if not isinstance(spec, Planner):
-        return make_planner(spec)
+    would clear each other's, and their episodes would differ from those with a planner each)."""
+    return env_copy(spec, f"planner {type(spec).__name__}") if isinstance(spec, Planner) else make_planner(spec)
+
+
+def env_copy(obj, what: str):
+    """The env's own copy of ``obj``, a planner or a reward term that may keep state across steps (two envs given one
+    object would mix their states); one that cannot be copied (holding a file or a lock, say) is used as it is,
+    with a warning naming ``what``."""
     try:
-        return copy.deepcopy(spec)
+        return copy.deepcopy(obj)
     except Exception as e:  # deepcopy raises what the object's own parts raise (TypeError, PicklingError, ...)
-        warnings.warn(
-            f"planner {type(spec).__name__} cannot be copied ({e}); this env uses the instance itself: give every env "
-            "its own",
-            stacklevel=3,
-        )
-        return spec
+        said = f"{what} cannot be copied ({e}); this env uses the object itself: give every env its own"
+        warnings.warn(said, stacklevel=4)
+        return obj

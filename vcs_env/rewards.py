@@ -16,7 +16,7 @@ import numpy as np
 
 from . import routes
 from .geometry import time_to_collision
-from .planning import Planner
+from .planning import Planner, env_copy
 from .sim import StepEvents
 from .stall import CLOCK_FIELDS
 from .state import WorldState
@@ -256,7 +256,8 @@ class FunctionTerm(RewardTerm):
         self.name, self.fn = name, fn
 
     def __call__(self, x: StepInput) -> np.ndarray:
-        return np.where(x.events.acted, np.asarray(self.fn(x.world, x.events, x.actions), dtype=np.float64), 0.0)
+        value = checked_term(self.name, self.fn(x.world, x.events, x.actions), x.events.acted.shape)
+        return np.where(x.events.acted, value, 0.0)
 
 
 TERMS: tuple[type[RewardTerm], ...] = (
@@ -311,8 +312,24 @@ def build_terms(
         if not callable(fn):
             raise ValueError(f"reward_terms[{name!r}] function is not callable")
         weights[name] = float(w)
-        terms[name] = fn if isinstance(fn, RewardTerm) else FunctionTerm(name, fn)
+        terms[name] = env_copy(fn, f"reward term {name!r}") if isinstance(fn, RewardTerm) else FunctionTerm(name, fn)
     return terms, weights
+
+
+def checked_term(name: str, value, shape: tuple[int, int]) -> np.ndarray:
+    """A term's value as a ``(B, n)`` float64 array of finite numbers, or a ``ValueError`` naming the term (a custom
+    term that returned another shape was broadcast into the reward, or failed far from its cause)."""
+    try:
+        if value is None:
+            raise TypeError
+        out = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"reward term {name!r} returned a {type(value).__name__}, not numbers {shape}") from None
+    if out.shape != shape:
+        raise ValueError(f"reward term {name!r} returned shape {out.shape}; a term gives one number per robot {shape}")
+    if not np.isfinite(out).all():
+        raise ValueError(f"reward term {name!r} returned a NaN or infinite value")
+    return out
 
 
 def weighted_sum(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray:

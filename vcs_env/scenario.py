@@ -278,8 +278,8 @@ class Scenario:
     observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
     stall_clock: bool = False
     """Keep each robot's stall clock (:mod:`vcs_env.stall`: how long it has been stuck and the detour the
-    expert's stall rule gives it) and append it to every robot's observation after the wall points
-    (the ``clock`` block, observation v2 only); False: off."""
+    expert's stall rule gives it) and append it to every robot's observation after the neighbours, before the
+    lidar and the wall points (the ``clock`` block, observation v2 only); False: off."""
     observation: int = 2
     """Observation version (:mod:`vcs_env.observations`): 2, the default, or 1 (what v1 checkpoints read)."""
     pedestrians: PedestrianSpec | None = None
