@@ -9,6 +9,7 @@ guidance (``--guide-anneal``) reaches zero at its step."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -131,6 +132,15 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
 
     with pytest.raises(CheckpointError, match="is a residual policy: its network's action is a correction of the vcs"):
         load_checkpoint(res["model"], make_scenario("circle", n_robots=4))
+    # --init from it trains on only as the same residual (the correction network drove as a policy: 0.00).
+    plain = dataclasses.replace(cfg, residual=None, out=str(tmp_path / "plain"), init=str(res["model"]))
+    with pytest.raises(ValueError, match="is a residual policy \\(--residual vcs --residual-scale 0.25\\)"):
+        train(plain)
+    other = dataclasses.replace(plain, residual="vcs", residual_scale=0.5)
+    with pytest.raises(ValueError, match="give this run the same --residual vcs --residual-scale 0.25"):
+        train(other)
+    with pytest.raises(ValueError, match="is no residual policy"):
+        train(dataclasses.replace(cfg, out=str(tmp_path / "r2"), init="policies/circle8/model.zip"))
     net = load_checkpoint(res["model"], make_scenario("circle", n_robots=4), network_only=True)
     assert net.predict(np.zeros(net.observation_space.shape, dtype=np.float32), deterministic=True)[0].shape == (2,)
     pytest.importorskip("onnxruntime", reason="the export extra")

@@ -56,7 +56,8 @@ def resume_base(args: argparse.Namespace) -> tuple[TrainConfig, Checkpoint]:
     if changed:
         raise ValueError(
             f"a resumed run keeps its network and PPO settings; {', '.join(changed)} would not apply. "
-            "Start a new run from the checkpoint's weights with --init to change them"
+            "Start a new run from the checkpoint's weights with --init to change them (a residual run's with the same "
+            "--residual flags)"
         )
     if getattr(args, "out", None) is None:
         base = dataclasses.replace(base, out=str(ckpt.run_dir))

@@ -250,6 +250,25 @@ def start_states(cfg: TrainConfig, scenarios) -> StartStates | None:
     return starts
 
 
+def check_init_residual(init: Checkpoint, residual: Residual | None) -> None:
+    """``--init`` from a network whose actions mean what this run's mean: a residual's correction of the same planner
+    (same scale and gate), or plain actions on both sides; a ``ValueError`` otherwise (the weights were taken either
+    way, and a residual's correction network drove as if it were a policy: no robot arrived)."""
+    theirs = Residual.of(init.record.get("config", {}) if isinstance(init.record, dict) else {})
+    if theirs == residual:
+        return
+    if theirs is None:
+        raise ValueError(
+            f"--init {init.describe()} is no residual policy (its network's actions are actions), but this run is a "
+            f"residual over {residual.planner}: start it without --init, or from a residual run with the same rule"
+        )
+    flags = f"--residual {theirs.planner} --residual-scale {theirs.scale}" + (" --residual-gate" if theirs.gate else "")
+    raise ValueError(
+        f"--init {init.describe()} is a residual policy ({flags}): its network's actions correct that planner's; give "
+        f"this run the same {flags}"
+    )
+
+
 def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str, Any]:
     """Train (or resume from the checkpoint ``resume``) a shared PPO policy; returns the final
     evaluation and paths."""
@@ -267,6 +286,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
     init, resume = (open_checkpoint(p) if p else None for p in (cfg.init, resume))  # fail fast, before torch
+    if init is not None:
+        check_init_residual(init, residual)
     if cfg.eval_suite:
         get_suite(cfg.eval_suite)  # an unknown name raises here, not after the first rollouts
 
