@@ -144,7 +144,8 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
                     f"v{expected['version']}: "
                     + (
                         f"run it on Scenario(observation={version}, ...) (the -v{version} env ids), or let "
-                        "vcs-env evaluate / compare / probe choose its sensing, or retrain it"
+                        "vcs-env evaluate / compare / probe choose its sensing, or retrain it (vcs-env train, bc and "
+                        "distil observe v2 only: start them from a v2 checkpoint such as policies/generalist-v2)"
                         if produced
                         else f"this vcs-env produces versions {list(OBSERVATION_VERSIONS)}; retrain it"
                     )
