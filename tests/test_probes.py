@@ -91,6 +91,9 @@ def test_probes_inside_a_policys_training_ranges_are_named_and_left_out_of_its_g
     circle8 = training_boxes({"config": {"scenario": "circle", "n_robots": 8, "jitter": 0.1}})
     assert inside_training(Probe("circle", "jitter", {"jitter": 0.1}), circle8) == "circle"
     assert inside_training(Probe("circle", "robots", {"n_robots": 10}), circle8) is None
+    # The box is the scenario the run trained on (no start jitter here), not its family's suite (jitter 0.1).
+    circle12 = training_boxes({"config": {"scenario": "circle", "n_robots": 12}})
+    assert inside_training(Probe("circle", "n_robots=12", {"n_robots": 12}), circle12) is None
     assert training_boxes({}) == []
     # The gap check skips the cells of probes a policy trained on.
     row = {"probe": "a", "policies": {"vcs": {"success": 1.0}, "pol": {"success": 0.5}}, "inside": {"pol": "x"}}

@@ -28,7 +28,7 @@ from typing import Any
 from vcs_env.suites import Suite
 
 from ..checkpoint import open_checkpoint
-from ..config import MAP_FIELDS, ScenarioConfig, config_from_dict, probe_scenario
+from ..config import MAP_FIELDS, ScenarioConfig, build_scenario, config_from_dict, probe_scenario
 from ..mixture import mixture_scenarios
 from ..policies import is_checkpoint_spec, policy_label
 from . import compare
@@ -135,7 +135,7 @@ def training_boxes(record: dict[str, Any]) -> list[tuple[str, str, dict[str, tup
     entries = tuple(config.get("mixture") or ()) or (None,)
     boxes = []
     for entry in entries:
-        scenarios = mixture_scenarios(cfg, (entry,)) if entry else [probe_scenario(cfg)]
+        scenarios = mixture_scenarios(cfg, (entry,)) if entry else [build_scenario(cfg)]  # what the run trained on
         box: dict[str, tuple[float, float]] = {}
         for axes in map(_axes, scenarios):
             for a, (lo, hi) in axes.items():
