@@ -92,3 +92,21 @@ def test_cli_select(tmp_path, capsys):
     assert main(argv) == 0
     assert f"kept {run / 'checkpoints' / 'model_200.zip'}" in capsys.readouterr().out
     assert json.loads((out / "selection.json").read_text())["chosen"].endswith("model_200.zip")
+    # The same --out again: refused (the kept model.zip and its record would be replaced, another run's files kept).
+    assert main(argv) == 2
+    assert "already holds a run (model.zip, model.json)" in capsys.readouterr().err
+
+
+def test_select_says_which_shield_each_candidate_ran_with_and_can_score_the_networks_alone(tmp_path, capsys):
+    shielded = tmp_path / "s"
+    shielded.mkdir()
+    for suffix in (".zip", ".json"):
+        shutil.copy(CROWD5.replace(".zip", suffix), shielded / f"model{suffix}")
+    assert main(["shield", str(shielded / "model.zip"), "--margin", "0.2"]) == 0
+    base = ["select", CROWD5, str(shielded / "model.zip"), "--validation", "crowd-5-v0:7000:7002", "--no-progress"]
+    assert main([*base, "--out", str(tmp_path / "a")]) == 0
+    rows = json.loads((tmp_path / "a" / "selection.json").read_text())["candidates"]
+    assert rows[0]["shield"] is None and rows[1]["shield"]["margin"] == 0.2
+    assert main([*base, "--no-shield", "--out", str(tmp_path / "b")]) == 0
+    rows = json.loads((tmp_path / "b" / "selection.json").read_text())["candidates"]
+    assert rows[0]["shield"] is None and rows[1]["shield"] is None

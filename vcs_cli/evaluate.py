@@ -189,6 +189,7 @@ def cmd_select(args) -> int:
         args.out,
         batch_size=args.batch_size,
         progress=False if args.no_progress else None,
+        shield=not args.no_shield,
     )
     return 0
 
@@ -208,6 +209,11 @@ def _add_select(sub) -> None:
     )
     p.add_argument("--from-step", type=int, default=0, help="leave out periodic checkpoints before this step")
     p.add_argument("--out", required=True, help="directory for model.zip, model.json and selection.json")
+    p.add_argument(
+        "--no-shield",
+        action="store_true",
+        help="score checkpoints without the safety shield their run record names (agents.shield)",
+    )
     p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_select)

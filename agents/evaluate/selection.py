@@ -30,6 +30,7 @@ from vcs_env.suites import Suite
 from ..checkpoint import SB3Checkpoint, open_checkpoint
 from ..config import ScenarioConfig, parse_seeds, probe_scenario
 from ..policies import resolve_policy
+from ..runs import check_fresh_out
 from . import DEFAULT_BATCH, evaluate
 
 _STEP = SB3Checkpoint.periodic
@@ -73,12 +74,16 @@ def select_checkpoint(
     out: str | Path,
     batch_size: int = DEFAULT_BATCH,
     progress: bool | None = False,
+    shield: bool = True,
 ) -> dict[str, Any]:
-    """Score every candidate on every validation suite, copy the best (module docstring) to ``out``.
+    """Score every candidate on every validation suite, copy the best (module docstring) to ``out``, a directory that
+    holds no run (nor an earlier selection). ``shield=False`` scores the networks without the shields their records
+    name (the copy keeps its record as it is).
 
     Returns:
-        ``{"chosen": path, "candidates": [{"checkpoint", "success", "collision", "sets": {suite name:
-        {"success", "collision"}}}, ...]}``, also written to ``out/selection.json``.
+        ``{"chosen": path, "candidates": [{"checkpoint", "shield", "success", "collision", "sets": {suite name:
+        {"success", "collision"}}}, ...]}`` (``shield``: what it was scored with, or None), also written to
+        ``out/selection.json``.
     """
     if not validation:
         raise ValueError("give at least one validation set")
@@ -86,19 +91,24 @@ def select_checkpoint(
     inside = [c for c in candidates if Path(c).resolve().is_relative_to(out.resolve())]
     if inside:
         raise ValueError(f"--out {str(out)!r} holds candidate {str(inside[0])!r}: writing there would overwrite it")
+    check_fresh_out(out)
+    if (out / "selection.json").exists():
+        raise ValueError(f"--out {str(out)!r} holds an earlier selection; give another --out, or remove it first")
     with warnings.catch_warnings():  # errors only: evaluate warns once per candidate below
         warnings.simplefilter("ignore")
         for c in candidates:  # every candidate fits every set before the first is scored
             for suite in validation:
-                resolve_policy(str(c), suite.scenario)  # as evaluate loads it (with its own sensing)
+                resolve_policy(str(c), suite.scenario, shield=shield)  # as evaluate loads it (its own sensing)
     scores = []
     for c in candidates:
-        sets = {}
+        sets, guard = {}, None
         for suite in validation:
-            s = evaluate(str(c), suite, batch_size=batch_size, progress=progress).summary
+            res = evaluate(str(c), suite, batch_size=batch_size, progress=progress, shield=shield)
+            s, guard = res.summary, res.shield
             sets[suite.name] = {"success": s["success"]["mean"], "collision": s["collision"]["mean"]}
         row = {
             "checkpoint": str(c),
+            "shield": guard,
             "success": sum(x["success"] for x in sets.values()) / len(sets),
             "collision": sum(x["collision"] for x in sets.values()) / len(sets),
             "sets": sets,
