@@ -111,8 +111,14 @@ def test_bad_teacher_pairs_are_named():
         teachers_of(DistilConfig(mixture=("circle",)))
     with pytest.raises(ValueError, match="needs --mixture"):
         teachers_of(DistilConfig(teacher="t.zip"))
-    with pytest.raises(ValueError, match=r"'swap' is not an entry of --mixture"):
+    with pytest.raises(ValueError, match=r"'swap=u.zip': no entry of --mixture \(\['circle'\]\) followed by '='"):
         teachers_of(DistilConfig(mixture=("circle",), teacher="t.zip", teacher_for=("swap=u.zip",)))
+    # Entries and paths with "=" in them; an entry named twice.
+    mix = ("circle-8-v0:n_robots=6-8/2", "swap")
+    got = teachers_of(DistilConfig(mixture=mix, teacher="t.zip", teacher_for=("circle-8-v0:n_robots=6-8/2=a=b/m.zip",)))
+    assert got == {"circle-8-v0:n_robots=6-8/2": "a=b/m.zip", "swap": "t.zip"}
+    with pytest.raises(ValueError, match="names 'swap' twice"):
+        teachers_of(DistilConfig(mixture=mix, teacher="t.zip", teacher_for=("swap=u.zip", "swap=v.zip")))
     with pytest.raises(ValueError, match="ENTRY=CHECKPOINT"):
         teachers_of(DistilConfig(mixture=("circle",), teacher="t.zip", teacher_for=("u.zip",)))
     with pytest.raises(ValueError, match="needs --init"):

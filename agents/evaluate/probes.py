@@ -180,7 +180,7 @@ def policy_labels(specs: list[str], expert: str | None = "vcs") -> dict[str, str
         if spec == expert:
             continue
         named, sep, rest = spec.partition("=")
-        if sep and named and rest and "/" not in named and os.sep not in named:
+        if sep and named and rest and "/" not in named and os.sep not in named and not os.path.exists(spec):
             label, spec = named.strip(), rest.strip()
         else:
             label = policy_label(spec)

@@ -111,12 +111,21 @@ def teachers_of(cfg: DistilConfig) -> dict[str, str]:
     if not cfg.teacher:
         raise ValueError("vcs-env distil needs --teacher (the checkpoint that labels the entries --teacher-for leaves)")
     out = dict.fromkeys(cfg.mixture, cfg.teacher)
+    named: set[str] = set()
     for pair in cfg.teacher_for:
-        entry, sep, ckpt = pair.rpartition("=")
-        if not sep or not entry or not ckpt:
+        # The longest mixture entry the pair starts with, then "=": entries and paths may hold "=" themselves.
+        entry = max((e for e in out if pair.startswith(e + "=")), key=len, default=None)
+        if entry is None:
+            entry, sep, ckpt = pair.rpartition("=")
+            if not sep or not entry or not ckpt:
+                raise ValueError(f"--teacher-for takes ENTRY=CHECKPOINT pairs, got {pair!r}")
+            raise ValueError(f"--teacher-for {pair!r}: no entry of --mixture ({list(out)}) followed by '='")
+        ckpt = pair[len(entry) + 1 :]
+        if not ckpt:
             raise ValueError(f"--teacher-for takes ENTRY=CHECKPOINT pairs, got {pair!r}")
-        if entry not in out:
-            raise ValueError(f"--teacher-for {pair!r}: {entry!r} is not an entry of --mixture ({list(out)})")
+        if entry in named:
+            raise ValueError(f"--teacher-for names {entry!r} twice; give each entry one teacher")
+        named.add(entry)
         out[entry] = ckpt
     if cfg.init is None and cfg.teacher == EXPERT:
         raise ValueError(f"with --teacher {EXPERT} (the expert, no network) the student needs --init CHECKPOINT")
