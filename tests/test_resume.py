@@ -33,7 +33,10 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     assert "this run stops at 8192 timesteps, not 8000" in capsys.readouterr().out
     assert not any(elsewhere.iterdir())
     assert _timesteps(run / "eval.jsonl") == [2048, 4096, 6144, 8192]
-    assert [h["timesteps"] for h in json.loads((run / "model.json").read_text())["history"]] == [2048, 4096, 6144, 8192]
+    record = json.loads((run / "model.json").read_text())
+    assert [h["timesteps"] for h in record["history"]] == [2048, 4096, 6144, 8192]
+    # The record says the weights went on from the checkpoint (its command alone does not rebuild them).
+    assert record["resumed_from"] == {"checkpoint": str(ckpt), "timesteps": 2048}
     capsys.readouterr()
     # Flags the checkpoint fixes, --init, and checkpoints that are not a PPO run's are refused.
     for extra, message in (

@@ -311,6 +311,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
         model = resume.load(scenario, env=venv)
+        start_steps = int(model.num_timesteps)
         model.tensorboard_log = tb
         model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
         print(f"resumed {resume} at {model.num_timesteps} timesteps")
@@ -365,6 +366,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     final = callback.evaluate()
     model.logger.dump(model.num_timesteps)
     wall = round(time.time() - t_start, 1)
+    # A resumed run's weights come from the checkpoint it went on from: its command alone does not rebuild them.
+    went_on = {"resumed_from": {"checkpoint": str(resume.path), "timesteps": start_steps}} if resume else {}
     path = save_model(
         model,
         out / "model.zip",
@@ -375,7 +378,12 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         evaluation=final,
         wall_time=wall,
         history=periodic.history,
+        **went_on,
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
-    print(f"reproduce: {config_command('train', cfg)}")
+    if resume:
+        then = f"vcs-env train --resume {resume.path} --timesteps {cfg.timesteps}"
+        print(f"reproduce: the run of {resume.path} ({start_steps} timesteps), then {then}")
+    else:
+        print(f"reproduce: {config_command('train', cfg)}")
     return {"model": str(path), "evaluation": final, "wall_time": wall}
