@@ -286,7 +286,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
     init, resume = (open_checkpoint(p) if p else None for p in (cfg.init, resume))  # fail fast, before torch
-    if init is not None:
+    if init is not None and resume is None:  # a resumed run's --init only records where it started
         check_init_residual(init, residual)
     if cfg.eval_suite:
         get_suite(cfg.eval_suite)  # an unknown name raises here, not after the first rollouts
