@@ -169,7 +169,10 @@ def run(
     info["load_average_end"] = list(os.getloadavg())
     import numba
 
-    info["threading_layer"] = numba.threading_layer()
+    try:
+        info["threading_layer"] = numba.threading_layer()
+    except ValueError:  # no parallel kernel ran (one thread, NUMBA_NUM_THREADS=1): numba started no layer
+        info["threading_layer"] = "none (no parallel kernel ran)"
     info["omp_wait_policy"] = os.environ.get("OMP_WAIT_POLICY", "unset")
     return {
         "machine": info, "threads": counts, "rows": rows, "crossover": cross, "expert": expert, "steps": steps,
