@@ -21,7 +21,16 @@ import numpy as np
 
 from .observations import observe
 from .planning import Planner, own_planner
-from .rewards import TERMS, RewardFn, RewardTerm, StepInput, build_terms, checked_term, weighted_sum
+from .rewards import (
+    TERMS,
+    FunctionTerm,
+    RewardFn,
+    RewardTerm,
+    StepInput,
+    build_terms,
+    checked_term,
+    weighted_sum,
+)
 from .scenario import Scenario, make_scenario
 from .sim import Simulator, StepEvents
 from .start_states import StartStates
@@ -134,7 +143,8 @@ class NavEngine:
         self.scenario = scenario
         self.action_mode = action_mode
         self.terms, self.weights = build_terms(scenario.rewards.as_dict(), reward_terms)
-        self._custom = [name for name, term in self.terms.items() if type(term) not in TERMS]
+        # Terms of the user's own classes (a FunctionTerm checks its function's value itself).
+        self._custom = [name for name, term in self.terms.items() if type(term) not in (*TERMS, FunctionTerm)]
         if expert is None and any(t.needs_expert for t in self.terms.values()):
             expert = "vcs"
         self.expert: Planner | None = None if expert is None else own_planner(expert)

@@ -81,6 +81,11 @@ class _Progress:
 
 
 # --------------------------------------------------------------------------- evaluate
+def solved_rows(rows: Sequence[dict[str, float]]) -> np.ndarray:
+    """``(E,)`` bool: the episodes of ``rows`` (:func:`~vcs_env.metrics.episode_metrics`) counted as a success."""
+    return np.array([r["success"] == 1.0 for r in rows], dtype=bool)
+
+
 @dataclass
 class EvalResult:
     """One policy on one suite."""
@@ -112,7 +117,7 @@ class EvalResult:
     @property
     def solved(self) -> np.ndarray:
         """``(E,)`` bool: episodes counted as a success."""
-        return np.array([r["success"] == 1.0 for r in self.rows], dtype=bool)
+        return solved_rows(self.rows)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready content (NaN becomes None)."""
@@ -209,7 +214,7 @@ def evaluate(
         policy=resolved.name,
         suite=suite,
         rows=rows,
-        summary=aggregate(rows, solved_mask=[r["success"] == 1.0 for r in rows]),
+        summary=aggregate(rows, solved_mask=solved_rows(rows)),
         compute_time=compute,
         decisions=decisions,
         wall_time=time.perf_counter() - t0,
