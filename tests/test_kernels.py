@@ -14,7 +14,7 @@ import pytest
 
 import vcs_env
 from vcs_env import kernels
-from vcs_env.dynamics import integrate
+from vcs_env.dynamics import integrate, stop_at_goal
 from vcs_env.geometry import closest_approach, point_segment_distance, unit
 from vcs_env.observations import observation_layout, observe, reference_observe
 from vcs_env.obstacles import Arbitrary
@@ -142,6 +142,27 @@ def test_swept_events_equal_numpy_bit_for_bit():
     assert hits > 50  # the inputs exercised the collision branches
 
 
+def test_stop_at_goal_equals_numpy_bit_for_bit():
+    rng = np.random.default_rng(11)
+    stops = 0
+    for _ in range(30):
+        w = random_world(rng, spread=2.0)
+        new_pos = w.pos + rng.uniform(-1.5, 1.5, w.pos.shape) * (rng.random((*w.speed.shape, 1)) < 0.9)
+        # Goals near the path, some passed through and left, some ending inside the disc.
+        w.goal[:] = w.pos + rng.uniform(0.0, 1.3, w.speed.shape)[..., None] * (new_pos - w.pos)
+        w.goal += rng.uniform(-w.r_goal, w.r_goal, w.goal.shape)
+        want_pos, want = stop_at_goal(w.pos, new_pos, w.goal, w.active, w.r_goal)
+        got_pos = new_pos.copy()
+        got = kernels.stop_at_goal(w.pos, got_pos, w.goal, w.active, w.r_goal)
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(got_pos, want_pos)
+        assert not (got & ~w.active).any()
+        np.testing.assert_array_equal(got_pos[~got], new_pos[~got])  # the others end where they would
+        assert (np.linalg.norm(got_pos[got] - w.goal[got], axis=-1) <= w.r_goal + 1e-12).all()
+        stops += int(got.sum())
+    assert stops > 50  # the inputs exercised the cut
+
+
 @pytest.mark.parametrize("k", [1, 3, 6, 20])
 def test_observe_equals_numpy_bit_for_bit(k):
     rng = np.random.default_rng(4 + k)
@@ -200,9 +221,11 @@ def reference_step(sim, actions):
     s, w = sim.scenario, sim.world
     acted = w.active.copy()
     speed, heading, new_pos = reference_integrate(w, actions, sim.action_mode)
+    new_pos, at_goal = stop_at_goal(w.pos, new_pos, w.goal, acted, w.r_goal)
     obs_vel = reference_obstacle_velocity(sim)
     new_obs = w.obs_pos + obs_vel * s.dt
     robot_hits, obstacle_hits, collided, reached, min_sep, before, after = reference_events(w, new_pos, new_obs)
+    reached |= at_goal
     if s.on_collision == "terminate" and collided.any():  # crashed robots stop where they touched (test_stop.py)
         redo = collided.any(axis=1)
         stop, hits, crashed, sep = kernels.stop_at_contact(

@@ -96,6 +96,42 @@ def test_arrival_is_swept_and_robot_parks():
     assert eng.world.present[0, 0]  # still an obstacle for the others
 
 
+@pytest.mark.parametrize("on_collision", ["continue", "terminate"])
+def test_a_step_through_the_goal_disc_stops_at_the_goal(on_collision):
+    # 3 m/s with dt = 0.5 s: the first step (1.5 m) passes 0.05 m from the goal 1 m ahead and would end
+    # 0.5 m beyond it, 0.1 m into a thin wall 0.6 m behind it. The robot arrives and stops at the step's
+    # point nearest its goal: no contact with the wall, a positive progress, parked inside the disc.
+    layout = CustomLayout(
+        start=[(0.0, 0.0)], goal=[(1.0, 0.05)], heading=[0.0], speed=[3.0], walls=[((1.6, -1.0), (1.6, 1.0))]
+    )
+    robot = vcs_env.RobotSpec(v_max=3.0, radius=0.2)
+    s = vcs_env.make_scenario(
+        "custom", n_robots=1, n_obstacles=0, custom=layout, dt=0.5, r_goal=0.1, robot=robot, on_collision=on_collision
+    )
+    eng = NavEngine(s)
+    eng.reset([0])
+    res = eng.step(np.zeros((1, 1, 2)))
+    assert res.events.reached[0, 0] and res.terminated[0, 0] and not res.events.collided[0, 0]
+    assert res.terms["arrival"][0, 0] == 1.0 and res.terms["collision"][0, 0] == 0.0
+    assert res.terms["progress"][0, 0] > 0.0
+    np.testing.assert_allclose(eng.world.pos[0, 0], (1.0, 0.0), atol=1e-12)  # nearest to (1, 0.05): 0.05 away
+    assert res.events.goal_dist_after[0, 0] == pytest.approx(0.05)
+    eng.step(np.zeros((1, 1, 2)))
+    np.testing.assert_allclose(eng.world.pos[0, 0], (1.0, 0.0), atol=1e-12)  # and parked there
+
+
+def test_a_step_that_ends_inside_the_goal_disc_is_not_cut():
+    # 1 m/s, dt = 0.1: the 10th step runs through the goal and ends 0.03 m past it, inside r_goal: it ends
+    # where it ends (the 9th ended 0.07 m short, outside).
+    s = custom(((0.0, 0.0),), ((0.97, 0.0),), speeds=(1.0,), r_goal=0.04)
+    eng = NavEngine(s)
+    eng.reset([0])
+    for k in range(10):
+        res = eng.step(np.zeros((1, 1, 2)))
+        assert res.events.reached[0, 0] == (k == 9)
+    assert eng.world.pos[0, 0, 0] == pytest.approx(1.0)
+
+
 def test_park_finished_false_removes_arrived_robots():
     s = custom(((0.0, 0.0), (2.0, 0.0)), ((0.5, 0.0), (-3.0, 0.0)), speeds=(1.0, 0.0), park_finished=False)
     eng = NavEngine(s)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import rotate, unit, wrap_angle
+from .geometry import closest_approach, rotate, unit, wrap_angle
 from .state import WorldState
 
 ACTION_MODES = ("delta", "absolute")
@@ -96,6 +96,34 @@ def integrate(
         heading = wrap_angle(world.heading + dth)
     pos = world.pos + (speed * dt)[..., None] * unit(heading)
     return speed, heading, pos
+
+
+def stop_at_goal(
+    pos: np.ndarray, new_pos: np.ndarray, goal: np.ndarray, acted: np.ndarray, r_goal: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Where the steps end once arrivals stop robots: the readable reference of
+    :func:`vcs_env.kernels.stop_at_goal`.
+
+    A robot arrives when its straight step passes within ``r_goal`` of its goal, and an arriving robot
+    stops driving. A step that enters the goal disc and leaves it again (a fast robot, a long ``dt``)
+    therefore ends at its point nearest the goal, not at its end beyond the disc.
+
+    Args:
+        pos: ``(B, n, 2)`` positions at the start of the step [m].
+        new_pos: ``(B, n, 2)`` positions where the steps would end [m].
+        goal: ``(B, n, 2)`` goals [m].
+        acted: ``(B, n)`` robots that moved this step.
+        r_goal: arrival radius [m].
+
+    Returns:
+        The step ends ``(B, n, 2)`` [m] and the robots stopped short ``(B, n)`` (bool).
+    """
+    start, end = pos - goal, new_pos - goal
+    d = end - start
+    dd = np.einsum("...i,...i->...", d, d)
+    s = np.clip(-np.einsum("...i,...i->...", start, d) / np.where(dd > 0.0, dd, 1.0), 0.0, 1.0)
+    stopped = acted & (np.linalg.norm(end, axis=-1) > r_goal) & (closest_approach(start, end) <= r_goal)
+    return np.where(stopped[..., None], pos + s[..., None] * d, new_pos), stopped
 
 
 def target_to_action(world: WorldState, target: np.ndarray, action_mode: str = "delta") -> np.ndarray:

@@ -59,6 +59,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
+    * v2, fix (same id, 2026-12-05): a robot whose step passes through its goal disc and out again (a fast
+      robot, a long ``dt``) stops at the step's point nearest its goal, where it arrived, instead of driving
+      on to the step's end (up to ``v_max dt`` past its goal, its progress reward negative, a contact beyond
+      the goal counted as a collision of an arrived robot). Steps that end inside the disc are unchanged.
     * v2, planner default (same id, 2026-12-01): the VCS expert, which drives ``others`` by default and
       gives the expert labels and the VCS shaping terms, fits its buffers to the gate between two parked
       robots or standing obstacles it heads through (``VCSParams.fit_discs``); episodes with parked

@@ -128,6 +128,32 @@ def integrate(pos, heading, speed, v_max, a_max, omega_max, acted, actions, dt, 
 
 
 @twin_kernel(cache=True)
+def stop_at_goal(pos, new_pos, goal, acted, r_goal):
+    """Arrivals within a step, in place on ``new_pos`` ``(B, n, 2)`` [m]: an acting robot whose straight
+    step from ``pos`` passes within ``r_goal`` [m] of its ``goal`` ``(B, n, 2)`` but ends farther stops at
+    the point of the step nearest the goal (:func:`vcs_env.dynamics.stop_at_goal`, the oracle).
+
+    Returns ``stopped (B, n)`` (bool): the robots whose step was cut short there.
+    """
+    B, n = acted.shape
+    stopped = np.zeros((B, n), dtype=np.bool_)
+    for b in prange(B):
+        for i in range(n):
+            if not acted[b, i]:
+                continue
+            sx, sy = pos[b, i, 0] - goal[b, i, 0], pos[b, i, 1] - goal[b, i, 1]
+            ex, ey = new_pos[b, i, 0] - goal[b, i, 0], new_pos[b, i, 1] - goal[b, i, 1]
+            if math.sqrt(ex * ex + ey * ey) <= r_goal or _closest_approach(sx, sy, ex, ey) > r_goal:
+                continue
+            dx, dy = ex - sx, ey - sy
+            s = _clip(-(sx * dx + sy * dy) / (dx * dx + dy * dy), 0.0, 1.0)  # the step is not empty: it ends farther
+            new_pos[b, i, 0] = pos[b, i, 0] + s * dx
+            new_pos[b, i, 1] = pos[b, i, 1] + s * dy
+            stopped[b, i] = True
+    return stopped
+
+
+@twin_kernel(cache=True)
 def swept_events(pos, new_pos, radius, present, acted, goal, obs_pos, new_obs, obs_radius, r_goal):
     """Swept collision and goal tests of one step (straight motions from ``pos`` to ``new_pos``
     ``(B, n, 2)`` and ``obs_pos`` to ``new_obs`` ``(B, m, 2)`` [m]).

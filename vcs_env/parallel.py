@@ -52,7 +52,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     Drawn from the scenario with the generator seeded by ``reset(seed=...)``.
 
     ## Episode End
-    A robot terminates when its centre passes within ``r_goal`` of its goal or, with
+    A robot terminates when its centre passes within ``r_goal`` of its goal (it stops there: a step
+    through the goal disc ends at its point nearest the goal) or, with
     ``on_collision="terminate"`` (default), when it touches a robot, obstacle or wall (swept
     check); it then stops where it first touched.
     Robots still driving after ``max_cycles`` steps are truncated. Finished robots stay in the
@@ -73,6 +74,10 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, fix (same id, 2026-12-05): a robot whose step passes through its goal disc and out again (a fast
+      robot, a long ``dt``) stops at the step's point nearest its goal, where it arrived, instead of driving
+      on to the step's end (up to ``v_max dt`` past its goal, its progress reward negative, a contact beyond
+      the goal counted as a collision of an arrived robot). Steps that end inside the disc are unchanged.
     * v2, planner default (same id, 2026-12-01): the VCS expert behind the expert labels and the VCS
       shaping terms fits its buffers to the gate between two parked robots or standing obstacles it
       heads through (``VCSParams.fit_discs``); dynamics and the other rewards unchanged.

@@ -245,7 +245,7 @@ class Scenario:
     bounce: bool = False
     """Obstacles bounce off the arena walls (``arena_half_size``)."""
     r_goal: float = 0.1
-    """A robot has arrived when its centre passes within r_goal of its goal [m]."""
+    """A robot arrives when its centre passes within r_goal of its goal [m], and stops inside that disc."""
     r_ca: float = 6.0
     """Sensing radius [m]: a robot observes objects whose centres are within r_ca."""
     n_neighbors: int = 8

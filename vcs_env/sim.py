@@ -285,11 +285,16 @@ class Simulator:
         obs_vel = self._obstacle_velocity()
         new_obs = w.obs_pos + obs_vel * dt
 
-        # Phase 2: swept checks over the straight motions of the step.
+        # A robot whose step passes through its goal disc and out again arrives, and stops, at the step's
+        # point nearest its goal (in place on new_pos; the swept checks below see the shorter step).
         old_pos = w.pos
+        at_goal = kernels.stop_at_goal(old_pos, new_pos, w.goal, acted, s.r_goal)
+
+        # Phase 2: swept checks over the straight motions of the step.
         robot_hits, obstacle_hits, collided, reached, min_sep, goal_before, goal_after = kernels.swept_events(
             old_pos, new_pos, w.radius, w.present, acted, w.goal, w.obs_pos, new_obs, w.obs_radius, s.r_goal
         )
+        reached |= at_goal  # its nearest point is within r_goal (exactly, not up to rounding on the shorter step)
 
         if w.n_segments:  # walls: contacts like obstacles, swept over the step (no tunnelling)
             wall_hits, min_sep, collided = kernels.wall_events_cached(
