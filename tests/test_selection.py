@@ -3,6 +3,7 @@
 
 import json
 import shutil
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -15,6 +16,7 @@ from vcs_cli import main
 pytestmark = pytest.mark.filterwarnings("ignore::agents.checkpoint.FamilyWarning")
 
 CIRCLE8, CROWD5 = "policies/circle8/model.zip", "policies/crowd5/model.zip"
+GENERALIST, GENERALIST_V2 = "policies/generalist/model.zip", "policies/generalist-v2/model.zip"
 
 
 def _run_dir(tmp_path, files):
@@ -29,7 +31,7 @@ def _run_dir(tmp_path, files):
 
 
 def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoints(tmp_path):
-    run = _run_dir(tmp_path, {1000: CIRCLE8, 200: CIRCLE8, 30: CROWD5, None: CROWD5})
+    run = _run_dir(tmp_path, {1000: CIRCLE8, 200: GENERALIST, 30: CROWD5, None: GENERALIST_V2})
     shutil.copy(CIRCLE8, run / "checkpoints" / "model_old.zip")  # not a periodic checkpoint: not a candidate
     names = [c.name for c in candidates_of([run])]
     assert names == ["model_30.zip", "model_200.zip", "model_1000.zip", "model.zip"]
@@ -42,6 +44,17 @@ def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoint
     # A file named twice (directly and through its run) is one candidate, at its first place.
     twice = candidates_of([run / "model.zip", run], from_step=1000)
     assert [c.name for c in twice] == ["model.zip", "model_1000.zip"]
+    # The same bytes under two names (a distil run's last round and its model.zip) are one candidate, the later.
+    for suffix in (".zip", ".json"):
+        shutil.copy(run / f"model{suffix}", run / "checkpoints" / f"model_2000{suffix}")
+        shutil.copy(CIRCLE8.replace(".zip", suffix), tmp_path / f"copy{suffix}")
+    assert [c.name for c in candidates_of([run], from_step=1000)] == ["model_1000.zip", "model.zip"]
+    both = candidates_of([tmp_path / "copy.zip", run], from_step=1000)
+    assert [c.name for c in both] == ["model_1000.zip", "model.zip"]
+    # The same bytes with another run record (a shield attached to one) are two candidates.
+    record = json.loads((tmp_path / "copy.json").read_text())
+    (tmp_path / "copy.json").write_text(json.dumps({**record, "shield": {"margin": 0.2}}))
+    assert len(candidates_of([tmp_path / "copy.zip", run], from_step=1000)) == 3
     # A candidate made for other observations stops the selection before any scoring.
     k2 = tmp_path / "k2"
     k2.mkdir()
@@ -70,8 +83,14 @@ def test_bad_validation_sets_are_named():
 
 def test_keeps_the_best_on_validation_and_the_later_of_equals(tmp_path):
     # The circle policy loses crowd episodes; the crowd policy solves both sets: it is kept, and
-    # of two equal copies of it the later one.
-    run = _run_dir(tmp_path, {100: CROWD5, 200: CIRCLE8, None: CROWD5})
+    # of two equal ones (the same network in two files that differ by a zip entry SB3 ignores) the later one.
+    (tmp_path / "variant").mkdir()
+    variant = str(tmp_path / "variant" / "model.zip")
+    shutil.copy(CROWD5, variant)
+    shutil.copy(CROWD5.replace(".zip", ".json"), variant.replace(".zip", ".json"))
+    with zipfile.ZipFile(variant, "a") as z:
+        z.writestr("note.txt", "another file, the same network")
+    run = _run_dir(tmp_path, {100: CROWD5, 200: CIRCLE8, None: variant})
     sets = ["crowd-5-v0:7000:7020", "circle-8-v0:7000:7004"]
     out = tmp_path / "release"
     res = select_checkpoint(candidates_of([run]), [validation_suite(s) for s in sets], out)

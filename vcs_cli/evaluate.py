@@ -207,7 +207,13 @@ def _add_select(sub) -> None:
         required=True,
         help="validation sets SCENARIO:START:STOP, e.g. dynamic-v0:7000:7300 (seeds no suite or probe uses)",
     )
-    p.add_argument("--from-step", type=int, default=0, help="leave out periodic checkpoints before this step")
+    p.add_argument(
+        "--from-step",
+        type=int,
+        default=0,
+        help="leave out periodic checkpoints named before this count (environment steps; a distil run "
+        "names them by labelled robot-steps)",
+    )
     p.add_argument("--out", required=True, help="directory for model.zip, model.json and selection.json")
     p.add_argument(
         "--no-shield",

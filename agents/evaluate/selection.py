@@ -18,6 +18,7 @@ holds every candidate's scores.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 import warnings
@@ -52,7 +53,11 @@ def validation_suite(spec: str) -> Suite:
 def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]:
     """The checkpoints to choose from, in order: a ``.zip`` as given; a run directory expands to its
     ``checkpoints/model_<steps>.zip`` by step (other files there are not candidates), then its final
-    ``model.zip``. Periodic checkpoints (``model_<steps>.zip``) before ``from_step`` are left out."""
+    ``model.zip``. Periodic checkpoints (``model_<steps>.zip``) before ``from_step`` are left out (the count in
+    their names: environment steps, or labelled robot-steps for a ``vcs-env distil`` run). A file named twice
+    is one candidate, at its first place; two files with the same bytes and the same run record (but for its
+    ``wall_time``), such as a distil run's last round and its ``model.zip``, are one candidate, at the later
+    place (later training wins a tie anyway)."""
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
@@ -65,7 +70,18 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
     if not out:
         raise ValueError(f"no candidate checkpoint from step {from_step} on in {', '.join(map(str, paths))}")
     seen: set[Path] = set()  # a file named twice is scored once, at its first place
-    return [c for c in out if not (c.resolve() in seen or seen.add(c.resolve()))]
+    out = [c for c in out if not (c.resolve() in seen or seen.add(c.resolve()))]
+    same = [_identity(c) for c in out]
+    return [c for i, c in enumerate(out) if same[i] not in same[i + 1 :]]
+
+
+def _identity(path: Path) -> tuple[str, str]:
+    """What a candidate scores as: its bytes and its run record but for the record's ``wall_time`` (a directory,
+    an RLlib checkpoint, by its path)."""
+    if not path.is_file():
+        return str(path.resolve()), ""
+    record = {k: v for k, v in open_checkpoint(path).record.items() if k != "wall_time"}
+    return hashlib.sha256(path.read_bytes()).hexdigest(), json.dumps(record, sort_keys=True)
 
 
 def select_checkpoint(
