@@ -79,11 +79,11 @@ def test_a_term_that_gives_other_than_one_number_per_robot_is_named():
     """A custom term's value must be (B, n) finite numbers: other shapes were broadcast into the reward (or failed in
     the adapter, far from the term), None became NaN."""
     for fn, said in (
-        (lambda w, e, a: np.ones((1, 2, 2)), r"'x' returned shape \(1, 2, 2\); a term gives one number per robot"),
-        (lambda w, e, a: np.ones(3), r"'x' returned shape \(3,\)"),
-        (lambda w, e, a: None, "'x' returned a NoneType, not numbers"),
-        (lambda w, e, a: np.full((1, 2), np.nan), "'x' returned a NaN or infinite value"),
-        (lambda w, e, a: "many", "'x' returned a str, not numbers"),
+        (lambda w, e, a: np.ones((1, 2, 2)), r"'x' \(one number per robot\) must have shape \(1, 2\), got \(1, 2, 2\)"),
+        (lambda w, e, a: np.ones(3), r"'x' \(one number per robot\) must have shape \(1, 2\), got \(3,\)"),
+        (lambda w, e, a: None, r"'x' \(one number per robot\) must be real numbers of shape \(1, 2\), got None"),
+        (lambda w, e, a: np.full((1, 2), np.nan), r"'x' \(one number per robot\) must be finite"),
+        (lambda w, e, a: "many", r"'x' \(one number per robot\) must be real numbers of shape \(1, 2\), got 'many'"),
     ):
         eng = NavEngine(vcs_env.make_scenario("swap", n_robots=2), reward_terms={"x": (1.0, fn)})
         eng.reset([0])

@@ -33,7 +33,7 @@ def check_actions(actions, shape: tuple[int, ...], what: str = "actions") -> np.
     but real numbers (complex, strings), on a wrong shape, NaN or inf."""
     try:
         raw = np.asarray(actions)
-        if raw.dtype.kind not in "biufO":
+        if actions is None or raw.dtype.kind not in "biufO":
             raise TypeError(f"dtype {raw.dtype}")
         arr = raw.astype(np.float64)
     except (TypeError, ValueError) as e:

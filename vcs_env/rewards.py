@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import routes
+from .dynamics import check_actions
 from .geometry import time_to_collision
 from .planning import Planner, env_copy
 from .sim import StepEvents
@@ -319,17 +320,7 @@ def build_terms(
 def checked_term(name: str, value, shape: tuple[int, int]) -> np.ndarray:
     """A term's value as a ``(B, n)`` float64 array of finite numbers, or a ``ValueError`` naming the term (a custom
     term that returned another shape was broadcast into the reward, or failed far from its cause)."""
-    try:
-        if value is None:
-            raise TypeError
-        out = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"reward term {name!r} returned a {type(value).__name__}, not numbers {shape}") from None
-    if out.shape != shape:
-        raise ValueError(f"reward term {name!r} returned shape {out.shape}; a term gives one number per robot {shape}")
-    if not np.isfinite(out).all():
-        raise ValueError(f"reward term {name!r} returned a NaN or infinite value")
-    return out
+    return check_actions(value, shape, f"reward term {name!r} (one number per robot)")
 
 
 def weighted_sum(terms: Mapping[str, np.ndarray], weights: Mapping[str, float]) -> np.ndarray:
