@@ -167,6 +167,19 @@ def test_a_new_metric_is_one_object(monkeypatch, capsys, tmp_path):
     assert "final speed [m/s]" in capsys.readouterr().out
 
 
+def test_a_metric_that_gives_other_than_one_number_or_a_taken_name_is_named(monkeypatch):
+    """A per-robot array was averaged as robots x episodes ('n': 18 for 3 episodes), and a second 'success' replaced the
+    first."""
+    ep = make_episode([(x, 0.0) for x in range(11)])
+    per_robot = metrics.Metric("speeds", "speeds", lambda f: f.ep.speed[-1])
+    monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS, per_robot))
+    with pytest.raises(ValueError, match="metric 'speeds' gave array.*one number per episode"):
+        metrics.episode_metrics(ep)
+    monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS[:-1], metrics.Metric("success", "s", lambda f: 1.0)))
+    with pytest.raises(ValueError, match="two metrics in METRICS are named 'success'"):
+        metrics.episode_metrics(ep)
+
+
 def test_metric_flags_match_the_documented_groups():
     by = {m.name: m for m in metrics.METRICS}
     assert len(by) == len(metrics.METRICS)  # names are unique

@@ -103,3 +103,38 @@ def test_register_rejects_taken_names_and_bad_factories(registry):
     register_planner("still", StandStill)
     with pytest.raises(ValueError, match="'still' is already registered"):
         register_planner("still", StandStill)
+
+
+class Returns(Planner):
+    """A planner whose plan returns ``out(world)``: for the checks of what planners give."""
+
+    name = "returns"
+
+    def __init__(self, out):
+        self.out = out
+
+    def plan(self, world):
+        return self.out(world)
+
+
+def test_what_a_planner_gives_is_checked_by_name(registry):
+    """Targets of another shape were broadcast into the actions (a (B, n) plan drove a rollout) or failed deep in
+    numpy; a factory that made no Planner failed at its first use; a missing plan said nothing."""
+    eng = vcs_env.NavEngine(vcs_env.make_scenario("circle", n_robots=3))
+    eng.reset([0])
+    world = eng.world
+    bad = {
+        "must have shape \\(1, 3, 2\\), got \\(1, 3\\)": lambda w: np.zeros(w.speed.shape),
+        "must have shape \\(1, 3, 2\\), got \\(2, 1, 3\\)": lambda w: np.zeros((2, 1, 3)),
+        "must be real numbers .* got None": lambda w: None,
+        "must be finite": lambda w: np.full(w.pos.shape, np.nan),
+    }
+    for said, out in bad.items():
+        with pytest.raises(ValueError, match="the targets of planner 'returns' \\(Returns\\) " + said):
+            Returns(out).act(world)
+    assert Returns(lambda w: [[[0.0, 0.0]] * 3]).act(world).shape == (1, 3, 2)  # a nested list of numbers is fine
+    with pytest.raises(NotImplementedError, match="planner Planner must define plan"):
+        Planner().act(world)
+    register_planner("dict", lambda: {})
+    with pytest.raises(ValueError, match="the factory of planner 'dict' returned a dict, not a Planner"):
+        make_planner("dict")

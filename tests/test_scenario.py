@@ -274,3 +274,57 @@ def test_every_kind_documents_itself_and_unknown_kinds_list_them():
     assert all(k.summary and k.name == name for name, k in layouts.KINDS.items())
     with pytest.raises(ValueError, match=r"kind must be one of \['circle', 'swap', 'crossing'"):
         Scenario(kind="maze")
+
+
+class _Column(layouts.ScenarioKind):
+    """A kind of one's own (docs/extending.md), whose generate returns ``self.bend(layout)``."""
+
+    name = "column-test"
+    summary = "robots in a column"
+    reads = frozenset({"layout_radius"})
+
+    def __init__(self, bend=lambda lay: lay):
+        self.bend = bend
+
+    def generate(self, s, rng):
+        y = (np.arange(s.n_robots) - (s.n_robots - 1) / 2) * s.lane_spacing
+        start = np.stack((np.full(s.n_robots, -s.circle_radius), y), axis=-1)
+        goal = start * [-1.0, 1.0]
+        lay = layouts.finish(
+            s, start, goal, *layouts.place_obstacles(s, rng, start, goal, layouts.obstacle_radii(s, rng))
+        )
+        return self.bend(lay)
+
+
+def test_a_kind_of_ones_own_is_checked_where_it_goes_wrong(monkeypatch):
+    """A custom kind's layouts of the wrong sizes or types failed deep in the simulator, NaN starts were blamed on the
+    actions, overlapping starts began every episode in collision, and a class registered for an instance failed with a
+    missing argument."""
+    kinds = dict(layouts.KINDS)
+    monkeypatch.setattr(layouts, "KINDS", kinds)
+    kinds["column-test"] = _Column()
+    s = vcs_env.Scenario(kind="column-test", n_robots=3, n_obstacles=2)
+    env = vcs_env.parallel_env(scenario=s)
+    env.reset(seed=0)  # fine as it is
+    bad = {
+        "generated a tuple, not a Layout": lambda lay: (lay.start, lay.goal),
+        r"generated start \(2, 2\) float64: it must be finite numbers of shape \(3, 2\)": lambda lay: (
+            dataclasses.replace(lay, start=lay.start[:2])
+        ),
+        r"generated goal \(3, 2\) float64: it must be finite": lambda lay: dataclasses.replace(
+            lay, goal=np.full((3, 2), np.nan)
+        ),
+        r"generated robot 0 starting 0\.380 m into robot 1": lambda lay: dataclasses.replace(
+            lay, start=lay.start * [1.0, 0.1]
+        ),
+        "generated robot 2 starting .* into obstacle 0": lambda lay: dataclasses.replace(
+            lay, obs_pos=np.concatenate((lay.start[2:], lay.obs_pos[1:]))
+        ),
+    }
+    for said, bend in bad.items():
+        kinds["column-test"] = _Column(bend)
+        with pytest.raises(ValueError, match="kind 'column-test' " + said):
+            vcs_env.parallel_env(scenario=s).reset(seed=0)
+    kinds["column-test"] = _Column
+    with pytest.raises(ValueError, match=r"KINDS\['column-test'\] must be a ScenarioKind instance.* _Column\(\)"):
+        vcs_env.Scenario(kind="column-test", n_robots=3)

@@ -9,7 +9,7 @@ import pytest
 import vcs_env
 from vcs_env.engine import NavEngine
 from vcs_env.observations import EGO_DIM, GOAL_REF, SENSE_REF, observation_layout, observe
-from vcs_env.obstacles import MOTION_MODELS, Trajectory
+from vcs_env.obstacles import MOTION_MODELS, ObstacleMotion, Trajectory
 from vcs_env.scenario import CustomLayout, ObstacleTrajectory
 from vcs_env.sim import Simulator
 
@@ -328,3 +328,38 @@ def test_scenario_parameters_a_policy_needs_are_explicit_features():
     o1 = vcs_env.parallel_env(scenario=changed).reset(seed=0)[0]["robot_0"]
     np.testing.assert_allclose(o1[8:11] - o0[8:11], [-2.0 / SENSE_REF, 0.2 / 2.0, 0.1], atol=1e-6)
     np.testing.assert_array_equal(o0[:8], o1[:8])
+
+
+class _Drift(ObstacleMotion):
+    """An obstacle motion of one's own: ``self.out(pos)`` as the velocity, a scalar parameter from init."""
+
+    name = "drift"
+
+    def __init__(self, out):
+        self.out = out
+
+    def init(self, rng, scenario, pos, target):
+        return {"gain": 0.5}  # a scalar, not an (m,) array
+
+    def velocity(self, params, t, pos, dt):
+        return self.out(pos)
+
+
+def test_an_obstacle_motion_of_ones_own_is_checked_by_name():
+    """Velocities of another shape failed inside numba or numpy, NaN ones made the obstacles vanish from every
+    collision check, and a scalar parameter failed in reset."""
+    s = vcs_env.make_scenario("dynamic", n_robots=2, n_obstacles=3)
+    env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: 0.5 * np.ones_like(pos)))
+    env.reset(seed=0)
+    env.step({a: np.zeros(2, np.float32) for a in env.agents})  # fine as it is
+    for said, out in {
+        r"must have shape \(1, 3, 2\), got \(1, 3\)": lambda pos: np.ones(pos.shape[:2]),
+        "must be finite": lambda pos: np.full(pos.shape, np.nan),
+    }.items():
+        env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(out))
+        with pytest.raises(ValueError, match="the velocity of obstacle motion _Drift " + said):
+            env.reset(seed=0)
+            env.step({a: np.zeros(2, np.float32) for a in env.agents})
+    env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: np.ones(pos.shape).tolist()))
+    env.reset(seed=0)
+    env.step({a: np.zeros(2, np.float32) for a in env.agents})  # a nested list of numbers is taken

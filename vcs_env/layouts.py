@@ -406,8 +406,47 @@ def kinds_help(width: int = 10) -> str:
 
 
 def generate(s: Scenario, rng: np.random.Generator) -> Layout:
-    """Draw one world's initial state for scenario ``s`` from ``rng``."""
-    return KINDS[s.kind].generate(s, rng)
+    """Draw one world's initial state for scenario ``s`` from ``rng`` (checked: :func:`check_generated`)."""
+    return check_generated(s, KINDS[s.kind].generate(s, rng))
+
+
+def check_generated(s: Scenario, lay) -> Layout:
+    """``lay`` if it is a :class:`Layout` of ``s``: arrays of finite numbers of the scenario's sizes, no robot
+    overlapping another or an obstacle at its start; else a ``ValueError`` naming the kind (a kind of one's own that
+    gets these wrong failed deep in the simulator, or started its episodes in collision)."""
+    said = f"kind {s.kind!r} generated"
+    if not isinstance(lay, Layout):
+        raise ValueError(f"{said} a {type(lay).__name__}, not a Layout (layouts.finish builds one)")
+    n, m = s.n_robots, s.n_obstacles
+    k = len(lay.segments) if np.ndim(lay.segments) == 3 else -1
+    sizes = {"start": (n, 2), "goal": (n, 2), "heading": (n,), "speed": (n,), "obs_pos": (m, 2)}
+    sizes |= {"obs_target": (m, 2), "obs_radius": (m,), "segments": (k, 2, 2)}
+    for name, shape in sizes.items():
+        value = np.asarray(getattr(lay, name))
+        if value.shape != shape or value.dtype.kind not in "biuf" or not np.isfinite(value).all():
+            raise ValueError(f"{said} {name} {value.shape} {value.dtype}: it must be finite numbers of shape {shape}")
+    if k > segment_capacity(s):
+        raise ValueError(f"{said} {k} wall segments, more than its n_segments(s) = {segment_capacity(s)}")
+    r = s.robot.radius
+    gap = np.linalg.norm(lay.start[:, None] - lay.start[None], axis=-1) - 2.0 * r + np.diag(np.full(n, np.inf))
+    gap_obs = np.linalg.norm(lay.start[:, None] - lay.obs_pos[None], axis=-1) - r - lay.obs_radius[None]
+    for what, g in (("robot", gap), ("obstacle", gap_obs)):
+        if g.size and g.min() < 0.0:
+            i, j = np.unravel_index(np.argmin(g), g.shape)
+            raise ValueError(
+                f"{said} robot {i} starting {-g[i, j]:.3f} m into {what} {j}: its check_layout should refuse this "
+                "scenario (docs/extending.md)"
+            )
+    return lay
+
+
+def check_kinds(kinds: dict[str, ScenarioKind]) -> dict[str, ScenarioKind]:
+    """``kinds`` if every value is a :class:`ScenarioKind` instance, else a ``ValueError`` naming the entry."""
+    for name, kind in kinds.items():
+        if not isinstance(kind, ScenarioKind):
+            hint = f": register an instance, {kind.__name__}()" if isinstance(kind, type) else ""
+            raise ValueError(f"KINDS[{name!r}] must be a ScenarioKind instance, got {kind!r}{hint}")
+    return kinds
 
 
 def segment_capacity(s: Scenario) -> int:

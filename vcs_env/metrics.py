@@ -302,9 +302,23 @@ def _min_separation(ep: Episode) -> float:
 
 
 def episode_metrics(ep: Episode) -> dict[str, float]:
-    """All metrics of one episode (:data:`METRICS`, see the module docstring)."""
+    """All metrics of one episode (:data:`METRICS`, see the module docstring); a metric that gives other than one
+    number, or a name given twice, is a ``ValueError`` naming it."""
     facts = EpisodeFacts(ep)
-    return {m.name: m.compute(facts) for m in METRICS}
+    out: dict[str, float] = {}
+    for m in METRICS:
+        if m.name in out:
+            raise ValueError(f"two metrics in METRICS are named {m.name!r}: a name is the key of a row's value")
+        value = m.compute(facts)
+        try:
+            if np.ndim(value) != 0 or value is None:
+                raise TypeError
+            out[m.name] = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"metric {m.name!r} gave {value!r}: a metric gives one number per episode (average per-robot values)"
+            ) from None
+    return out
 
 
 def wilson_interval(successes: float, n: int, z: float = 1.96) -> tuple[float, float]:

@@ -23,7 +23,7 @@ from importlib.metadata import EntryPoint, entry_points
 
 import numpy as np
 
-from .dynamics import target_to_action
+from .dynamics import check_actions, target_to_action
 from .state import WorldState
 
 ENTRY_POINT_GROUP = "vcs_env.planners"
@@ -44,7 +44,7 @@ class Planner:
 
     def plan(self, world: WorldState) -> np.ndarray:
         """Targets ``(B, n, 2)`` = (speed [m/s], heading [rad]) for every robot."""
-        raise NotImplementedError
+        raise NotImplementedError(f"planner {type(self).__name__} must define plan(world) -> targets (B, n, 2)")
 
     def plan_for(self, world: WorldState, robots: np.ndarray) -> np.ndarray:
         """Targets ``(B, n, 2)`` as :meth:`plan` gives them, of which the caller reads only the
@@ -56,8 +56,12 @@ class Planner:
 
     def act(self, world: WorldState, action_mode: str = "delta", robots: np.ndarray | None = None) -> np.ndarray:
         """Actions ``(B, n, 2)`` for the env, from :meth:`plan`, or from :meth:`plan_for` when
-        only the actions of ``robots`` ``(n,)`` bool are needed."""
+        only the actions of ``robots`` ``(n,)`` bool are needed. Targets that are not finite numbers of shape
+        ``(B, n, 2)`` are a ``ValueError`` naming the planner."""
         targets = self.plan(world) if robots is None else self.plan_for(world, robots)
+        targets = check_actions(
+            targets, world.pos.shape, f"the targets of planner {self.name!r} ({type(self).__name__})"
+        )
         return target_to_action(world, targets, action_mode)
 
     def potential(self, world: WorldState) -> np.ndarray:
@@ -150,11 +154,14 @@ def make_planner(spec: str | Planner, **kwargs) -> Planner:
         hint = "" if len(PLANNERS) else " (none: is vcs-env installed, e.g. `pip install -e .`?)"
         raise ValueError(f"unknown planner {spec!r}; registered planners are {list(PLANNERS)}{hint}")
     try:
-        return PLANNERS[spec](**kwargs)
+        planner = PLANNERS[spec](**kwargs)
     except TypeError as e:  # an option the planner does not take: said as bad input, not as a crash
         if not kwargs:
             raise
         raise ValueError(f"planner {spec!r} does not take the options {sorted(kwargs)} ({e})") from None
+    if not isinstance(planner, Planner):
+        raise ValueError(f"the factory of planner {spec!r} returned a {type(planner).__name__}, not a Planner")
+    return planner
 
 
 def own_planner(spec: str | Planner) -> Planner:

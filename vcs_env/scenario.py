@@ -42,9 +42,9 @@ R_REF = 2.0
 
 
 def _kinds():
-    from .layouts import KINDS  # late import: the kinds read this module's dataclasses
+    from .layouts import KINDS, check_kinds  # late import: the kinds read this module's dataclasses
 
-    return KINDS
+    return check_kinds(KINDS)
 
 
 @dataclass(frozen=True)

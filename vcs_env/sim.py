@@ -190,6 +190,7 @@ class Simulator:
             w.seg_a[b, k:], w.seg_b[b, k:] = 0.0, 0.0
             w.seg_present[b] = np.arange(w.n_segments) < k
             for key, value in params.items():
+                value = np.asarray(value)
                 if key not in self.motion_params:
                     self.motion_params[key] = np.zeros((self.batch_size, *value.shape), dtype=value.dtype)
                 self.motion_params[key][b] = value
@@ -255,8 +256,17 @@ class Simulator:
             return
         params = {k: v[idx].copy() for k, v in self.motion_params.items()}
         worlds = dataclasses.replace(self.world, **{f: v[idx] for f, v in self.world.arrays().items()})
+        self.world.obs_vel[idx] = self._motion_velocity(params, worlds)
+
+    def _motion_velocity(self, params: dict, worlds: WorldState) -> np.ndarray:
+        """The motion model's velocities ``(B, m, 2)`` [m/s] for ``worlds``, checked (a model of one's own that gives
+        another shape is named; NaN obstacles escaped every collision check)."""
         vel = self.motion.world_velocity(params, worlds, self.scenario.dt)
-        self.world.obs_vel[idx] = vel
+        ok = isinstance(vel, np.ndarray) and vel.dtype == np.float64 and vel.shape == worlds.obs_pos.shape
+        if not (ok and np.isfinite(vel).all()):
+            what = f"the velocity of obstacle motion {type(self.motion).__name__}"
+            vel = check_actions(vel, worlds.obs_pos.shape, what)
+        return vel
 
     # ------------------------------------------------------------------- step
     def step(self, actions: np.ndarray) -> StepEvents:
@@ -359,7 +369,7 @@ class Simulator:
         s, w = self.scenario, self.world
         if s.n_obstacles == 0:
             return np.zeros_like(w.obs_pos)
-        vel = self.motion.world_velocity(self.motion_params, w, s.dt)
+        vel = self._motion_velocity(self.motion_params, w)
         if s.bounce:
             # Reverse a component that would carry the disc through a wall during the step.
             vel, flip = kernels.bounce(w.obs_pos, vel, w.obs_radius, s.arena_half_size, s.dt)
