@@ -120,7 +120,7 @@ def test_extending_examples_run(monkeypatch):
     monkeypatch.setattr(layouts, "KINDS", dict(layouts.KINDS))  # the examples register for one process
     monkeypatch.setattr(planning, "_REGISTERED", dict(planning._REGISTERED))
     examples = [code for src, lang, code in _blocks() if src is None and lang == "python"]
-    assert len(examples) == 3
+    assert len(examples) == 4  # a kind, an obstacle motion model, a reward term, a planner
     for code in examples:
         exec(compile(code, str(EXTENDING), "exec"), {})
     assert "column" in layouts.KINDS and "stop" in planning.PLANNERS

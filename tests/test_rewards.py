@@ -75,6 +75,22 @@ def test_bad_reward_terms_raise(terms, match):
         NavEngine(vcs_env.make_scenario("swap"), reward_terms=terms)
 
 
+def test_reward_term_specs_are_checked_by_name():
+    """A NaN weight made every reward NaN, a string one failed in float() without the term named, a RewardTerm class
+    given for an instance failed when called."""
+    scenario = vcs_env.make_scenario("swap", n_robots=2)
+    term = lambda w, e, a: w.speed  # noqa: E731
+    for weight in (float("nan"), "abc", None, True, float("inf")):
+        with pytest.raises(ValueError, match=r"reward_terms\['x'\]: the weight must be a finite number"):
+            NavEngine(scenario, reward_terms={"x": (weight, term)})
+    with pytest.raises(ValueError, match=r"reward_terms\['x'\]: give an instance, Moved\(\), not the class"):
+        NavEngine(scenario, reward_terms={"x": (1.0, Moved)})
+    eng = NavEngine(scenario, reward_terms={"x": (np.float32(0.5), term), "y": (2, term)})  # numbers of any kind
+    eng.reset([0])
+    res = eng.step(np.ones((1, 2, 2)))
+    np.testing.assert_allclose(res.terms["x"], eng.world.speed)
+
+
 def test_a_term_that_gives_other_than_one_number_per_robot_is_named():
     """A custom term's value must be (B, n) finite numbers: other shapes were broadcast into the reward (or failed in
     the adapter, far from the term), None became NaN."""

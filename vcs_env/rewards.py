@@ -299,7 +299,7 @@ def build_terms(
     ``extra`` adds ``{name: (weight, term or function)}`` after them.
 
     Raises:
-        ValueError: for an extra name that exists, or a spec that is not a (weight, term) pair.
+        ValueError: for an extra name that exists, or a spec that is not a (finite weight, term) pair.
     """
     weights = dict(weights)
     terms = {cls.name: cls() for cls in TERMS if not cls.only_when_weighted or weights[cls.name] != 0.0}
@@ -310,9 +310,16 @@ def build_terms(
             w, fn = spec
         except (TypeError, ValueError):
             raise ValueError(f"reward_terms[{name!r}] must be a (weight, fn) pair") from None
+        if isinstance(fn, type) and issubclass(fn, RewardTerm):
+            raise ValueError(f"reward_terms[{name!r}]: give an instance, {fn.__name__}(), not the class")
         if not callable(fn):
             raise ValueError(f"reward_terms[{name!r}] function is not callable")
-        weights[name] = float(w)
+        try:
+            weights[name] = float(w)
+            if isinstance(w, (bool, str, bytes)) or not np.isfinite(weights[name]):
+                raise ValueError
+        except (TypeError, ValueError):
+            raise ValueError(f"reward_terms[{name!r}]: the weight must be a finite number, got {w!r}") from None
         terms[name] = env_copy(fn, f"reward term {name!r}") if isinstance(fn, RewardTerm) else FunctionTerm(name, fn)
     return terms, weights
 
