@@ -73,7 +73,8 @@ def scalar_social_force(pos, vel, pref, present, n_walking):
                 continue
             r = pos[a] - pos[b]
             speed = np.linalg.norm(vel[b])
-            e_b = vel[b] / speed if speed > 0 else np.zeros(2)
+            wish = pref[b] if b < n_walking else vel[b]  # b's preferred direction; a robot's, its drive
+            e_b = wish / np.linalg.norm(wish) if np.linalg.norm(wish) > 0 else np.zeros(2)
             s = speed * 0.4
             r2 = r - s * e_b
             n1, n2 = np.linalg.norm(r), np.linalg.norm(r2)

@@ -130,8 +130,10 @@ def social_force(
     Helbing & Molnar: ``F_a = (v_pref_a - v_a) / tau + sum_b w(e_a, f_ab) f_ab`` with
     ``f_ab = -grad V(b_ab)``, ``V(b) = V0 exp(-b / sigma)``, and the elliptic distance
     ``2 b = sqrt((|r| + |r - s e_b|)^2 - s^2)``, ``r = r_a - r_b``, ``s = |v_b| SF_STEP``, ``e_b``
-    the direction agent b walks. ``w`` is 1 when ``f_ab`` pushes against a's walking direction
-    within the field of view, :data:`SF_OUT_OF_VIEW` otherwise.
+    the direction agent b wants to walk (its preferred velocity's, as the reference's ``PedPedPotential``;
+    for an agent that does not walk, a robot, the direction it drives). Bodies have no size here, as in the
+    reference: the repulsion acts on centres, and pedestrians can overlap in dense crossings. ``w`` is 1 when
+    ``f_ab`` pushes against a's walking direction within the field of view, :data:`SF_OUT_OF_VIEW` otherwise.
 
     Args:
         pos: ``(B, a, 2)`` [m] (walking agents first, then whatever they see).
@@ -145,8 +147,10 @@ def social_force(
     """
     r = pos[:, :n_walking, None, :] - pos[:, None, :, :]  # (B, w, a, 2): from b to a
     speed_b = np.linalg.norm(vel, axis=-1)  # (B, a)
+    wish = np.concatenate((pref, vel[:, n_walking:]), axis=1)  # where each agent wants to go (a robot: its drive)
+    wish_norm = np.linalg.norm(wish, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        e_b = np.where(speed_b[..., None] > 0.0, vel / speed_b[..., None], 0.0)
+        e_b = np.where(wish_norm[..., None] > 0.0, wish / wish_norm[..., None], 0.0)
     s = (speed_b * SF_STEP)[:, None, :]  # (B, 1, a) [m]
     r2 = r - s[..., None] * e_b[:, None, :, :]  # where b will be, seen from a
     n1 = np.linalg.norm(r, axis=-1)
