@@ -15,6 +15,7 @@ from vcs_env.orca_kernel import orca_velocities
 from vcs_env.pedestrians import SF_OUT_OF_VIEW, SF_SIGMA, SF_V0, PedestrianSpec, social_force
 from vcs_env.placement import Layout
 from vcs_env.scenario import make_scenario
+from vcs_env.sim import Simulator
 
 
 def crowd(model="orca", sees_robots=False, goal_policy="circle", **kw):
@@ -238,3 +239,21 @@ def test_wanderers_take_new_goals_and_the_others_stay():
         assert (params["goal_idx"] > 0).any() == moves_on, policy
         if not moves_on:  # arrived and standing at the antipode
             np.testing.assert_allclose(engine.world.obs_pos, params["goals"][:, :, 0], atol=0.05)
+
+
+@pytest.mark.parametrize("kind", ["room", "intersection", "walls"])
+def test_square_crossing_pedestrians_start_and_walk_to_points_clear_of_walls(kind):
+    """The square placement ignored walls: on map kinds about half the resets failed (a pedestrian inside a wall)."""
+    from vcs_env.walls import clearance
+
+    s = vcs_env.make_scenario(
+        kind, n_obstacles=4, obstacle_motion="pedestrians", pedestrians=PedestrianSpec(goal_policy="square")
+    )
+    sim = Simulator(s, 1)
+    for seed in range(20):
+        sim.reset(seed)
+        w = sim.world
+        segments = np.stack((w.seg_a[0], w.seg_b[0]), axis=1)[w.seg_present[0]]
+        goals = sim.motion_params["goals"][0, :, 0]
+        for points in (w.obs_pos[0], goals):
+            assert (clearance(points, segments) >= w.obs_radius[0] + s.min_separation - 1e-9).all()

@@ -328,3 +328,28 @@ def test_a_kind_of_ones_own_is_checked_where_it_goes_wrong(monkeypatch):
     kinds["column-test"] = _Column
     with pytest.raises(ValueError, match=r"KINDS\['column-test'\] must be a ScenarioKind instance.* _Column\(\)"):
         vcs_env.Scenario(kind="column-test", n_robots=3)
+
+
+def test_bad_custom_obstacles_and_fields_are_value_errors_naming_them():
+    """A NaN waypoint time made the obstacle's position and every observation NaN; other bad values were TypeErrors or
+    IndexErrors from inside the conversion, or silently cut (a third coordinate)."""
+    from vcs_env.scenario import CustomLayout, ObstacleTrajectory
+
+    for times, positions, said in [
+        ((0.0, float("nan")), ((0, 3), (0, -3)), "times must be finite"),
+        ((None,), ((0, 0),), "times must be finite"),
+        (("a",), ((0, 0),), "times .* of numbers"),
+        (0.0, ((0, 0),), r"times of shape \(k,\) and positions of shape \(k, 2\)"),
+        ((0.0,), ((0,),), r"got \(1,\) and \(1, 1\)"),
+        ((0.0,), ((0, 0, 7),), r"got \(1,\) and \(1, 3\)"),
+    ]:
+        with pytest.raises(ValueError, match="ObstacleTrajectory.*" + said):
+            ObstacleTrajectory(times=times, positions=positions)
+    one = ObstacleTrajectory(times=(0.0,), positions=((1, 1),))
+    for obstacles in (None, one):
+        with pytest.raises(ValueError, match="CustomLayout.obstacles must be a tuple of ObstacleTrajectory"):
+            CustomLayout(start=((0, 0),), goal=((1, 0),), obstacles=obstacles)
+    with pytest.raises(ValueError, match=r"obstacle_radius must be a \(low, high\) pair"):
+        vcs_env.make_scenario("dynamic", obstacle_radius=np.array(0.3))
+    with pytest.raises(ValueError, match="unknown scenario"):
+        vcs_env.make_scenario(["circle"])

@@ -363,3 +363,30 @@ def test_an_obstacle_motion_of_ones_own_is_checked_by_name():
     env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: np.ones(pos.shape).tolist()))
     env.reset(seed=0)
     env.step({a: np.zeros(2, np.float32) for a in env.agents})  # a nested list of numbers is taken
+
+
+def test_reset_takes_distinct_world_indices_in_range():
+    """An index past the batch was an IndexError; -1 reset the last world and 0.5 the first."""
+    sim = Simulator(vcs_env.make_scenario("circle", n_robots=2), 2)
+    for worlds in ([5], [-1], [0.5], [True], [0, 0], 3):
+        with pytest.raises(ValueError, match=r"worlds must be distinct integer indices in \[0, 2\)"):
+            sim.reset(0, worlds=worlds)
+    sim.reset([7], worlds=np.array([1]))  # numpy integers are indices
+    sim.reset(0, worlds=[])  # nothing to reset
+
+
+def test_long_episodes_draw_a_bounded_obstacle_script():
+    """A tiny turn period or a very long episode drew the turn rates (stop-and-go phases) of the whole episode at
+    reset: hundreds of MB to GB per world."""
+    from vcs_env.obstacles import MAX_PERIODS
+
+    for overrides in ({"turn_period": 1e-4}, {"max_steps": 10**7, "dt": 1.0}):
+        sim = Simulator(vcs_env.make_scenario("dynamic", **overrides), 1)
+        sim.reset(0)
+        assert sim.motion_params["rates"].shape[-1] == MAX_PERIODS
+        sim.step(np.zeros((1, sim.scenario.n_robots, 2)))
+    sim = Simulator(
+        vcs_env.make_scenario("dynamic", obstacle_motion="stop_and_go", go_time=(1e-3, 1e-3), stop_time=(0, 0))
+    )
+    sim.reset(0)
+    assert sim.motion_params["switch"].shape[-1] == MAX_PERIODS

@@ -8,6 +8,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
+# Reference scales used to normalize observations into [-1, 1]; limits are validated against them.
+V_REF = 3.0
+"""Largest allowed robot or obstacle speed [m/s]."""
+A_REF = 10.0
+"""Largest allowed robot acceleration [m/s^2]."""
+OMEGA_REF = 2.0 * math.pi
+"""Largest allowed robot turn rate [rad/s]."""
+R_REF = 2.0
+"""Largest allowed robot or obstacle radius [m]."""
+
 
 def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
     """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) with ``lo <(=) value <(=) hi``."""
@@ -34,7 +44,7 @@ def check_int(name: str, value: int, lo: int, hi: int) -> None:
 
 def check_interval(name: str, value: Sequence[float], lo: float, hi: float) -> None:
     """Raise ``ValueError`` unless ``value`` is a ``(low, high)`` pair in ``[lo, hi]`` with low <= high."""
-    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 2:
+    if isinstance(value, (str, bytes)) or np.ndim(value) != 1 or len(value) != 2:
         raise ValueError(f"{name} must be a (low, high) pair, got {value!r}")
     check_range(f"{name}[0]", value[0], lo, hi)
     check_range(f"{name}[1]", value[1], lo, hi)

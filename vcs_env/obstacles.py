@@ -128,15 +128,22 @@ class Patrol(ObstacleMotion):
         return vel
 
 
+MAX_PERIODS = 4096
+"""Turn periods (``arbitrary``) and phases (``stop_and_go``) drawn per obstacle at reset, at most: after them the
+last turn rate holds, and a stop-and-go obstacle keeps moving (no suite comes near: a tiny period or a very long
+episode would otherwise draw gigabytes per world)."""
+
+
 class Arbitrary(ObstacleMotion):
     """Constant speed, piecewise-constant random turn rate U(-turn_rate, turn_rate), redrawn
-    every ``turn_period`` (vcs-method §4.1, CF2: "obstacles moving along arbitrary trajectories")."""
+    every ``turn_period`` (vcs-method §4.1, CF2: "obstacles moving along arbitrary trajectories"),
+    for the first :data:`MAX_PERIODS` periods."""
 
     name = "arbitrary"
 
     def init(self, rng, scenario, pos, target):
         m = len(pos)
-        periods = int(math.ceil(scenario.max_time / scenario.turn_period)) + 1
+        periods = min(int(math.ceil(scenario.max_time / scenario.turn_period)) + 1, MAX_PERIODS)
         d = _direction(pos, target)
         return {
             "heading": np.arctan2(d[:, 1], d[:, 0]),
@@ -160,7 +167,8 @@ class Arbitrary(ObstacleMotion):
 
 class StopAndGo(ObstacleMotion):
     """Straight line toward the target that alternates moving (``go_time``) and stopped
-    (``stop_time``) phases, starting with a moving one (a pedestrian who hesitates)."""
+    (``stop_time``) phases, starting with a moving one (a pedestrian who hesitates), for the first
+    :data:`MAX_PERIODS` phases."""
 
     name = "stop_and_go"
 
@@ -168,7 +176,7 @@ class StopAndGo(ObstacleMotion):
         m = len(pos)
         lo_go, hi_go = scenario.go_time
         lo_st, hi_st = scenario.stop_time
-        phases = int(math.ceil(scenario.max_time / max(lo_go + lo_st, 1e-3))) * 2 + 2
+        phases = min(int(math.ceil(scenario.max_time / max(lo_go + lo_st, 1e-3))) * 2 + 2, MAX_PERIODS)
         durations = np.empty((m, phases))
         durations[:, 0::2] = rng.uniform(lo_go, hi_go, size=(m, phases // 2))
         durations[:, 1::2] = rng.uniform(lo_st, hi_st, size=(m, phases // 2))
@@ -311,7 +319,7 @@ def _square_crossing(rng: np.random.Generator, s: Scenario, lay: Layout) -> tupl
     """CrowdNav's square crossing: each pedestrian starts on a random half (x < 0 or x > 0) of the
     square ``[-h, h]^2`` (``h = arena_half_size``) and walks to a point on the other half; starts keep
     ``min_separation`` from the robots' starts and earlier starts, goals from the robots' goals and
-    earlier goals. Returns ``(start, goal)``, ``(m, 2)`` each [m]."""
+    earlier goals, and both from the layout's walls (a map kind). Returns ``(start, goal)``, ``(m, 2)`` each [m]."""
     h, radius = s.arena_half_size, lay.obs_radius
     starts = [(p, s.robot.radius) for p in lay.start]
     goals = [(p, s.robot.radius) for p in lay.goal]
@@ -319,7 +327,8 @@ def _square_crossing(rng: np.random.Generator, s: Scenario, lay: Layout) -> tupl
     def draw(side: float, taken: list, k: int, what: str) -> np.ndarray:
         for _ in range(MAX_TRIES):
             p = np.array([rng.random() * h * side, (rng.random() - 0.5) * 2.0 * h])
-            if all(np.linalg.norm(p - c) >= r + radius[k] + s.min_separation for c, r in taken):
+            walls_ok = not len(lay.segments) or clearance(p, lay.segments) >= radius[k] + s.min_separation
+            if walls_ok and all(np.linalg.norm(p - c) >= r + radius[k] + s.min_separation for c, r in taken):
                 return p
         raise ValueError(f"could not place the {what} of pedestrian {k} in the square; increase arena_half_size")
 

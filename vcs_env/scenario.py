@@ -23,22 +23,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .checks import check_choice, check_int, check_interval, check_range
+from .checks import A_REF, OMEGA_REF, R_REF, V_REF, check_choice, check_int, check_interval, check_range  # noqa: F401
+from .custom_layout import CustomLayout, ObstacleTrajectory  # noqa: F401  (re-exported: Scenario's custom layouts)
 from .lidar import LidarSpec
 from .pedestrians import PedestrianSpec
 
 MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go", "pedestrians")
 COLLISION_MODES = ("terminate", "continue")
-
-# Reference scales used to normalize observations into [-1, 1]; limits are validated against them.
-V_REF = 3.0
-"""Largest allowed robot or obstacle speed [m/s]."""
-A_REF = 10.0
-"""Largest allowed robot acceleration [m/s^2]."""
-OMEGA_REF = 2.0 * math.pi
-"""Largest allowed robot turn rate [rad/s]."""
-R_REF = 2.0
-"""Largest allowed robot or obstacle radius [m]."""
 
 
 def _kinds():
@@ -109,96 +100,6 @@ class RewardWeights:
 
     def as_dict(self) -> dict[str, float]:
         return dataclasses.asdict(self)
-
-
-@dataclass(frozen=True)
-class ObstacleTrajectory:
-    """A scripted obstacle: piecewise-linear motion through timed waypoints, held after the last.
-
-    A static obstacle is one waypoint; a constant-velocity one is two (start and end).
-    """
-
-    times: tuple[float, ...]
-    """Strictly increasing waypoint times [s], the first one 0."""
-    positions: tuple[tuple[float, float], ...]
-    """Waypoints [m], one per time."""
-    radius: float = 0.3
-    """Body radius [m]."""
-
-    def __post_init__(self) -> None:
-        times = tuple(float(t) for t in self.times)
-        positions = tuple((float(p[0]), float(p[1])) for p in self.positions)
-        object.__setattr__(self, "times", times)
-        object.__setattr__(self, "positions", positions)
-        if len(times) == 0 or len(times) != len(positions):
-            raise ValueError("ObstacleTrajectory needs as many times as positions, and at least one")
-        if times[0] != 0.0 or any(b <= a for a, b in zip(times, times[1:])):
-            raise ValueError(f"ObstacleTrajectory.times must start at 0 and increase strictly, got {times}")
-        if not all(math.isfinite(c) for p in positions for c in p):
-            raise ValueError("ObstacleTrajectory.positions must be finite")
-        check_range("ObstacleTrajectory.radius", self.radius, 0.0, R_REF, lo_open=True)
-        speeds = [math.dist(positions[i + 1], positions[i]) / (times[i + 1] - times[i]) for i in range(len(times) - 1)]
-        if speeds and max(speeds) > V_REF:
-            raise ValueError(f"ObstacleTrajectory speed must be <= {V_REF} m/s, got {max(speeds):.3f}")
-
-
-@dataclass(frozen=True)
-class CustomLayout:
-    """Explicit initial state for ``kind="custom"`` (all robots share the scenario's RobotSpec)."""
-
-    start: tuple[tuple[float, float], ...]
-    """Robot start positions [m], shape (n, 2)."""
-    goal: tuple[tuple[float, float], ...]
-    """Robot goals [m], shape (n, 2)."""
-    heading: tuple[float, ...] | None = None
-    """Initial headings [rad], shape (n,); default: facing the goal."""
-    speed: tuple[float, ...] | None = None
-    """Initial speeds [m/s], shape (n,); default 0."""
-    obstacles: tuple[ObstacleTrajectory, ...] = ()
-    """Scripted obstacles."""
-    walls: tuple = ()
-    """Static wall segments [m], shape (s, 2, 2): ``((ax, ay), (bx, by))`` each; a polygon is the
-    closed chain :func:`vcs_env.walls.polygon_segments` of its vertices."""
-
-    def __post_init__(self) -> None:
-        def pts(name, value):
-            try:
-                arr = np.asarray(value, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise ValueError(f"CustomLayout.{name} must be an (n, 2) array of numbers [m], got {value!r}") from None
-            if arr.ndim != 2 or arr.shape[1] != 2:
-                raise ValueError(f"CustomLayout.{name} must be an (n, 2) array [m], got shape {arr.shape}")
-            bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-            if bad.size:
-                raise ValueError(f"CustomLayout.{name}[{bad[0]}] is not finite: {tuple(arr[bad[0]].tolist())}")
-            return tuple(map(tuple, arr.tolist()))
-
-        object.__setattr__(self, "start", pts("start", self.start))
-        object.__setattr__(self, "goal", pts("goal", self.goal))
-        n = len(self.start)
-        if n == 0 or len(self.goal) != n:
-            raise ValueError(f"CustomLayout needs n >= 1 starts and as many goals, got {n} and {len(self.goal)}")
-        for name in ("heading", "speed"):
-            value = getattr(self, name)
-            if value is not None:
-                arr = np.asarray(value, dtype=np.float64)
-                if arr.shape != (n,):
-                    raise ValueError(f"CustomLayout.{name} must have shape ({n},) (one per robot), got {arr.shape}")
-                if not np.all(np.isfinite(arr)):
-                    raise ValueError(f"CustomLayout.{name}[{np.flatnonzero(~np.isfinite(arr))[0]}] is not finite")
-                object.__setattr__(self, name, tuple(arr.tolist()))
-        if self.speed is not None and min(self.speed) < 0:
-            raise ValueError("CustomLayout.speed must be >= 0")
-        from .walls import check_segments
-
-        walls = check_segments(self.walls, "CustomLayout.walls")
-        object.__setattr__(self, "walls", tuple(tuple(map(tuple, w)) for w in walls.tolist()))
-        walls.setflags(write=False)
-        object.__setattr__(self, "_wall_array", walls)  # the walls as an (s, 2, 2) array, for every reset
-        object.__setattr__(self, "obstacles", tuple(self.obstacles))
-        for o in self.obstacles:
-            if not isinstance(o, ObstacleTrajectory):
-                raise ValueError(f"CustomLayout.obstacles must hold ObstacleTrajectory objects, got {type(o)}")
 
 
 @dataclass(frozen=True)
@@ -439,7 +340,7 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
     """
     if isinstance(name_or_scenario, Scenario):
         base = name_or_scenario
-    elif name_or_scenario in SCENARIOS or name_or_scenario in MAPS:
+    elif isinstance(name_or_scenario, str) and (name_or_scenario in SCENARIOS or name_or_scenario in MAPS):
         base = SCENARIOS.get(name_or_scenario) or MAPS[name_or_scenario]
     else:
         raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted({**SCENARIOS, **MAPS})}")

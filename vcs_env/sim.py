@@ -54,6 +54,18 @@ class StepEvents:
             self.wall_hits = np.zeros((*self.acted.shape, 0), dtype=bool)
 
 
+def world_indices(worlds, batch_size: int) -> list[int]:
+    """``worlds`` as a list of world indices (None: all ``batch_size``), or a ``ValueError``: distinct integers in
+    ``[0, batch_size)`` (a negative index, a float or a bool picked another world)."""
+    if worlds is None:
+        return list(range(batch_size))
+    idx = list(worlds) if np.ndim(worlds) == 1 else None
+    ok = idx is not None and all(isinstance(w, (int, np.integer)) and not isinstance(w, (bool, np.bool_)) for w in idx)
+    if not ok or not all(0 <= w < batch_size for w in idx) or len(set(idx)) != len(idx):
+        raise ValueError(f"worlds must be distinct integer indices in [0, {batch_size}), got {worlds!r}")
+    return [int(w) for w in idx]
+
+
 class Simulator:
     """``B`` worlds of one scenario.
 
@@ -150,7 +162,7 @@ class Simulator:
         Returns:
             The world state (a reference; copy it to keep a snapshot).
         """
-        idx = list(range(self.batch_size)) if worlds is None else [int(w) for w in worlds]
+        idx = world_indices(worlds, self.batch_size)
         if seeds is None or _is_seed(seeds):
             seed_list = [None if seeds is None else int(seeds) + i for i in range(len(idx))]
         else:
@@ -225,7 +237,7 @@ class Simulator:
         (:mod:`vcs_env.start_states`). Their generators are not touched. Returns the world state.
         Behind a :class:`~vcs_env.engine.NavEngine` (expert, reward terms) pass ``start_states`` to
         it instead, so they see the restored worlds from their first step."""
-        idx = list(range(self.batch_size)) if worlds is None else [int(w) for w in worlds]
+        idx = world_indices(worlds, self.batch_size)
         states = [int(i) for i in states]
         if len(states) != len(idx):
             raise ValueError(f"got {len(states)} states for {len(idx)} worlds")
