@@ -325,6 +325,8 @@ def test_a_kind_of_ones_own_is_checked_where_it_goes_wrong(monkeypatch):
         kinds["column-test"] = _Column(bend)
         with pytest.raises(ValueError, match="kind 'column-test' " + said):
             vcs_env.parallel_env(scenario=s).reset(seed=0)
+    with pytest.raises(ValueError, match=r"'column-test' is a kind without a preset: Scenario\(kind='column-test'\)"):
+        vcs_env.parallel_env(scenario="column-test")
     kinds["column-test"] = _Column
     with pytest.raises(ValueError, match=r"KINDS\['column-test'\] must be a ScenarioKind instance.* _Column\(\)"):
         vcs_env.Scenario(kind="column-test", n_robots=3)

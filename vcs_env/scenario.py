@@ -343,7 +343,11 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
     elif isinstance(name_or_scenario, str) and (name_or_scenario in SCENARIOS or name_or_scenario in MAPS):
         base = SCENARIOS.get(name_or_scenario) or MAPS[name_or_scenario]
     else:
-        raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted({**SCENARIOS, **MAPS})}")
+        kind = isinstance(name_or_scenario, str) and name_or_scenario in _kinds()
+        hint = (
+            f" ({name_or_scenario!r} is a kind without a preset: Scenario(kind={name_or_scenario!r}))" if kind else ""
+        )
+        raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted({**SCENARIOS, **MAPS})}{hint}")
     if not overrides:
         return base
     names = {f.name for f in dataclasses.fields(Scenario)}
