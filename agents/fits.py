@@ -174,3 +174,13 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
             FamilyWarning,
             stacklevel=3,
         )
+
+
+def check_layout_fits(layout: dict[str, Any], scenario: Scenario, what: str = "the exported policy") -> None:
+    """Raise :class:`CheckpointError` unless ``scenario`` gives the observations an exported policy reads (the JSON
+    ``vcs-env export`` writes beside the ONNX file), naming the block that differs; warn as for a checkpoint when it
+    runs outside its training family. Numpy only: for a program that runs the ONNX file without torch."""
+    space = type("Exported", (), {"shape": (int(layout["observation_dim"]),), "low": None, "high": None})()
+    family = (layout.get("record") or {}).get("scenario_family")
+    meta = {"observation": layout["observation"], "scenario_family": family}
+    check_checkpoint_fits(meta, space, scenario, what)

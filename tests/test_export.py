@@ -254,3 +254,20 @@ def test_a_trained_rllib_run_exports(tmp_path):
     obs = fresh_observations(scenario)
     want, _ = load_model(tmp_path / "rl").predict(obs, deterministic=True)
     assert np.abs(onnx_actions(onnx_path, obs) - want).max() <= 1e-5
+
+
+def test_an_exported_layout_names_the_block_a_scenario_gives_otherwise():
+    """onnxruntime checks the observation size only: a scenario whose blocks differ at the same size ran silently."""
+    from agents.fits import check_layout_fits
+    from agents.runs import jsonable
+    from vcs_env import make_scenario
+    from vcs_env.lidar import LidarSpec
+    from vcs_env.observations import observation_config, observation_dim
+
+    senses = make_scenario("doorway", stall_clock=True, n_wall_points=6)
+    layout = {"observation": jsonable(observation_config(senses)), "observation_dim": observation_dim(senses)}
+    check_layout_fits(layout, senses)
+    other = make_scenario("doorway", lidar=LidarSpec(n_beams=5), n_wall_points=6)  # the same size
+    assert observation_dim(other) == layout["observation_dim"]
+    with pytest.raises(CheckpointError, match="block 'clock': 1 x 5 floats .* \\(scenario: absent\\)"):
+        check_layout_fits(layout, other)

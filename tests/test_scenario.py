@@ -355,3 +355,28 @@ def test_bad_custom_obstacles_and_fields_are_value_errors_naming_them():
         vcs_env.make_scenario("dynamic", obstacle_radius=np.array(0.3))
     with pytest.raises(ValueError, match="unknown scenario"):
         vcs_env.make_scenario(["circle"])
+
+
+def test_a_run_records_scenario_makes_the_scenario_again():
+    """A record's scenario is JSON: lidar, pedestrians and custom layouts came back as dicts (refused), intervals as
+    lists."""
+    import json
+
+    from agents.runs import jsonable
+    from vcs_env.lidar import LidarSpec
+    from vcs_env.pedestrians import PedestrianSpec
+    from vcs_env.scenario import CustomLayout, ObstacleTrajectory
+
+    custom = CustomLayout(
+        start=((-2, 0),), goal=((3, 0),), obstacles=(ObstacleTrajectory(times=(0, 1), positions=((1, 1), (2, 2))),),
+        walls=(((0, -3), (0, -2)),),
+    )  # fmt: skip
+    for s in (
+        vcs_env.make_scenario("corridor", lidar=LidarSpec(n_beams=16), n_wall_points=3, stall_clock=True),
+        vcs_env.make_scenario("crowd", obstacle_motion="pedestrians", pedestrians=PedestrianSpec(model="social_force")),
+        vcs_env.Scenario(kind="custom", n_robots=1, n_obstacles=1, custom=custom),
+    ):
+        d = json.loads(json.dumps(jsonable(s)))
+        assert vcs_env.make_scenario(d["kind"], **d) == s
+    with pytest.raises(ValueError, match=r"unknown lidar fields \['beams'\]"):
+        vcs_env.make_scenario("corridor", lidar={"beams": 3})

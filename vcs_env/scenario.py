@@ -222,6 +222,8 @@ class Scenario:
         check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)
         check_int("n_walls", self.n_walls, 0, 256)
         check_interval("wall_length", self.wall_length, 0.01, 1e3)
+        for name in ("obstacle_radius", "obstacle_speed", "go_time", "stop_time", "wall_length"):  # lists from JSON
+            object.__setattr__(self, name, tuple(getattr(self, name)))
         check_int("n_wall_points", self.n_wall_points, 0, 64)
         check_int("observation", self.observation, 1, 2)
         if not isinstance(self.stall_clock, (bool, np.bool_)):
@@ -336,7 +338,9 @@ solve on every seed) until the VCS planner's kernel sees walls."""
 def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> Scenario:
     """A preset by name (or a given scenario) with fields replaced by ``overrides``.
 
-    ``robot`` and ``rewards`` may be given as dicts of the fields to change.
+    ``robot``, ``rewards``, ``lidar``, ``pedestrians`` and ``custom`` may be given as dicts: the fields to change
+    (all of them where the base has none), so a run record's scenario (``record["scenario"]``, JSON) makes the
+    scenario again: ``make_scenario(s["kind"], **s)``.
     """
     if isinstance(name_or_scenario, Scenario):
         base = name_or_scenario
@@ -354,14 +358,19 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
     unknown = set(overrides) - names
     if unknown:
         raise ValueError(f"unknown Scenario fields {sorted(unknown)}; valid fields are {sorted(names)}")
-    for key in ("robot", "rewards"):
+    nested = {"robot": RobotSpec, "rewards": RewardWeights, "lidar": LidarSpec, "pedestrians": PedestrianSpec}
+    for key, cls in (nested | {"custom": CustomLayout}).items():
         if isinstance(overrides.get(key), dict):
-            current = getattr(base, key)
-            valid = {f.name for f in dataclasses.fields(current)}
-            wrong = sorted(set(overrides[key]) - valid)
+            current, given = getattr(base, key), dict(overrides[key])
+            valid = {f.name for f in dataclasses.fields(cls)}
+            wrong = sorted(set(given) - valid)
             if wrong:
                 raise ValueError(f"unknown {key} fields {wrong}; valid {key} fields are {sorted(valid)}")
-            overrides[key] = dataclasses.replace(current, **overrides[key])
+            if key == "custom" and isinstance(given.get("obstacles"), (list, tuple)):  # as JSON holds them
+                given["obstacles"] = tuple(
+                    ObstacleTrajectory(**o) if isinstance(o, dict) else o for o in given["obstacles"]
+                )
+            overrides[key] = cls(**given) if current is None else dataclasses.replace(current, **given)
     if base.kind == "custom" and overrides.get("kind", "custom") != "custom":
         overrides.setdefault("custom", None)
     return dataclasses.replace(base, **overrides)
