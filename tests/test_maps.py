@@ -54,7 +54,7 @@ def test_random_walls_differ_by_seed():
         ({"kind": "doorway", "n_robots": 30, "arena_half_size": 4.0, "layout_radius": 2.22}, "outside the arena"),
         # Random walls too dense to draw a layout for every seed: refused here, not at some reset.
         (
-            {"kind": "walls", "n_walls": 20, "wall_length": (2, 4), "arena_half_size": 4.0, "n_robots": 6},
+            {"kind": "walls", "n_walls": 30, "wall_length": (3, 5), "arena_half_size": 4.0, "n_robots": 6},
             "trial layouts",
         ),
         # Obstacles between the walls that no trial layout can place (the arena's area alone allows them).
@@ -242,3 +242,10 @@ def test_nearest_wall_points_block_is_optional_and_matches_a_scalar_twin():
             got = np.hypot(block[b, i, :, 1], block[b, i, :, 2])[: len(gaps)] * SENSE_REF
             np.testing.assert_allclose(got, gaps, atol=1e-5)
             assert block[b, i, :, 0].sum() == min(k, len(near)) >= 4  # the room's walls are in range
+
+
+def test_a_dense_random_wall_map_that_passes_construction_resets_on_every_seed():
+    """60 walls among 4 robots passed the trial layouts, then 3 resets in 20 failed (50 draws of the walls ran out)."""
+    env = vcs_env.parallel_env(scenario=vcs_env.Scenario(kind="walls", n_robots=4, n_walls=60))
+    for seed in (5000, 5011, 5014):
+        env.reset(seed=seed)

@@ -219,12 +219,21 @@ TRIAL_LAYOUTS = 8
 if one fails, the scenario is refused."""
 
 
-def check_trial_layouts(kind: ScenarioKind, s: Scenario, hint: str) -> None:
+WALL_DRAWS = 500
+"""Draws of the ``walls`` kind's segments per layout at reset, at most: a dense map may need many (60 walls among 4
+robots: about 1 in 30 draws has a place and a route for every robot), and a reset that runs out fails."""
+TRIAL_WALL_DRAWS = 100
+"""The same for each trial layout at construction: a map whose trial needs more is refused as too dense to draw
+reliably (a reset then has five times the draws)."""
+
+
+def check_trial_layouts(kind: ScenarioKind, s: Scenario, hint: str, generate=None) -> None:
     """Layouts are drawn at reset; a map too dense to draw reliably is refused here (``hint``: what to change),
-    not by a reset that fails at random (an autoreset in the middle of training)."""
+    not by a reset that fails at random (an autoreset in the middle of training). ``generate(s, rng)`` draws a
+    trial layout (default: the kind's)."""
     for seed in range(TRIAL_LAYOUTS):
         try:
-            kind.generate(s, np.random.default_rng(seed))
+            (generate or kind.generate)(s, np.random.default_rng(seed))
         except ValueError as e:
             raise ValueError(
                 f"{s.kind}: trial layout {seed} of the {TRIAL_LAYOUTS} trial layouts found no place and route for "
@@ -247,15 +256,20 @@ class Walls(MapKind):
         check_arena(s)
         if s.wall_length[0] >= 2.0 * s.arena_half_size:
             raise ValueError(f"wall_length={s.wall_length} does not fit an arena of half size {s.arena_half_size:g}")
-        check_trial_layouts(self, s, "reduce n_robots / n_walls / wall_length or increase arena_half_size")
+        hint = "reduce n_robots / n_walls / wall_length or increase arena_half_size"
+        check_trial_layouts(self, s, hint, lambda s, rng: self._draw(s, rng, TRIAL_WALL_DRAWS))
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
+        return self._draw(s, rng, WALL_DRAWS)
+
+    def _draw(self, s: Scenario, rng: np.random.Generator, draws: int) -> Layout:
+        """A layout from at most ``draws`` draws of the walls."""
         from .routes import Roadmap
 
         obs_radius = obstacle_radii(s, rng)
         n, r, h = s.n_robots, s.robot.radius, s.arena_half_size
         last = "no route for every robot"
-        for _ in range(50):
+        for _ in range(draws):
             seg = np.concatenate((box_walls(h), self._segments(s, rng)))
 
             def clear(p, seg=seg):
@@ -284,8 +298,8 @@ class Walls(MapKind):
                 return lay
             last = "no route for every robot"
         raise ValueError(
-            f"walls: no layout with a place and a route for every robot in 50 draws of the walls (last: {last}); "
-            f"reduce n_robots / n_walls / wall_length or increase arena_half_size (now {h:g} m)"
+            f"walls: no layout with a place and a route for every robot in {draws} draws of the walls "
+            f"(last: {last}); reduce n_robots / n_walls / wall_length or increase arena_half_size (now {h:g} m)"
         )
 
     @staticmethod
