@@ -138,3 +138,28 @@ def test_what_a_planner_gives_is_checked_by_name(registry):
     register_planner("dict", lambda: {})
     with pytest.raises(ValueError, match="the factory of planner 'dict' returned a dict, not a Planner"):
         make_planner("dict")
+
+
+def test_rows_nobody_reads_may_hold_anything():
+    """plan_for may leave the rows of robots not asked for unspecified (NaN), and a planner may give NaN for robots that
+    have finished: only the rows read are checked."""
+    from vcs_env.gym_env import VcsNavEnv
+
+    class Subset(StandStill):
+        def plan_for(self, world, robots):
+            out = np.full(world.pos.shape, np.nan)
+            out[:, robots] = self.plan(world)[:, robots]
+            return out
+
+    env = VcsNavEnv(scenario="circle", others=Subset(), n_robots=4)
+    env.reset(seed=0)
+    env.step(np.zeros(2, np.float32))
+    eng = vcs_env.NavEngine(vcs_env.make_scenario("circle", n_robots=3))
+    eng.reset([0])
+    eng.world.active[0, 1] = False  # robot 1 has finished
+    row_1_nan = Returns(lambda w: np.where(np.arange(3)[None, :, None] == 1, np.nan, np.zeros(w.pos.shape)))
+    assert np.isfinite(row_1_nan.act(eng.world)).all()
+    eng.world.active[0, 1] = True  # driving: its row is read
+    with pytest.raises(ValueError, match="the targets of planner 'returns' .* must be finite"):
+        row_1_nan.act(eng.world)
+    assert np.isfinite(row_1_nan.act(eng.world, robots=np.array([True, False, True]))[0, [0, 2]]).all()

@@ -45,8 +45,13 @@ def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoint
     twice = candidates_of([run / "model.zip", run], from_step=1000)
     assert [c.name for c in twice] == ["model.zip", "model_1000.zip"]
     # The same bytes under two names (a distil run's last round and its model.zip) are one candidate, the later.
+    # Saved twice a few seconds apart: the same entries, stamped with other times (other bytes).
+    with zipfile.ZipFile(run / "model.zip") as src, zipfile.ZipFile(run / "checkpoints" / "model_2000.zip", "w") as dst:
+        for info in src.infolist():
+            dst.writestr(zipfile.ZipInfo(info.filename, date_time=(2030, 1, 1, 0, 0, 2)), src.read(info))
+    assert (run / "checkpoints" / "model_2000.zip").read_bytes() != (run / "model.zip").read_bytes()
+    shutil.copy(run / "model.json", run / "checkpoints" / "model_2000.json")
     for suffix in (".zip", ".json"):
-        shutil.copy(run / f"model{suffix}", run / "checkpoints" / f"model_2000{suffix}")
         shutil.copy(CIRCLE8.replace(".zip", suffix), tmp_path / f"copy{suffix}")
     assert [c.name for c in candidates_of([run], from_step=1000)] == ["model_1000.zip", "model.zip"]
     both = candidates_of([tmp_path / "copy.zip", run], from_step=1000)

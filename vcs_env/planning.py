@@ -56,13 +56,19 @@ class Planner:
 
     def act(self, world: WorldState, action_mode: str = "delta", robots: np.ndarray | None = None) -> np.ndarray:
         """Actions ``(B, n, 2)`` for the env, from :meth:`plan`, or from :meth:`plan_for` when
-        only the actions of ``robots`` ``(n,)`` bool are needed. Targets that are not finite numbers of shape
-        ``(B, n, 2)`` are a ``ValueError`` naming the planner."""
+        only the actions of ``robots`` ``(n,)`` bool are needed. Targets that are not numbers of shape ``(B, n, 2)``,
+        or not finite in a row that is read (an active robot's, of ``robots``), are a ``ValueError`` naming the
+        planner; rows nobody reads may hold anything (:meth:`plan_for`)."""
         targets = self.plan(world) if robots is None else self.plan_for(world, robots)
-        targets = check_actions(
-            targets, world.pos.shape, f"the targets of planner {self.name!r} ({type(self).__name__})"
-        )
-        return target_to_action(world, targets, action_mode)
+        try:
+            arr = np.asarray(targets, dtype=np.float64) if isinstance(targets, (np.ndarray, list, tuple)) else None
+        except (TypeError, ValueError):
+            arr = None  # not numbers: check_actions names it
+        if arr is not None and arr.shape == world.pos.shape:
+            read = world.active if robots is None else world.active & robots_mask(world, robots)
+            targets = np.where(read[..., None] | np.isfinite(arr), arr, 0.0)
+        what = f"the targets of planner {self.name!r} ({type(self).__name__})"
+        return target_to_action(world, check_actions(targets, world.pos.shape, what), action_mode)
 
     def potential(self, world: WorldState) -> np.ndarray:
         """Optional state value estimate ``(B, n)`` used by potential-based shaping."""

@@ -22,6 +22,7 @@ import hashlib
 import json
 import shutil
 import warnings
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -76,12 +77,18 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
 
 
 def _identity(path: Path) -> tuple[str, str]:
-    """What a candidate scores as: its bytes and its run record but for the record's ``wall_time`` (a directory,
-    an RLlib checkpoint, by its path)."""
+    """What a candidate scores as: its content (a zip's entries by name, CRC and size: SB3 stamps each entry with the
+    time of the save) and its run record but for the record's ``wall_time`` (a directory, an RLlib checkpoint, by
+    its path)."""
     if not path.is_file():
         return str(path.resolve()), ""
     record = {k: v for k, v in open_checkpoint(path).record.items() if k != "wall_time"}
-    return hashlib.sha256(path.read_bytes()).hexdigest(), json.dumps(record, sort_keys=True)
+    if zipfile.is_zipfile(path):
+        with zipfile.ZipFile(path) as z:
+            content = repr(sorted((i.filename, i.CRC, i.file_size) for i in z.infolist()))
+    else:
+        content = hashlib.sha256(path.read_bytes()).hexdigest()
+    return content, json.dumps(record, sort_keys=True)
 
 
 def select_checkpoint(
