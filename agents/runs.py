@@ -128,10 +128,11 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     harness at every periodic evaluation (logged as suite/*; not used to pick best_model)."""
     mixture: tuple[str, ...] = ()
     """Train on a mixture instead of one scenario: entries PRESET[:FIELD=VALUE|LO-HI[/STEP],...] with
-    FIELD in n_robots, n_obstacles, jitter, layout_radius, obstacle_speed, e.g. circle:n_robots=4-16/4,jitter=0-0.4
-    crowd:n_obstacles=3-19/8,obstacle_speed=0.5-1.5 (agents.mixture.parse_mixture_entry). Every grid point
-    is one scenario with a fixed share of the worlds (agents.vec_env.MixtureVecEnv); the other scenario
-    flags (max_steps, on_collision, rewards, shaping) apply to all."""
+    FIELD in n_robots, n_obstacles, jitter, layout_radius, obstacle_speed, corridor_width, door_width, n_walls, e.g.
+    circle:n_robots=4-16/4,jitter=0-0.4 crowd:n_obstacles=3-11/4,obstacle_speed=0.5-1.5
+    (agents.mixture.parse_mixture_entry). Every grid point is one scenario with a fixed share of the worlds
+    (agents.vec_env.MixtureVecEnv); the other scenario flags (max_steps, on_collision, rewards, shaping) apply to
+    all."""
     mixture_balance: str = "worlds"
     """How a mixture's worlds are shared: ``worlds`` (the same number per scenario) or ``robots``
     (worlds in proportion to 1 / robot count, so every scenario steps about the same number of

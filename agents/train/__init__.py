@@ -23,7 +23,7 @@ Example::
     vcs-env train --scenario circle --n-robots 8 --jitter 0.1 --timesteps 2000000 --seed 0
     vcs-env train --scenario crowd --timesteps 1000000 --shaping vcs_potential
     vcs-env train --scenario crowd --init runs/bc_crowd/model.zip   # warm start from behaviour cloning
-    vcs-env train --mixture circle:n_robots=4-16/4,jitter=0-0.4 crowd:n_obstacles=3-19/8 --n-worlds 64
+    vcs-env train --mixture circle:n_robots=4-16/4,jitter=0-0.4 crowd:n_obstacles=3-11/4 --n-worlds 64
     vcs-env train --resume runs/ppo_circle/checkpoints/model_500000.zip --timesteps 3000000
     vcs-env train --resume runs/ppo_circle --timesteps 3000000   # its newest checkpoint
 """
