@@ -190,3 +190,21 @@ def test_widen_fine_gives_the_student_the_fine_inputs_and_it_learns_its_teacher(
     flat = checkpoint(tmp_path, "f", 2, 1.0)
     with pytest.raises(ValueError, match="--features slots"):
         distil(replace(cfg, init=str(flat), out=str(tmp_path / "flat")))
+
+
+def test_each_teacher_is_checked_against_the_entry_it_labels(tmp_path):
+    """Every teacher was loaded against the mixture's first entry: a crowd teacher labelling the crowd entry was told
+    it ran outside its family (and a misfit named the first entry's kind)."""
+    import warnings
+
+    from agents.fits import FamilyWarning
+
+    crowd = make_scenario("crowd", n_obstacles=3)
+    model = PPO("MlpPolicy", NavVecEnv(crowd, 1), device="cpu", policy_kwargs=dict(net_arch=[32]), seed=4)
+    teacher = save_model(model, tmp_path / "crowd" / "model", "ppo", TrainConfig(net_arch=(32,)), crowd)
+    start = checkpoint(tmp_path, "s", 3, 1.0)  # trained on circles: it teaches the circle entry
+    mixture = ("circle:n_robots=3", "crowd:n_obstacles=3")
+    cfg = replace(short_run(tmp_path, start, mixture=mixture, teacher=str(start)), rounds=1, robots=4, epochs=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", FamilyWarning)
+        distil(replace(cfg, teacher_for=(f"crowd:n_obstacles=3={teacher}",)))

@@ -144,8 +144,12 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
-    teachers = dict.fromkeys(c for c in teacher_of.values() if c != EXPERT)
-    loaded = {c: load_checkpoint(c, first, shield=cfg.teacher_shield) for c in teachers}
+    scenarios_of = dict(groups)
+    teachers: dict[str, str] = {}  # checkpoint -> the first entry it labels: it is checked against that scenario
+    for entry, c in teacher_of.items():
+        if c != EXPERT:
+            teachers.setdefault(c, entry)
+    loaded = {c: load_checkpoint(c, scenarios_of[e][0], shield=cfg.teacher_shield) for c, e in teachers.items()}
     bare = [c for c, teacher in loaded.items() if cfg.teacher_shield and not isinstance(teacher, ShieldedPredictor)]
     if bare:
         raise ValueError(f"--teacher-shield: the run record of {bare[0]!r} names no shield (vcs-env shield adds one)")
