@@ -51,6 +51,18 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     (run / "bc.json").write_text(json.dumps({**meta, "kind": "bc"}))
     assert cli.main(["train", "--resume", str(run / "bc.zip"), "--timesteps", "10000"]) == 2
     assert "a bc checkpoint, not a PPO run's" in capsys.readouterr().err
+    # A budget below the checkpoint's, and a backend that is not the run's, are refused (the first trained minus
+    # steps and saved a copy; the second trained with the run's backend without a word).
+    assert cli.main(["train", "--resume", str(run), "--timesteps", "4096"]) == 2
+    assert "new total: at or above the checkpoint's 8192, got 4096" in capsys.readouterr().err
+    assert cli.main(["train", "--resume", str(run), "--timesteps", "10000", "--backend", "rllib"]) == 2
+    assert "with --backend rllib: it is an sb3 run's" in capsys.readouterr().err
+    # The reproduce line of a resumed run carries the flags it changed (here the scenario's robots).
+    out = tmp_path / "branch"
+    args = ["train", "--resume", str(run), "--timesteps", "10240", "--n-robots", "6", "--out", str(out)]
+    assert cli.main([*args, "--no-progress-bar"]) == 0
+    line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("reproduce:")][0]
+    assert "--n-robots 6" in line and f"--resume {run / 'model.zip'}" in line and f"--out {out}" in line
 
 
 @pytest.mark.slow

@@ -339,6 +339,8 @@ def test_a_laptop_run_leaves_no_token_and_a_two_node_cluster_resumes_it(ray_clus
     ckpt = out / "checkpoint"
     meta = json.loads((ckpt / "vcs_env.json").read_text())
     assert meta["kind"] == "rllib_ppo" and meta["num_timesteps"] >= 600
+    assert meta["resumed_from"] == {"checkpoint": str(newest), "timesteps": 128}  # the weights' origin, as SB3's
+    assert f"reproduce: the run of {newest} (128 timesteps), then vcs-env train --backend rllib" in res.stdout
     assert meta["command"].startswith("vcs-env train --backend rllib")
     assert f"--address {ray_cluster.address}" in meta["command"]
     assert json.loads((out / "config.json").read_text())["num_env_runners"] == 2

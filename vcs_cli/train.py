@@ -3,7 +3,7 @@ of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imit
 :mod:`agents.train.collect_states`) on the command line.
 
 The flags are the fields of the run configs (:mod:`agents.runs`, :func:`agents.config.add_config_args`).
-``train --resume`` continues a checkpoint of either backend, or the newest checkpoint of a run
+``train --resume`` continues a checkpoint of an SB3 or RLlib PPO run, or the newest checkpoint of a run
 directory (:func:`agents.checkpoint.latest_checkpoint`).
 """
 
@@ -42,11 +42,20 @@ def resume_base(args: argparse.Namespace) -> tuple[TrainConfig, Checkpoint]:
     if saved is None:
         raise ValueError(f"cannot resume {args.resume!r}: no run record beside it (expected a vcs-env checkpoint)")
     if meta.get("kind") not in KINDS:
+        hint = (
+            "--init starts a PPO run from its weights"
+            if ckpt.format == "sb3"
+            else "--resume continues the PPO runs of the sb3 and rllib backends; --init takes SB3 checkpoints"
+        )
         raise ValueError(
-            f"cannot resume {args.resume!r}: a {meta.get('kind', 'unknown')} checkpoint, not a PPO run's "
-            "(--init starts a PPO run from its weights)"
+            f"cannot resume {args.resume!r}: a {meta.get('kind', 'unknown')} checkpoint, not a PPO run's ({hint})"
         )
     base = config_from_dict(KINDS[meta["kind"]], saved)
+    if args.timesteps is not None and args.timesteps < ckpt.timesteps:
+        raise ValueError(
+            f"--timesteps is the resumed run's new total: at or above the checkpoint's {ckpt.timesteps}, "
+            f"got {args.timesteps}"
+        )
     changed = []
     for name in FIXED_ON_RESUME:
         given = getattr(args, name, None)
@@ -72,7 +81,7 @@ def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    if args.backend == "benchmarl":
+    if args.backend == "benchmarl":  # None: sb3, or a resumed run's own backend
         check_backend_flags(args, "rllib", RLLIB_ONLY)
         if args.resume:
             raise ValueError("--resume is not available with --backend benchmarl (start a new run)")
@@ -82,9 +91,10 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 0
     check_backend_flags(args, "benchmarl", BENCHMARL_ONLY)
     base, ckpt = resume_base(args) if args.resume else (None, None)
-    rllib = args.backend == "rllib" or isinstance(base, RLlibConfig)
-    if ckpt is not None and rllib != isinstance(base, RLlibConfig):
-        raise ValueError(f"cannot resume {args.resume!r} with --backend rllib: it is an SB3 run's checkpoint")
+    run_backend = None if ckpt is None else "rllib" if isinstance(base, RLlibConfig) else "sb3"
+    if args.backend is not None and run_backend is not None and args.backend != run_backend:
+        raise ValueError(f"cannot resume {args.resume!r} with --backend {args.backend}: it is an {run_backend} run's")
+    rllib = (args.backend or run_backend) == "rllib"
     if not rllib:
         check_backend_flags(args, "rllib", RLLIB_ONLY)
         agents.train.train(config_from_args(TrainConfig, args, base), resume=ckpt)
@@ -139,18 +149,19 @@ def add_commands(sub) -> None:
     p.add_argument(
         "--backend",
         choices=["sb3", "rllib", "benchmarl"],
-        default="sb3",
-        help="sb3 (one process), rllib (Ray) or benchmarl (MAPPO, IPPO, MASAC; docs/torchrl.md)",
+        default=None,
+        help="sb3 (one process; the default), rllib (Ray) or benchmarl (MAPPO, IPPO, MASAC; docs/torchrl.md); a "
+        "resumed run keeps its own",
     )
     add_config_args(p, RLlibConfig, skip=tuple(TrainConfig.__dataclass_fields__))
     add_config_args(p, BenchMARLConfig, skip=tuple(RLlibConfig.__dataclass_fields__))
     p.add_argument(
         "--resume",
         default=None,
-        help="continue a PPO run (either backend) from this checkpoint, or from the newest checkpoint of this run "
-        "directory, in its run directory unless --out is given (its config JSON is reused: --timesteps sets the new "
-        "total, evaluation, checkpoint and scenario flags may change; the network and PPO settings stay the "
-        "checkpoint's)",
+        help="continue a PPO run (of the sb3 or rllib backend) from this checkpoint, or from the newest checkpoint "
+        "of this run directory, in its run directory unless --out is given (its config JSON is reused: --timesteps "
+        "sets the new total, evaluation, checkpoint and scenario flags may change; the network and PPO settings stay "
+        "the checkpoint's)",
     )
     p.set_defaults(func=cmd_train)
 

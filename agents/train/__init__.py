@@ -382,7 +382,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
     if resume:
-        then = f"vcs-env train --resume {resume.path} --timesteps {cfg.timesteps}"
+        then = f"{config_command('train', cfg)} --resume {resume.path}"  # its scenario and evaluation flags too
         print(f"reproduce: the run of {resume.path} ({start_steps} timesteps), then {then}")
     else:
         print(f"reproduce: {config_command('train', cfg)}")

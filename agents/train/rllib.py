@@ -248,12 +248,18 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
                 save(algo, out / "checkpoints" / f"checkpoint_{steps}", cfg, scenario, steps)
         final = periodic(RLlibPolicy(module), steps)
         wall = round(time.time() - t_start, 1)
+        went_on = {"resumed_from": {"checkpoint": str(resume.path), "timesteps": resume.timesteps}} if resume else {}
         ckpt = save(
-            algo, out / "checkpoint", cfg, scenario, steps, evaluation=final, wall_time=wall, history=periodic.history
-        )
+            algo, out / "checkpoint", cfg, scenario, steps, evaluation=final, wall_time=wall, history=periodic.history,
+            **went_on,
+        )  # fmt: skip
     finally:
         algo.stop()
         ray.shutdown()
     print(f"saved {ckpt} ({steps} timesteps, {wall:.0f} s)")
-    print(f"reproduce: {run_command('rllib_ppo', cfg)}")
+    if resume is not None:  # the weights come from the checkpoint it went on from
+        then = f"{run_command('rllib_ppo', cfg)} --resume {resume.path}"
+        print(f"reproduce: the run of {resume.path} ({resume.timesteps} timesteps), then {then}")
+    else:
+        print(f"reproduce: {run_command('rllib_ppo', cfg)}")
     return {"checkpoint": str(ckpt), "evaluation": final, "wall_time": wall, "timesteps": steps}
