@@ -81,6 +81,8 @@ class Checkpoint:
     """File name of the run record."""
     periodic: ClassVar[re.Pattern]
     """Name of a periodic checkpoint in ``<run>/checkpoints/``, its step count as group 1."""
+    periodic_name: ClassVar[str]
+    """That name for a step count (``periodic_name.format(steps)``)."""
 
     def __init__(self, path: Path, record_path: Path):
         self.path = path
@@ -161,6 +163,7 @@ class SB3Checkpoint(Checkpoint):
     format = "sb3"
     record_name = "model.json"
     periodic = re.compile(r"model_(\d+)\.zip")
+    periodic_name = "model_{}.zip"
 
     @classmethod
     def find(cls, path: Path) -> SB3Checkpoint | None:
@@ -216,6 +219,7 @@ class RLlibCheckpoint(Checkpoint):
     format = "rllib"
     record_name = "vcs_env.json"
     periodic = re.compile(r"checkpoint_(\d+)")
+    periodic_name = "checkpoint_{}"
     MODULE_ID: ClassVar[str] = "shared"
     """The RLModule every robot's policy is."""
 
@@ -286,6 +290,7 @@ class BenchMARLCheckpoint(Checkpoint):
     format = "benchmarl"
     record_name = "actor.json"
     periodic = re.compile(r"actor_(\d+)\.pt")
+    periodic_name = "actor_{}.pt"
 
     @classmethod
     def find(cls, path: Path) -> BenchMARLCheckpoint | None:

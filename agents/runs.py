@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import shutil
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -296,3 +297,26 @@ def run_record(
         "scenario": jsonable(scenario),
         **jsonable(extra),
     }
+
+
+def kept_start(resume, out: str | os.PathLike):
+    """The checkpoint (an :class:`agents.checkpoint.Checkpoint`) a run resumed into ``out`` goes on from, kept: when
+    it is the final checkpoint of ``out`` (which the resumed run overwrites), its copy under ``out/checkpoints/`` by
+    its timesteps (the one already there, if any), so that the run's ``resumed_from`` names weights that still
+    exist."""
+    final = type(resume).final(Path(out))
+    if not final.exists() or resume.path.resolve() != final.resolve():
+        return resume
+    dst = Path(out) / "checkpoints" / type(resume).periodic_name.format(resume.timesteps)
+    if not dst.exists():
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        if resume.path.is_dir():
+            shutil.copytree(resume.path, dst)
+        else:
+            shutil.copy(resume.path, dst)
+            if resume.record_path.is_file():  # model.json beside model.zip, actor.json beside actor.pt
+                shutil.copy(resume.record_path, dst.with_suffix(".json"))
+        print(f"kept {resume.path} as {dst} (this run overwrites the first)")
+    from .checkpoint import open_checkpoint  # late: checkpoint.py builds on this module
+
+    return open_checkpoint(dst)

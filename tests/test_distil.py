@@ -208,3 +208,7 @@ def test_each_teacher_is_checked_against_the_entry_it_labels(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error", FamilyWarning)
         distil(replace(cfg, teacher_for=(f"crowd:n_obstacles=3={teacher}",)))
+    # A teacher of several entries is checked against each, whatever their order (it was the first one's only).
+    for order in (mixture, mixture[::-1]):
+        with pytest.warns(FamilyWarning, match="kind='crowd'"):
+            distil(replace(cfg, mixture=order, out=str(tmp_path / f"d-{order[0][:5]}")))

@@ -54,7 +54,9 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     # A budget below the checkpoint's, and a backend that is not the run's, are refused (the first trained minus
     # steps and saved a copy; the second trained with the run's backend without a word).
     assert cli.main(["train", "--resume", str(run), "--timesteps", "4096"]) == 2
-    assert "new total: at or above the checkpoint's 8192, got 4096" in capsys.readouterr().err
+    assert "new total: above the checkpoint's 8192 (got 4096)" in capsys.readouterr().err
+    assert cli.main(["train", "--resume", str(run)]) == 2  # the run's own total, reached
+    assert "new total: above the checkpoint's 8192 (the run's own is 8000)" in capsys.readouterr().err
     assert cli.main(["train", "--resume", str(run), "--timesteps", "10000", "--backend", "rllib"]) == 2
     assert "with --backend rllib: it is an sb3 run's" in capsys.readouterr().err
     # The reproduce line of a resumed run carries the flags it changed (here the scenario's robots).
@@ -145,3 +147,18 @@ def test_ppo_settings_are_checked_by_name(flags, message, tmp_path, capsys):
     assert cli.main(["train", *TINY, "--timesteps", "10", *flags, "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_resuming_a_finished_run_keeps_the_checkpoint_it_goes_on_from(tmp_path, capsys):
+    """--resume RUN picked RUN/model.zip and the resumed run wrote over it: its resumed_from named weights that no
+    longer existed."""
+    run = tmp_path / "run"
+    args = ["train", *TINY, "--timesteps", "2048", "--eval-freq", "0", "--checkpoint-freq", "0", "--out", str(run)]
+    assert cli.main(args) == 0
+    first = (run / "model.zip").read_bytes()
+    assert cli.main(["train", "--resume", str(run), "--timesteps", "4096", "--no-progress-bar"]) == 0
+    kept = run / "checkpoints" / "model_2048.zip"
+    assert kept.read_bytes() == first and (run / "checkpoints" / "model_2048.json").is_file()
+    record = json.loads((run / "model.json").read_text())
+    assert record["resumed_from"] == {"checkpoint": str(kept), "timesteps": 2048} and record["num_timesteps"] == 4096
+    assert "then vcs-env train" in capsys.readouterr().out

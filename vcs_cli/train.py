@@ -51,10 +51,11 @@ def resume_base(args: argparse.Namespace) -> tuple[TrainConfig, Checkpoint]:
             f"cannot resume {args.resume!r}: a {meta.get('kind', 'unknown')} checkpoint, not a PPO run's ({hint})"
         )
     base = config_from_dict(KINDS[meta["kind"]], saved)
-    if args.timesteps is not None and args.timesteps < ckpt.timesteps:
+    total = args.timesteps if args.timesteps is not None else base.timesteps
+    if total <= ckpt.timesteps:  # nothing to train: it would evaluate and save the checkpoint again
+        given = f"got {total}" if args.timesteps is not None else f"the run's own is {total}"
         raise ValueError(
-            f"--timesteps is the resumed run's new total: at or above the checkpoint's {ckpt.timesteps}, "
-            f"got {args.timesteps}"
+            f"--timesteps is the resumed run's new total: above the checkpoint's {ckpt.timesteps} ({given})"
         )
     changed = []
     for name in FIXED_ON_RESUME:

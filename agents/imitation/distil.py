@@ -144,13 +144,13 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
-    scenarios_of = dict(groups)
-    teachers: dict[str, str] = {}  # checkpoint -> the first entry it labels: it is checked against that scenario
-    for entry, c in teacher_of.items():
-        if c != EXPERT:
-            teachers.setdefault(c, entry)
-    loaded = {c: load_checkpoint(c, scenarios_of[e][0], shield=cfg.teacher_shield) for c, e in teachers.items()}
-    bare = [c for c, teacher in loaded.items() if cfg.teacher_shield and not isinstance(teacher, ShieldedPredictor)]
+    # Each network teacher loaded for each entry it labels: checked against that entry's scenario, its shield too.
+    loaded = {
+        entry: load_checkpoint(c, scenarios[0], shield=cfg.teacher_shield)
+        for entry, scenarios in groups
+        if (c := teacher_of[entry]) != EXPERT
+    }
+    bare = [teacher_of[e] for e, t in loaded.items() if cfg.teacher_shield and not isinstance(t, ShieldedPredictor)]
     if bare:
         raise ValueError(f"--teacher-shield: the run record of {bare[0]!r} names no shield (vcs-env shield adds one)")
     model = load_model(cfg.init or cfg.teacher, first)
@@ -175,7 +175,7 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
         for entry, scenarios in groups:
             mean_n = np.mean([s.n_robots for s in scenarios])
             per_point = max(1, int(np.ceil(counts[entry] * cfg.robots / mean_n / len(scenarios))))
-            teacher = None if teacher_of[entry] == EXPERT else actor_of(loaded[teacher_of[entry]])  # None: the expert
+            teacher = None if teacher_of[entry] == EXPERT else actor_of(loaded[entry])  # None: the expert
             for sc in scenarios:
                 seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
                 parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher))

@@ -30,6 +30,7 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -45,7 +46,7 @@ from ..config import build_scenario, config_command, print_suite_differences
 from ..mixture import mixture_scenarios
 from ..policies import warn_blind_training
 from ..residual import Residual
-from ..runs import TrainConfig, check_fresh_out, check_run, jsonable, policy_kwargs, scenario_family
+from ..runs import TrainConfig, check_fresh_out, check_run, jsonable, kept_start, policy_kwargs, scenario_family
 from .guide import GUIDES, ImitationLoss, JumpStart, annealed
 from .periodic import PeriodicEval
 
@@ -286,6 +287,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
     init, resume = (open_checkpoint(p) if p else None for p in (cfg.init, resume))  # fail fast, before torch
+    resume = kept_start(resume, cfg.out) if resume is not None else None
     if init is not None and resume is None:  # a resumed run's --init only records where it started
         check_init_residual(init, residual)
     if cfg.eval_suite:
@@ -382,7 +384,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
     if resume:
-        then = f"{config_command('train', cfg)} --resume {resume.path}"  # its scenario and evaluation flags too
+        # its scenario and evaluation flags too; its --init only records where the first run started
+        then = f"{config_command('train', dataclasses.replace(cfg, init=None))} --resume {resume.path}"
         print(f"reproduce: the run of {resume.path} ({start_steps} timesteps), then {then}")
     else:
         print(f"reproduce: {config_command('train', cfg)}")

@@ -49,7 +49,7 @@ from vcs_env.suites import get_suite
 from ..checkpoint import Checkpoint, RLlibCheckpoint, RLlibPolicy, open_checkpoint
 from ..config import build_scenario
 from ..policies import warn_blind_training
-from ..runs import ADAPTERS, RLlibConfig, check_fresh_out, check_run, jsonable, run_command, run_record
+from ..runs import ADAPTERS, RLlibConfig, check_fresh_out, check_run, jsonable, kept_start, run_command, run_record
 from .periodic import PeriodicEval
 from .rllib_cluster import init_ray
 
@@ -208,6 +208,7 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
         resume = open_checkpoint(resume)
         if not isinstance(resume, RLlibCheckpoint):
             raise ValueError(f"--backend rllib continues RLlib checkpoints; {resume.describe()} is an SB3 one")
+        resume = kept_start(resume, cfg.out)
     ray = init_ray(cfg)
     import torch
 
