@@ -406,8 +406,11 @@ def kinds_help(width: int = 10) -> str:
 
 
 def generate(s: Scenario, rng: np.random.Generator) -> Layout:
-    """Draw one world's initial state for scenario ``s`` from ``rng`` (checked: :func:`check_generated`)."""
-    return check_generated(s, KINDS[s.kind].generate(s, rng))
+    """Draw one world's initial state for scenario ``s`` from ``rng``; a kind from outside this package is checked
+    (:func:`check_generated`; the built-in ones are held to their layouts by the tests, and a reset pays no check)."""
+    kind = KINDS[s.kind]
+    lay = kind.generate(s, rng)
+    return lay if type(kind).__module__.startswith("vcs_env.") else check_generated(s, lay)
 
 
 def check_generated(s: Scenario, lay) -> Layout:
@@ -431,7 +434,7 @@ def check_generated(s: Scenario, lay) -> Layout:
     gap = np.linalg.norm(lay.start[:, None] - lay.start[None], axis=-1) - 2.0 * r + np.diag(np.full(n, np.inf))
     gap_obs = np.linalg.norm(lay.start[:, None] - lay.obs_pos[None], axis=-1) - r - lay.obs_radius[None]
     for what, g in (("robot", gap), ("obstacle", gap_obs)):
-        if g.size and g.min() < 0.0:
+        if g.size and g.min() < -1e-9:  # placement's tolerance (check_ring, check_lanes)
             i, j = np.unravel_index(np.argmin(g), g.shape)
             raise ValueError(
                 f"{said} robot {i} starting {-g[i, j]:.3f} m into {what} {j}: its check_layout should refuse this "
