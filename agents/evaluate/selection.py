@@ -56,9 +56,9 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
     ``checkpoints/model_<steps>.zip`` by step (other files there are not candidates), then its final
     ``model.zip``. Periodic checkpoints (``model_<steps>.zip``) before ``from_step`` are left out (the count in
     their names: environment steps, or labelled robot-steps for a ``vcs-env distil`` run). A file named twice
-    is one candidate, at its first place; two files with the same bytes and the same run record (but for its
-    ``wall_time``), such as a distil run's last round and its ``model.zip``, are one candidate, at the later
-    place (later training wins a tie anyway)."""
+    is one candidate, at its first place; two files with the same content (:func:`_identity`) and the same run
+    record (but for its ``wall_time``), such as a distil run's last round and its ``model.zip``, are one candidate,
+    at the later place (later training wins a tie anyway)."""
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
