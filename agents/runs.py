@@ -317,6 +317,4 @@ def kept_start(resume, out: str | os.PathLike):
             if resume.record_path.is_file():  # model.json beside model.zip, actor.json beside actor.pt
                 shutil.copy(resume.record_path, dst.with_suffix(".json"))
         print(f"kept {resume.path} as {dst} (this run overwrites the first)")
-    from .checkpoint import open_checkpoint  # late: checkpoint.py builds on this module
-
-    return open_checkpoint(dst)
+    return type(resume).find(dst)
