@@ -32,10 +32,10 @@ MOTIONS = ("static", "constant", "patrol", "arbitrary", "stop_and_go", "pedestri
 COLLISION_MODES = ("terminate", "continue")
 
 
-def _kinds():
+def _kinds(checked: bool = False):
     from .layouts import KINDS, check_kinds  # late import: the kinds read this module's dataclasses
 
-    return check_kinds(KINDS)
+    return check_kinds(KINDS) if checked else KINDS
 
 
 @dataclass(frozen=True)
@@ -188,7 +188,7 @@ class Scenario:
     None: ``PedestrianSpec()``. Only allowed with that motion."""
 
     def __post_init__(self) -> None:
-        check_choice("kind", self.kind, list(_kinds()))
+        check_choice("kind", self.kind, list(_kinds(checked=True)))  # checked here, not at every look-up
         if not isinstance(self.robot, RobotSpec):
             raise ValueError(f"robot must be a RobotSpec, got {type(self.robot).__name__}")
         if not isinstance(self.rewards, RewardWeights):
