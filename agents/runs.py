@@ -318,3 +318,18 @@ def kept_start(resume, out: str | os.PathLike):
                 shutil.copy(resume.record_path, dst.with_suffix(".json"))
         print(f"kept {resume.path} as {dst} (this run overwrites the first)")
     return type(resume).find(dst)
+
+
+def resumed_from(resume, steps: int) -> dict[str, Any]:
+    """The run record's entry of a run resumed from checkpoint ``resume`` at ``steps`` timesteps (nothing for a new
+    run): its command alone does not rebuild its weights, which come from that checkpoint."""
+    return {"resumed_from": {"checkpoint": str(resume.path), "timesteps": steps}} if resume is not None else {}
+
+
+def print_reproduce(command: str, resume=None, steps: int = 0) -> None:
+    """Print how to rebuild a run: ``command``, or for a run resumed from ``resume`` (at ``steps`` timesteps) the run
+    of that checkpoint, then ``command`` going on from it."""
+    if resume is None:
+        print(f"reproduce: {command}")
+    else:
+        print(f"reproduce: the run of {resume.path} ({steps} timesteps), then {command} --resume {resume.path}")

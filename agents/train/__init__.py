@@ -46,7 +46,17 @@ from ..config import build_scenario, config_command, print_suite_differences
 from ..mixture import mixture_scenarios
 from ..policies import warn_blind_training
 from ..residual import Residual
-from ..runs import TrainConfig, check_fresh_out, check_run, jsonable, kept_start, policy_kwargs, scenario_family
+from ..runs import (
+    TrainConfig,
+    check_fresh_out,
+    check_run,
+    jsonable,
+    kept_start,
+    policy_kwargs,
+    print_reproduce,
+    resumed_from,
+    scenario_family,
+)
 from .guide import GUIDES, ImitationLoss, JumpStart, annealed
 from .periodic import PeriodicEval
 
@@ -313,7 +323,6 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     tb = str(out / "tb") if cfg.tensorboard else None
     if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
         model = resume.load(scenario, env=venv)
-        start_steps = int(model.num_timesteps)
         model.tensorboard_log = tb
         model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
         print(f"resumed {resume} at {model.num_timesteps} timesteps")
@@ -325,6 +334,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         if init:
             meta = load_policy_weights(model, init, scenario)
             print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
+    start_steps = int(model.num_timesteps)  # the checkpoint's for a resumed run, 0 for a new one
     (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
     remaining = cfg.timesteps - model.num_timesteps
     periodic = PeriodicEval(cfg, scenarios, out, t_start)
@@ -368,8 +378,6 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     final = callback.evaluate()
     model.logger.dump(model.num_timesteps)
     wall = round(time.time() - t_start, 1)
-    # A resumed run's weights come from the checkpoint it went on from: its command alone does not rebuild them.
-    went_on = {"resumed_from": {"checkpoint": str(resume.path), "timesteps": start_steps}} if resume else {}
     path = save_model(
         model,
         out / "model.zip",
@@ -380,13 +388,11 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         evaluation=final,
         wall_time=wall,
         history=periodic.history,
-        **went_on,
+        **resumed_from(resume, start_steps),
     )
     print(f"saved {path} ({model.num_timesteps} timesteps, {wall:.0f} s)")
-    if resume:
-        # its scenario and evaluation flags too; its --init only records where the first run started
-        then = f"{config_command('train', dataclasses.replace(cfg, init=None))} --resume {resume.path}"
-        print(f"reproduce: the run of {resume.path} ({start_steps} timesteps), then {then}")
-    else:
-        print(f"reproduce: {config_command('train', cfg)}")
+    # A resumed run's scenario and evaluation flags too; its --init only records where the first run started.
+    print_reproduce(
+        config_command("train", dataclasses.replace(cfg, init=None) if resume else cfg), resume, start_steps
+    )
     return {"model": str(path), "evaluation": final, "wall_time": wall}

@@ -49,7 +49,18 @@ from vcs_env.suites import get_suite
 from ..checkpoint import Checkpoint, RLlibCheckpoint, RLlibPolicy, open_checkpoint
 from ..config import build_scenario
 from ..policies import warn_blind_training
-from ..runs import ADAPTERS, RLlibConfig, check_fresh_out, check_run, jsonable, kept_start, run_command, run_record
+from ..runs import (
+    ADAPTERS,
+    RLlibConfig,
+    check_fresh_out,
+    check_run,
+    jsonable,
+    kept_start,
+    print_reproduce,
+    resumed_from,
+    run_command,
+    run_record,
+)
 from .periodic import PeriodicEval
 from .rllib_cluster import init_ray
 
@@ -249,18 +260,13 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
                 save(algo, out / "checkpoints" / f"checkpoint_{steps}", cfg, scenario, steps)
         final = periodic(RLlibPolicy(module), steps)
         wall = round(time.time() - t_start, 1)
-        went_on = {"resumed_from": {"checkpoint": str(resume.path), "timesteps": resume.timesteps}} if resume else {}
         ckpt = save(
             algo, out / "checkpoint", cfg, scenario, steps, evaluation=final, wall_time=wall, history=periodic.history,
-            **went_on,
+            **resumed_from(resume, resume.timesteps if resume is not None else 0),
         )  # fmt: skip
     finally:
         algo.stop()
         ray.shutdown()
     print(f"saved {ckpt} ({steps} timesteps, {wall:.0f} s)")
-    if resume is not None:  # the weights come from the checkpoint it went on from
-        then = f"{run_command('rllib_ppo', cfg)} --resume {resume.path}"
-        print(f"reproduce: the run of {resume.path} ({resume.timesteps} timesteps), then {then}")
-    else:
-        print(f"reproduce: {run_command('rllib_ppo', cfg)}")
+    print_reproduce(run_command("rllib_ppo", cfg), resume, resume.timesteps if resume is not None else 0)
     return {"checkpoint": str(ckpt), "evaluation": final, "wall_time": wall, "timesteps": steps}
