@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import closest_approach, rotate, unit, wrap_angle
+from .geometry import rotate, unit, wrap_angle
 from .state import WorldState
 
 ACTION_MODES = ("delta", "absolute")
@@ -120,9 +120,13 @@ def stop_at_goal(
     """
     start, end = pos - goal, new_pos - goal
     d = end - start
-    dd = np.einsum("...i,...i->...", d, d)
-    s = np.clip(-np.einsum("...i,...i->...", start, d) / np.where(dd > 0.0, dd, 1.0), 0.0, 1.0)
-    stopped = acted & (np.linalg.norm(end, axis=-1) > r_goal) & (closest_approach(start, end) <= r_goal)
+    dd = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]
+    along = -(start[..., 0] * d[..., 0] + start[..., 1] * d[..., 1])  # the nearest point's fraction, times dd
+    s = np.where(along > 0.0, along / np.where(dd > 0.0, dd, 1.0), 0.0)
+    near = start + s[..., None] * d
+    r2 = r_goal * r_goal
+    outside = end[..., 0] * end[..., 0] + end[..., 1] * end[..., 1] > r2
+    stopped = acted & outside & (along < dd) & (near[..., 0] * near[..., 0] + near[..., 1] * near[..., 1] <= r2)
     return np.where(stopped[..., None], pos + s[..., None] * d, new_pos), stopped
 
 

@@ -136,17 +136,25 @@ def stop_at_goal(pos, new_pos, goal, acted, r_goal):
     Returns ``stopped (B, n)`` (bool): the robots whose step was cut short there.
     """
     B, n = acted.shape
+    r2 = r_goal * r_goal
     stopped = np.zeros((B, n), dtype=np.bool_)
-    for b in prange(B):
+    for b in prange(B):  # squared distances, no square root: this runs for every robot at every step
         for i in range(n):
             if not acted[b, i]:
                 continue
             sx, sy = pos[b, i, 0] - goal[b, i, 0], pos[b, i, 1] - goal[b, i, 1]
             ex, ey = new_pos[b, i, 0] - goal[b, i, 0], new_pos[b, i, 1] - goal[b, i, 1]
-            if math.sqrt(ex * ex + ey * ey) <= r_goal or _closest_approach(sx, sy, ex, ey) > r_goal:
-                continue
+            if ex * ex + ey * ey <= r2:
+                continue  # it ends inside the disc
             dx, dy = ex - sx, ey - sy
-            s = _clip(-(sx * dx + sy * dy) / (dx * dx + dy * dy), 0.0, 1.0)  # the step is not empty: it ends farther
+            along = -(sx * dx + sy * dy)  # the nearest point's fraction of the step, times its squared length
+            dd = dx * dx + dy * dy
+            if along >= dd:
+                continue  # the nearest point is the end, outside
+            s = along / dd if along > 0.0 else 0.0
+            cx, cy = sx + s * dx, sy + s * dy
+            if cx * cx + cy * cy > r2:
+                continue
             new_pos[b, i, 0] = pos[b, i, 0] + s * dx
             new_pos[b, i, 1] = pos[b, i, 1] + s * dy
             stopped[b, i] = True
