@@ -59,6 +59,11 @@ def world_indices(worlds, batch_size: int) -> list[int]:
     ``[0, batch_size)`` (a negative index, a float or a bool picked another world)."""
     if worlds is None:
         return list(range(batch_size))
+    if isinstance(worlds, np.ndarray) and worlds.ndim == 1 and worlds.dtype.kind in "iu":  # autoreset's: one pass
+        if worlds.size == 0 or (
+            0 <= worlds.min() and worlds.max() < batch_size and np.unique(worlds).size == worlds.size
+        ):
+            return worlds.tolist()
     idx = list(worlds) if np.ndim(worlds) == 1 else None
     ok = idx is not None and all(isinstance(w, (int, np.integer)) and not isinstance(w, (bool, np.bool_)) for w in idx)
     if not ok or not all(0 <= w < batch_size for w in idx) or len(set(idx)) != len(idx):
