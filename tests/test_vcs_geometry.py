@@ -249,6 +249,26 @@ def test_period_kernels_match_numpy_bit_for_bit(rng):
     assert np.array_equal(got.view(np.uint64), wrap_angle(angles).view(np.uint64))
 
 
+def test_kernel_wrap_gives_the_bits_of_the_remainder_form(rng):
+    """The search's angle wrap (``kernel.scalar.wrap``) takes one subtraction or addition of 2 pi
+    within a turn either side instead of Python's float remainder: the same bits as the remainder
+    form, at and around the edges of each branch (x = +-pi, +-3 pi) and far out."""
+    from baselines.vcs.kernel.scalar import wrap
+
+    def oracle(x):
+        if -math.pi < x <= math.pi:
+            return x
+        y = (x + math.pi) % (2.0 * math.pi) - math.pi
+        return y + 2.0 * math.pi if y <= -math.pi else y
+
+    edges = [k * math.pi for k in (-5, -4, -3, -2, -1, 0, 1, 2, 3, 4, 5)] + [1e-300, -0.0, 1e6, -1e6]
+    near = [x + d * math.ulp(x or 1.0) for x in edges for d in range(-3, 4)]
+    angles = np.concatenate((rng.uniform(-4 * math.pi, 4 * math.pi, 3000), rng.uniform(-100.0, 100.0, 500), near))
+    got = np.array([wrap(float(a)) for a in angles])
+    want = np.array([oracle(float(a)) for a in angles])
+    assert np.array_equal(got.view(np.uint64), want.view(np.uint64))
+
+
 def test_bounce_images_move_along_the_reflected_path():
     """The mirror image of an obstacle in the arena edge it moves toward (``mirror_bounces``)
     moves straight along the path the simulator's bounce gives the obstacle after it reflects
