@@ -69,7 +69,7 @@ def refused(nbs, count, r, dv, dth, vx, vy, tmax):
 
 @njit(cache=True)
 def fallback_cost(
-    nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance=-1.0, eps=0.0, bound=INF, contact=0.0, horizon=0.0
+    nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance, eps, bound, contact, horizon, movers, met
 ):
     """Cost of a candidate when nothing is admissible (vcs-method §2.13), unless least harm refuses
     it (:func:`refused`, the caller's test). The RVO-style penalty ``kappa / t_c + J_g`` (t_c: the
@@ -83,7 +83,8 @@ def fallback_cost(
 
     Returns inf as soon as the cost is known to be at least ``bound`` (the best so far, which it
     then cannot beat): every term is non-negative and only grows over the neighbours, so the
-    partial sum, in the same order, is never above the full one."""
+    partial sum, in the same order, is never above the full one. ``movers``: the play-out's records
+    (:func:`contact_movers` with ``max(clearance, 0)`` and ``horizon``), ``met`` a scratch of their size."""
     contact_clear = max(clearance, 0.0)  # before it is switched off below
     g = goal_term(r, dv, dth, vx, vy)
     if g >= bound:
@@ -116,7 +117,7 @@ def fallback_cost(
             return INF
     j = harm(kappa, tmin, r.dt, viol, g, least_harm) + walled
     if contact > 0.0 and least_harm and j < bound:  # the play-out only adds: skip it for a loser
-        t, toward = mover_contact(nbs, count, r, dv, dth, contact_clear, horizon)
+        t, toward = play_out(nbs, movers, met, r, dv, dth, contact_clear, horizon)
         if t < INF:
             j += contact * (1.0 / max(t, T_FLOOR) + max(toward, 0.0))
     return j
@@ -130,32 +131,67 @@ def mover_contact(nbs, count, r, dv, dth, clear, horizon):
     obstacle comes within its combined physical radius plus ``clear`` [m] (inf: none), and the
     largest speed [m/s] of the robot toward an obstacle's centre at that obstacle's first
     contact (0 if none). Driving and parked robots, static bodies and walls are not counted."""
-    ex, ey, e = ramp_line(r, dv, dth)
-    steps = int(horizon / r.dt + 0.5)
-    first = INF
-    toward = 0.0
+    movers = contact_movers(nbs, count, r, clear, horizon)
+    return play_out(nbs, movers, np.empty(movers.size, dtype=np.bool_), r, dv, dth, clear, horizon)
+
+
+@njit(cache=True)
+def contact_movers(nbs, count, r, clear, horizon):
+    """The records :func:`mover_contact` plays a ramp out against: moving obstacles (not an overlap,
+    least harm's violation term already) that the robot, at its present speed plus full
+    acceleration, and the obstacle could bring together within the play-out (``horizon`` [s]
+    rounded to whole steps), with contact at their physical radii plus ``clear`` [m]. The same
+    for every candidate of a search."""
+    out = np.empty(count, dtype=np.int64)
+    n = 0
+    span = int(horizon / r.dt + 0.5) * r.dt  # [s] the play-out's length
     for q in range(count):
         nb = nbs[q]
         if nb.kind != K_MOVER or nb.mover or nb.overlap:
-            continue  # an overlap is least harm's violation term already
+            continue
         rc = nb.r0 + clear
-        span = steps * r.dt  # [s] the play-out's length (horizon rounded to whole steps)
         if nb.d - rc > (math.sqrt(nb.vjx * nb.vjx + nb.vjy * nb.vjy) + r.v_r + r.dv1 / r.dt * span) * span:
             continue  # cannot meet within the horizon
-        px = 0.0
-        py = 0.0
-        for k in range(1, steps + 1):
-            vx, vy = ramp_velocity(r, dv, dth, ex, ey, e, k)
-            px += vx * r.dt
-            py += vy * r.dt
-            t = k * r.dt
+        out[n] = q
+        n += 1
+    return out[:n]
+
+
+@njit(cache=True)
+def play_out(nbs, movers, met, r, dv, dth, clear, horizon):
+    """:func:`mover_contact` against the records ``movers`` (:func:`contact_movers`), ``met`` a
+    scratch of their size: the ramp is walked once, every mover checked at each step until its
+    first contact (the ramp's velocities are worked out once per step, not once per mover)."""
+    first = INF
+    toward = 0.0
+    if movers.size == 0:
+        return first, toward
+    ex, ey, e = ramp_line(r, dv, dth)
+    steps = int(horizon / r.dt + 0.5)
+    met[:] = False
+    left = movers.size
+    px = 0.0
+    py = 0.0
+    for k in range(1, steps + 1):
+        vx, vy = ramp_velocity(r, dv, dth, ex, ey, e, k)
+        px += vx * r.dt
+        py += vy * r.dt
+        t = k * r.dt
+        for m in range(movers.size):
+            if met[m]:
+                continue
+            nb = nbs[movers[m]]
+            rc = nb.r0 + clear
             gx = nb.px + nb.vjx * t - px
             gy = nb.py + nb.vjy * t - py
             d2 = gx * gx + gy * gy
             if d2 < rc * rc:
                 first = min(first, t)
                 toward = max(toward, (vx * gx + vy * gy) / math.sqrt(max(d2, TINY)))
-                break
+                met[m] = True
+                left -= 1
+        if left == 0:
+            break
     return first, toward
 
 
@@ -185,6 +221,8 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
     ngrid = win.nv * win.nth
     brake = r.walls and r.wall_brake and r.ramp
     memo = p.least_harm and not r.holo
+    movers = contact_movers(nbs, count, r, max(p.fallback_clearance, 0.0), p.t_max)
+    met = np.empty(movers.size, dtype=np.bool_)
     if memo:
         row_run, col_run = first_step_runs(win, r)
         seen = np.zeros((win.nv, win.nth), dtype=np.int8)  # per first step: 0 unknown, else 1 + faster + 2 static
@@ -210,7 +248,7 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
                 continue
         j = fallback_cost(
             nbs, count, r, dv, dth, vx, vy, p.kappa, p.least_harm, p.fallback_clearance, p.eps, best,
-            p.fallback_contact, p.t_max,
+            p.fallback_contact, p.t_max, movers, met,
         )  # fmt: skip
         if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
             j += WALL_COST
