@@ -159,23 +159,32 @@ def cost(nbs, js, nj, r, dv, dth, vx, vy, steps):
 
 @njit(cache=True)
 def ramp_line(r, dv, dth):
-    """The velocity change ``(ex, ey)`` [m/s] to VCS point (dv, dth) and its length ``e`` (a holonomic
-    ramp's straight line, :func:`ramp_velocity`)."""
+    """The ramp toward VCS point (dv, dth), for :func:`ramp_velocity`: the velocity change ``(ex,
+    ey)`` [m/s] and its length ``e`` (a holonomic ramp's straight line), and the cosine and sine of
+    the end heading (a unicycle's, held once its turn is made)."""
     s_end = r.v_r + dv
-    ex = s_end * math.cos(r.th + dth) - r.vrx
-    ey = s_end * math.sin(r.th + dth) - r.vry
-    return ex, ey, math.sqrt(ex * ex + ey * ey)
+    c_end = math.cos(r.th + dth)
+    s_dir = math.sin(r.th + dth)
+    ex = s_end * c_end - r.vrx
+    ey = s_end * s_dir - r.vry
+    return ex, ey, math.sqrt(ex * ex + ey * ey), c_end, s_dir
 
 
 @njit(cache=True)
-def ramp_velocity(r, dv, dth, ex, ey, e, k):
+def ramp_velocity(r, dv, dth, line, k):
     """Velocity [m/s] after ``k`` steps toward VCS point (dv, dth) at the maximal per-step rates
-    (holonomic: along the straight line ``(ex, ey)`` of length ``e`` [m/s])."""
+    (``line``: :func:`ramp_line`; holonomic: along its straight line). A unicycle's heading is its
+    end heading once the turn is made (the trig of :func:`ramp_line`, the same bits), before that
+    the heading turned by k steps."""
+    ex, ey, e, c_end, s_dir = line
     if r.holo:
         f = min(1.0, k * r.dv1 / max(e, TINY))
         return r.vrx + f * ex, r.vry + f * ey
     sk = r.v_r + min(max(dv, -k * r.dv1), k * r.dv1)
-    tk = r.th + min(max(dth, -k * r.dth1), k * r.dth1)
+    turn = k * r.dth1
+    if -turn <= dth <= turn:
+        return sk * c_end, sk * s_dir
+    tk = r.th + min(max(dth, -turn), turn)
     return sk * math.cos(tk), sk * math.sin(tk)
 
 
@@ -211,12 +220,12 @@ def ramp_walk(nbs, count, r, dv, dth, walls_only):
         steps = max(steps, 1)  # the fallback's candidates: its first step too
     elif steps <= 1:
         return True  # reached within the step: the velocity obstacles judge it
-    ex, ey, e = ramp_line(r, dv, dth)
+    line = ramp_line(r, dv, dth)
     a_max = r.dv1 / r.dt
     px = 0.0
     py = 0.0
     for k in range(1, steps + 1):
-        vx, vy = ramp_velocity(r, dv, dth, ex, ey, e, k)
+        vx, vy = ramp_velocity(r, dv, dth, line, k)
         px += vx * r.dt
         py += vy * r.dt
         t = k * r.dt

@@ -166,14 +166,14 @@ def play_out(nbs, movers, met, r, dv, dth, clear, horizon):
     toward = 0.0
     if movers.size == 0:
         return first, toward
-    ex, ey, e = ramp_line(r, dv, dth)
+    line = ramp_line(r, dv, dth)
     steps = int(horizon / r.dt + 0.5)
     met[:] = False
     left = movers.size
     px = 0.0
     py = 0.0
     for k in range(1, steps + 1):
-        vx, vy = ramp_velocity(r, dv, dth, ex, ey, e, k)
+        vx, vy = ramp_velocity(r, dv, dth, line, k)
         px += vx * r.dt
         py += vy * r.dt
         t = k * r.dt
