@@ -9,6 +9,7 @@ from __future__ import annotations
 import gymnasium
 import pettingzoo
 
+from . import kernel_cache  # noqa: F401  (first: marks kernels stale when a kernel source changed)
 from .engine import NavEngine, StepResult
 from .parallel import VcsNavParallelEnv, env, parallel_env, raw_env
 from .planning import PLANNERS, Planner, make_planner, register_planner
