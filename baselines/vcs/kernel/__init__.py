@@ -18,9 +18,9 @@ that both agree). Per robot (vcs-method §2.14), by stage:
 Named records (:mod:`.records`) carry the parameters, the robot's context and the neighbour state.
 
 Numba's on-disk cache (``cache=True``) is invalidated per source file only: a caller compiled from
-:mod:`.search` keeps the code of a stage module it inlined. After editing a stage module, clear
-the cache (``__pycache__/*.nbi``, ``*.nbc``, or ``NUMBA_CACHE_DIR``) before measuring or testing;
-``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
+:mod:`.search` keeps the code of a stage module it inlined. Importing :mod:`vcs_env` clears the
+cached kernels when any kernel source changed (:mod:`vcs_env.kernel_cache`); measure or test an
+edit in a new process. ``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
 from .period import finish, push, stall_rules, sync_memory
