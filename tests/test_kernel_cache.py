@@ -14,7 +14,7 @@ import textwrap
 
 import pytest
 
-from vcs_env.kernel_cache import STAMP, cache_dir, digest, kernel_sources, package_roots
+from vcs_env.kernel_cache import STAMP, cache_dir, digest, kernel_sources, package_roots, sources
 
 RUN = textwrap.dedent(
     """
@@ -60,14 +60,42 @@ def test_a_callee_edited_in_another_file_reaches_the_cached_caller(tmp_path, whe
     assert _run(tmp_path, False, cache) == "None 1", "numba now tracks callees in other files: kernel_cache may go"
     assert _run(tmp_path, True, cache) == "True 2"
     assert _run(tmp_path, False, cache) == "None 2"  # compiled again and cached
+    consts = pkg / "consts.py"  # a constant a kernel reads from a module without kernels
+    consts.write_text("STEP = 10\n")
+    callee.write_text(
+        callee.read_text()
+        .replace("return 2", "return 2 + STEP")
+        .replace("njit\n", "njit\n\nfrom .consts import STEP\n", 1)
+    )
+    assert _run(tmp_path, True, cache) == "True 12"
+    (pkg / ".#callee.py").symlink_to(tmp_path / "nowhere")  # an editor's lock file: a dangling link
+    consts.write_text("STEP = 20\n")
+    assert _run(tmp_path, True, cache) == "True 22"
+    for stamp in (cache or pkg).rglob(STAMP):
+        stamp.write_bytes(b"\xff\xfe")  # a corrupt digest counts as a different one
+    assert _run(tmp_path, True, cache) == "True 22"
     assert any(cache.rglob("*.nbi")) if cache is not None else any((pkg / "__pycache__").glob("*.nbi"))
 
 
 def test_the_project_kernels_are_found_and_their_digest_is_stored():
     roots = package_roots()
     assert len(roots) == 2 and all(r.is_dir() for r in roots)
-    found = {p.relative_to(roots[0].parent).as_posix() for p in kernel_sources(roots)}
+    files = sources(roots)
+    found = {p.relative_to(roots[0].parent).as_posix() for p in kernel_sources(files)}
     assert {"vcs_env/kernels.py", "baselines/vcs/kernel/search.py", "baselines/vcs/kernel/fallback.py"} <= found
-    assert "vcs_env/scenario.py" not in found  # no kernel there: its edits keep the cache
-    for d in {cache_dir(p) for p in kernel_sources(roots)}:  # importing vcs_env stored the digest there
-        assert (d / STAMP).read_text().strip() == digest(kernel_sources(roots))
+    assert "baselines/vcs/kernel/records.py" in {p.relative_to(roots[0].parent).as_posix() for p in files}
+    for d in {cache_dir(p) for p in kernel_sources(files)}:  # importing vcs_env stored the digest there
+        assert (d / STAMP).read_text().strip() == digest(files)
+
+
+def test_vcs_env_refreshes_before_any_of_its_modules_is_imported():
+    """``vcs_env/__init__.py`` imports :mod:`vcs_env.kernel_cache` before any other module of the
+    package (importing those loads or compiles kernels)."""
+    import ast
+    import pathlib
+
+    import vcs_env
+
+    tree = ast.parse(pathlib.Path(vcs_env.__file__).read_text())
+    own = [n for n in tree.body if isinstance(n, ast.ImportFrom) and n.level == 1]
+    assert own and [a.name for a in own[0].names] == ["kernel_cache"]

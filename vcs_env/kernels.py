@@ -11,7 +11,7 @@ bits except for ``atan2`` (holonomic robots' heading): numba calls the C library
 vectorized ``arctan2``, which differ by at most one unit in the last place.
 
 Kernels are compiled on first use and cached on disk (``cache=True``; ``NUMBA_CACHE_DIR`` moves
-the cache; :mod:`vcs_env.kernel_cache` clears it when a kernel source changed). The world loop
+the cache; :mod:`vcs_env.kernel_cache` clears it when a source changed). The world loop
 is a ``prange``: each kernel is compiled serial and parallel over worlds (:mod:`vcs_env.threads`;
 results do not depend on the thread count).
 """

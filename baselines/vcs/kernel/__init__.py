@@ -19,7 +19,7 @@ Named records (:mod:`.records`) carry the parameters, the robot's context and th
 
 Numba's on-disk cache (``cache=True``) is invalidated per source file only: a caller compiled from
 :mod:`.search` keeps the code of a stage module it inlined. Importing :mod:`vcs_env` clears the
-cached kernels when any kernel source changed (:mod:`vcs_env.kernel_cache`); measure or test an
+cached kernels when a source of ``vcs_env`` or ``baselines`` changed (:mod:`vcs_env.kernel_cache`); measure or test an
 edit in a new process. ``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
