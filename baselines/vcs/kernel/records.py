@@ -251,6 +251,7 @@ ROBOT = np.dtype(
         ("tau_s", "f8"),  # safety band [s]
         ("dt", "f8"),  # period [s]
         ("ramp_gap", "f8"),  # gap kept along the way [m]
+        ("ramp_hint", "i8"),  # the record that last broke a ramp of this robot's (-1: none; a speed-up only)
         ("has_prev", "?"),  # the residual target is set
         ("holo", "?"),  # holonomic robot
         ("goal_vcs", "?"),  # goal term measured in the VCS
