@@ -230,6 +230,8 @@ def sweep_pass(nbs, adm, na, js, nj, count, r, g, win, lo_c, hi_c, best, checked
                 if q >= 0:
                     last = q
                     continue
+                if checked and best == INF and not ramp_clear(nbs, count, r, g.dv_row[a], g.dth_col[t]):
+                    continue  # any J beats inf: the check, not J, decides (J_s is costed only for a clear point)
                 j = x
                 if ws > 0.0:
                     j += ws * safety_term(nbs, js, nj, tau_s, vx, vy)
