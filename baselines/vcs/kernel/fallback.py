@@ -68,39 +68,43 @@ def refused(nbs, count, r, dv, dth, vx, vy, tmax):
 
 
 @njit(cache=True)
+def contact_clearance(nbs, count, least_harm, clearance, eps):
+    """The clearance [m] :func:`fallback_cost` ranks contact times with: ``clearance``
+    (``VCSParams.fallback_clearance``; < 0: none) only with ``least_harm`` and while the robot is
+    already inside a body's regulated buffer (r_eff was shrunk to d - eps), where the buffered times
+    saturate; else -1 (the regulated radii). The same for every candidate of a search."""
+    if least_harm and clearance >= 0.0:
+        for q in range(count):
+            if not nbs[q].wall and inside_buffer(nbs[q], eps):
+                return clearance
+    return -1.0
+
+
+@njit(cache=True)
 def fallback_cost(
-    nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance, eps, bound, contact, horizon, movers, met
+    nbs, count, r, dv, dth, vx, vy, kappa, least_harm, clearance, contact_clear, bound, contact, horizon, movers, met
 ):
     """Cost of a candidate when nothing is admissible (vcs-method §2.13), unless least harm refuses
     it (:func:`refused`, the caller's test). The RVO-style penalty ``kappa / t_c + J_g`` (t_c: the
-    least time to collision over the neighbours), and with ``least_harm`` an overlap counts by how
-    much the candidate fails to separate (the overlap half-plane's violation [m/s], weighted
-    kappa / dt). Walls stay hard (vcs-method §2.18): a candidate inside a wall's truncated
-    velocity obstacle costs :data:`~.records.WALL_COST` more than any that is not. With ``least_harm`` and
-    ``contact`` > 0 [s] (``VCSParams.fallback_contact``), a candidate that meets a moving obstacle
-    within ``horizon`` [s] (:func:`mover_contact`, first at t_m [s], driving toward it at v_t [m/s]
-    then) costs ``contact (1 / t_m + v_t)`` more (t_m in s, v_t in m/s).
+    least time to collision over the neighbours, at ``clearance``, :func:`contact_clearance`), and
+    with ``least_harm`` an overlap counts by how much the candidate fails to separate (the overlap
+    half-plane's violation [m/s], weighted kappa / dt). Walls stay hard (vcs-method §2.18): a
+    candidate inside a wall's truncated velocity obstacle costs :data:`~.records.WALL_COST` more
+    than any that is not. With ``least_harm`` and ``contact`` > 0 [s] (``VCSParams.fallback_contact``),
+    a candidate that meets a moving obstacle within ``horizon`` [s] (:func:`mover_contact` at
+    ``contact_clear`` [m], first at t_m [s], driving toward it at v_t [m/s] then) costs
+    ``contact (1 / t_m + v_t)`` more (t_m in s, v_t in m/s).
 
     Returns inf as soon as the cost is known to be at least ``bound`` (the best so far, which it
     then cannot beat): every term is non-negative and only grows over the neighbours, so the
     partial sum, in the same order, is never above the full one. ``movers``: the play-out's records
-    (:func:`contact_movers` with ``max(clearance, 0)`` and ``horizon``), ``met`` a scratch of their size."""
-    contact_clear = max(clearance, 0.0)  # before it is switched off below
+    (:func:`contact_movers` with ``contact_clear`` and ``horizon``), ``met`` a scratch of their size."""
     g = goal_term(r, dv, dth, vx, vy)
     if g >= bound:
         return INF
     tmin = INF
     viol = 0.0
     walled = 0.0
-    if least_harm and clearance >= 0.0:
-        # Only while the robot is already inside a body's regulated buffer (r_eff was shrunk to
-        # d - eps) do the buffered times saturate; then time to contact at r0 + clearance ranks.
-        inside = False
-        for q in range(count):
-            if not nbs[q].wall and inside_buffer(nbs[q], eps):
-                inside = True
-        if not inside:
-            clearance = -1.0
     for q in range(count):
         nb = nbs[q]
         if nb.wall and walled == 0.0 and forbidden(nb, vx, vy):
@@ -221,8 +225,10 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
     ngrid = win.nv * win.nth
     brake = r.walls and r.wall_brake and r.ramp
     memo = p.least_harm and not r.holo
-    movers = contact_movers(nbs, count, r, max(p.fallback_clearance, 0.0), p.t_max)
+    contact_clear = max(p.fallback_clearance, 0.0)
+    movers = contact_movers(nbs, count, r, contact_clear, p.t_max)
     met = np.empty(movers.size, dtype=np.bool_)
+    clearance = contact_clearance(nbs, count, p.least_harm, p.fallback_clearance, p.eps)
     if memo:
         row_run, col_run = first_step_runs(win, r)
         seen = np.zeros((win.nv, win.nth), dtype=np.int8)  # per first step: 0 unknown, else 1 + faster + 2 static
@@ -247,7 +253,7 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
             if out:
                 continue
         j = fallback_cost(
-            nbs, count, r, dv, dth, vx, vy, p.kappa, p.least_harm, p.fallback_clearance, p.eps, best,
+            nbs, count, r, dv, dth, vx, vy, p.kappa, p.least_harm, clearance, contact_clear, best,
             p.fallback_contact, p.t_max, movers, met,
         )  # fmt: skip
         if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
