@@ -17,7 +17,7 @@ import pytest
 from numba import njit
 
 from baselines.vcs import VCSPlanner
-from baselines.vcs.kernel.cost import admissible, cost, ramp_clear, relevant
+from baselines.vcs.kernel.cost import admissible, cost, ramp_clear, relevant, wall_ramp_clear
 from baselines.vcs.kernel.neighbours import work
 from baselines.vcs.kernel.records import INF
 from baselines.vcs.kernel.scalar import reach_steps
@@ -114,3 +114,65 @@ def test_search_finds_the_cheapest_admissible_point(name, ramp_check):
     assert np.all(np.abs(gap) <= TOL * (1.0 + least[~none])), f"search above the least cost by up to {gap.max():.3g}"
     assert np.allclose(again[~none], found[~none], rtol=TOL, atol=TOL)
     assert (~none).sum() > 0.5 * len(rows)
+
+
+@njit
+def ramp_answers(world, inputs, st, rng_keys, out):
+    """For every active robot of world 0 and every candidate of its window (visited in the order of
+    ``rng_keys``), the test along the way and the fallback's wall test asked with no hint
+    (``ramp_hint`` -1) and with the hint the previous refusals left: rows ``(fresh, hinted, wall
+    fresh, wall hinted, hint set)``; returns the number of rows."""
+    p = st.prm[0]
+    n = world.pos.shape[1]
+    wk = work(n, world.obs_pos.shape[1], world.seg_present.shape[1], p)
+    rows = 0
+    for i in range(n):
+        if not world.active[0, i]:
+            continue
+        count = prepare_robot(0, i, world, inputs, st, p, wk)
+        r = wk.robot[0]
+        nbs = wk.nbs
+        win = window(r, p, threats(nbs, count)[0])
+        g1v, g1th = goal_step(r)
+        total = win.nv * win.nth + 3
+        hint = -1
+        for c in np.argsort(rng_keys[:total]):
+            dv, dth = candidate(c, win, r, g1v, g1th)
+            r.ramp_hint = -1
+            out[rows, 0] = ramp_clear(nbs, count, r, dv, dth)
+            r.ramp_hint = -1
+            out[rows, 2] = wall_ramp_clear(nbs, count, r, dv, dth)
+            out[rows, 4] = hint >= 0
+            r.ramp_hint = hint
+            out[rows, 1] = ramp_clear(nbs, count, r, dv, dth)
+            out[rows, 3] = wall_ramp_clear(nbs, count, r, dv, dth)
+            hint = r.ramp_hint
+            rows += 1
+    return rows
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_the_ramp_hint_never_changes_an_answer(name):
+    """The ramp test walks the record that broke the robot's last refused ramp first (a speed-up):
+    the answers with the hint left by earlier refusals, in random order, equal those with none, for
+    the test along the way and the fallback's wall test, on rollout states of each scenario."""
+    kind, overrides = SCENARIOS[name]
+    planner = VCSPlanner()
+    eng = NavEngine(make_scenario(kind, **overrides), 1)
+    eng.reset([5])
+    rng = np.random.default_rng(0)
+    rows = []
+    for step in range(60):
+        world = eng.world
+        if step % 6 == 0:
+            planner.plan(world)
+            kworld = planner._kernel_world(world)
+            own, comm, detour = planner._inputs(world, kworld)
+            planned = np.ones((1, world.n_robots), dtype=bool)
+            args = planner._kernel_inputs(world, kworld, own, comm, detour, planned)
+            out = np.zeros((world.n_robots * 2000, 5), dtype=np.bool_)
+            rows.append(out[: ramp_answers(*args, rng.random(2000), out)])
+        eng.step(planner.act(world))
+    fresh, hinted, wall_fresh, wall_hinted, hint_set = np.concatenate(rows).T
+    assert np.array_equal(fresh, hinted) and np.array_equal(wall_fresh, wall_hinted)
+    assert hint_set.sum() > 100 and (~fresh & hint_set).sum() > 10, "too few hinted refusals to test the hint"
