@@ -94,9 +94,10 @@ def refresh(roots: Iterable[Path]) -> bool:
 
 
 def package_roots() -> list[Path]:
-    """The directory of ``vcs_env`` and, beside it (a source checkout, or both installed), ``baselines``."""
+    """The directory of ``vcs_env`` and, beside it (a source checkout, or both installed), this
+    project's ``baselines`` (the one with the VCS planner, not another package of that name)."""
     here = Path(__file__).parent
-    return [here] + [d for d in (here.parent / "baselines",) if (d / "__init__.py").is_file()]
+    return [here] + [d for d in (here.parent / "baselines",) if (d / "vcs" / "kernel" / "__init__.py").is_file()]
 
 
 def refresh_packages() -> bool:
