@@ -228,15 +228,19 @@ def ramp_walk(nbs, count, r, dv, dth, walls_only):
     line = ramp_line(r, dv, dth)
     a_max = r.dv1 / r.dt
     hint = r.ramp_hint
-    if 0 <= hint < count:
-        px = 0.0
-        py = 0.0
-        for k in range(1, steps + 1):
-            vx, vy = ramp_velocity(r, dv, dth, line, k)
-            px += vx * r.dt
-            py += vy * r.dt
-            if ramp_breaks(nbs[hint], r, px, py, vx, vy, k * r.dt, a_max, walls_only):
-                return False
+    if 0 <= hint < count and ramp_breaker(nbs, hint, hint + 1, -1, r, dv, dth, line, steps, a_max, walls_only) >= 0:
+        return False
+    q = ramp_breaker(nbs, 0, count, hint, r, dv, dth, line, steps, a_max, walls_only)
+    if q >= 0:
+        r.ramp_hint = q
+        return False
+    return True
+
+
+@njit(cache=True)
+def ramp_breaker(nbs, lo, hi, skip, r, dv, dth, line, steps, a_max, walls_only):
+    """The first record of ``nbs[lo:hi]`` (but ``skip``) that the ramp of :func:`ramp_walk` (``steps``
+    steps along ``line``, :func:`ramp_line`) breaks, at its earliest step; -1 when none does."""
     px = 0.0
     py = 0.0
     for k in range(1, steps + 1):
@@ -244,11 +248,10 @@ def ramp_walk(nbs, count, r, dv, dth, walls_only):
         px += vx * r.dt
         py += vy * r.dt
         t = k * r.dt
-        for q in range(count):
-            if q != hint and ramp_breaks(nbs[q], r, px, py, vx, vy, t, a_max, walls_only):
-                r.ramp_hint = q
-                return False
-    return True
+        for q in range(lo, hi):
+            if q != skip and ramp_breaks(nbs[q], r, px, py, vx, vy, t, a_max, walls_only):
+                return q
+    return -1
 
 
 @njit(cache=True)
