@@ -73,7 +73,8 @@ def refresh(roots: Iterable[Path]) -> bool:
     try:
         files = sources(roots)
         new = digest(files)
-        dirs = sorted({cache_dir(f) for f in kernel_sources(files)} - {None})
+        one_per_dir = {f.parent: f for f in kernel_sources(files)}.values()  # numba caches per source directory
+        dirs = sorted({cache_dir(f) for f in one_per_dir} - {None})
     except Exception:  # a file vanished meanwhile: the next import compares again
         return False
     cleared = False
