@@ -81,11 +81,11 @@ def compare(world, inputs, st, out):
     return rows
 
 
-def _rows(kind: str, overrides: dict, planner: VCSPlanner, steps: int = 80, every: int = 4) -> np.ndarray:
-    """Rows of :func:`compare` over states of a VCS rollout (one world)."""
+def _states(kind: str, overrides: dict, planner: VCSPlanner, steps: int, every: int, seed: int):
+    """Every ``every`` steps of a VCS rollout (one world, reset with ``seed``): the world and the
+    kernels' inputs of its state, with the planner's memory of that state."""
     eng = NavEngine(make_scenario(kind, **overrides), 1)
-    eng.reset([3])
-    rows = []
+    eng.reset([seed])
     for step in range(steps):
         world = eng.world
         if step % every == 0:
@@ -93,10 +93,16 @@ def _rows(kind: str, overrides: dict, planner: VCSPlanner, steps: int = 80, ever
             kworld = planner._kernel_world(world)
             own, comm, detour = planner._inputs(world, kworld)
             planned = np.ones((1, world.n_robots), dtype=bool)
-            args = planner._kernel_inputs(world, kworld, own, comm, detour, planned)
-            out = np.zeros((world.n_robots, 4))
-            rows.append(out[: compare(*args, out)])
+            yield world, planner._kernel_inputs(world, kworld, own, comm, detour, planned)
         eng.step(planner.act(world))
+
+
+def _rows(kind: str, overrides: dict, planner: VCSPlanner, steps: int = 80, every: int = 4) -> np.ndarray:
+    """Rows of :func:`compare` over states of a VCS rollout (one world)."""
+    rows = []
+    for world, args in _states(kind, overrides, planner, steps, every, seed=3):
+        out = np.zeros((world.n_robots, 4))
+        rows.append(out[: compare(*args, out)])
     return np.concatenate(rows)
 
 
@@ -173,22 +179,11 @@ def test_the_ramp_hint_never_changes_an_answer(name):
     earlier refusals (candidates in random order) and with every record as the hint equal those
     with none, on rollout states of each scenario, among them ramps that one record alone refuses."""
     kind, overrides = SCENARIOS[name]
-    planner = VCSPlanner()
-    eng = NavEngine(make_scenario(kind, **overrides), 1)
-    eng.reset([5])
     rng = np.random.default_rng(0)
     rows = []
-    for step in range(60):
-        world = eng.world
-        if step % 6 == 0:
-            planner.plan(world)
-            kworld = planner._kernel_world(world)
-            own, comm, detour = planner._inputs(world, kworld)
-            planned = np.ones((1, world.n_robots), dtype=bool)
-            args = planner._kernel_inputs(world, kworld, own, comm, detour, planned)
-            out = np.zeros((world.n_robots * 2000, 5), dtype=np.bool_)
-            rows.append(out[: ramp_answers(*args, rng.random(2000), out)])
-        eng.step(planner.act(world))
+    for world, args in _states(kind, overrides, VCSPlanner(), steps=60, every=6, seed=5):
+        out = np.zeros((world.n_robots * 2000, 5), dtype=np.bool_)
+        rows.append(out[: ramp_answers(*args, rng.random(2000), out)])
     fresh, same, wall, wall_same, alone = np.concatenate(rows).T
     assert same.all() and wall_same.all(), "a hint changed the answer of the ramp test"
     assert alone.sum() > 10, "too few ramps refused by one record alone to test the hint"
