@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # scenario.py looks kinds up here when it validates
 from .placement import (  # noqa: F401  (re-exported: the building blocks of every kind)
     MAX_TRIES,
     MIN_GOAL_DISTANCE,
+    Ahead,
     Layout,
     Sampler,
     _view,
@@ -37,6 +38,7 @@ from .placement import (  # noqa: F401  (re-exported: the building blocks of eve
     jittered,
     obstacle_radii,
     place_obstacles,
+    ring_crossers,
 )
 
 
@@ -278,26 +280,33 @@ class Crowd(ScenarioKind):
     ) -> tuple[np.ndarray, np.ndarray]:
         """CrowdNav circle crossing: obstacles start on the circle (with +-0.5 m noise) and head for
         the antipodal point; starts and goals keep clear of the robots' and of each other's."""
-        m = len(radius)
+        m, R = len(radius), s.circle_radius
         pos = np.zeros((m, 2))
-        target = np.zeros((m, 2))
-        bodies = [(p, s.robot.radius) for p in np.concatenate((start, goal))]
-        for k in range(m):
-            for _ in range(MAX_TRIES):
-                ang = rng.uniform(0.0, 2.0 * np.pi)
-                noise = rng.uniform(-0.5, 0.5, size=2)
-                p = s.circle_radius * np.array([np.cos(ang), np.sin(ang)]) + noise
-                g = -p
-                ok = all(
-                    np.linalg.norm(q - c) - rad - radius[k] >= s.min_separation for c, rad in bodies for q in (p, g)
-                )
-                if ok:
-                    break
-            else:  # the random draws found no room: search every place, in an order drawn from rng
+        centre = np.zeros((2 * s.n_robots + 2 * m, 2))
+        centre[: 2 * s.n_robots] = np.concatenate((start, goal))
+        rad = np.full(len(centre), float(s.robot.radius))
+        k = tries = 0
+        chunk = 8 * m
+        while k < m:
+            # Each try draws an angle on the circle and a +-0.5 m noise per axis (rng.uniform(0, 2 pi), then
+            # rng.uniform(-0.5, 0.5, size=2)); drawn ahead in chunks, the loop compiled (ring_crossers).
+            ahead = Ahead(rng, 3 * chunk)
+            u = ahead.u.reshape(-1, 3)
+            ang = (2.0 * np.pi) * u[:, 0]
+            px = R * np.cos(ang) + (-0.5 + 1.0 * u[:, 1])
+            py = R * np.sin(ang) + (-0.5 + 1.0 * u[:, 2])
+            sep = s.min_separation
+            k, used, tries, status = ring_crossers(px, py, centre, rad, radius, k, tries, sep, MAX_TRIES, pos)
+            ahead.settle(3 * used)
+            if status == 2:  # the random draws found no room: search every place, in an order drawn from rng
+                bodies = [(centre[b], rad[b]) for b in range(2 * s.n_robots + 2 * k)]
                 p = Crowd._search(rng, s, bodies, radius[k], k)
-            pos[k], target[k] = p, -p
-            bodies += [(p, radius[k]), (-p, radius[k])]
-        return pos, target
+                pos[k] = p
+                j = 2 * s.n_robots + 2 * k
+                centre[j], centre[j + 1], rad[j : j + 2] = p, -p, radius[k]
+                k, tries = k + 1, 0
+            chunk *= 2
+        return pos, -pos
 
     @staticmethod
     def _search(rng: np.random.Generator, s: Scenario, bodies: list, r: float, k: int) -> np.ndarray:

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numba import njit
 
 from .walls import clearance
 
@@ -235,3 +236,59 @@ class Sampler:
             f"could not place {what} without overlap after {MAX_TRIES} tries; "
             "increase arena_half_size or reduce n_robots / n_obstacles / min_separation"
         )
+
+
+class Ahead:
+    """Uniform doubles in [0, 1) drawn ahead from ``rng`` (``u``, ``(count,)``), for a compiled loop that
+    consumes them in order and cannot take the generator itself; ``settle(used)`` then leaves ``rng``
+    exactly where ``used`` draws of its own would have (its state is put back and ``used`` doubles drawn
+    again: any bit generator). ``rng.uniform(lo, hi)`` is ``lo + (hi - lo) * u`` for the next ``u``, bit for
+    bit (numpy's own formula)."""
+
+    def __init__(self, rng: np.random.Generator, count: int):
+        self.rng, self.state = rng, rng.bit_generator.state
+        self.u = rng.random(count)
+
+    def settle(self, used: int) -> None:
+        if used < len(self.u):
+            self.rng.bit_generator.state = self.state
+            if used:
+                self.rng.random(used)
+
+
+@njit(cache=True)
+def ring_crossers(px, py, centre, rad, radius, k, tries, sep, max_tries, pos):
+    """The rejection loop of the crowd kind's obstacles (:meth:`vcs_env.layouts.Crowd._obstacles`) over drawn
+    candidate starts ``(px, py)`` ``(T,)`` [m], taken in order: obstacle ``k`` (of radius ``radius[k]``
+    [m]) goes to the first candidate whose start and antipodal goal keep ``sep`` [m] from every body so far
+    (``centre`` ``(K, 2)`` [m], ``rad`` ``(K,)`` [m]: the robots' starts and their goals, the starts negated,
+    then each placed obstacle's start and goal, appended here; antipodal pairs, so checking the start is
+    checking both); ``tries`` candidates were already spent on it. Fills ``pos`` ``(m, 2)``.
+    Returns ``(k, used, tries, status)``: the next obstacle to place, the candidates used, those spent on it,
+    and 0 (all placed), 1 (candidates ran out) or 2 (``max_tries`` spent on obstacle ``k``)."""
+    m, n0 = radius.shape[0], centre.shape[0] - 2 * radius.shape[0]
+    t = 0
+    while k < m:
+        if tries == max_tries:
+            return k, t, tries, 2
+        if t == px.shape[0]:
+            return k, t, tries, 1
+        x, y, r = px[t], py[t], radius[k]
+        t += 1
+        tries += 1
+        ok = True
+        # The bodies come in antipodal pairs of one radius (the robots' starts and goals, each obstacle's), so
+        # the goal -p keeps clear of every body exactly when p does (|-p - c| is |p - (-c)|, bit for bit).
+        for b in range(n0 + 2 * k):
+            dx, dy = x - centre[b, 0], y - centre[b, 1]
+            if not math.sqrt(dx * dx + dy * dy) - rad[b] - r >= sep:  # a NaN gap is not clear either
+                ok = False
+                break
+        if ok:
+            pos[k, 0], pos[k, 1] = x, y
+            j = n0 + 2 * k
+            centre[j, 0], centre[j, 1], centre[j + 1, 0], centre[j + 1, 1] = x, y, -x, -y
+            rad[j] = rad[j + 1] = r
+            k += 1
+            tries = 0
+    return k, t, tries, 0
