@@ -226,3 +226,24 @@ def test_wall_contacts_are_recorded_and_explained():
     assert ep.wall_hits.shape[-1] == 1 and ep.wall_hits.any() and ep.obstacle_contact.any()
     first = contact_events(ep)[0]
     assert first.kind == "wall" and first.other == 0 and first.at_fault
+
+
+def test_line_of_sight_skips_only_walls_out_of_reach():
+    # routes._clear_line skips a wall whose bounding box lies beyond r of the line's; its answers must be those
+    # of the segment distance to every wall, also for walls whose boxes end within 1e-9 m of r either way.
+    from vcs_env.kernels import _segment_distance
+    from vcs_env.routes import _clear_line
+
+    rng = np.random.default_rng(5)
+    skipped = 0
+    for _ in range(4000):
+        p, q = rng.uniform(-3, 3, 2), rng.uniform(-3, 3, 2)
+        r = rng.uniform(0.1, 0.6)
+        seg = rng.uniform(-4, 4, (3, 2, 2))
+        # one wall parallel to an axis, its box r + tiny from the line's box (ties with the skip's margin)
+        x0 = max(p[0], q[0]) + r + rng.choice([-1e-9, 0.0, 1e-9, 2e-9, 1e-6])
+        seg[0] = ((x0, rng.uniform(-3, 3)), (x0, rng.uniform(-3, 3)))
+        want = all(_segment_distance(*p, *q, *w[0], *w[1]) >= r for w in seg)
+        assert _clear_line(*p, *q, seg, r) == want
+        skipped += want and min(w[:, 0].min() - max(p[0], q[0]) for w in seg[:1]) > r + 1e-9
+    assert skipped > 100  # the skip was taken

@@ -25,7 +25,6 @@ from .placement import (
     place_obstacles,
 )
 from .walls import box_segments as box_walls
-from .walls import clearance
 
 if TYPE_CHECKING:
     from .scenario import Scenario
@@ -264,7 +263,7 @@ class Walls(MapKind):
 
     def _draw(self, s: Scenario, rng: np.random.Generator, draws: int) -> Layout:
         """A layout from at most ``draws`` draws of the walls."""
-        from .routes import Roadmap
+        from .routes import Roadmap, _clearance
 
         obs_radius = obstacle_radii(s, rng)
         n, r, h = s.n_robots, s.robot.radius, s.arena_half_size
@@ -273,7 +272,7 @@ class Walls(MapKind):
             seg = np.concatenate((box_walls(h), self._segments(s, rng)))
 
             def clear(p, seg=seg):
-                return clearance(p, seg) - r >= s.min_separation
+                return _clearance(p[0], p[1], seg) - r >= s.min_separation  # walls.clearance of one point, compiled
 
             starts, goals = Sampler(rng, h, s.min_separation), Sampler(rng, h, s.min_separation)
             try:
@@ -291,8 +290,7 @@ class Walls(MapKind):
             except ValueError as e:  # no free place among these walls: draw other walls
                 last = str(e)
                 continue
-            roadmap = Roadmap(seg, r)
-            if all(np.isfinite(roadmap.route_length(start[i], goal[i])) for i in range(n)):
+            if np.isfinite(Roadmap(seg, r).next_waypoints(start, goal)[1]).all():
                 lay = finish(s, start, goal, *place_obstacles(s, rng, start, goal, obs_radius, seg))
                 lay.segments = seg
                 return lay

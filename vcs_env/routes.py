@@ -39,7 +39,14 @@ _DIRECTIONS = 8
 def _clear_line(px, py, qx, qy, seg, r):
     """The segment from ``p`` to ``q`` keeps >= ``r`` [m] from every wall segment ``seg`` ``(s, 2, 2)``."""
     for w in range(seg.shape[0]):
-        if _segment_distance(px, py, qx, qy, seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]) < r:
+        ax, ay, bx, by = seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
+        # A wall whose bounding box lies farther than r from the line's along an axis is farther than r from
+        # the line (the 1e-9 m beyond any rounding of the distance: the same answers as computing it).
+        gap_x = max(min(ax, bx) - max(px, qx), min(px, qx) - max(ax, bx))
+        gap_y = max(min(ay, by) - max(py, qy), min(py, qy) - max(ay, by))
+        if max(gap_x, gap_y) > r + 1e-9:
+            continue
+        if _segment_distance(px, py, qx, qy, ax, ay, bx, by) < r:
             return False
     return True
 
@@ -183,7 +190,9 @@ class Roadmap:
         cost = self._costs.get(key)
         if cost is None:
             g = np.asarray(key)[None]
-            start = np.where(self.sees(g, self.nodes)[0], np.linalg.norm(self.nodes - g, axis=-1), np.inf)
+            near = min(_clearance(key[0], key[1], self.segments), self._node_clearance)  # as sees(g, nodes) finds it
+            seen = _visible(g, self.nodes, self.segments, min(self._r, near * (1.0 - 1e-9)))[0]
+            start = np.where(seen, np.linalg.norm(self.nodes - g, axis=-1), np.inf)
             cost = _dijkstra(self._edge, start)
             if len(self._costs) > 4096:
                 self._costs.clear()
