@@ -80,28 +80,3 @@ def test_fixture_covers_every_case_and_kind():
 
 if __name__ == "__main__":
     bitwise.write(FIXTURE, {c: fingerprint(c) for c in CASES})
-
-
-def test_sampler_free_decides_as_the_numpy_gap_formula():
-    """The rejection sampler's test on plain floats (:meth:`vcs_env.placement.Sampler.free`) against
-    its readable numpy form, ``all(|q - p| - r_q - r >= sep)``, on discs placed right at the limit."""
-    from vcs_env.placement import Sampler
-
-    rng = np.random.default_rng(0)
-    for _ in range(300):
-        sep = float(rng.choice([0.0, 0.2]))
-        s = Sampler(rng, 5.0, sep)
-        placed = rng.uniform(-4, 4, (int(rng.integers(1, 6)), 2))
-        radii = rng.uniform(0.1, 0.5, len(placed))
-        for q, rq in zip(placed, radii):
-            s.add(q, rq)
-        r = float(rng.uniform(0.1, 0.5))
-        k = int(rng.integers(len(placed)))
-        u = rng.normal(size=2)
-        p = placed[k] + u / np.linalg.norm(u) * (radii[k] + r + sep + rng.choice([-1e-12, 0.0, 1e-12]))
-        for r_in in (r, np.float32(r)):
-            expected = bool(np.all(np.linalg.norm(placed - p, axis=-1) - radii - float(r_in) >= sep))
-            assert s.free(p, r_in) == expected
-    s = Sampler(rng, 5.0, 0.0)
-    s.add(np.zeros(2), 0.3)
-    assert not s.free(np.array([np.nan, 0.0]), 0.3)

@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 from vcs_env.layouts import MAX_TRIES, Crowd, generate
-from vcs_env.placement import Ahead
+from vcs_env.placement import Ahead, _free, place_discs
 from vcs_env.scenario import make_scenario
 from vcs_env.suites import SUITES
+from vcs_env.walls import clearance
 
 
 def _crowd_oracle(rng, s, start, goal, radius):
@@ -81,3 +82,70 @@ def test_ahead_leaves_the_generator_where_its_own_draws_would(bits):
         ahead.settle(used)
         assert a.integers(0, 2**32, dtype=np.uint32) == b.integers(0, 2**32, dtype=np.uint32)
         assert a.random() == b.random()
+
+
+def _discs_oracle(rng, half, radius, sep, fixed=(), fixed_radius=0.0, segments=None, anchor=None, min_anchor=0.0):
+    """:func:`place_discs` as a plain loop, one draw call per try, numpy's gaps (the former ``Sampler``)."""
+    discs = [(np.asarray(q, dtype=float), fixed_radius) for q in fixed]
+    out = []
+    for i, r in enumerate(radius):
+        lim = half - r
+        for _ in range(MAX_TRIES):
+            p = rng.uniform(-lim, lim, size=2)
+            if not all(np.linalg.norm(q - p, axis=-1) - rq - r >= sep for q, rq in discs):
+                continue
+            if segments is not None and len(segments) and not clearance(p, segments) - r >= sep:
+                continue
+            if min_anchor > 0 and not np.linalg.norm(p - anchor[i], axis=-1) >= min_anchor:
+                continue
+            break
+        else:
+            raise ValueError(f"disc {i}")
+        discs.append((p, r))
+        out.append(p)
+    return np.array(out).reshape(-1, 2)
+
+
+def test_place_discs_is_the_oracle():
+    cases = 0
+    failed = 0
+    for seed in range(300):
+        g = np.random.default_rng(seed)
+        half = float(g.uniform(1.5, 5.0))
+        radius = g.uniform(0.1, 0.5, int(g.integers(1, 12)))
+        fixed = g.uniform(-half, half, (int(g.integers(0, 6)), 2))
+        segments = g.uniform(-half, half, (int(g.integers(0, 4)), 2, 2)) if seed % 2 else None
+        anchor = g.uniform(-half, half, (len(radius), 2)) if seed % 3 == 0 else None
+        kw = dict(
+            fixed=fixed, fixed_radius=0.3, segments=segments, anchor=anchor, min_anchor=1.0 if seed % 3 == 0 else 0.0
+        )
+        sep = float(g.choice([0.0, 0.2]))
+        a, b = np.random.default_rng(seed + 1000), np.random.default_rng(seed + 1000)
+        try:
+            got = place_discs(a, half, radius, sep, "disc {}", **kw)
+        except ValueError as e:
+            with pytest.raises(ValueError, match=str(e).split(" without")[0].replace("could not place ", "")):
+                _discs_oracle(b, half, radius, sep, **kw)
+            failed += 1
+        else:
+            np.testing.assert_array_equal(got, _discs_oracle(b, half, radius, sep, **kw))
+            cases += 1
+        assert a.random() == b.random()  # the generator left where the oracle leaves it
+    assert cases > 100 and failed > 0  # both ends were reached
+
+
+def test_the_gap_test_decides_as_numpy_at_the_limit():
+    """The compiled gap test (:func:`vcs_env.placement._free`) against its readable numpy form,
+    ``all(|q - p| - r_q - r >= sep)``, on discs placed right at the limit, and with a NaN."""
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        sep = float(rng.choice([0.0, 0.2]))
+        placed = rng.uniform(-4, 4, (int(rng.integers(1, 6)), 2))
+        radii = rng.uniform(0.1, 0.5, len(placed))
+        r = float(rng.uniform(0.1, 0.5))
+        k = int(rng.integers(len(placed)))
+        u = rng.normal(size=2)
+        p = placed[k] + u / np.linalg.norm(u) * (radii[k] + r + sep + rng.choice([-1e-12, 0.0, 1e-12]))
+        expected = bool(np.all(np.linalg.norm(placed - p, axis=-1) - radii - r >= sep))
+        assert _free(p[0], p[1], r, placed, radii, len(placed), sep) == expected
+    assert not _free(np.nan, 0.0, 0.3, np.zeros((1, 2)), np.array([0.3]), 1, 0.0)

@@ -27,7 +27,6 @@ from .placement import (  # noqa: F401  (re-exported: the building blocks of eve
     MIN_GOAL_DISTANCE,
     Ahead,
     Layout,
-    Sampler,
     _view,
     check_arena,
     check_lanes,
@@ -37,6 +36,7 @@ from .placement import (  # noqa: F401  (re-exported: the building blocks of eve
     finish,
     jittered,
     obstacle_radii,
+    place_discs,
     place_obstacles,
     ring_crossers,
 )
@@ -207,18 +207,9 @@ class Random(ScenarioKind):
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         obs_radius = obstacle_radii(s, rng)
-        n, r, half = s.n_robots, s.robot.radius, s.arena_half_size
-        starts = Sampler(rng, half, s.min_separation)
-        goals = Sampler(rng, half, s.min_separation)
-        start = np.array([starts.sample(r, f"the start of robot {i}") for i in range(n)]).reshape(n, 2)
-        goal = np.array(
-            [
-                goals.sample(
-                    r, f"the goal of robot {i}", lambda p, i=i: np.linalg.norm(p - start[i]) >= MIN_GOAL_DISTANCE
-                )
-                for i in range(n)
-            ]
-        ).reshape(n, 2)
+        radii, half, sep = np.full(s.n_robots, s.robot.radius), s.arena_half_size, s.min_separation
+        start = place_discs(rng, half, radii, sep, "the start of robot {}")
+        goal = place_discs(rng, half, radii, sep, "the goal of robot {}", anchor=start, min_anchor=MIN_GOAL_DISTANCE)
         return finish(s, start, goal, *place_obstacles(s, rng, start, goal, obs_radius))
 
     def view_extent(self, s: Scenario) -> float:

@@ -14,7 +14,6 @@ from .placement import (
     MAX_TRIES,
     MIN_GOAL_DISTANCE,
     Layout,
-    Sampler,
     _view,
     check_arena,
     check_walls,
@@ -22,6 +21,7 @@ from .placement import (
     finish,
     jittered,
     obstacle_radii,
+    place_discs,
     place_obstacles,
 )
 from .walls import box_segments as box_walls
@@ -263,30 +263,19 @@ class Walls(MapKind):
 
     def _draw(self, s: Scenario, rng: np.random.Generator, draws: int) -> Layout:
         """A layout from at most ``draws`` draws of the walls."""
-        from .routes import Roadmap, _clearance
+        from .routes import Roadmap
 
         obs_radius = obstacle_radii(s, rng)
-        n, r, h = s.n_robots, s.robot.radius, s.arena_half_size
+        radii, h, sep = np.full(s.n_robots, s.robot.radius), s.arena_half_size, s.min_separation
+        r = s.robot.radius
         last = "no route for every robot"
         for _ in range(draws):
             seg = np.concatenate((box_walls(h), self._segments(s, rng)))
-
-            def clear(p, seg=seg):
-                return _clearance(p[0], p[1], seg) - r >= s.min_separation  # walls.clearance of one point, compiled
-
-            starts, goals = Sampler(rng, h, s.min_separation), Sampler(rng, h, s.min_separation)
             try:
-                start = np.array([starts.sample(r, f"the start of robot {i}", clear) for i in range(n)]).reshape(n, 2)
-                goal = np.array(
-                    [
-                        goals.sample(
-                            r,
-                            f"the goal of robot {i}",
-                            lambda p, q=start[i]: clear(p) and np.linalg.norm(p - q) >= MIN_GOAL_DISTANCE,
-                        )
-                        for i in range(n)
-                    ]
-                ).reshape(n, 2)
+                start = place_discs(rng, h, radii, sep, "the start of robot {}", segments=seg)
+                goal = place_discs(
+                    rng, h, radii, sep, "the goal of robot {}", segments=seg, anchor=start, min_anchor=MIN_GOAL_DISTANCE
+                )
             except ValueError as e:  # no free place among these walls: draw other walls
                 last = str(e)
                 continue

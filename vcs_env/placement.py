@@ -1,6 +1,7 @@
 """Building blocks of the scenario kinds (:mod:`vcs_env.layouts`, :mod:`vcs_env.map_kinds`):
 the :class:`Layout` record, placement on rings, lanes and arenas with jitter, obstacle
-placement clear of starts, goals and walls, the layout checks, and the rejection sampler."""
+placement clear of starts, goals and walls, the layout checks, and the rejection sampler of discs
+(:func:`place_discs`)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+from .routes import _clearance
 from .walls import clearance
 
 if TYPE_CHECKING:
@@ -157,17 +159,12 @@ def place_obstacles(
     m = s.n_obstacles
     obs_pos, obs_target = np.zeros((m, 2)), np.zeros((m, 2))
     if m:
+        bodies = np.concatenate((start, goal))
         for rounds in range(1, OBSTACLE_ROUNDS + 1):
-            sampler = Sampler(rng, s.arena_half_size, s.min_separation)
-            for p in np.concatenate((start, goal)):
-                sampler.add(p, s.robot.radius)
             try:
-                for k in range(m):
-                    if segments is None or len(segments) == 0:
-                        obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}")
-                    else:
-                        clear = lambda p, k=k: clearance(p, segments) - radius[k] >= s.min_separation  # noqa: E731
-                        obs_pos[k] = sampler.sample(radius[k], f"obstacle {k}", clear)
+                obs_pos = place_discs(
+                    rng, s.arena_half_size, radius, s.min_separation, "obstacle {}", bodies, s.robot.radius, segments
+                )
                 break
             except ValueError as e:
                 if rounds == OBSTACLE_ROUNDS:
@@ -202,40 +199,6 @@ def finish(
         obs_target=obs_target,
         obs_radius=np.asarray(obs_radius, dtype=np.float64),
     )
-
-
-class Sampler:
-    """Rejection sampler of non-overlapping discs in a square."""
-
-    def __init__(self, rng: np.random.Generator, half: float, sep: float):
-        self.rng, self.half, self.sep = rng, half, sep
-        self.discs: list[tuple[float, float, float]] = []  # (x [m], y [m], radius [m]) placed so far
-
-    def add(self, p: np.ndarray, r: float) -> None:
-        self.discs.append((float(p[0]), float(p[1]), float(r)))
-
-    def free(self, p: np.ndarray, r: float) -> bool:
-        """No placed disc within ``sep`` [m] of the disc at ``p`` of radius ``r``: the gap
-        ``|q - p| - r_q - r`` of every placed disc ``q`` is at least ``sep`` (plain floats: a few
-        discs, thousands of worlds per reset; the same numbers as the numpy norm of the pair)."""
-        x, y, r, sep = float(p[0]), float(p[1]), float(r), float(self.sep)  # float64, as numpy's was
-        for qx, qy, qr in self.discs:
-            dx, dy = qx - x, qy - y
-            if not math.sqrt(dx * dx + dy * dy) - qr - r >= sep:  # a NaN gap is not free either
-                return False
-        return True
-
-    def sample(self, r: float, what: str, accept=lambda p: True) -> np.ndarray:
-        lim = self.half - r
-        for _ in range(MAX_TRIES):
-            p = self.rng.uniform(-lim, lim, size=2)
-            if self.free(p, r) and accept(p):
-                self.add(p, r)
-                return p
-        raise ValueError(
-            f"could not place {what} without overlap after {MAX_TRIES} tries; "
-            "increase arena_half_size or reduce n_robots / n_obstacles / min_separation"
-        )
 
 
 class Ahead:
@@ -292,3 +255,98 @@ def ring_crossers(px, py, centre, rad, radius, k, tries, sep, max_tries, pos):
             k += 1
             tries = 0
     return k, t, tries, 0
+
+
+@njit(cache=True)
+def _free(x, y, r, centre, rad, count, sep):
+    """No disc of the first ``count`` (``centre`` ``(K, 2)`` [m], ``rad`` ``(K,)`` [m]) within ``sep`` [m] of the
+    disc at ``(x, y)`` of radius ``r`` [m]: every gap ``|q - p| - r_q - r`` is at least ``sep`` (a NaN gap is not)."""
+    for b in range(count):
+        dx, dy = centre[b, 0] - x, centre[b, 1] - y
+        if not math.sqrt(dx * dx + dy * dy) - rad[b] - r >= sep:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _place_discs(u, half, radius, centre, rad, n_fixed, sep, seg, anchor, min_anchor, k, tries, max_tries):
+    """The rejection loop of :func:`place_discs` over drawn doubles ``u`` ``(2 T,)``, taken in order: disc ``k``
+    goes to the first draw ``(-lim + 2 lim u, -lim + 2 lim u')``, ``lim = half - radius[k]``, that keeps ``sep``
+    [m] from the ``n_fixed`` discs and the ``k`` placed (``centre``, ``rad``: the fixed ones, then the placed,
+    appended here), from the walls ``seg`` ``(S, 2, 2)`` (with any) and, with ``min_anchor`` > 0, at least that
+    far [m] from ``anchor[k]``; ``tries`` draws were already spent on it. Returns ``(k, used, tries, status)``:
+    the next disc, the draws used, those spent on it, and 0 (all placed), 1 (draws ran out) or 2
+    (``max_tries`` spent on disc ``k``)."""
+    t = 0
+    while k < radius.shape[0]:
+        if tries == max_tries:
+            return k, t, tries, 2
+        if 2 * t == u.shape[0]:
+            return k, t, tries, 1
+        r = radius[k]
+        lim = half - r
+        lo = -lim
+        x, y = lo + (lim - lo) * u[2 * t], lo + (lim - lo) * u[2 * t + 1]  # rng.uniform(-lim, lim, size=2)
+        t += 1
+        tries += 1
+        if not _free(x, y, r, centre, rad, n_fixed + k, sep):
+            continue
+        if seg.shape[0] and not _clearance(x, y, seg) - r >= sep:
+            continue
+        if min_anchor > 0.0:
+            dx, dy = x - anchor[k, 0], y - anchor[k, 1]
+            if not math.sqrt(dx * dx + dy * dy) >= min_anchor:
+                continue
+        centre[n_fixed + k, 0], centre[n_fixed + k, 1], rad[n_fixed + k] = x, y, r
+        k += 1
+        tries = 0
+    return k, t, tries, 0
+
+
+NO_WALLS = np.zeros((0, 2, 2))
+
+
+def place_discs(
+    rng: np.random.Generator,
+    half: float,
+    radius: np.ndarray,
+    sep: float,
+    what: str,
+    fixed: np.ndarray | None = None,
+    fixed_radius: float = 0.0,
+    segments: np.ndarray | None = None,
+    anchor: np.ndarray | None = None,
+    min_anchor: float = 0.0,
+) -> np.ndarray:
+    """Discs of radii ``radius`` ``(k,)`` [m] placed one after the other, each at the first of its uniform draws
+    in the square of half size ``half`` [m] (its centre within ``half - radius``) whose gap to every disc so far
+    (the ``fixed`` centres ``(F, 2)`` [m] of radius ``fixed_radius`` [m], then the placed) is at least ``sep``
+    [m], that keeps ``sep`` from the walls ``segments`` ``(S, 2, 2)`` and, with ``min_anchor`` > 0, lies at least
+    ``min_anchor`` [m] from ``anchor[i]`` ``(k, 2)``: the centres ``(k, 2)`` [m]. ``ValueError`` naming the disc
+    (``what.format(i)``) when one finds no place in :data:`MAX_TRIES` draws. Each draw is
+    ``rng.uniform(-lim, lim, size=2)``, drawn ahead (:class:`Ahead`), the loop compiled."""
+    radius = np.ascontiguousarray(radius, dtype=np.float64).reshape(-1)
+    fixed = np.zeros((0, 2)) if fixed is None else np.asarray(fixed, dtype=np.float64).reshape(-1, 2)
+    n_fixed, count = len(fixed), len(radius)
+    centre = np.zeros((n_fixed + count, 2))
+    centre[:n_fixed] = fixed
+    rad = np.zeros(n_fixed + count)
+    rad[:n_fixed] = fixed_radius
+    seg = NO_WALLS if segments is None or len(segments) == 0 else np.ascontiguousarray(segments, dtype=np.float64)
+    anchor = centre if anchor is None else np.ascontiguousarray(anchor, dtype=np.float64)
+    k = tries = 0
+    chunk = 2 * count + 4
+    while k < count:
+        ahead = Ahead(rng, 2 * chunk)
+        k, used, tries, status = _place_discs(
+            ahead.u, float(half), radius, centre, rad, n_fixed, float(sep), seg, anchor, float(min_anchor), k, tries,
+            MAX_TRIES,
+        )  # fmt: skip
+        ahead.settle(2 * used)
+        if status == 2:
+            raise ValueError(
+                f"could not place {what.format(k)} without overlap after {MAX_TRIES} tries; "
+                "increase arena_half_size or reduce n_robots / n_obstacles / min_separation"
+            )
+        chunk *= 2
+    return centre[n_fixed:].copy()
