@@ -181,40 +181,46 @@ class Simulator:
                 raise ValueError(f"seeds must be non-negative integers or None, got {bad[0]!r}")
         w = self.world
         fresh, restored = [], []
+        lays, params, keys = [], [], []
         for b, seed in zip(idx, seed_list):
             if seed is not None:
                 self.rngs[b] = np.random.default_rng(seed)
             rng = self.rngs[b]
             lay = generate(self.scenario, rng)
             self.motion.place(rng, self.scenario, lay)
-            params = self.motion.init(rng, self.scenario, lay.obs_pos, lay.obs_target)
-            w.time[b] = 0.0
-            w.steps[b] = 0
-            w.key[b] = rng.integers(0, np.iinfo(np.uint64).max, dtype=np.uint64, endpoint=True)
-            w.pos[b] = lay.start
-            w.heading[b] = lay.heading
-            w.speed[b] = lay.speed
-            w.goal[b] = lay.goal
-            w.active[b] = True
-            w.present[b] = True
-            w.reached[b] = False
-            w.collided[b] = False
-            w.obs_pos[b] = lay.obs_pos
-            w.obs_radius[b] = lay.obs_radius
-            w.obs_vel[b] = 0.0
-            k = len(lay.segments)
-            w.seg_a[b, :k], w.seg_b[b, :k] = lay.segments[:, 0], lay.segments[:, 1]
-            w.seg_a[b, k:], w.seg_b[b, k:] = 0.0, 0.0
-            w.seg_present[b] = np.arange(w.n_segments) < k
-            for key, value in params.items():
-                value = np.asarray(value)
-                if key not in self.motion_params:
-                    self.motion_params[key] = np.zeros((self.batch_size, *value.shape), dtype=value.dtype)
-                self.motion_params[key][b] = value
+            lays.append(lay)
+            params.append(self.motion.init(rng, self.scenario, lay.obs_pos, lay.obs_target))
+            keys.append(rng.integers(0, np.iinfo(np.uint64).max, dtype=np.uint64, endpoint=True))
             if self.start_prob > 0 and rng.random() < self.start_prob:
                 restored.append((b, int(rng.integers(len(self.start_pool)))))
             else:
                 fresh.append(b)
+        # Every world's draws above, in order; the arrays written once for all of them.
+        if idx:
+            w.time[idx] = 0.0
+            w.steps[idx] = 0
+            w.key[idx] = keys
+            for field, name in (("pos", "start"), ("heading", "heading"), ("speed", "speed"), ("goal", "goal")):
+                getattr(w, field)[idx] = np.stack([getattr(lay, name) for lay in lays])
+            for field in ("active", "present"):
+                getattr(w, field)[idx] = True
+            for field in ("reached", "collided"):
+                getattr(w, field)[idx] = False
+            w.obs_pos[idx] = np.stack([lay.obs_pos for lay in lays])
+            w.obs_radius[idx] = np.stack([lay.obs_radius for lay in lays])
+            w.obs_vel[idx] = 0.0
+            if w.n_segments:
+                seg = np.zeros((len(idx), w.n_segments, 2, 2))
+                present = np.zeros((len(idx), w.n_segments), dtype=bool)
+                for i, lay in enumerate(lays):
+                    seg[i, : len(lay.segments)] = lay.segments
+                    present[i, : len(lay.segments)] = True
+                w.seg_a[idx], w.seg_b[idx], w.seg_present[idx] = seg[:, :, 0], seg[:, :, 1], present
+            for key in params[0]:
+                value = np.stack([np.asarray(p[key]) for p in params])
+                if key not in self.motion_params:
+                    self.motion_params[key] = np.zeros((self.batch_size, *value.shape[1:]), dtype=value.dtype)
+                self.motion_params[key][idx] = value
         self.start_counts += (len(fresh), len(restored))
         if restored:
             self.restore(self.start_pool, [i for _, i in restored], [b for b, _ in restored])
