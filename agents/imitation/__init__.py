@@ -162,6 +162,7 @@ def bc_fit(
     act_t = th.as_tensor(actions, dtype=th.float32)
     ret_t = None if returns is None else th.as_tensor(returns, dtype=th.float32)
     opt = th.optim.Adam(policy.parameters(), lr=lr)
+    fit_values = ret_t is not None and value_coef > 0
     policy.set_training_mode(True)
     history = []
     for _ in range(epochs):
@@ -172,12 +173,12 @@ def bc_fit(
             if loss == "nll":
                 values, log_prob, _ = policy.evaluate_actions(obs_t[idx], act_t[idx])
                 actor_loss = -log_prob.mean()
-            else:
+            else:  # the critic is run only when its loss counts (without returns its output is in no loss)
                 dist = policy.get_distribution(obs_t[idx])
                 actor_loss = ((dist.distribution.mean - act_t[idx]) ** 2).sum(-1).mean()
-                values = policy.predict_values(obs_t[idx])
+                values = policy.predict_values(obs_t[idx]) if fit_values else None
             total_loss = actor_loss
-            if ret_t is not None and value_coef > 0:
+            if fit_values:
                 total_loss = total_loss + value_coef * ((values.flatten() - ret_t[idx]) ** 2).mean()
             opt.zero_grad()
             total_loss.backward()
