@@ -249,3 +249,69 @@ def test_a_dense_random_wall_map_that_passes_construction_resets_on_every_seed()
     env = vcs_env.parallel_env(scenario=vcs_env.Scenario(kind="walls", n_robots=4, n_walls=60))
     for seed in (5000, 5011, 5014):
         env.reset(seed=seed)
+
+
+def _waypoints_one_world_at_a_time(world):
+    """The oracle of :func:`waypoints`: each world's robots routed alone, per robot radius."""
+    from vcs_env.routes import roadmap, walled
+
+    target, length = world.goal.copy(), np.linalg.norm(world.goal - world.pos, axis=-1)
+    if not walled(world):
+        return target, length
+    for b in range(world.batch_size):
+        if not world.seg_present[b].any():
+            continue
+        active = np.flatnonzero(world.active[b])
+        for r in np.unique(world.radius[b, active]):
+            idx = active[world.radius[b, active] == r]
+            wp, total = roadmap(world, b, r).next_waypoints(world.pos[b, idx], world.goal[b, idx])
+            found = np.isfinite(total)
+            target[b, idx[found]], length[b, idx[found]] = wp[found], total[found]
+    return target, length
+
+
+@pytest.mark.parametrize("name", ["doorway", "walls"])
+def test_waypoints_of_a_batch_are_those_of_each_world_alone(name):
+    # Worlds that share their walls are routed together: the same waypoints and lengths as one world at a time,
+    # with worlds of other walls, worlds without walls, robots that are done and robots of another radius mixed in.
+    sim = Simulator(make_scenario(name), 12)
+    sim.reset(3)
+    rng = np.random.default_rng(0)
+    for t in range(40):
+        sim.step(rng.uniform(-1, 1, (12, sim.scenario.n_robots, 2)))
+        w = sim.world
+        if t == 10:
+            w.seg_a[[2, 5]], w.seg_b[[2, 5]] = w.seg_a[[0, 0]], w.seg_b[[0, 0]]  # walls of world 0 in 2 and 5 too
+            w.seg_present[[2, 5]] = w.seg_present[[0, 0]]
+            w.seg_present[7] = False  # no walls
+            w.radius[:, 0] = 0.3  # another radius
+            w.active[4, 1:] = False
+        got, want = waypoints(w), _waypoints_one_world_at_a_time(w)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        for _ in range(2):  # the caller's copy: the same state asked again is answered as before
+            got[0][:], got[1][:] = 0.0, 0.0
+            got = waypoints(w)
+            np.testing.assert_array_equal(got[0], want[0])
+            np.testing.assert_array_equal(got[1], want[1])
+    routed = got[1] != np.linalg.norm(w.goal - w.pos, axis=-1)
+    assert routed.any()  # some robot was routed around a wall
+    b = int(np.flatnonzero(routed.any(1))[0])
+    ref = _waypoints_one_world_at_a_time(w)
+    changes = {
+        "pos": lambda x: x + 0.05,
+        "goal": lambda x: x + 0.3,
+        "active": lambda x: ~x,
+        "radius": lambda x: 0.6 * x,
+    }
+    changes["seg_present"] = lambda x: np.zeros_like(x)
+    for field, change in changes.items():
+        waypoints(w)  # the state before the change is the last one asked
+        arr = getattr(w, field)  # any change of what it reads is a new state
+        before = arr.copy()
+        arr[b] = change(arr[b])
+        got, want = waypoints(w), _waypoints_one_world_at_a_time(w)
+        assert not np.array_equal(want[1], ref[1]), field  # the change moves some route
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        arr[:] = before
