@@ -270,6 +270,17 @@ def _waypoints_one_world_at_a_time(world):
     return target, length
 
 
+def test_waypoints_of_one_world_are_the_oracles():
+    sim = Simulator(make_scenario("walls"), 1)
+    sim.reset(11)
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        sim.step(rng.uniform(-1, 1, (1, sim.scenario.n_robots, 2)))
+        got, want = waypoints(sim.world), _waypoints_one_world_at_a_time(sim.world)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+
+
 @pytest.mark.parametrize("name", ["doorway", "walls"])
 def test_waypoints_of_a_batch_are_those_of_each_world_alone(name):
     # Worlds that share their walls are routed together: the same waypoints and lengths as one world at a time,
@@ -305,6 +316,7 @@ def test_waypoints_of_a_batch_are_those_of_each_world_alone(name):
         "radius": lambda x: 0.6 * x,
     }
     changes["seg_present"] = lambda x: np.zeros_like(x)
+    changes["seg_a"] = changes["seg_b"] = lambda x: x + 1.0
     for field, change in changes.items():
         waypoints(w)  # the state before the change is the last one asked
         arr = getattr(w, field)  # any change of what it reads is a new state

@@ -149,3 +149,22 @@ def test_the_gap_test_decides_as_numpy_at_the_limit():
         expected = bool(np.all(np.linalg.norm(placed - p, axis=-1) - radii - r >= sep))
         assert _free(p[0], p[1], r, placed, radii, len(placed), sep) == expected
     assert not _free(np.nan, 0.0, 0.3, np.zeros((1, 2)), np.array([0.3]), 1, 0.0)
+
+
+def test_place_discs_refuses_radii_that_leave_no_room_and_a_missing_anchor():
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match=r"cannot place disc 1: its radius 2.5 m leaves no room .* half size 2 m"):
+        place_discs(rng, 2.0, np.array([0.5, 2.5]), 0.1, "disc {}")
+    with pytest.raises(ValueError, match="cannot place disc 0: its radius nan"):
+        place_discs(rng, 2.0, np.array([np.nan]), 0.1, "disc {}")
+    with pytest.raises(ValueError, match=r"min_anchor > 0 needs an anchor of shape \(2, 2\)"):
+        place_discs(rng, 2.0, np.array([0.5, 0.5]), 0.1, "disc {}", min_anchor=1.0)
+
+
+def test_float32_radii_give_numpys_float32_limits():
+    # numpy computes half - r in float32 for a float32 radius, and draws in that range: so does place_discs.
+    radius = np.array([0.3, 0.45, 0.2], dtype=np.float32)
+    a, b = np.random.default_rng(4), np.random.default_rng(4)
+    got = place_discs(a, 3.0, radius, 0.1, "disc {}")
+    want = _discs_oracle(b, 3.0, radius, 0.1)
+    np.testing.assert_array_equal(got, want)

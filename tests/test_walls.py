@@ -247,3 +247,35 @@ def test_line_of_sight_skips_only_walls_out_of_reach():
         assert _clear_line(*p, *q, seg, r) == want
         skipped += want and min(w[:, 0].min() - max(p[0], q[0]) for w in seg[:1]) > r + 1e-9
     assert skipped > 100  # the skip was taken
+
+
+def test_nearly_collinear_segments_far_apart_do_not_cross():
+    # Two segments on one line (up to rounding), apart along it: the side tests of the crossing check round to
+    # either sign there; the distance is the gap along the line, never a crossing (0), for the kernel, its numpy
+    # oracle, the swept wall kernel and the lines of sight (routes._clear_line skips such walls by their boxes).
+    from vcs_env.kernels import _segment_distance
+    from vcs_env.routes import _clear_line
+    from vcs_env.wall_kernels import _swept_wall_distance
+
+    rng = np.random.default_rng(0)
+    spurious_before = 0
+    for _ in range(20000):
+        th = rng.uniform(0, 2 * np.pi)
+        d, o = np.array([np.cos(th), np.sin(th)]), rng.uniform(-5, 5, 2)
+        t = np.sort(rng.uniform(-6, 6, 4))
+        a, b, p, q = (o + s * d for s in t)
+        gap = t[2] - t[1]
+        want = segment_distance(p, q, a, b)
+        got = _segment_distance(*p, *q, *a, *b)
+        m, h = (p + q) / 2, np.linalg.norm(q - p) / 2
+        swept = _swept_wall_distance(*p, *q, *a, *b, *m, h)
+        assert got == want == swept
+        assert got >= gap - 1e-9
+        assert _clear_line(*p, *q, np.array([[a, b]]), 0.5 * gap) == (got >= 0.5 * gap)
+
+        def det(u, v):
+            return u[0] * v[1] - u[1] * v[0]
+
+        ab, pq = b - a, q - p
+        spurious_before += det(ab, p - a) * det(ab, q - a) < 0 and det(pq, a - p) * det(pq, b - p) < 0
+    assert spurious_before > 0  # the side tests alone read crossings here: the case is exercised

@@ -225,15 +225,30 @@ def _det(ax, ay, bx, by):
     return ax * by - ay * bx
 
 
-@njit(cache=True)
-def _segment_distance(px, py, qx, qy, ax, ay, bx, by):
-    """:func:`vcs_env.walls.segment_distance` of the segments ``[p, q]`` and ``[a, b]`` [m]."""
+@njit(cache=True, inline="always")
+def _crossing(px, py, qx, qy, ax, ay, bx, by):
+    """:func:`vcs_env.walls.segment_distance`'s crossing test of ``[p, q]`` and ``[a, b]``: each segment's end
+    points strictly on both sides of the other's line, and their bounding boxes meet (rounding of the side
+    tests of nearly collinear segments far apart along their line can read a crossing)."""
     abx, aby, pqx, pqy = bx - ax, by - ay, qx - px, qy - py
     d1 = _det(abx, aby, px - ax, py - ay)
     d2 = _det(abx, aby, qx - ax, qy - ay)
     d3 = _det(pqx, pqy, ax - px, ay - py)
     d4 = _det(pqx, pqy, bx - px, by - py)
-    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+    return (
+        d1 * d2 < 0.0
+        and d3 * d4 < 0.0
+        and max(px, qx) >= min(ax, bx)
+        and max(ax, bx) >= min(px, qx)
+        and max(py, qy) >= min(ay, by)
+        and max(ay, by) >= min(py, qy)
+    )
+
+
+@njit(cache=True)
+def _segment_distance(px, py, qx, qy, ax, ay, bx, by):
+    """:func:`vcs_env.walls.segment_distance` of the segments ``[p, q]`` and ``[a, b]`` [m]."""
+    if _crossing(px, py, qx, qy, ax, ay, bx, by):
         return 0.0  # the segments cross
     e1 = _closest_approach(ax - px, ay - py, bx - px, by - py)
     e2 = _closest_approach(ax - qx, ay - qy, bx - qx, by - qy)

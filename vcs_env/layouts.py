@@ -272,6 +272,8 @@ class Crowd(ScenarioKind):
         """CrowdNav circle crossing: obstacles start on the circle (with +-0.5 m noise) and head for
         the antipodal point; starts and goals keep clear of the robots' and of each other's."""
         m, R = len(radius), s.circle_radius
+        if not np.array_equal(goal, -start):  # ring_crossers checks a start only: the goals of the bodies mirror it
+            raise ValueError("crowd layout: the robots' goals must be their starts mirrored through the centre")
         pos = np.zeros((m, 2))
         centre = np.zeros((2 * s.n_robots + 2 * m, 2))
         centre[: 2 * s.n_robots] = np.concatenate((start, goal))

@@ -269,9 +269,9 @@ def _free(x, y, r, centre, rad, count, sep):
 
 
 @njit(cache=True)
-def _place_discs(u, half, radius, centre, rad, n_fixed, sep, seg, anchor, min_anchor, k, tries, max_tries):
+def _place_discs(u, lims, radius, centre, rad, n_fixed, sep, seg, anchor, min_anchor, k, tries, max_tries):
     """The rejection loop of :func:`place_discs` over drawn doubles ``u`` ``(2 T,)``, taken in order: disc ``k``
-    goes to the first draw ``(-lim + 2 lim u, -lim + 2 lim u')``, ``lim = half - radius[k]``, that keeps ``sep``
+    goes to the first draw ``(-lim + 2 lim u, -lim + 2 lim u')``, ``lim = lims[k]`` [m], that keeps ``sep``
     [m] from the ``n_fixed`` discs and the ``k`` placed (``centre``, ``rad``: the fixed ones, then the placed,
     appended here), from the walls ``seg`` ``(S, 2, 2)`` (with any) and, with ``min_anchor`` > 0, at least that
     far [m] from ``anchor[k]``; ``tries`` draws were already spent on it. Returns ``(k, used, tries, status)``:
@@ -283,8 +283,7 @@ def _place_discs(u, half, radius, centre, rad, n_fixed, sep, seg, anchor, min_an
             return k, t, tries, 2
         if 2 * t == u.shape[0]:
             return k, t, tries, 1
-        r = radius[k]
-        lim = half - r
+        r, lim = radius[k], lims[k]
         lo = -lim
         x, y = lo + (lim - lo) * u[2 * t], lo + (lim - lo) * u[2 * t + 1]  # rng.uniform(-lim, lim, size=2)
         t += 1
@@ -323,11 +322,24 @@ def place_discs(
     (the ``fixed`` centres ``(F, 2)`` [m] of radius ``fixed_radius`` [m], then the placed) is at least ``sep``
     [m], that keeps ``sep`` from the walls ``segments`` ``(S, 2, 2)`` and, with ``min_anchor`` > 0, lies at least
     ``min_anchor`` [m] from ``anchor[i]`` ``(k, 2)``: the centres ``(k, 2)`` [m]. ``ValueError`` naming the disc
-    (``what.format(i)``) when one finds no place in :data:`MAX_TRIES` draws. Each draw is
-    ``rng.uniform(-lim, lim, size=2)``, drawn ahead (:class:`Ahead`), the loop compiled."""
-    radius = np.ascontiguousarray(radius, dtype=np.float64).reshape(-1)
+    (``what.format(i)``) when one finds no place in :data:`MAX_TRIES` draws, or when its radius leaves no room
+    in the square. Each draw is ``rng.uniform(-lim, lim, size=2)``, ``lim = half - radius[i]`` in the radii's
+    own precision (float32 radii give a float32 ``lim``, as numpy computes it), drawn ahead (:class:`Ahead`), the
+    loop compiled."""
+    radius = np.asarray(radius).reshape(-1)
+    lims = np.ascontiguousarray(half - radius, dtype=np.float64)  # numpy's promotion: float32 radii, float32 lim
+    bad = np.flatnonzero(~(lims >= 0.0))  # also NaN
+    if len(bad):
+        i = int(bad[0])
+        raise ValueError(
+            f"cannot place {what.format(i)}: its radius {float(radius[i]):g} m leaves no room in a square of half "
+            f"size {float(half):g} m"
+        )
+    radius = np.ascontiguousarray(radius, dtype=np.float64)
     fixed = np.zeros((0, 2)) if fixed is None else np.asarray(fixed, dtype=np.float64).reshape(-1, 2)
     n_fixed, count = len(fixed), len(radius)
+    if min_anchor > 0.0 and (anchor is None or np.shape(anchor) != (count, 2)):
+        raise ValueError(f"place_discs: min_anchor > 0 needs an anchor of shape ({count}, 2), got {np.shape(anchor)}")
     centre = np.zeros((n_fixed + count, 2))
     centre[:n_fixed] = fixed
     rad = np.zeros(n_fixed + count)
@@ -339,7 +351,7 @@ def place_discs(
     while k < count:
         ahead = Ahead(rng, 2 * chunk)
         k, used, tries, status = _place_discs(
-            ahead.u, float(half), radius, centre, rad, n_fixed, float(sep), seg, anchor, float(min_anchor), k, tries,
+            ahead.u, lims, radius, centre, rad, n_fixed, float(sep), seg, anchor, float(min_anchor), k, tries,
             MAX_TRIES,
         )  # fmt: skip
         ahead.settle(2 * used)

@@ -282,15 +282,18 @@ def _waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
     # Worlds with the same walls (byte for byte: every world of a fixed map) share one roadmap per robot radius,
     # and their robots are routed in one call (each robot's route is its own: the same as one world at a time).
     B = world.batch_size
-    walls = np.concatenate(
-        (world.seg_a.reshape(B, -1), world.seg_b.reshape(B, -1), world.seg_present.reshape(B, -1).astype(np.float64)),
-        axis=1,
-    )
-    rows = np.ascontiguousarray(walls).view(np.dtype((np.void, walls.shape[1] * walls.itemsize))).reshape(B)
-    _, first, group = np.unique(rows, return_index=True, return_inverse=True)
-    order = np.argsort(group, kind="stable")
+    if B == 1:
+        groups = [(0, np.zeros(1, dtype=np.int64))]
+    else:
+        walls = np.concatenate(
+            (world.seg_a.reshape(B, -1), world.seg_b.reshape(B, -1), world.seg_present.reshape(B, -1).astype(float)),
+            axis=1,
+        )
+        rows = np.ascontiguousarray(walls).view(np.dtype((np.void, walls.shape[1] * walls.itemsize))).reshape(B)
+        _, first, group = np.unique(rows, return_index=True, return_inverse=True)
+        groups = zip(first, np.split(np.argsort(group, kind="stable"), np.cumsum(np.bincount(group))[:-1]))
     radii = np.unique(world.radius[world.active])  # usually one for the whole batch
-    for b, idx in zip(first, np.split(order, np.cumsum(np.bincount(group))[:-1])):
+    for b, idx in groups:
         if not world.seg_present[b].any():
             continue
         active, radius = world.active[idx], world.radius[idx]  # (k, n) of the k worlds with these walls

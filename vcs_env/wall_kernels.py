@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .kernels import _clip, _closest_approach, _det
+from .kernels import _clip, _closest_approach, _crossing
 from .threads import WORLD_BLOCK, twin_kernel
 
 
@@ -22,12 +22,7 @@ def _swept_wall_distance(px, py, qx, qy, ax, ay, bx, by, mx, my, h):
     point to the motion when it cannot be the smallest: it is at least the end point's distance
     to ``m`` minus ``h``, and the smaller of the motion end points' distances to the wall is
     known first."""
-    abx, aby, pqx, pqy = bx - ax, by - ay, qx - px, qy - py
-    d1 = _det(abx, aby, px - ax, py - ay)
-    d2 = _det(abx, aby, qx - ax, qy - ay)
-    d3 = _det(pqx, pqy, ax - px, ay - py)
-    d4 = _det(pqx, pqy, bx - px, by - py)
-    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+    if _crossing(px, py, qx, qy, ax, ay, bx, by):
         return 0.0  # the segments cross
     e = min(
         _closest_approach(ax - px, ay - py, bx - px, by - py), _closest_approach(ax - qx, ay - qy, bx - qx, by - qy)

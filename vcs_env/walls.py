@@ -34,8 +34,10 @@ def segment_distance(p: np.ndarray, q: np.ndarray, a: np.ndarray, b: np.ndarray)
     ab, pq = b - a, q - p
     d1, d2 = det(ab, p - a), det(ab, q - a)
     d3, d4 = det(pq, a - p), det(pq, b - p)
-    # Proper crossing: each segment's end points lie strictly on both sides of the other's line.
-    cross = (d1 * d2 < 0.0) & (d3 * d4 < 0.0)
+    # Proper crossing: each segment's end points lie strictly on both sides of the other's line, and the bounding
+    # boxes meet (rounding of the side tests of nearly collinear segments far apart can read a crossing).
+    meet = (np.maximum(p, q) >= np.minimum(a, b)).all(-1) & (np.maximum(a, b) >= np.minimum(p, q)).all(-1)
+    cross = (d1 * d2 < 0.0) & (d3 * d4 < 0.0) & meet
     ends = np.minimum(
         np.minimum(point_segment_distance(p, a, b), point_segment_distance(q, a, b)),
         np.minimum(point_segment_distance(a, p, q), point_segment_distance(b, p, q)),
