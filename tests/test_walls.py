@@ -229,24 +229,31 @@ def test_wall_contacts_are_recorded_and_explained():
 
 
 def test_line_of_sight_skips_only_walls_out_of_reach():
-    # routes._clear_line skips a wall whose bounding box lies beyond r of the line's; its answers must be those
-    # of the segment distance to every wall, also for walls whose boxes end within 1e-9 m of r either way.
+    # routes._clear_line skips a wall whose bounding box lies beyond r of the line's, or whose ends lie on one side
+    # of the line's carrier beyond r; its answers must be those of the segment distance to every wall, also for
+    # walls within 1e-9 m of r either way.
     from vcs_env.kernels import _segment_distance
     from vcs_env.routes import _clear_line
 
     rng = np.random.default_rng(5)
-    skipped = 0
-    for _ in range(4000):
+    boxed = sided = 0
+    for _ in range(6000):
         p, q = rng.uniform(-3, 3, 2), rng.uniform(-3, 3, 2)
         r = rng.uniform(0.1, 0.6)
-        seg = rng.uniform(-4, 4, (3, 2, 2))
+        seg = rng.uniform(-4, 4, (4, 2, 2))
+        tie = rng.choice([-1e-9, 0.0, 1e-9, 2e-9, 1e-6])
         # one wall parallel to an axis, its box r + tiny from the line's box (ties with the skip's margin)
-        x0 = max(p[0], q[0]) + r + rng.choice([-1e-9, 0.0, 1e-9, 2e-9, 1e-6])
+        x0 = max(p[0], q[0]) + r + tie
         seg[0] = ((x0, rng.uniform(-3, 3)), (x0, rng.uniform(-3, 3)))
+        # one wall beside the line, its ends r + tiny from the carrier on one side, along the line's extent
+        u = (q - p) / np.linalg.norm(q - p)
+        off = np.array([-u[1], u[0]]) * (r + tie + rng.choice([0.0, 0.3]) * rng.random())
+        seg[1] = (p + off + 0.2 * (q - p), q + off - 0.2 * (q - p))
         want = all(_segment_distance(*p, *q, *w[0], *w[1]) >= r for w in seg)
         assert _clear_line(*p, *q, seg, r) == want
-        skipped += want and min(w[:, 0].min() - max(p[0], q[0]) for w in seg[:1]) > r + 1e-9
-    assert skipped > 100  # the skip was taken
+        boxed += want and seg[0, :, 0].min() - max(p[0], q[0]) > r + 1e-9
+        sided += want and tie > 1e-9
+    assert boxed > 100 and sided > 100  # both skips were taken
 
 
 def test_nearly_collinear_segments_far_apart_do_not_cross():

@@ -38,13 +38,19 @@ _DIRECTIONS = 8
 @njit(cache=True)
 def _clear_line(px, py, qx, qy, seg, r):
     """The segment from ``p`` to ``q`` keeps >= ``r`` [m] from every wall segment ``seg`` ``(s, 2, 2)``."""
+    ux, uy = qx - px, qy - py
+    reach = (r + 1e-9) * math.sqrt(ux * ux + uy * uy)  # r (and 1e-9 m) times |q - p|, for the side test below
     for w in range(seg.shape[0]):
         ax, ay, bx, by = seg[w, 0, 0], seg[w, 0, 1], seg[w, 1, 0], seg[w, 1, 1]
-        # A wall whose bounding box lies farther than r from the line's along an axis is farther than r from
-        # the line (the 1e-9 m beyond any rounding of the distance: the same answers as computing it).
+        # A wall farther than r from the line is skipped; the 1e-9 m beyond any rounding of the distance keep
+        # the answers those of computing it. Farther along an axis: its bounding box is off the line's.
         gap_x = max(min(ax, bx) - max(px, qx), min(px, qx) - max(ax, bx))
         gap_y = max(min(ay, by) - max(py, qy), min(py, qy) - max(ay, by))
         if max(gap_x, gap_y) > r + 1e-9:
+            continue
+        # Both its ends on one side of the line's carrier, farther than r: so is all of it.
+        da, db = ux * (ay - py) - uy * (ax - px), ux * (by - py) - uy * (bx - px)
+        if (da > reach and db > reach) or (da < -reach and db < -reach):
             continue
         if _segment_distance(px, py, qx, qy, ax, ay, bx, by) < r:
             return False
