@@ -279,7 +279,7 @@ class Crowd(ScenarioKind):
         centre[: 2 * s.n_robots] = np.concatenate((start, goal))
         rad = np.full(len(centre), float(s.robot.radius))
         k = tries = 0
-        chunk = 8 * m
+        chunk, sep = 8 * m, s.min_separation
         while k < m:
             # Each try draws an angle on the circle and a +-0.5 m noise per axis (rng.uniform(0, 2 pi), then
             # rng.uniform(-0.5, 0.5, size=2)); drawn ahead in chunks, the loop compiled (ring_crossers).
@@ -288,7 +288,6 @@ class Crowd(ScenarioKind):
             ang = (2.0 * np.pi) * u[:, 0]
             px = R * np.cos(ang) + (-0.5 + 1.0 * u[:, 1])
             py = R * np.sin(ang) + (-0.5 + 1.0 * u[:, 2])
-            sep = s.min_separation
             k, used, tries, status = ring_crossers(px, py, centre, rad, radius, k, tries, sep, MAX_TRIES, pos)
             ahead.settle(3 * used)
             if status == 2:  # the random draws found no room: search every place, in an order drawn from rng

@@ -190,15 +190,20 @@ class Roadmap:
         near = min(clearance(p, self.segments).min(initial=np.inf), clearance(q, self.segments).min(initial=np.inf))
         return _visible(p, q, self.segments, min(self._r, near * (1.0 - 1e-9)))
 
+    def _sees_nodes(self, p: np.ndarray) -> np.ndarray:
+        """:meth:`sees` of points ``p`` ``(k, 2)`` and the nodes, ``(k, N)`` bool, with the nodes' smallest clearance
+        kept from construction (the same number :meth:`sees` finds) and the compiled clearance of each point."""
+        p = np.ascontiguousarray(p, dtype=np.float64).reshape(-1, 2)
+        near = min([self._node_clearance] + [_clearance(x, y, self.segments) for x, y in p])
+        return _visible(p, self.nodes, self.segments, min(self._r, near * (1.0 - 1e-9)))
+
     def cost_to_go(self, goal: np.ndarray) -> np.ndarray:
         """Route length from every node to ``goal`` ``(2,)`` [m], ``(N,)`` (inf: unreachable)."""
         key = (float(goal[0]), float(goal[1]))
         cost = self._costs.get(key)
         if cost is None:
             g = np.asarray(key)[None]
-            near = min(_clearance(key[0], key[1], self.segments), self._node_clearance)  # as sees(g, nodes) finds it
-            seen = _visible(g, self.nodes, self.segments, min(self._r, near * (1.0 - 1e-9)))[0]
-            start = np.where(seen, np.linalg.norm(self.nodes - g, axis=-1), np.inf)
+            start = np.where(self._sees_nodes(g)[0], np.linalg.norm(self.nodes - g, axis=-1), np.inf)
             cost = _dijkstra(self._edge, start)
             if len(self._costs) > 4096:
                 self._costs.clear()
@@ -214,7 +219,7 @@ class Roadmap:
         if len(self.nodes) == 0:
             return goal, math.inf
         total = np.where(
-            self.sees(p[None], self.nodes)[0], np.linalg.norm(self.nodes - p, axis=-1) + self.cost_to_go(goal), np.inf
+            self._sees_nodes(p[None])[0], np.linalg.norm(self.nodes - p, axis=-1) + self.cost_to_go(goal), np.inf
         )
         j = int(np.argmin(total))
         if not np.isfinite(total[j]):
