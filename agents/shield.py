@@ -93,6 +93,8 @@ import numpy as np
 from vcs_env.observations import DT_REF, SENSE_REF, Layout, observation_layout
 from vcs_env.scenario import A_REF, OMEGA_REF, R_REF, V_REF, Scenario
 
+from .shield_paths import path_gaps
+
 LEVELS = (-1.0, -0.5, 0.0, 0.5, 1.0)
 GRID = np.array([(a, w) for a in LEVELS for w in LEVELS])
 """The alternative actions ``(25, 2)`` (acceleration, turn) in delta action units."""
@@ -211,26 +213,27 @@ class Shield:
         until the robot stands (:meth:`backup_steps`)."""
         v_max, a_max, w_max = limits(o)
         sub = max(1, math.ceil(dt / SAMPLE - 1e-9))  # samples along each step's straight segment
-        speed = np.repeat((o[:, 0] * v_max)[:, None], candidates.shape[1], 1)
-        heading = np.zeros_like(speed)
-        x, y = np.zeros_like(speed), np.zeros_like(speed)
-        gap = np.full((*speed.shape, len(masks)), np.inf)
         n_steps = int(self.backup_steps(o, dt).max()) if backup else int(self.steps(dt))
-        for t in range(1, n_steps + 1):
-            acc, turn = (candidates[..., 0], candidates[..., 1]) if t == 1 or not backup else (-1.0, 0.0)
-            speed = np.clip(speed + acc * (a_max * dt)[:, None], 0.0, v_max[:, None])
-            heading = heading + turn * (w_max * dt)[:, None]
-            cos, sin = np.cos(heading), np.sin(heading)
-            for j in range(1, sub + 1):
-                tau = dt * j / sub
-                px, py = x + speed * tau * cos, y + speed * tau * sin
-                other = pos + vel * ((t - 1 + j / sub) * dt)  # (N, S, 2)
-                dx, dy = px[:, :, None] - other[:, None, :, 0], py[:, :, None] - other[:, None, :, 1]
-                d = np.sqrt(dx**2 + dy**2) - reach[:, None]
-                for m, mask in enumerate(masks):
-                    gap[..., m] = np.minimum(gap[..., m], np.where(mask[:, None], d, np.inf).min(-1))
-            x, y = px, py
-        return gap
+        heading, cos, sin = np.zeros(candidates.shape[:2]), [], []
+        for t in range(1, n_steps + 1):  # the headings' trigonometry in numpy, the rest compiled
+            heading = heading + (candidates[..., 1] if t == 1 or not backup else 0.0) * (w_max * dt)[:, None]
+            cos.append(np.cos(heading))
+            sin.append(np.sin(heading))
+        return path_gaps(
+            np.ascontiguousarray(o[:, 0] * v_max),
+            a_max * dt,
+            np.ascontiguousarray(v_max),
+            np.ascontiguousarray(candidates[..., 0], dtype=np.float64),
+            backup,
+            np.stack(cos),
+            np.stack(sin),
+            np.ascontiguousarray(pos, dtype=np.float64),
+            np.ascontiguousarray(vel, dtype=np.float64),
+            np.ascontiguousarray(reach, dtype=np.float64),
+            np.stack(masks),
+            float(dt),
+            sub,
+        )
 
     def steps(self, dt: float | np.ndarray) -> np.ndarray:
         """Steps of ``dt`` [s] the prediction covers: the fewest that reach the horizon (at least one)."""
