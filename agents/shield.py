@@ -220,9 +220,9 @@ class Shield:
             cos.append(np.cos(heading))
             sin.append(np.sin(heading))
         return path_gaps(
-            np.ascontiguousarray(o[:, 0] * v_max),
+            o[:, 0] * v_max,
             a_max * dt,
-            np.ascontiguousarray(v_max),
+            v_max,
             np.ascontiguousarray(candidates[..., 0], dtype=np.float64),
             backup,
             np.stack(cos),
