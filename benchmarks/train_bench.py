@@ -18,11 +18,10 @@ collection (env steps + policy forward passes) and the rest (PPO updates).
 
 from __future__ import annotations
 
-import statistics
 import time
 from dataclasses import dataclass, field
 
-from .timing import Missing
+from .timing import Missing, Result
 
 VARIANTS = ("none", "expert", "vcs_imitation", "vcs_potential")
 
@@ -48,31 +47,17 @@ class TrainSizes:
 
 
 @dataclass
-class TrainResult:
-    status: str = "ok"
-    rates: list[float] = field(default_factory=list)
-    """Agent-steps per CPU second [1/s] of every repeat (see :mod:`benchmarks.timing`)."""
-    wall_rates: list[float] = field(default_factory=list)
-    """Agent-steps per wall-clock second [1/s] of every repeat."""
+class TrainResult(Result):
+    """:class:`~benchmarks.timing.Result` of one variant: ``rates`` and ``wall_rates`` are agent-steps per CPU and
+    per wall-clock second [1/s] of every repeat (one ``model.learn`` each; ``calls`` stays empty)."""
+
     collect_fraction: list[float] = field(default_factory=list)
     """Share of the CPU time spent collecting rollouts, every repeat."""
 
-    @property
-    def ok(self) -> bool:
-        return self.status == "ok" and bool(self.rates)
-
-    @property
-    def rate(self) -> float:
-        return statistics.median(self.rates) if self.ok else float("nan")
-
     def as_dict(self) -> dict:
-        return {
-            "status": self.status,
-            "median_rate": self.rate,
-            "rates": self.rates,
-            "wall_rates": self.wall_rates,
-            "collect_fraction": self.collect_fraction,
-        }
+        out = super().as_dict()
+        del out["calls"]
+        return {**out, "collect_fraction": self.collect_fraction}
 
 
 def _imports():
