@@ -66,13 +66,9 @@ def our_scenario(n: int, n_obstacles: int = N_OBSTACLES):
     )
 
 
-def pettingzoo_env(n: int, seed: int = 0) -> Step:
-    from vcs_env.parallel import VcsNavParallelEnv
-
-    env = VcsNavParallelEnv(our_scenario(n))
-    env.reset(seed=seed)
-    pool = np.random.default_rng(seed).uniform(-1.0, 1.0, (POOL, n, 2)).astype(np.float32)
-    index = env.agent_index
+def parallel_stepper(env, pool: np.ndarray, index: dict) -> Step:
+    """One PettingZoo ``ParallelEnv`` step per call with the next action row of ``pool`` (POOL, n, ...), agent
+    ``a`` taking row ``index[a]``; resets when every agent is done. Returns the agents that acted."""
     k = [0]
 
     def step() -> int:
@@ -85,6 +81,16 @@ def pettingzoo_env(n: int, seed: int = 0) -> Step:
         return len(actions)
 
     return step
+
+
+def pettingzoo_env(n: int, seed: int = 0) -> Step:
+    from vcs_env.parallel import VcsNavParallelEnv
+
+    env = VcsNavParallelEnv(our_scenario(n))
+    env.reset(seed=seed)
+    pool = np.random.default_rng(seed).uniform(-1.0, 1.0, (POOL, n, 2)).astype(np.float32)
+    index = env.agent_index
+    return parallel_stepper(env, pool, index)
 
 
 def mpe_env(n: int, seed: int = 0) -> Step:
@@ -96,18 +102,7 @@ def mpe_env(n: int, seed: int = 0) -> Step:
     space = env.action_space(env.possible_agents[0])
     pool = np.random.default_rng(seed).uniform(space.low, space.high, (POOL, n, *space.shape)).astype(space.dtype)
     index = {a: i for i, a in enumerate(env.possible_agents)}
-    k = [0]
-
-    def step() -> int:
-        if not env.agents:
-            env.reset()
-        k[0] = (k[0] + 1) % POOL
-        a = pool[k[0]]
-        actions = {agent: a[index[agent]] for agent in env.agents}
-        env.step(actions)
-        return len(actions)
-
-    return step
+    return parallel_stepper(env, pool, index)
 
 
 def map_scenarios(n: int, segments: int = MAP_SEGMENTS):
