@@ -142,6 +142,7 @@ maps_stage() {
 }
 maps_stage > "$ROOT/maps.log" 2>&1 &
 maps_pid=$!
+trap 'pkill -P "$maps_pid"; kill "$maps_pid" 2> /dev/null || true' EXIT  # a failed movers stage stops the maps stage
 # The movers stage: start states among the dynamic entries from the kept checkpoint, then PPO from it.
 [ -f "$ROOT/movers-states.npz" ] || vcs-env collect-states --policy "$ROOT/rounds/model.zip" --on-collision terminate \
   --mixture "${DYN[@]}" "${SENSE[@]}" --episodes "$MOVERS_EP" --seed 380000 --out "$ROOT/movers-states.npz"
@@ -153,6 +154,7 @@ maps_pid=$!
 [ -f "$ROOT/release/model.zip" ] || vcs-env select "$ROOT/movers" --from-step $((MOVERS / 3)) --no-progress \
   --out "$ROOT/release" --validation "${VALIDATION[@]}"
 wait "$maps_pid" || { echo "the maps stage failed: see $ROOT/maps.log" >&2; exit 1; }
+trap - EXIT
 # The distillation: the maps stage's last checkpoint labels the narrow corridor, the doors and the intersection,
 # the movers stage's checkpoint every other entry; those three maps and the entries where a few robots decide
 # much (24 on a circle, fast movers) get more episodes. Of its rounds, the one that solves most validation episodes
