@@ -84,6 +84,18 @@ MOVING=("${MIX[@]}" "${DYN[@]}" "${DYN[@]}" "${DYN[@]}" "${DYN[@]}" "${DYN[@]}")
 DANGER=("${MIX[@]:5}")
 VALIDATION=("circle-24-v0:$VAL" "dynamic-v0:$VAL" "crowd-20-v0:$VAL" "room-v0:$VAL" "walls-v0:$VAL"
   "random-dense-v0:$VAL" "corridor-v0:$VAL" "intersection-v0:$VAL" "doorway-v0:$VAL" "door-headon-v0:$VAL")
+# The two steps every stage after PPO repeats: start states where a policy comes close to a contact, and PPO
+# continued from a checkpoint with half of its worlds started from such states.
+start_states() {  # POLICY EPISODES SEED OUT ENTRY...
+  vcs-env collect-states --policy "$1" --on-collision terminate --mixture "${@:5}" "${SENSE[@]}" --episodes "$2" \
+    --seed "$3" --out "$4"
+}
+more_ppo() {  # INIT STEPS SEED LEARNING_RATE CHECKPOINT_FREQ STATES OUT ENTRY...
+  vcs-env train --mixture "${@:8}" "${SENSE[@]}" --mixture-balance robots --on-collision terminate \
+    --rewards collision=300,stuck=10 --net-arch 256 256 --features slots --init "$1" --timesteps "$2" --seed "$3" \
+    --n-worlds "$WORLDS" --learning-rate "$4" --lr-schedule linear --eval-freq 0 --checkpoint-freq "$5" \
+    --no-progress-bar --start-states "$6" --start-prob 0.5 --out "$7"
+}
 [ -f "$ROOT/expert.npz" ] || vcs-env collect --mixture "${MIX[@]}" "${SENSE[@]}" --episodes "$EPISODES" --seed 0 \
   --out "$ROOT/expert.npz"
 train_run() {
@@ -98,13 +110,9 @@ train_run() {
   local prev="$DIR/ppo/model.zip" lr=1.5e-4 r
   for r in $(seq 1 "$ROUNDS"); do
     if [ ! -f "$DIR/round$r/model.zip" ]; then
-      [ -f "$DIR/states$r.npz" ] || vcs-env collect-states --policy "$prev" --on-collision terminate \
-        --mixture "${DANGER[@]}" "${SENSE[@]}" --episodes "$STATES_EP" --seed $((80000 + 100000 * r)) --out "$DIR/states$r.npz"
-      vcs-env train --mixture "${MIX[@]}" "${SENSE[@]}" --mixture-balance robots --on-collision terminate \
-        --rewards collision=300,stuck=10 --net-arch 256 256 --features slots --init "$prev" --timesteps "$ROUND" \
-        --seed $((S0 + r)) --n-worlds "$WORLDS" --learning-rate $lr --lr-schedule linear --eval-freq 0 \
-        --checkpoint-freq $((ROUND / 4)) --no-progress-bar --start-states "$DIR/states$r.npz" --start-prob 0.5 \
-        --out "$DIR/round$r"
+      [ -f "$DIR/states$r.npz" ] || start_states "$prev" "$STATES_EP" $((80000 + 100000 * r)) "$DIR/states$r.npz" \
+        "${DANGER[@]}"
+      more_ppo "$prev" "$ROUND" $((S0 + r)) "$lr" $((ROUND / 4)) "$DIR/states$r.npz" "$DIR/round$r" "${MIX[@]}"
     fi
     prev="$DIR/round$r/model.zip"; lr=1e-4
   done
@@ -132,25 +140,19 @@ S0=${RUNS%%[[:space:]]*}; S0=${S0##*:}
 WEAK=("${MIX[@]:12:1}" "${MIX[@]:14:3}" "${MIX[@]:18:2}")
 MAPS_MIX=("${MIX[@]}" "${WEAK[@]}" "${WEAK[@]}" "${WEAK[@]}" "${WEAK[@]}" "${DYN[@]}" "${DYN[@]}")
 maps_stage() {
-  [ -f "$ROOT/maps-states.npz" ] || vcs-env collect-states --policy "$ROOT/rounds/model.zip" --on-collision terminate \
-    --mixture "${WEAK[@]}" "${DYN[@]}" "${SENSE[@]}" --episodes "$MAPS_EP" --seed 480000 --out "$ROOT/maps-states.npz"
-  [ -f "$ROOT/maps/model.zip" ] || vcs-env train --mixture "${MAPS_MIX[@]}" "${SENSE[@]}" --mixture-balance robots \
-    --on-collision terminate --rewards collision=300,stuck=10 --net-arch 256 256 --features slots \
-    --init "$ROOT/rounds/model.zip" --timesteps "$MAPS" --seed $((S0 + 44)) --n-worlds "$WORLDS" --learning-rate 1e-4 \
-    --lr-schedule linear --eval-freq 0 --checkpoint-freq $((MAPS / 4)) --no-progress-bar \
-    --start-states "$ROOT/maps-states.npz" --start-prob 0.5 --out "$ROOT/maps"
+  [ -f "$ROOT/maps-states.npz" ] || start_states "$ROOT/rounds/model.zip" "$MAPS_EP" 480000 "$ROOT/maps-states.npz" \
+    "${WEAK[@]}" "${DYN[@]}"
+  [ -f "$ROOT/maps/model.zip" ] || more_ppo "$ROOT/rounds/model.zip" "$MAPS" $((S0 + 44)) 1e-4 $((MAPS / 4)) \
+    "$ROOT/maps-states.npz" "$ROOT/maps" "${MAPS_MIX[@]}"
 }
 maps_stage > "$ROOT/maps.log" 2>&1 &
 maps_pid=$!
 trap 'pkill -P "$maps_pid"; kill "$maps_pid" 2> /dev/null || true' EXIT  # a failed movers stage stops the maps stage
 # The movers stage: start states among the dynamic entries from the kept checkpoint, then PPO from it.
-[ -f "$ROOT/movers-states.npz" ] || vcs-env collect-states --policy "$ROOT/rounds/model.zip" --on-collision terminate \
-  --mixture "${DYN[@]}" "${SENSE[@]}" --episodes "$MOVERS_EP" --seed 380000 --out "$ROOT/movers-states.npz"
-[ -f "$ROOT/movers/model.zip" ] || vcs-env train --mixture "${MOVING[@]}" "${SENSE[@]}" --mixture-balance robots \
-  --on-collision terminate --rewards collision=300,stuck=10 --net-arch 256 256 --features slots \
-  --init "$ROOT/rounds/model.zip" --timesteps "$MOVERS" --seed $((S0 + 12)) --n-worlds "$WORLDS" --learning-rate 1e-4 \
-  --lr-schedule linear --eval-freq 0 --checkpoint-freq $((MOVERS / 3)) --no-progress-bar \
-  --start-states "$ROOT/movers-states.npz" --start-prob 0.5 --out "$ROOT/movers" > "$ROOT/movers.log" 2>&1
+[ -f "$ROOT/movers-states.npz" ] || start_states "$ROOT/rounds/model.zip" "$MOVERS_EP" 380000 "$ROOT/movers-states.npz" \
+  "${DYN[@]}"
+[ -f "$ROOT/movers/model.zip" ] || more_ppo "$ROOT/rounds/model.zip" "$MOVERS" $((S0 + 12)) 1e-4 $((MOVERS / 3)) \
+  "$ROOT/movers-states.npz" "$ROOT/movers" "${MOVING[@]}" > "$ROOT/movers.log" 2>&1
 [ -f "$ROOT/release/model.zip" ] || vcs-env select "$ROOT/movers" --from-step $((MOVERS / 3)) --no-progress \
   --out "$ROOT/release" --validation "${VALIDATION[@]}"
 wait "$maps_pid" || { echo "the maps stage failed: see $ROOT/maps.log" >&2; exit 1; }
