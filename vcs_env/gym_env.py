@@ -59,36 +59,10 @@ class VcsNavEnv(RenderMixin, gym.Env):
     :class:`VcsNavVectorEnv`: the same numbers as ``"sync"``, all worlds in one engine call.
 
     ## Version History
-    * v2, fix (same id, 2026-12-05): a robot whose step passes through its goal disc and out again (a fast
-      robot, a long ``dt``) stops at the step's point nearest its goal, where it arrived, instead of driving
-      on to the step's end (up to ``v_max dt`` past its goal, its progress reward negative, a contact beyond
-      the goal counted as a collision of an arrived robot). Steps that end inside the disc are unchanged.
-    * v2, planner default (same id, 2026-12-01): the VCS expert, which drives ``others`` by default and
-      gives the expert labels and the VCS shaping terms, fits its buffers to the gate between two parked
-      robots or standing obstacles it heads through (``VCSParams.fit_discs``); episodes with parked
-      or standing bodies can differ, the rest are unchanged. ``others=VCSPlanner(fit_discs=False)``
-      drives them as before.
-    * v2, addition (same id): an optional reward term ``stuck`` (weight 0 by default; with the stall
-      clock): -dt per step while the expert's stall rule counts the robot as stuck. Rewards unchanged
-      unless weighted.
-    * v2, addition (same id): an optional ``clock`` block (``stall_clock=True``, off by default): each
-      robot's stall clock (:mod:`vcs_env.stall`, the memory the VCS expert frees deadlocks with), 5 floats
-      after the neighbour slots. Without it every observation, and with it every episode, is as before.
-    * v2: observation version 2 (:mod:`vcs_env.observations`): every neighbour slot gains a parked
-      flag (a robot that has finished and stays where it is), ``11 + 9 K`` floats, built from named
-      blocks; among walls the goal distance and bearing follow the route (remaining route length,
-      bearing of the next waypoint), and so does the ``progress`` reward (the decrease of the
-      remaining route length, not of the straight goal distance); dynamics unchanged, and rewards
-      on open floor. The v1 ids remain: the same env (these rewards too) with ``observation=1``.
-    * v1, fix (same id): with ``on_collision="terminate"`` a robot that touches anything stops
-      at the point of first contact on its swept motion, instead of where its step would have
-      ended (which could be on or beyond a thin wall, or inside the body it hit). Only steps
-      with a contact under ``terminate`` change; the suites (``continue``) do not.
-    * v1: observations in fixed physical units (goal distance / 20 m, relative positions and
-      gaps / 10 m instead of scales built from the world size and ``r_ca``) plus the sensing
-      radius, arrival radius and step as features (``11 + 8 K`` floats); policies trained on v0
-      do not carry over. Dynamics and rewards unchanged. The v0 ids are removed.
-    * v0: initial release.
+    The PettingZoo env's (``vcs_nav_v2``, :class:`~vcs_env.parallel.VcsNavParallelEnv`), entry by entry: the same
+    dynamics, observations and rewards for ``robot_0``. What that history says of the VCS expert (the
+    ``fit_discs`` default of 2026-12-01) holds here for ``others`` too, which it drives by default
+    (``others=VCSPlanner(fit_discs=False)`` drives them as before).
     """
 
     metadata = {"render_modes": ["human", "rgb_array", "ansi"], "render_fps": 10}
