@@ -272,24 +272,27 @@ def waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
     """Every robot's next visible waypoint ``(B, n, 2)`` [m] and remaining route length
     ``(B, n)`` [m]: the goal and the straight distance without walls, for robots that are not
     active, or where no route is seen (then the planner aims straight at the goal)."""
-    if walled(world):
-        arrays = (world.pos, world.goal, world.active, world.radius, world.seg_a, world.seg_b, world.seg_present)
-        key = tuple((a.dtype.str, a.shape, a.tobytes()) for a in arrays)
-        last_key, answer = _LAST
-        if key == last_key:
-            return answer[0].copy(), answer[1].copy()
-        answer = _waypoints(world)
-        globals()["_LAST"] = (key, (answer[0].copy(), answer[1].copy()))  # one assignment: safe across threads
-        return answer
-    return _waypoints(world)
-
-
-def _waypoints(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
-    target = world.goal.copy()
-    diff = world.goal - world.pos
-    length = np.sqrt(np.einsum("...i,...i->...", diff, diff))
     if not walled(world):
-        return target, length
+        return _straight(world)
+    arrays = (world.pos, world.goal, world.active, world.radius, world.seg_a, world.seg_b, world.seg_present)
+    key = tuple((a.dtype.str, a.shape, a.tobytes()) for a in arrays)
+    last_key, answer = _LAST
+    if key == last_key:
+        return answer[0].copy(), answer[1].copy()
+    answer = _routed(world)
+    globals()["_LAST"] = (key, (answer[0].copy(), answer[1].copy()))  # one assignment: safe across threads
+    return answer
+
+
+def _straight(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
+    """The goal ``(B, n, 2)`` [m] and the straight distance to it ``(B, n)`` [m]."""
+    diff = world.goal - world.pos
+    return world.goal.copy(), np.sqrt(np.einsum("...i,...i->...", diff, diff))
+
+
+def _routed(world: WorldState) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`waypoints` for a batch with walls."""
+    target, length = _straight(world)
     # Worlds with the same walls (byte for byte: every world of a fixed map) share one roadmap per robot radius,
     # and their robots are routed in one call (each robot's route is its own: the same as one world at a time).
     B = world.batch_size
