@@ -13,8 +13,9 @@
 # checkpoint the rest) and its round that does best on validation; then the shield distilled into that network (a
 # shielded copy of it teaches it, vcs-env distil --teacher-shield; a second pass adds room to stop short of driving
 # robots on the open-floor entries), then a pass that also reads
-# contacts at millimetre resolution (--widen-fine), two seeds, the better on validation: $ROOT/fine/model.zip is the
-# policy. No shield in the record: the network alone is the policy.
+# contacts at millimetre resolution (--widen-fine), two seeds, the better on validation; last a polish, 1 M more PPO
+# steps from it, and of it and the polish's checkpoints the one that does best on validation: $ROOT/polished/model.zip
+# is the policy. No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 # Run again, it skips every stage whose result is there; a stage that died leaves its directory without model.zip,
@@ -37,7 +38,7 @@ SENSE=(--n-wall-points 6 --stall-clock)
 # Sizes: episodes of expert data, BC epochs, DAgger rounds and episodes, PPO steps, start-state rounds.
 if [ "$SMOKE" = 1 ]; then
   EPISODES=46 EPOCHS=1 DAGGER=1 DAGGER_EP=23 PPO=20000 WORLDS=120 ROUND=10000 ROUNDS=1 STATES_EP=2 EVAL=0 VAL=7000:7002
-  MOVERS=30000 MOVERS_EP=2 MAPS=30000 MAPS_EP=2 DISTIL_ROBOTS=4 SHIELD_PASSES=2
+  MOVERS=30000 MOVERS_EP=2 MAPS=30000 MAPS_EP=2 DISTIL_ROBOTS=4 SHIELD_PASSES=2 POLISH=10000
 else
   # Stage times of one run with these sizes (RUNS="0:0", 2026-12-06, this 2-core Intel Xeon beside one to four other
   # jobs; docs/experiments.md, "One pass of the recipe"): 2300 expert episodes 2 min; BC and two DAgger rounds 22 min;
@@ -49,8 +50,9 @@ else
   VAL=${VAL:-7000:7100} MOVERS=${MOVERS:-3000000} MOVERS_EP=${MOVERS_EP:-150}
   MAPS=${MAPS:-3000000} MAPS_EP=${MAPS_EP:-150} DISTIL_ROBOTS=${DISTIL_ROBOTS:-128}
   # Each pass of the shield's distillation 18 min (2026-12-06, as above); the fine pass's two seeds side by side
-  # 23 min (2026-12-05), its selection 3 min.
-  SHIELD_PASSES=${SHIELD_PASSES:-2}
+  # 23 min (2026-12-05), its selection 3 min; the polish's start states 3 min, its 1 M steps 12-14 min, its
+  # selection 5 min (2026-12-06, beside two or three other jobs).
+  SHIELD_PASSES=${SHIELD_PASSES:-2} POLISH=${POLISH:-1000000}
 fi
 MIX=(
   "circle-8-v0:n_robots=6-8/2"
@@ -90,11 +92,11 @@ start_states() {  # POLICY EPISODES SEED OUT ENTRY...
   vcs-env collect-states --policy "$1" --on-collision terminate --mixture "${@:5}" "${SENSE[@]}" --episodes "$2" \
     --seed "$3" --out "$4"
 }
-more_ppo() {  # INIT STEPS SEED LEARNING_RATE CHECKPOINT_FREQ STATES OUT ENTRY...
-  vcs-env train --mixture "${@:8}" "${SENSE[@]}" --mixture-balance robots --on-collision terminate \
-    --rewards collision=300,stuck=10 --net-arch 256 256 --features slots --init "$1" --timesteps "$2" --seed "$3" \
+more_ppo() {  # INIT STEPS SEED LEARNING_RATE CHECKPOINT_FREQ STATES FEATURES OUT ENTRY...
+  vcs-env train --mixture "${@:9}" "${SENSE[@]}" --mixture-balance robots --on-collision terminate \
+    --rewards collision=300,stuck=10 --net-arch 256 256 --features "$7" --init "$1" --timesteps "$2" --seed "$3" \
     --n-worlds "$WORLDS" --learning-rate "$4" --lr-schedule linear --eval-freq 0 --checkpoint-freq "$5" \
-    --no-progress-bar --start-states "$6" --start-prob 0.5 --out "$7"
+    --no-progress-bar --start-states "$6" --start-prob 0.5 --out "$8"
 }
 [ -f "$ROOT/expert.npz" ] || vcs-env collect --mixture "${MIX[@]}" "${SENSE[@]}" --episodes "$EPISODES" --seed 0 \
   --out "$ROOT/expert.npz"
@@ -112,7 +114,7 @@ train_run() {
     if [ ! -f "$DIR/round$r/model.zip" ]; then
       [ -f "$DIR/states$r.npz" ] || start_states "$prev" "$STATES_EP" $((80000 + 100000 * r)) "$DIR/states$r.npz" \
         "${DANGER[@]}"
-      more_ppo "$prev" "$ROUND" $((S0 + r)) "$lr" $((ROUND / 4)) "$DIR/states$r.npz" "$DIR/round$r" "${MIX[@]}"
+      more_ppo "$prev" "$ROUND" $((S0 + r)) "$lr" $((ROUND / 4)) "$DIR/states$r.npz" slots "$DIR/round$r" "${MIX[@]}"
     fi
     prev="$DIR/round$r/model.zip"; lr=1e-4
   done
@@ -143,7 +145,7 @@ maps_stage() {
   [ -f "$ROOT/maps-states.npz" ] || start_states "$ROOT/rounds/model.zip" "$MAPS_EP" 480000 "$ROOT/maps-states.npz" \
     "${WEAK[@]}" "${DYN[@]}"
   [ -f "$ROOT/maps/model.zip" ] || more_ppo "$ROOT/rounds/model.zip" "$MAPS" $((S0 + 44)) 1e-4 $((MAPS / 4)) \
-    "$ROOT/maps-states.npz" "$ROOT/maps" "${MAPS_MIX[@]}"
+    "$ROOT/maps-states.npz" slots "$ROOT/maps" "${MAPS_MIX[@]}"
 }
 maps_stage > "$ROOT/maps.log" 2>&1 &
 maps_pid=$!
@@ -152,7 +154,7 @@ trap 'pkill -P "$maps_pid"; kill "$maps_pid" 2> /dev/null || true' EXIT  # a fai
 [ -f "$ROOT/movers-states.npz" ] || start_states "$ROOT/rounds/model.zip" "$MOVERS_EP" 380000 "$ROOT/movers-states.npz" \
   "${DYN[@]}"
 [ -f "$ROOT/movers/model.zip" ] || more_ppo "$ROOT/rounds/model.zip" "$MOVERS" $((S0 + 12)) 1e-4 $((MOVERS / 3)) \
-  "$ROOT/movers-states.npz" "$ROOT/movers" "${MOVING[@]}" > "$ROOT/movers.log" 2>&1
+  "$ROOT/movers-states.npz" slots "$ROOT/movers" "${MOVING[@]}" > "$ROOT/movers.log" 2>&1
 [ -f "$ROOT/release/model.zip" ] || vcs-env select "$ROOT/movers" --from-step $((MOVERS / 3)) --no-progress \
   --out "$ROOT/release" --validation "${VALIDATION[@]}"
 wait "$maps_pid" || { echo "the maps stage failed: see $ROOT/maps.log" >&2; exit 1; }
@@ -216,4 +218,17 @@ if [ ! -f "$ROOT/fine/model.zip" ]; then
   vcs-env select "$ROOT/fine0/model.zip" "$ROOT/fine1/model.zip" --no-progress --out "$ROOT/fine" \
     --validation "${VALIDATION[@]}"
 fi
-echo "the policy: $ROOT/fine/model.zip"
+# The polish: PPO again, from the fine pass's network, as the start-state rounds (start states where it comes close to
+# a contact, half the worlds from them), 1 M steps at half the rounds' learning rate; then of that network and the
+# polish's checkpoints the one that solves most validation episodes (an early checkpoint can lose a whole family:
+# the plain corridor 0.24 at 0.3 M steps in one run). The passes above teach safety but slow the robots down (the
+# release of 2026-12-05 takes 1.21-1.25x the expert's time on the crowds); the polish gives the time back (1.12-1.17x)
+# and, in one of the two lines that tried it, safety too (validation 0.934 -> 0.965; docs/experiments.md, "A polish").
+if [ ! -f "$ROOT/polished/model.zip" ]; then
+  [ -f "$ROOT/polish-states.npz" ] || start_states "$ROOT/fine/model.zip" "$STATES_EP" 580000 "$ROOT/polish-states.npz" \
+    "${DANGER[@]}"
+  [ -f "$ROOT/polish/model.zip" ] || more_ppo "$ROOT/fine/model.zip" "$POLISH" $((S0 + 77)) 5e-5 $((POLISH / 4)) \
+    "$ROOT/polish-states.npz" slots-fine "$ROOT/polish" "${MIX[@]}" > "$ROOT/polish.log" 2>&1
+  vcs-env select "$ROOT/fine/model.zip" "$ROOT/polish" --no-progress --out "$ROOT/polished" --validation "${VALIDATION[@]}"
+fi
+echo "the policy: $ROOT/polished/model.zip"
