@@ -222,8 +222,9 @@ fi
 # a contact, half the worlds from them), 1 M steps at half the rounds' learning rate; then of that network and the
 # polish's checkpoints the one that solves most validation episodes (an early checkpoint can lose a whole family:
 # the plain corridor 0.24 at 0.3 M steps in one run). The passes above teach safety but slow the robots down (the
-# release of 2026-12-05 takes 1.21-1.25x the expert's time on the crowds); the polish gives the time back (1.12-1.17x)
-# and, in one of the two lines that tried it, safety too (validation 0.934 -> 0.965; docs/experiments.md, "A polish").
+# release of 2026-12-05 takes 1.21-1.25x the expert's time on the crowds); the polish gives the time back (1.07-1.17x)
+# and, in one of the two lines that tried it, safety too (validation 0.934 -> 0.965; docs/experiments.md, "Both changes
+# together, and a polish").
 if [ ! -f "$ROOT/polished/model.zip" ]; then
   [ -f "$ROOT/polish-states.npz" ] || start_states "$ROOT/fine/model.zip" "$STATES_EP" 580000 "$ROOT/polish-states.npz" \
     "${DANGER[@]}"
