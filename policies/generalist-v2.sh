@@ -226,10 +226,11 @@ fi
 # and, in one of the two lines that tried it, safety too (validation 0.934 -> 0.965; docs/experiments.md, "Both changes
 # together, and a polish").
 if [ ! -f "$ROOT/polished/model.zip" ]; then
-  [ -f "$ROOT/polish-states.npz" ] || start_states "$ROOT/fine/model.zip" "$STATES_EP" 580000 "$ROOT/polish-states.npz" \
-    "${DANGER[@]}"
+  [ -f "$ROOT/polish-states.npz" ] || start_states "$ROOT/fine/model.zip" "$STATES_EP" 580000 \
+    "$ROOT/polish-states.npz" "${DANGER[@]}"
   [ -f "$ROOT/polish/model.zip" ] || more_ppo "$ROOT/fine/model.zip" "$POLISH" $((S0 + 77)) 5e-5 $((POLISH / 4)) \
     "$ROOT/polish-states.npz" slots-fine "$ROOT/polish" "${MIX[@]}" > "$ROOT/polish.log" 2>&1
-  vcs-env select "$ROOT/fine/model.zip" "$ROOT/polish" --no-progress --out "$ROOT/polished" --validation "${VALIDATION[@]}"
+  vcs-env select "$ROOT/fine/model.zip" "$ROOT/polish" --no-progress --out "$ROOT/polished" \
+    --validation "${VALIDATION[@]}"
 fi
 echo "the policy: $ROOT/polished/model.zip"
