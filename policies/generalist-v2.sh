@@ -50,8 +50,8 @@ else
   VAL=${VAL:-7000:7100} MOVERS=${MOVERS:-3000000} MOVERS_EP=${MOVERS_EP:-150}
   MAPS=${MAPS:-3000000} MAPS_EP=${MAPS_EP:-150} DISTIL_ROBOTS=${DISTIL_ROBOTS:-128}
   # Each pass of the shield's distillation 18 min (2026-12-06, as above); the fine pass's two seeds side by side
-  # 23 min (2026-12-05), its selection 3 min; the polish's start states 3 min, its 1 M steps 12-14 min, its
-  # selection 5 min (2026-12-06, beside two or three other jobs).
+  # 23 min (2026-12-05), its selection 3 min; the polish's start states 3 min, its 1 M steps 11-13 min, its
+  # selection 5-8 min (2026-12-06, beside two or three other jobs).
   SHIELD_PASSES=${SHIELD_PASSES:-2} POLISH=${POLISH:-1000000}
 fi
 MIX=(
@@ -174,8 +174,8 @@ TEACH=(); for e in "${TAUGHT[@]}"; do TEACH+=("$e=$ROOT/maps/model.zip"); done
   --validation "${VALIDATION[@]}"
 # The shield distilled into the network: a shielded copy of the network (vcs-env shield, default shield) labels every
 # entry for the network itself (vcs-env distil --teacher-shield), the same entries and rounds; SHIELD_PASSES times, each
-# from the last; the last pass's last round is the policy (docs/experiments.md, "The shield distilled into the
-# network"). From the second pass on, a copy shielded with room to stop short of driving robots (--driving-stop)
+# from the last; the last pass's last round goes on to the fine pass (docs/experiments.md, "The shield distilled into
+# the network"). From the second pass on, a copy shielded with room to stop short of driving robots (--driving-stop)
 # teaches the robot-only entries and the random layouts, where robots park dead among robots still driving
 # (docs/experiments.md, "Room to stop short of driving robots").
 OPEN=("${MIX[@]:0:5}" "${MIX[@]:12:1}")
@@ -219,7 +219,7 @@ if [ ! -f "$ROOT/fine/model.zip" ]; then
     --validation "${VALIDATION[@]}"
 fi
 # The polish: PPO again, from the fine pass's network, as the start-state rounds (start states where it comes close to
-# a contact, half the worlds from them), 1 M steps at half the rounds' learning rate; then of that network and the
+# a contact, half the worlds from them), 1 M steps at half the last round's learning rate; then of that network and the
 # polish's checkpoints the one that solves most validation episodes (an early checkpoint can lose a whole family:
 # the plain corridor 0.24 at 0.3 M steps in one run). The passes above teach safety but slow the robots down (the
 # release of 2026-12-05 takes 1.21-1.25x the expert's time on the crowds); the polish gives the time back (1.07-1.17x)
