@@ -24,6 +24,7 @@ import numpy as np
 from vcs_env.observations import observation_config, observation_layout
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
+from vcs_env.start_states import StartStates
 
 from .config import ScenarioConfig, config_command
 
@@ -333,3 +334,27 @@ def print_reproduce(command: str, resume=None, steps: int = 0) -> None:
         print(f"reproduce: {command}")
     else:
         print(f"reproduce: the run of {resume.path} ({steps} timesteps), then {command} --resume {resume.path}")
+
+
+def start_states(cfg, scenarios, what: str = "training") -> StartStates | None:
+    """The start-state pools of a run whose config has ``start_states`` (a file of ``vcs-env collect-states``, or
+    None) and ``start_prob`` (``vcs-env train`` and ``distil``): None without a file; a ``ValueError`` when the file
+    holds no state or no pool fits one of the run's ``scenarios`` (pools are keyed by the whole scenario but its
+    rewards and sensing, :func:`vcs_env.start_states.scenario_key`); ``what`` names the run in the messages."""
+    if cfg.start_states is None:
+        return None
+    starts = StartStates.load(cfg.start_states, cfg.start_prob)
+    hit = starts.matching(scenarios)
+    if not any(len(pool) for pool in starts.pools.values()):
+        raise ValueError(f"{cfg.start_states!r} holds no start states (vcs-env collect-states found none)")
+    if not hit:
+        raise ValueError(
+            f"no start-state pool of {cfg.start_states!r} fits a {what} scenario ({len(starts.pools)} pools; collect "
+            f"them with the {what}'s scenario flags and mixture, e.g. the same --on-collision and --max-steps)"
+        )
+    states = sum(len(starts.pool(s)) for s in hit)
+    print(
+        f"start states: {len(hit)} of {len(scenarios)} scenarios start from {cfg.start_states} with "
+        f"p={cfg.start_prob} ({states} states)"
+    )
+    return starts

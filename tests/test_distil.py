@@ -212,3 +212,38 @@ def test_each_teacher_is_checked_against_the_entry_it_labels(tmp_path):
     for order in (mixture, mixture[::-1]):
         with pytest.warns(FamilyWarning, match="kind='crowd'"):
             distil(replace(cfg, mixture=order, out=str(tmp_path / f"d-{order[0][:5]}")))
+
+
+def test_rounds_start_from_saved_states_where_the_file_has_a_pool(tmp_path, capsys):
+    """--start-states: episodes of an entry with a pool begin from its saved states (taken here 15 steps into
+    30-step episodes, so those trajectories are at most 15 steps long); a file with no pool for the run is refused."""
+    from agents.mixture import mixture_scenarios
+    from vcs_env.sim import Simulator
+    from vcs_env.start_states import StartStates, StatePool, scenario_key
+
+    start = checkpoint(tmp_path, "s", 3, 1.0)
+    cfg = replace(short_run(tmp_path, start, mixture=("circle:n_robots=3",), teacher=str(start)), epochs=1)
+    (sc,) = mixture_scenarios(cfg, cfg.mixture)
+    sim = Simulator(sc, 4)
+    sim.reset(0)
+    rng = np.random.default_rng(0)
+    for _ in range(15):
+        sim.step(rng.uniform(-1, 1, (4, sc.n_robots, 2)))
+    pool = StatePool.take(sim.world, sim.motion_params, range(4))
+    starts = StartStates({scenario_key(sc): pool}, prob=1.0)
+
+    def teacher(obs):
+        return np.zeros((len(obs), 2))
+
+    longest = [
+        int(np.diff(play(sc, range(8), teacher=teacher, start_states=s)["traj_start"]).max()) for s in (None, starts)
+    ]
+    assert longest[0] > 15 >= longest[1]
+    path = starts.save(tmp_path / "states.npz")
+    runs = [replace(cfg, out=str(tmp_path / f"d{p}"), start_states=str(path), start_prob=p) for p in (0.0, 1.0)]
+    rows = [distil(run)["rounds"][-1]["rows"] for run in runs]
+    assert rows[1] < rows[0]
+    assert "start states: 1 of 1 scenarios" in capsys.readouterr().out
+    other = StartStates({scenario_key(replace(sc, max_steps=50)): pool}, prob=1.0).save(tmp_path / "other.npz")
+    with pytest.raises(ValueError, match="no start-state pool .* fits a distillation scenario"):
+        distil(replace(cfg, out=str(tmp_path / "d-other"), start_states=str(other)))

@@ -23,6 +23,7 @@ import numpy as np
 
 from .engine import NavEngine, StepResult
 from .scenario import Scenario
+from .start_states import StartStates
 from .state import WorldState
 
 Controller = Callable[[WorldState, np.ndarray], np.ndarray]
@@ -114,6 +115,7 @@ def play(
     max_steps: int | None = None,
     expert=None,
     first: int = 0,
+    start_states: StartStates | None = None,
 ) -> None:
     """Play one episode per seed, all worlds in one engine, calling ``hooks`` (module docstring).
 
@@ -126,9 +128,11 @@ def play(
         max_steps: overrides ``scenario.max_steps``.
         expert: planner (or name) attached to the engine (``engine.expert_action``).
         first: index of ``seeds[0]`` in the caller's whole list (passed to ``Hook.begin``).
+        start_states: pools of saved states a world may start from (:mod:`vcs_env.start_states`; for
+            training data only, never for scoring).
     """
     hooks = list(hooks)
-    engine = NavEngine(scenario, len(seeds), action_mode, expert=expert, max_steps=max_steps)
+    engine = NavEngine(scenario, len(seeds), action_mode, expert=expert, max_steps=max_steps, start_states=start_states)
     obs = engine.reset([int(s) for s in seeds])
     w = engine.world
     for h in hooks:

@@ -38,6 +38,7 @@ import numpy as np
 
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
+from vcs_env.start_states import StartStates
 
 from ..config import check_out_file
 from ..mixture import mixture_split
@@ -57,6 +58,7 @@ def play(
     n_worlds: int = 32,
     expert: str = "vcs",
     teacher: Actor | None = None,
+    start_states: StartStates | None = None,
 ) -> dict[str, np.ndarray]:
     """Play one episode per seed, labelling every active robot-step with the expert's (or ``teacher``'s) action.
 
@@ -70,6 +72,8 @@ def play(
         expert: the labelling planner.
         teacher: a policy that labels instead of ``expert`` (its actions for the observations, e.g. a
             network's deterministic actions: :mod:`agents.imitation.distil`); it is also what beta executes.
+        start_states: pools of saved states an episode may start from instead of its fresh layout
+            (:mod:`vcs_env.start_states`; ``vcs-env distil --start-states``).
 
     Returns:
         The dataset arrays of the module docstring (without ``meta``).
@@ -95,6 +99,7 @@ def play(
             [labels],
             expert=None if teacher is not None else expert,
             first=c0,
+            start_states=start_states,
         )
     return labels.dataset()
 

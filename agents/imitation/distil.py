@@ -43,7 +43,7 @@ from ..checkpoint import load_model, save_model
 from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
-from ..runs import check_fresh_out, scenario_family
+from ..runs import check_fresh_out, scenario_family, start_states
 from ..shield import ShieldedPredictor
 from . import bc_fit
 from .data import concat_datasets, play
@@ -93,6 +93,12 @@ class DistilConfig(ScenarioConfig):
     """Adam learning rate."""
     seed: int = 0
     """Seed of the beta mixing and the minibatch order (episode seeds: FIRST_SEED)."""
+    start_states: str | None = None
+    """Start-state file (vcs-env collect-states, e.g. where the student comes close to a contact): an episode of an
+    entry with a pool there starts, with probability start_prob, from one of its states (vcs_env.start_states), so
+    the rounds label more of the moments that decide a contact."""
+    start_prob: float = 0.5
+    """Probability that an episode of an entry with a start-state pool starts from it."""
     out: str = "runs/distil"
     """Run directory."""
 
@@ -101,6 +107,7 @@ class DistilConfig(ScenarioConfig):
             check_int(f"DistilConfig.{name}", getattr(self, name), lo, 10**7)
         check_range("DistilConfig.beta", self.beta, 0.0, 1.0)
         check_range("DistilConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
+        check_range("DistilConfig.start_prob", self.start_prob, 0.0, 1.0)
 
 
 def teachers_of(cfg: DistilConfig) -> dict[str, str]:
@@ -144,6 +151,7 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
     family = scenario_family([s for _, scenarios in groups for s in scenarios])
+    starts = start_states(cfg, [s for _, scenarios in groups for s in scenarios], "distillation")
     # Each network teacher loaded for each entry it labels: checked against that entry's scenario, its shield too.
     loaded = {
         entry: load_checkpoint(c, scenarios[0], shield=cfg.teacher_shield)
@@ -178,7 +186,7 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
             teacher = None if teacher_of[entry] == EXPERT else actor_of(loaded[entry])  # None: the expert
             for sc in scenarios:
                 seeds, next_seed = range(next_seed, next_seed + per_point), next_seed + per_point
-                parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher))
+                parts.append(play(sc, seeds, actor=student, beta=beta, rng=rng, teacher=teacher, start_states=starts))
         data = concat_datasets(*parts)  # one copy per round, not one per grid point
         losses = bc_fit(
             policy,

@@ -38,7 +38,6 @@ from typing import Any
 
 from vcs_env.checks import check_int, check_positive, check_range
 from vcs_env.scenario import Scenario
-from vcs_env.start_states import StartStates
 from vcs_env.suites import get_suite
 
 from ..checkpoint import Checkpoint, load_policy_weights, open_checkpoint, save_model
@@ -56,6 +55,7 @@ from ..runs import (
     print_reproduce,
     resumed_from,
     scenario_family,
+    start_states,
 )
 from .guide import GUIDES, ImitationLoss, JumpStart, annealed
 from .periodic import PeriodicEval
@@ -237,28 +237,6 @@ def zero_action_head(model) -> None:
     with torch.no_grad():
         model.policy.action_net.weight.zero_()
         model.policy.action_net.bias.zero_()
-
-
-def start_states(cfg: TrainConfig, scenarios) -> StartStates | None:
-    """The start-state pools of a run (None without ``--start-states``); a ``ValueError`` when
-    none fits a training scenario (pools are keyed by the whole scenario but its rewards)."""
-    if cfg.start_states is None:
-        return None
-    starts = StartStates.load(cfg.start_states, cfg.start_prob)
-    hit = starts.matching(scenarios)
-    if not any(len(pool) for pool in starts.pools.values()):
-        raise ValueError(f"{cfg.start_states!r} holds no start states (vcs-env collect-states found none)")
-    if not hit:
-        raise ValueError(
-            f"no start-state pool of {cfg.start_states!r} fits a training scenario ({len(starts.pools)} pools; collect "
-            "them with the training's scenario flags and mixture, e.g. the same --on-collision and --max-steps)"
-        )
-    states = sum(len(starts.pool(s)) for s in hit)
-    print(
-        f"start states: {len(hit)} of {len(scenarios)} scenarios start from {cfg.start_states} with "
-        f"p={cfg.start_prob} ({states} states)"
-    )
-    return starts
 
 
 def check_init_residual(init: Checkpoint, residual: Residual | None) -> None:
