@@ -11,9 +11,9 @@
 # PPO from that checkpoint too, with the weak map and layout entries counted five times); then a distillation
 # (vcs-env distil: the maps stage teaches the narrow corridor, the doors and the intersection, the movers stage's
 # checkpoint the rest) and its round that does best on validation; then the shield distilled into that network (a
-# shielded copy of it teaches it, vcs-env distil --teacher-shield; a second pass adds room to stop short of driving
-# robots on the open-floor entries), then a pass that also reads
-# contacts at millimetre resolution (--widen-fine), two seeds, the better on validation; last a polish, 1 M more PPO
+# shielded copy of it teaches it, vcs-env distil --teacher-shield), then a pass that also reads contacts at millimetre
+# resolution (--widen-fine) and adds room to stop short of driving robots on the open-floor entries, its episodes
+# half from the network's pre-contact states, two seeds, the better on validation; last a polish, 1 M more PPO
 # steps from it, and of it and the polish's checkpoints the one that does best on validation: $ROOT/polished/model.zip
 # is the policy. No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
@@ -38,7 +38,7 @@ SENSE=(--n-wall-points 6 --stall-clock)
 # Sizes: episodes of expert data, BC epochs, DAgger rounds and episodes, PPO steps, start-state rounds.
 if [ "$SMOKE" = 1 ]; then
   EPISODES=46 EPOCHS=1 DAGGER=1 DAGGER_EP=23 PPO=20000 WORLDS=120 ROUND=10000 ROUNDS=1 STATES_EP=2 EVAL=0 VAL=7000:7002
-  MOVERS=30000 MOVERS_EP=2 MAPS=30000 MAPS_EP=2 DISTIL_ROBOTS=4 SHIELD_PASSES=2 POLISH=10000
+  MOVERS=30000 MOVERS_EP=2 MAPS=30000 MAPS_EP=2 DISTIL_ROBOTS=4 SHIELD_PASSES=1 POLISH=10000
 else
   # Stage times of one run with these sizes (RUNS="0:0", 2026-12-06, this 2-core Intel Xeon beside one to four other
   # jobs; docs/experiments.md, "One pass of the recipe"): 2300 expert episodes 2 min; BC and two DAgger rounds 22 min;
@@ -49,10 +49,10 @@ else
   WORLDS=${WORLDS:-300} ROUND=${ROUND:-1000000} ROUNDS=${ROUNDS:-2} STATES_EP=${STATES_EP:-100} EVAL=${EVAL:-1000000}
   VAL=${VAL:-7000:7100} MOVERS=${MOVERS:-3000000} MOVERS_EP=${MOVERS_EP:-150}
   MAPS=${MAPS:-3000000} MAPS_EP=${MAPS_EP:-150} DISTIL_ROBOTS=${DISTIL_ROBOTS:-128}
-  # Each pass of the shield's distillation 18 min (2026-12-06, as above); the fine pass's two seeds side by side
-  # 23 min (2026-12-05), its selection 3 min; the polish's start states 3 min, its 1 M steps 11-13 min, its
-  # selection 5-8 min (2026-12-06, beside two or three other jobs).
-  SHIELD_PASSES=${SHIELD_PASSES:-2} POLISH=${POLISH:-1000000}
+  # A pass of the shield's distillation 15-18 min (2026-12-06, as above); the fine pass's start states 2-3 min, its two
+  # seeds side by side 11-16 min, its selection 1-3 min; the polish's start states 2-3 min, its 1 M steps 7-13 min,
+  # its selection 3-8 min (2026-12-06, beside one to three other jobs).
+  SHIELD_PASSES=${SHIELD_PASSES:-1} POLISH=${POLISH:-1000000}
 fi
 MIX=(
   "circle-8-v0:n_robots=6-8/2"
@@ -201,17 +201,20 @@ for p in $(seq 1 "$SHIELD_PASSES"); do
   prev="$ROOT/shielded$p/model.zip"
 done
 # The fine pass: the last pass's network widened by the slots-fine inputs (contacts at millimetre resolution,
-# vcs-env distil --widen-fine: the new weights start at zero), taught as the second pass teaches, by copies of itself
-# shielded as there; two seeds of the distillation side by side (runs of one method differ by up to 17 points on a
-# map suite), and the one that solves most validation episodes is the policy (docs/experiments.md, "Contacts at
-# millimetre resolution").
+# vcs-env distil --widen-fine: the new weights start at zero), taught by copies of itself shielded as a second pass
+# would teach (--driving-stop on the open-floor entries), half the episodes of the crowds, dynamic, random and map
+# entries from its own pre-contact states (--start-states: +1.6 to +5.2 points on validation in four runs, and with
+# them a second shield pass before this one gains nothing; docs/experiments.md, "Start states in the fine pass"); two
+# seeds of the distillation side by side (runs of one method differ by up to 17 points on a map suite), and the one
+# that solves most validation episodes goes on (docs/experiments.md, "Contacts at millimetre resolution").
 if [ ! -f "$ROOT/fine/model.zip" ]; then
+  [ -f "$ROOT/fine-states.npz" ] || start_states "$prev" "$STATES_EP" 680000 "$ROOT/fine-states.npz" "${DANGER[@]}"
   shielded_copy "$prev" "$ROOT/teacher-fine"
   shielded_copy "$prev" "$ROOT/teacher-fine-stop" --driving-stop
   pids=()
   for seed in 0 1; do
     [ -f "$ROOT/fine$seed/model.zip" ] || shield_pass "$prev" "$ROOT/teacher-fine" 1 "$ROOT/fine$seed" --widen-fine \
-      --seed "$seed" &
+      --seed "$seed" --start-states "$ROOT/fine-states.npz" &
     pids+=($!)
   done
   for pid in "${pids[@]}"; do wait "$pid" || { echo "a fine pass failed: see $ROOT/fine0.log, $ROOT/fine1.log" >&2; exit 1; }; done
