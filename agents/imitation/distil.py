@@ -150,8 +150,9 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     teacher_of = teachers_of(cfg)
     first = mixture_scenarios(cfg, tuple(counts))[0]  # every entry, one observation config (else a ValueError)
     groups = [(entry, mixture_scenarios(cfg, (entry,))) for entry in counts]
-    family = scenario_family([s for _, scenarios in groups for s in scenarios])
-    starts = start_states(cfg, [s for _, scenarios in groups for s in scenarios], "distillation")
+    played = [s for _, scenarios in groups for s in scenarios]
+    family = scenario_family(played)
+    starts = start_states(cfg, played, "distillation")
     # Each network teacher loaded for each entry it labels: checked against that entry's scenario, its shield too.
     loaded = {
         entry: load_checkpoint(c, scenarios[0], shield=cfg.teacher_shield)
