@@ -204,7 +204,8 @@ done
 # vcs-env distil --widen-fine: the new weights start at zero), taught by copies of itself shielded as a second pass
 # would teach (--driving-stop on the open-floor entries), half the episodes of the crowds, dynamic, random and map
 # entries from its own pre-contact states (--start-states: +1.6 to +5.2 points on validation in four runs, and with
-# them a second shield pass before this one gains nothing; docs/experiments.md, "Start states in the fine pass"); two
+# them a second shield pass before this one gains nothing; docs/experiments.md, "Start states in the fine pass, and
+# one shield pass"); two
 # seeds of the distillation side by side (runs of one method differ by up to 17 points on a map suite), and the one
 # that solves most validation episodes goes on (docs/experiments.md, "Contacts at millimetre resolution").
 if [ ! -f "$ROOT/fine/model.zip" ]; then
@@ -226,8 +227,9 @@ fi
 # polish's checkpoints the one that solves most validation episodes (an early checkpoint can lose a whole family:
 # the plain corridor 0.24 at 0.3 M steps in one run). The passes above teach safety but slow the robots down (the
 # release of 2026-12-05 takes 1.21-1.25x the expert's time on the crowds); the polish gives the time back (1.07-1.17x)
-# and, in one of the two lines that tried it, safety too (validation 0.934 -> 0.965; docs/experiments.md, "Both changes
-# together, and a polish").
+# where it is kept, but it lifted validation in only 2 of 7 runs (0.934 -> 0.965, 0.950 -> 0.968; the others lost the
+# plain corridor and the selection kept the fine pass; docs/experiments.md, "Both changes together, and a polish" and
+# "Start states in the fine pass, and one shield pass").
 if [ ! -f "$ROOT/polished/model.zip" ]; then
   [ -f "$ROOT/polish-states.npz" ] || start_states "$ROOT/fine/model.zip" "$STATES_EP" 580000 \
     "$ROOT/polish-states.npz" "${DANGER[@]}"
