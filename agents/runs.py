@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.checks import check_range
 from vcs_env.observations import observation_config, observation_layout
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
@@ -95,6 +96,11 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     """Stop an update's epochs early when the approximate KL exceeds this (None: never)."""
     init: str | None = None
     """Checkpoint (e.g. from vcs-env bc) whose policy weights start the run (same net_arch)."""
+    init_log_std: float | None = None
+    """With ``init``: the policy's log standard deviation once the checkpoint's weights are loaded (None keeps the
+    checkpoint's). A distilled network keeps the std of the PPO run it descends from (about 0.3 in the action box),
+    and PPO from it learns from actions that far from its mean, which in tight spaces are another policy than the
+    deterministic one that is evaluated (docs/training.md, "Exploration noise after distillation")."""
     residual: str | None = None
     """A residual policy: the network's action is a bounded correction added to this planner's
     (vcs, or another registered planner): clip(planner + residual_scale * network, -1, 1). Its action
@@ -203,7 +209,7 @@ BENCHMARL_ONLY = ("algorithm",)
 FIXED_ON_RESUME = (
     "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",
     "gamma", "gae_lambda", "clip_range", "ent_coef", "vf_coef", "max_grad_norm", "target_kl", "residual",
-    "residual_scale", "residual_gate",
+    "residual_scale", "residual_gate", "init_log_std",
 )  # fmt: skip
 """Fields a resumed run keeps from its checkpoint (the network, the PPO settings in the model and what
 its actions mean)."""
@@ -217,6 +223,16 @@ def check_run(cfg: TrainConfig) -> None:
         )
     if cfg.n_worlds < 1 or cfg.eval_episodes < 1:
         raise ValueError(f"n_worlds and eval_episodes must be >= 1, got {cfg.n_worlds} and {cfg.eval_episodes}")
+    if cfg.init is not None and cfg.log_std_init != PolicyConfig.log_std_init:
+        raise ValueError(
+            "--log-std-init is a new policy's log std; --init loads the checkpoint's (give --init-log-std to change it)"
+        )
+    if cfg.init_log_std is not None:
+        if cfg.init is None:
+            raise ValueError(
+                "--init-log-std sets the log std of the --init checkpoint's policy; a new policy's is --log-std-init"
+            )
+        check_range("init_log_std", cfg.init_log_std, -20.0, 2.0)
 
 
 RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl", "checkpoints")

@@ -312,6 +312,9 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
         if init:
             meta = load_policy_weights(model, init, scenario)
             print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
+            if cfg.init_log_std is not None:
+                with torch.no_grad():
+                    model.policy.log_std.fill_(cfg.init_log_std)
     start_steps = int(model.num_timesteps)  # the checkpoint's for a resumed run, 0 for a new one
     (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
     remaining = cfg.timesteps - model.num_timesteps
