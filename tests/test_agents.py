@@ -2,7 +2,6 @@
 
 import dataclasses
 import json
-import math
 import os
 import re
 import shutil
@@ -301,21 +300,6 @@ def test_smoke_collect_bc_train_resume(tmp_path, monkeypatch, capsys):
     assert json.loads((tmp_path / "ppo2/model.json").read_text())["num_timesteps"] == 384
     bad = vcs_env_cli("train --scenario crowd --init missing.zip --out x", tmp_path, expect=2)
     assert "checkpoint not found" in bad.stderr
-    # --init-log-std: the loaded policy explores with that std (one update at a negligible learning rate keeps it).
-    init_std = load_model(tmp_path / "ppo/model.zip", make_scenario("crowd")).policy.log_std.exp()
-    vcs_env_cli(
-        f"train {common} --eval-freq 0 --timesteps 128 --learning-rate 1e-9 --init ppo/model.zip "
-        "--init-log-std -2.3 --out quiet --no-progress-bar",
-        tmp_path,
-    )
-    std = load_model(tmp_path / "quiet/model.zip", make_scenario("crowd")).policy.log_std.exp()
-    assert torch.allclose(std, torch.full_like(std, math.exp(-2.3)), atol=1e-4) and (init_std > 0.15).all()
-    bad = vcs_env_cli("train --scenario crowd --init-log-std -2 --out x", tmp_path, expect=2)
-    assert "--init-log-std sets the log std of the --init checkpoint" in bad.stderr
-    bad = vcs_env_cli("train --scenario crowd --init ppo/model.zip --log-std-init -2 --out x", tmp_path, expect=2)
-    assert "--init loads the checkpoint's (give --init-log-std" in bad.stderr
-    bad = vcs_env_cli("train --resume ppo --init-log-std -2 --timesteps 512 --out x", tmp_path, expect=2)
-    assert "--init-log-std" in bad.stderr and "would not apply" in bad.stderr
     # DAgger on the PPO policy's own states: bc --init starts from its weights as they are.
     dag = "bc --data d.npz --init ppo/model.zip --epochs 0 --dagger-iters 1 --dagger-beta 0 --dagger-episodes 2"
     out = vcs_env_cli(f"{dag} --eval-episodes 2 --out dag", tmp_path).stdout

@@ -1,6 +1,7 @@
 """``vcs-env train --resume``: where it writes, what it keeps, what it refuses; PPO settings checks."""
 
 import json
+import math
 
 import pytest
 
@@ -162,3 +163,27 @@ def test_resuming_a_finished_run_keeps_the_checkpoint_it_goes_on_from(tmp_path, 
     record = json.loads((run / "model.json").read_text())
     assert record["resumed_from"] == {"checkpoint": str(kept), "timesteps": 2048} and record["num_timesteps"] == 4096
     assert "then vcs-env train" in capsys.readouterr().out
+
+
+def test_init_log_std_sets_the_loaded_policys_std_and_is_refused_where_it_cannot_apply(tmp_path, capsys):
+    """A run from --init explores with --init-log-std (one update at a negligible learning rate keeps it); without
+    --init and on --resume it is refused, and so is --log-std-init with --init (the checkpoint's std replaced it)."""
+    import torch
+
+    from agents.checkpoint import load_model
+    from vcs_env import make_scenario
+
+    first, quiet = tmp_path / "first", tmp_path / "quiet"
+    assert cli.main(["train", *TINY, "--timesteps", "2048", "--eval-freq", "0", "--out", str(first)]) == 0
+    args = ["train", *TINY, "--timesteps", "2048", "--eval-freq", "0", "--init", str(first / "model.zip")]
+    assert cli.main([*args, "--learning-rate", "1e-9", "--init-log-std", "-2.3", "--out", str(quiet)]) == 0
+    std, init_std = (load_model(p / "model.zip", make_scenario("circle")).policy.log_std.exp() for p in (quiet, first))
+    assert torch.allclose(std, torch.full_like(std, math.exp(-2.3)), atol=1e-4) and (init_std > 0.15).all()
+    capsys.readouterr()
+    for argv, message in (
+        (["train", *TINY, "--init-log-std", "-2"], "--init-log-std sets the log std of the --init checkpoint"),
+        ([*args, "--log-std-init", "-2"], "--init loads the checkpoint's (give --init-log-std"),
+        (["train", "--resume", str(first), "--timesteps", "4096", "--init-log-std", "-2"], "would not apply"),
+    ):
+        assert cli.main([*argv, "--out", str(tmp_path / "x")]) == 2
+        assert message in capsys.readouterr().err
