@@ -21,7 +21,6 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.checks import check_range
 from vcs_env.observations import observation_config, observation_layout
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
@@ -227,12 +226,10 @@ def check_run(cfg: TrainConfig) -> None:
         raise ValueError(
             "--log-std-init is a new policy's log std; --init loads the checkpoint's (give --init-log-std to change it)"
         )
-    if cfg.init_log_std is not None:
-        if cfg.init is None:
-            raise ValueError(
-                "--init-log-std sets the log std of the --init checkpoint's policy; a new policy's is --log-std-init"
-            )
-        check_range("init_log_std", cfg.init_log_std, -20.0, 2.0)
+    if cfg.init_log_std is not None and cfg.init is None:
+        raise ValueError(
+            "--init-log-std sets the log std of the --init checkpoint's policy; a new policy's is --log-std-init"
+        )
 
 
 RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl", "checkpoints")

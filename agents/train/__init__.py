@@ -107,6 +107,8 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
         check_positive(name, getattr(cfg, name), allow_zero=True)
     check_range("gae_lambda", cfg.gae_lambda, 0.0, 1.0)
     check_range("log_std_init", cfg.log_std_init, -20.0, 2.0)
+    if cfg.init_log_std is not None:
+        check_range("init_log_std", cfg.init_log_std, -20.0, 2.0)
     if cfg.target_kl is not None:
         check_positive("target_kl", cfg.target_kl)
     for name in ("eval_freq", "checkpoint_freq"):
