@@ -36,6 +36,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar
 
+from vcs_env.checks import install_hint
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -51,7 +52,7 @@ from .predictors import BenchMARLPolicy as BenchMARLPolicy
 from .predictors import RLlibPolicy as RLlibPolicy
 from .runs import run_record
 
-RAY_HINT = "pip install 'vcs-env[rllib]' (after torch, see the README)"
+RAY_HINT = f"{install_hint('rllib')} (after torch, see the README)"
 """How to install Ray RLlib, for error messages."""
 ACCEPTED = (
     "an SB3 .zip file (the suffix may be left out), a run directory with model.zip, an RLlib checkpoint "

@@ -29,7 +29,7 @@ from typing import Any
 
 from vcs_env.layouts import KINDS
 from vcs_env.lidar import LidarSpec
-from vcs_env.scenario import MAPS, SCENARIOS, RewardWeights, fit_time_limit, make_scenario, short_time_limit
+from vcs_env.scenario import RewardWeights, fit_time_limit, make_scenario, short_time_limit
 from vcs_env.suites import SUITES
 
 SHAPING = ("none", "vcs_imitation", "vcs_potential")
@@ -151,20 +151,15 @@ def scenario_base(name: str):
     ``on_collision="continue"``, spacing, time limit); flags and entry fields then change it."""
     if name == "custom":
         raise ValueError("--scenario custom has no layout here: build a Scenario(kind='custom', ...) in Python")
-    if name in SCENARIOS or name in MAPS:
-        return SCENARIOS.get(name) or MAPS[name]
-    if name in SUITES:
-        return SUITES[name].scenario
-    raise ValueError(
-        f"unknown scenario {name!r}: give a preset ({sorted({**SCENARIOS, **MAPS})}) or a suite name "
-        f"(e.g. crowd-20-v0; `vcs-env evaluate --help` lists them)"
-    )
+    return make_scenario(name)
 
 
 _SCENARIO_FLAGS = (
     "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed",
     "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "stall_clock",
 )  # fmt: skip
+FEATURES = ("flat", "contact", "slots", "slots-fine")
+"""Names accepted by ``--features`` (what the policy's MLPs read, :mod:`agents.features`)."""
 MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}
 """Map fields and the kinds that read them (flags, mixture entries and probe axes)."""
 

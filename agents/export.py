@@ -37,13 +37,15 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.checks import install_hint
+
 from .fits import CheckpointError, cause
 from .residual import GATE_RULE, RULE, Residual
 from .shield import shield_from_record
 
 OPSET = 17
 """The ONNX opset every export uses (recorded in the JSON beside the file)."""
-EXPORT_HINT = "pip install 'vcs-env[export]'"
+EXPORT_HINT = install_hint("export")
 """How to install onnx and onnxruntime, for error messages."""
 LAYOUT_FORMAT = "vcs-env-onnx"
 LAYOUT_VERSION = 1

@@ -60,8 +60,8 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from vcs_env.observations import EGO_DIM, SENSE_REF, Layout
 from vcs_env.scenario import R_REF, V_REF
 
-FEATURES = ("flat", "contact", "slots", "slots-fine")
-"""Names accepted by ``--features``."""
+from .config import FEATURES
+
 CONTACT_DIM = 3
 """Features per neighbour slot added by ``contact``."""
 T_REF = 2.0

@@ -32,10 +32,11 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.checks import install_hint
 from vcs_env.observations import sees_walls, with_sensors
 from vcs_env.planning import PLANNERS, Planner, make_planner
 from vcs_env.rollout import Controller, planner_controller
-from vcs_env.scenario import Scenario
+from vcs_env.scenario import Scenario, make_scenario
 from vcs_env.state import WorldState
 
 from .checkpoint import Checkpoint, CheckpointError, check_observation_space, find_checkpoint, open_checkpoint
@@ -99,7 +100,7 @@ def load_checkpoint(
     Args:
         path: the checkpoint (:func:`agents.checkpoint.open_checkpoint`: an SB3 ``.zip``, the suffix
             may be left out, or a run directory; an RLlib checkpoint or run directory).
-        scenario: the scenario whose observation space the model must take.
+        scenario: the scenario whose observation space the model must take (or a preset or suite name).
         shield: apply the safety shield the checkpoint's run record names, if any (:mod:`agents.shield`).
         network_only: load the network of a residual policy (``vcs-env train --residual``), whose actions are
             corrections of a planner's (:mod:`agents.residual`); without it such a checkpoint is refused, since
@@ -115,6 +116,12 @@ def load_checkpoint(
             a PPO checkpoint, or its spaces do not fit.
         ImportError: stable-baselines3 (or Ray RLlib, for an RLlib checkpoint) is not installed.
     """
+    if not isinstance(scenario, (str, Scenario)):
+        raise TypeError(
+            f"scenario must be a Scenario or a preset or suite name, got {type(scenario).__name__} "
+            "(an env's scenario is env.scenario)"
+        )
+    scenario = make_scenario(scenario)
     ckpt = open_checkpoint(path)
     residual = Residual.of(ckpt.record.get("config", {}))
     if residual is not None and not network_only:
@@ -135,7 +142,7 @@ def load_checkpoint(
         ) from None
     except ModuleNotFoundError as e:
         raise ImportError(
-            f"loading the {ckpt.describe()} needs {e.name}; install it with: pip install 'vcs-env[train]' ({e})"
+            f"loading the {ckpt.describe()} needs {e.name}; install it with: {install_hint('train')} ({e})"
         ) from None
     _check_action_space(model.action_space, ckpt.describe())
     guard = shield_from_record(ckpt.record, str(ckpt.record_path)) if shield else None

@@ -21,12 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.checks import check_choice, check_positive
 from vcs_env.observations import observation_config, observation_layout
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 from vcs_env.start_states import StartStates
 
-from .config import ScenarioConfig, config_command
+from .config import FEATURES, ScenarioConfig, config_command
 
 
 @dataclass
@@ -39,7 +40,7 @@ class PolicyConfig:
     """Initial log standard deviation of the Gaussian policy (state independent); actions are
     in [-1, 1], so std 0.6 explores without saturating most actions."""
     features: str = "flat"
-    """What the MLPs read: flat (the observation), contact (the observation plus per-neighbour
+    """What the MLPs read (:data:`FEATURES`): flat (the observation), contact (the observation plus per-neighbour
     contact-time and nearness features computed from it) or slots (a learned encoder shared by the
     neighbour slots, pooled), slots-fine (slots that also read contacts at millimetre resolution);
     agents.features. SB3 only."""
@@ -222,6 +223,8 @@ def check_run(cfg: TrainConfig) -> None:
         )
     if cfg.n_worlds < 1 or cfg.eval_episodes < 1:
         raise ValueError(f"n_worlds and eval_episodes must be >= 1, got {cfg.n_worlds} and {cfg.eval_episodes}")
+    check_choice("features", cfg.features, FEATURES)
+    check_positive("max_grad_norm", cfg.max_grad_norm)  # the gradients' norm is clipped to it: 0 would learn nothing
     if cfg.init is not None and cfg.log_std_init != PolicyConfig.log_std_init:
         raise ValueError(
             "--log-std-init is a new policy's log std; --init loads the checkpoint's (give --init-log-std to change it)"

@@ -1,7 +1,7 @@
 """``orca``: Optimal Reciprocal Collision Avoidance through the real RVO2 library (``pyrvo``).
 
 ORCA (van den Berg, Guy, Lin and Manocha, ISRR 2009) runs in RVO2 2.0.3 through the ``pyrvo``
-wheel (optional extra: ``pip install 'vcs-env[orca]'``); nothing of ORCA is reimplemented here.
+wheel (optional extra: ``pip install -e '.[orca]'``); nothing of ORCA is reimplemented here.
 
 How the world is handed to RVO2 (one call plans every robot of every world):
 
@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcs_env.checks import check_positive
+from vcs_env.checks import check_positive, install_hint
 from vcs_env.state import WorldState
 
 from .common import VelocityPlanner, preferred_velocity
@@ -58,7 +58,7 @@ def import_pyrvo():
     try:
         import pyrvo
     except ImportError as e:
-        raise ImportError("the 'orca' planner needs the RVO2 bindings pyrvo: pip install 'vcs-env[orca]'") from e
+        raise ImportError(f"the 'orca' planner needs the RVO2 bindings pyrvo: {install_hint('orca')}") from e
     return pyrvo
 
 
@@ -73,7 +73,7 @@ class OrcaPlanner(VelocityPlanner):
         time_horizon_obst: ORCA time horizon for walls [s], > 0.
 
     Raises:
-        ImportError: when ``pyrvo`` is not installed (``pip install 'vcs-env[orca]'``).
+        ImportError: when ``pyrvo`` is not installed (``pip install -e '.[orca]'``).
     """
 
     name = "orca"

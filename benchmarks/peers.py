@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import importlib
 
+from vcs_env.checks import install_hint
+
 from .timing import Missing
 
-INSTALL_HINT = "pip install 'vcs-env[bench]'"
+INSTALL_HINT = install_hint("bench")
 
 PEERS = {
     "mpe2": "PettingZoo MPE (simple_spread, parallel API, continuous actions)",

@@ -4,7 +4,7 @@ side by side with real peers (PettingZoo MPE, VMAS, RVO2 ORCA via pyrvo) in one 
 Writes a Markdown report (``--out``, default ``benchmarks/RESULTS.md``) and the raw numbers as
 JSON next to it (same name, ``.json``). ``--quick`` uses tiny sizes (the smoke test); its
 numbers mean nothing, so without ``--out`` it writes ``runs/bench-quick/RESULTS.md`` (``runs/`` is
-not committed), never the committed report. Peers come from the ``bench`` extra (``pip install 'vcs-env[bench]'``); a
+not committed), never the committed report. Peers come from the ``bench`` extra (``pip install -e '.[bench]'``); a
 peer that cannot be imported is reported as missing, with the reason.
 
 Sections: 1. env throughput (random actions), 2. planner throughput, 3. PPO training

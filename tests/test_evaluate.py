@@ -431,4 +431,4 @@ def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):
     if "orca" in PLANNERS:
         monkeypatch.setitem(sys.modules, "pyrvo", None)  # as if the orca extra were not installed
         assert cli.main([*base, "orca"]) == 2
-        assert "pip install 'vcs-env[orca]'" in capsys.readouterr().err
+        assert "pip install -e '.[orca]'" in capsys.readouterr().err

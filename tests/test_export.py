@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("onnxruntime", reason="the export extra (pip install 'vcs-env[export]')")
+pytest.importorskip("onnxruntime", reason="the export extra (pip install -e '.[export]')")
 pytest.importorskip("stable_baselines3", reason="the train extra")
 
 import onnxruntime as ort  # noqa: E402

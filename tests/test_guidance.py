@@ -15,7 +15,7 @@ import json
 import numpy as np
 import pytest
 
-pytest.importorskip("stable_baselines3", reason="the train extra (pip install 'vcs-env[train]')")
+pytest.importorskip("stable_baselines3", reason="the train extra (pip install -e '.[train]')")
 
 from agents.checkpoint import save_model  # noqa: E402
 from agents.config import build_scenario  # noqa: E402

@@ -21,7 +21,7 @@ import pytest
 
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM
 
-pytest.importorskip("ray.rllib", reason="the rllib extra (pip install 'vcs-env[rllib]')")
+pytest.importorskip("ray.rllib", reason="the rllib extra (pip install -e '.[rllib]')")
 
 from agents.checkpoint import RLlibPolicy  # noqa: E402
 from agents.runs import RLlibConfig, run_command  # noqa: E402
@@ -189,7 +189,7 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     hide_ray = "import sys; sys.modules['ray'] = None; from vcs_cli import main; sys.exit(main(sys.argv[1:]))"
     res = _run("train", "--backend", "rllib", "--timesteps", "10", "--out", str(tmp_path / "z"), code=hide_ray)
     lines = res.stderr.strip().splitlines()
-    assert res.returncode == 2 and len(lines) == 1 and "pip install 'vcs-env[rllib]'" in lines[0], res.stderr
+    assert res.returncode == 2 and len(lines) == 1 and "pip install -e '.[rllib]'" in lines[0], res.stderr
 
 
 # --------------------------------------------------------------------------- cluster

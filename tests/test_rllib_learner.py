@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-pytest.importorskip("ray.rllib", reason="the rllib extra (pip install 'vcs-env[rllib]')")
+pytest.importorskip("ray.rllib", reason="the rllib extra (pip install -e '.[rllib]')")
 
 import torch  # noqa: E402
 

@@ -49,13 +49,10 @@ def task_scenario(config: dict[str, Any], name: str) -> Scenario:
     """The scenario of a task config: ``config["scenario"]`` (a suite or preset name, or a Scenario; default: the
     task's suite, :data:`DEFAULTS`) with every other entry but :data:`KEYS` as a Scenario field."""
     from .scenario import make_scenario
-    from .suites import SUITES
 
     base = config.get("scenario", DEFAULTS.get(name.lower()))
     if base is None:
         raise ValueError(f"task {name!r} needs a 'scenario' in its config (a suite or preset name, or a Scenario)")
-    if isinstance(base, str) and base in SUITES:
-        base = SUITES[base].scenario
     over = {k: v for k, v in config.items() if k not in KEYS}
     return make_scenario(base, **over)
 

@@ -19,6 +19,11 @@ R_REF = 2.0
 """Largest allowed robot or obstacle radius [m]."""
 
 
+def install_hint(extra: str) -> str:
+    """How to install the optional ``extra``, as the README installs the package: from a checkout of the repository."""
+    return f"pip install -e '.[{extra}]' in the vcs-env checkout"
+
+
 def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
     """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) with ``lo <(=) value <(=) hi``."""
     ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)

@@ -12,6 +12,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from .checks import install_hint
 from .state import WorldState
 
 OBSTACLE_COLOR = (120, 120, 120)
@@ -25,7 +26,7 @@ def robot_colors(n: int) -> list[tuple[int, int, int]]:
 
 
 def _missing(extra_pkg: str, err: ImportError) -> ImportError:
-    return ImportError(f"{extra_pkg} is needed for this; install it with: pip install 'vcs-env[render]' ({err})")
+    return ImportError(f"{extra_pkg} is needed for this; install it with: {install_hint('render')} ({err})")
 
 
 class Renderer:

@@ -38,6 +38,18 @@ def _kinds(checked: bool = False):
     return check_kinds(KINDS) if checked else KINDS
 
 
+class UnknownFieldError(TypeError, ValueError):
+    """Keyword arguments that are no :class:`Scenario` field: a ``ValueError`` as every bad scenario input, and a
+    ``TypeError`` as Python's own unexpected keyword argument, which wrappers that retry without an optional keyword
+    catch (TorchRL's ``GymEnv`` passes ``frameskip`` and retries without it on a ``TypeError`` in Python's wording)."""
+
+
+def _suites():
+    from .suites import SUITES  # late import: the suites are built from this module's presets
+
+    return SUITES
+
+
 @dataclass(frozen=True)
 class RobotSpec:
     """Body and motion limits of every robot of a scenario."""
@@ -336,7 +348,8 @@ solve on every seed) until the VCS planner's kernel sees walls."""
 
 
 def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> Scenario:
-    """A preset by name (or a given scenario) with fields replaced by ``overrides``.
+    """A preset by name, a suite's scenario by the suite's name (``"crowd-20-v0"``: :data:`vcs_env.suites.SUITES`,
+    with all its conventions), or a given scenario, with fields replaced by ``overrides``.
 
     ``robot``, ``rewards``, ``lidar``, ``pedestrians`` and ``custom`` may be given as dicts: the fields to change
     (all of them where the base has none), so a run record's scenario (``record["scenario"]``, JSON) makes the
@@ -346,18 +359,26 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
         base = name_or_scenario
     elif isinstance(name_or_scenario, str) and (name_or_scenario in SCENARIOS or name_or_scenario in MAPS):
         base = SCENARIOS.get(name_or_scenario) or MAPS[name_or_scenario]
+    elif isinstance(name_or_scenario, str) and name_or_scenario in _suites():
+        base = _suites()[name_or_scenario].scenario
     else:
         kind = isinstance(name_or_scenario, str) and name_or_scenario in _kinds()
         hint = (
             f" ({name_or_scenario!r} is a kind without a preset: Scenario(kind={name_or_scenario!r}))" if kind else ""
         )
-        raise ValueError(f"unknown scenario {name_or_scenario!r}; presets are {sorted({**SCENARIOS, **MAPS})}{hint}")
+        raise ValueError(
+            f"unknown scenario {name_or_scenario!r}; give a preset ({sorted({**SCENARIOS, **MAPS})}) or a suite name "
+            f"(e.g. crowd-20-v0; vcs_env.suites.SUITES lists them){hint}"
+        )
     if not overrides:
         return base
     names = {f.name for f in dataclasses.fields(Scenario)}
     unknown = set(overrides) - names
     if unknown:
-        raise ValueError(f"unknown Scenario fields {sorted(unknown)}; valid fields are {sorted(names)}")
+        python = ", ".join(f"unexpected keyword argument {k!r}" for k in sorted(unknown))  # Python's own wording
+        raise UnknownFieldError(
+            f"unknown Scenario fields {sorted(unknown)} ({python}); valid fields are {sorted(names)}"
+        )
     nested = {"robot": RobotSpec, "rewards": RewardWeights, "lidar": LidarSpec, "pedestrians": PedestrianSpec}
     for key, cls in (nested | {"custom": CustomLayout}).items():
         if isinstance(overrides.get(key), dict):

@@ -1,7 +1,7 @@
 """TorchRL ``EnvBase`` adapter over :class:`~vcs_env.engine.NavEngine`: ``num_envs`` worlds, one engine call.
 
 The only module of ``vcs_env`` that imports ``torch``, ``tensordict`` and ``torchrl`` (the ``torchrl``
-extra: ``pip install "vcs-env[torchrl]"``); ``import vcs_env`` does not load it. Usage and the
+extra: ``pip install -e ".[torchrl]"``); ``import vcs_env`` does not load it. Usage and the
 masking semantics in ``docs/torchrl.md``.
 """
 
@@ -246,6 +246,11 @@ class VcsNavEnv(EnvBase):
 
     def _step(self, tensordict: TensorDictBase) -> TensorDictBase:
         action = tensordict.get((GROUP, "action"))
+        if action is None:
+            raise ValueError(
+                "the step's tensordict has no ('agents', 'action'): set one of shape "
+                f"({self.num_envs}, {self.n_robots}, 2)"
+            )
         if tuple(action.shape) != (self.num_envs, self.n_robots, 2):
             raise ValueError(
                 f"('agents', 'action') must have shape ({self.num_envs}, {self.n_robots}, 2), got {tuple(action.shape)}"

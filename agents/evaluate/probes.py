@@ -180,6 +180,8 @@ def policy_labels(specs: list[str], expert: str | None = "vcs") -> dict[str, str
         if spec == expert:
             continue
         named, sep, rest = spec.partition("=")
+        if sep and named.strip() and not rest.strip() and not os.path.exists(spec):
+            raise ValueError(f"policy {spec!r} has a label and nothing after '=': give LABEL=PATH (or a planner)")
         if sep and named and rest and "/" not in named and os.sep not in named and not os.path.exists(spec):
             label, spec = named.strip(), rest.strip()
         else:

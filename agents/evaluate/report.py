@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from vcs_env import metrics
+from vcs_env.checks import install_hint
 from vcs_env.metrics import OUTCOMES, Metric
 
 from . import EXTRA_TIME_PERCENTILES, Comparison
@@ -128,7 +129,7 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
     try:
         from matplotlib.figure import Figure
     except ImportError as e:
-        raise ImportError(f"plots need matplotlib; install it with: pip install 'vcs-env[render]' ({e})") from None
+        raise ImportError(f"plots need matplotlib; install it with: {install_hint('render')} ({e})") from None
     from vcs_env.render import plot_trajectories
 
     out = Path(out_dir)

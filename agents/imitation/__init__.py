@@ -87,6 +87,7 @@ def collect(cfg: CollectConfig) -> Path:
     """Run the expert on ``cfg.episodes`` seeds and save the dataset; returns its path."""
     if cfg.episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {cfg.episodes}")
+    check_int("n_worlds", cfg.n_worlds, 1, 10**6)
     if cfg.shaping != "none":
         raise ValueError(
             f"--shaping {cfg.shaping} shapes PPO's reward; a dataset keeps the scenario's own reward (vcs-env bc "

@@ -30,6 +30,7 @@ the expert's labels for the visited states.
 from __future__ import annotations
 
 import json
+import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -182,6 +183,8 @@ def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"dataset not found: {str(path)!r} (make one with vcs-env collect)")
+    if not zipfile.is_zipfile(path):  # numpy would try it as a pickle and say so
+        raise ValueError(f"dataset {str(path)!r} is not a .npz file (no zip archive; make one with vcs-env collect)")
     try:
         with np.load(path, allow_pickle=False) as f:
             data = {k: f[k] for k in f.files}

@@ -103,7 +103,7 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
         raise ValueError(f"net_arch must be one or more layer sizes >= 1, got {cfg.net_arch!r}")
     for name in ("learning_rate", "clip_range"):
         check_positive(name, getattr(cfg, name))
-    for name in ("ent_coef", "vf_coef", "max_grad_norm"):
+    for name in ("ent_coef", "vf_coef"):
         check_positive(name, getattr(cfg, name), allow_zero=True)
     check_range("gae_lambda", cfg.gae_lambda, 0.0, 1.0)
     check_range("log_std_init", cfg.log_std_init, -20.0, 2.0)

@@ -36,6 +36,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from vcs_env.checks import install_hint
 from vcs_env.observations import observation_bounds
 from vcs_env.suites import get_suite
 
@@ -47,9 +48,7 @@ from ..runs import BENCHMARL_ALGORITHMS, BenchMARLConfig, check_fresh_out, check
 from . import check_ppo_settings
 from .periodic import PeriodicEval
 
-INSTALL = (
-    'pip install "vcs-env[benchmarl]" && pip install --no-deps benchmarl==1.5.2 (after torch, see docs/torchrl.md)'
-)
+INSTALL = f"{install_hint('benchmarl')}, then pip install --no-deps benchmarl==1.5.2 (after torch, see docs/torchrl.md)"
 """How to install BenchMARL, for error messages."""
 
 

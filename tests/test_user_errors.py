@@ -1,0 +1,113 @@
+"""Mistakes a new user makes, each met with a one-line error that names the problem (or with what they meant), found
+by running the documented commands and the public API from outside: a gradient clip of 0, suite names where a
+scenario is asked for, TorchRL's standard Gym wrapper, a step without an action, bad collection sizes, files that
+are not datasets, labels without a policy, and the install hints of missing extras."""
+
+import numpy as np
+import pytest
+
+import vcs_cli
+import vcs_env
+from agents.imitation.data import load_dataset
+from agents.policies import load_checkpoint
+from vcs_env.checks import install_hint
+from vcs_env.scenario import make_scenario
+from vcs_env.suites import SUITES
+
+
+def test_a_gradient_clip_of_zero_is_refused_before_the_run_starts(tmp_path, capsys):
+    # SB3 (and RLlib, BenchMARL) clip the gradients' norm to it: at 0 no weight ever changes, yet the run "succeeds".
+    out = tmp_path / "run"
+    assert vcs_cli.main(["train", "--max-grad-norm", "0", "--timesteps", "100", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "max_grad_norm must be a finite number in (0.0, inf), got 0.0" in err
+    assert not out.exists()
+
+
+def test_unknown_features_are_refused_before_the_run_directory_is_made(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert vcs_cli.main(["train", "--features", "bogus", "--timesteps", "100", "--out", str(out)]) == 2
+    assert "features must be one of ['flat', 'contact', 'slots', 'slots-fine'], got 'bogus'" in capsys.readouterr().err
+    assert not out.exists()  # it used to be left behind, empty
+
+
+@pytest.mark.parametrize("n_worlds", ["0", "-1"])
+def test_collect_refuses_a_batch_of_no_worlds(tmp_path, capsys, n_worlds):
+    args = ["collect", "--scenario", "circle", "--episodes", "2", "--n-worlds", n_worlds, "--out", str(tmp_path / "d")]
+    assert vcs_cli.main(args) == 2
+    assert f"n_worlds must be an integer in [1, 1000000], got {n_worlds}" in capsys.readouterr().err
+
+
+def test_a_label_without_a_policy_is_named(tmp_path, capsys):
+    args = ["compare", "--suite", "circle-8-v0", "--policies", "ppo=", "--out", str(tmp_path / "c"), "--no-plots"]
+    assert vcs_cli.main(args) == 2
+    assert "policy 'ppo=' has a label and nothing after '='" in capsys.readouterr().err
+
+
+def test_suite_names_give_the_suites_scenario_everywhere_a_scenario_is_named():
+    assert make_scenario("crowd-20-v0") is SUITES["crowd-20-v0"].scenario
+    assert make_scenario("door-headon-v0", n_robots=4).n_robots == 4
+    env = vcs_env.parallel_env(scenario="crowd-5-v0")
+    assert env.scenario == SUITES["crowd-5-v0"].scenario
+    obs, _ = env.reset(seed=3)
+    assert len(obs) == SUITES["crowd-5-v0"].scenario.n_robots
+    with pytest.raises(ValueError, match="unknown scenario 'crowd-99-v0'; give a preset .* or a suite name"):
+        make_scenario("crowd-99-v0")
+
+
+def test_unknown_scenario_fields_are_both_value_and_python_keyword_errors():
+    # Wrappers that drop an optional keyword on Python's TypeError (TorchRL's GymEnv and `frameskip`) get one.
+    for kind in (TypeError, ValueError):
+        with pytest.raises(kind, match=r"unknown Scenario fields \['frameskip'\] \(unexpected keyword argument"):
+            make_scenario("circle", frameskip=1)
+
+
+def test_torchrl_standard_gym_wrapper_opens_the_registered_envs():
+    pytest.importorskip("torchrl")
+    from torchrl.envs import GymEnv
+
+    env = GymEnv("vcs_env/Navigation-v2")
+    td = env.rollout(3)
+    assert td["next", "observation"].shape[0] == 3
+
+
+def test_torchrl_env_step_without_an_action_names_it():
+    pytest.importorskip("torchrl")
+    from vcs_env.torchrl import VcsNavEnv
+
+    env = VcsNavEnv("circle", num_envs=2, n_robots=2)
+    with pytest.raises(ValueError, match=r"has no \('agents', 'action'\): set one of shape \(2, 2, 2\)"):
+        env.step(env.reset())
+
+
+def test_load_checkpoint_takes_a_scenario_or_its_name_and_names_anything_else():
+    pytest.importorskip("stable_baselines3")
+    from agents.checkpoint import CheckpointError
+
+    ckpt = "policies/circle8/model.zip"  # observation v1
+    scenario = make_scenario("circle", n_robots=8, observation=1)
+    model = load_checkpoint(ckpt, scenario)
+    assert model.predict(np.zeros((1, model.observation_space.shape[0]), np.float32))[0].shape == (1, 2)
+    with pytest.raises(CheckpointError, match="reads observation v1, but scenario kind='circle' gives v2"):
+        load_checkpoint(ckpt, "circle-8-v0")  # the suite's scenario, which observes v2
+    env = vcs_env.parallel_env(scenario=scenario)
+    with pytest.raises(TypeError, match="scenario must be a Scenario or a preset or suite name, got \\w+ \\(an env"):
+        load_checkpoint(ckpt, env)
+    with pytest.raises(ValueError, match="unknown scenario 'circel'"):
+        load_checkpoint(ckpt, "circel")
+
+
+def test_a_file_that_is_not_a_dataset_is_named_without_numpys_pickle_advice(tmp_path):
+    bad = tmp_path / "notes.npz"
+    bad.write_text("not an archive")
+    with pytest.raises(ValueError, match="is not a .npz file") as e:
+        load_dataset(bad)
+    assert "pickle" not in str(e.value)
+
+
+def test_install_hints_name_the_checkout_install_the_readme_uses():
+    from agents.checkpoint import RAY_HINT
+    from agents.export import EXPORT_HINT
+
+    assert install_hint("orca") == "pip install -e '.[orca]' in the vcs-env checkout"
+    assert EXPORT_HINT == install_hint("export") and RAY_HINT.startswith(install_hint("rllib"))
