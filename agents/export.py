@@ -240,6 +240,17 @@ def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residua
     }
 
 
+def opset_range() -> tuple[int, int]:
+    """The ONNX opsets the installed torch's TorchScript exporter writes (7 to 20 in torch 2.13).
+
+    Checked before exporting: that exporter prints the whole traced graph to the process's stderr
+    before it refuses an opset it cannot write.
+    """
+    from torch.onnx import _constants  # private, but the exporter's own bounds
+
+    return int(_constants.ONNX_MIN_OPSET), int(_constants.ONNX_TORCHSCRIPT_EXPORTER_MAX_OPSET)
+
+
 def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple[Path, Path]:
     """Write the deterministic actor of ``checkpoint`` (an :class:`agents.checkpoint.Checkpoint`) to
     ``out`` (``.onnx``) and its :func:`layout` to ``out`` with suffix ``.json``; return both paths.
@@ -254,6 +265,9 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
     onnx, ort = import_onnx()
     import torch
 
+    low, high = opset_range()
+    if isinstance(opset, bool) or not isinstance(opset, int) or not low <= opset <= high:
+        raise CheckpointError(f"torch {torch.__version__} exports ONNX opsets {low} to {high}, got {opset!r}")
     torch.set_num_threads(1)
     actor, space = checkpoint.actor()
     dim = int(space.shape[0])

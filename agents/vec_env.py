@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
+from vcs_env.checks import check_reset_options
 from vcs_env.engine import NavEngine
 from vcs_env.metrics import robots_succeeded
 from vcs_env.observations import observation_config
@@ -217,6 +218,8 @@ class NavVecEnv(SharedSlots):
         if base is not None:
             self._jump_rng = np.random.default_rng([int(base), self.n_worlds])
         self._reset_seeds()
+        for options in self._options:  # set by SB3's set_options(): none is read
+            check_reset_options(options)
         self._reset_options()
         self.reset_infos = [{} for _ in range(self.num_envs)]
         return self._begin(obs)
@@ -408,6 +411,8 @@ class MixtureVecEnv(SharedSlots):
             for g, off in zip(self.groups, self._world_offsets):
                 g.seed(int(base) + off)
         self._reset_seeds()
+        for options in self._options:  # set by SB3's set_options(): none is read
+            check_reset_options(options)
         self._reset_options()
         self.reset_infos = [{} for _ in range(self.num_envs)]
         return self._concat([g.reset() for g in self.groups])

@@ -1,8 +1,9 @@
 """Mistakes a new user makes, each met with a one-line error that names the problem (or with what they meant), found
 by running the documented commands and the public API from outside: a gradient clip of 0, suite names where a
 scenario is asked for, TorchRL's standard Gym wrapper, a step without an action, bad collection sizes, files that
-are not datasets, labels without a policy, and the install hints of missing extras."""
+are not datasets, labels without a policy, reset options no env reads, and the install hints of missing extras."""
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -10,6 +11,7 @@ import vcs_cli
 import vcs_env
 from agents.imitation.data import load_dataset
 from agents.policies import load_checkpoint
+from agents.vec_env import NavVecEnv
 from vcs_env.checks import install_hint
 from vcs_env.scenario import make_scenario
 from vcs_env.suites import SUITES
@@ -111,3 +113,25 @@ def test_install_hints_name_the_checkout_install_the_readme_uses():
 
     assert install_hint("orca") == "pip install -e '.[orca]' in the vcs-env checkout"
     assert EXPORT_HINT == install_hint("export") and RAY_HINT.startswith(install_hint("rllib"))
+
+
+def test_reset_options_that_no_env_reads_are_refused():
+    # A user who sets the scenario through reset(options=...) had it ignored: the episode ran the env's own scenario.
+    env = gym.make("vcs_env/Navigation-v2", scenario="circle", n_robots=3)
+    env.reset(seed=0, options={})  # what Gymnasium's checker and SB3's DummyVecEnv pass
+    with pytest.raises(ValueError, match=r"reset reads no options, got \['n_robots'\]: .* when the env is made"):
+        env.reset(seed=0, options={"n_robots": 4})
+    vec = gym.make_vec("vcs_env/Navigation-v2", num_envs=2, scenario="circle", n_robots=3)
+    vec.reset(seed=0, options={"reset_mask": np.array([True, False])})
+    with pytest.raises(ValueError, match=r"reset reads only \['reset_mask'\], got \['mask'\]"):
+        vec.reset(seed=0, options={"mask": np.array([True, False])})
+    par = vcs_env.parallel_env(scenario="circle", n_robots=3)
+    par.reset(seed=0, options=None)
+    with pytest.warns(UserWarning, match=r"reset reads no options, got \['scenario'\]: .*; ignored"):
+        par.reset(seed=0, options={"scenario": "crowd"})  # PettingZoo's API test resets with an arbitrary option
+    venv = NavVecEnv(make_scenario("circle", n_robots=3), n_worlds=2)
+    venv.set_options({"n_robots": 4})  # SB3's VecEnv API: the options of the next reset
+    with pytest.raises(ValueError, match=r"got \['n_robots'\]"):
+        venv.reset()
+    venv.set_options(None)
+    assert venv.reset().shape[0] == 6

@@ -4,6 +4,7 @@ the allowed values and the value it got, so bad input never reaches numpy."""
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -61,3 +62,27 @@ def check_choice(name: str, value: str, choices: Sequence[str]) -> None:
     """Raise ``ValueError`` unless ``value`` is one of ``choices``, naming them."""
     if value not in choices:
         raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+
+
+def check_reset_options(options, known: Sequence[str] = (), warn: bool = False) -> dict:
+    """Return ``options`` (``None`` as ``{}``) if it is a dict whose keys are all in ``known``.
+
+    A scenario is set when its env is made (``gym.make(id, n_robots=4)``), not by ``reset``: an option the env
+    does not read is refused (``ValueError`` naming it), never silently ignored; with ``warn`` (PettingZoo, whose API
+    test resets with an arbitrary option) it is ignored with a ``UserWarning`` naming it.
+    """
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise ValueError(f"reset options must be a dict or None, got {type(options).__name__}")
+    unknown = sorted(str(k) for k in options if k not in known)
+    if unknown:
+        reads = f"reads only {list(known)}" if known else "reads no options"
+        text = (
+            f"reset {reads}, got {unknown}: a scenario's settings are given when the env is made "
+            "(gym.make(id, n_robots=4), parallel_env(scenario=..., n_robots=4))"
+        )
+        if not warn:
+            raise ValueError(text)
+        warnings.warn(text + "; ignored", UserWarning, stacklevel=3)
+    return options

@@ -10,6 +10,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from .checks import check_reset_options
 from .dynamics import check_actions
 from .engine import NavEngine, RewardFn, check_max_steps, env_scenario
 from .planning import Planner, own_planner
@@ -100,6 +101,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         return self.engine.world
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        check_reset_options(options)
         super().reset(seed=seed)
         # The world generator is seeded from Gymnasium's np_random so reset() without a seed
         # continues one reproducible stream.
@@ -227,8 +229,9 @@ class VcsNavVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"got {len(seeds)} seeds for num_envs={self.num_envs}")
+        options = check_reset_options(options, ("reset_mask",))
         mask = np.ones(self.num_envs, dtype=bool)
-        if options is not None and "reset_mask" in options:
+        if "reset_mask" in options:
             mask = options["reset_mask"]
             if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
                 raise ValueError(

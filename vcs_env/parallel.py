@@ -11,6 +11,7 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from . import spaces as nav_spaces
+from .checks import check_reset_options
 from .dynamics import check_actions
 from .engine import NavEngine, RewardFn, check_max_steps, env_scenario
 from .observations import state_vector
@@ -179,6 +180,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         return self.engine.world
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        check_reset_options(options, warn=True)
         obs = self.engine.reset(None if seed is None else [seed])
         self.agents = list(self.possible_agents)
         if self._renderer is not None:
