@@ -240,15 +240,19 @@ def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residua
     }
 
 
-def opset_range() -> tuple[int, int]:
-    """The ONNX opsets the installed torch's TorchScript exporter writes (7 to 20 in torch 2.13).
+def opset_range() -> tuple[int, int] | None:
+    """The ONNX opsets the installed torch's TorchScript exporter writes (7 to 20 in torch 2.13), or None where
+    that torch does not say (then the exporter's own error names a bad opset).
 
     Checked before exporting: that exporter prints the whole traced graph to the process's stderr
     before it refuses an opset it cannot write.
     """
-    from torch.onnx import _constants  # private, but the exporter's own bounds
+    try:
+        from torch.onnx import _constants  # private, but the exporter's own bounds
 
-    return int(_constants.ONNX_MIN_OPSET), int(_constants.ONNX_TORCHSCRIPT_EXPORTER_MAX_OPSET)
+        return int(_constants.ONNX_MIN_OPSET), int(_constants.ONNX_TORCHSCRIPT_EXPORTER_MAX_OPSET)
+    except (ImportError, AttributeError):
+        return None
 
 
 def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple[Path, Path]:
@@ -265,9 +269,11 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
     onnx, ort = import_onnx()
     import torch
 
-    low, high = opset_range()
-    if isinstance(opset, bool) or not isinstance(opset, int) or not low <= opset <= high:
-        raise CheckpointError(f"torch {torch.__version__} exports ONNX opsets {low} to {high}, got {opset!r}")
+    if isinstance(opset, bool) or not isinstance(opset, int):
+        raise CheckpointError(f"the ONNX opset must be an integer, got {opset!r}")
+    bounds = opset_range()
+    if bounds is not None and not bounds[0] <= opset <= bounds[1]:
+        raise CheckpointError(f"torch {torch.__version__} exports ONNX opsets {bounds[0]} to {bounds[1]}, got {opset}")
     torch.set_num_threads(1)
     actor, space = checkpoint.actor()
     dim = int(space.shape[0])

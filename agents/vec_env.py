@@ -90,6 +90,12 @@ class SharedSlots(VecEnv):
     def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
         return [False for _ in self._get_indices(indices)]
 
+    def set_options(self, options: list[dict] | dict | None = None) -> None:
+        """SB3's options of the next reset: none is read, so any is refused (``ValueError``) here, not at the reset."""
+        for one in options if isinstance(options, list) else [options]:
+            check_reset_options(one, made=f"{type(self).__name__}(make_scenario(name, n_robots=4), ...)")
+        super().set_options(options)
+
 
 def _robot_actions(actions, num_envs: int) -> np.ndarray:
     """``actions`` as ``(num_envs, 2)`` float64, one row per robot slot; ``ValueError`` on another size."""
@@ -218,8 +224,6 @@ class NavVecEnv(SharedSlots):
         if base is not None:
             self._jump_rng = np.random.default_rng([int(base), self.n_worlds])
         self._reset_seeds()
-        for options in self._options:  # set by SB3's set_options(): none is read
-            check_reset_options(options)
         self._reset_options()
         self.reset_infos = [{} for _ in range(self.num_envs)]
         return self._begin(obs)
@@ -411,8 +415,6 @@ class MixtureVecEnv(SharedSlots):
             for g, off in zip(self.groups, self._world_offsets):
                 g.seed(int(base) + off)
         self._reset_seeds()
-        for options in self._options:  # set by SB3's set_options(): none is read
-            check_reset_options(options)
         self._reset_options()
         self.reset_infos = [{} for _ in range(self.num_envs)]
         return self._concat([g.reset() for g in self.groups])

@@ -182,7 +182,7 @@ def test_bad_input_gets_one_line_errors(tmp_path, capfd):
     assert main(["export", str(tmp_path / "empty"), "--onnx", str(tmp_path / "w.onnx")]) == 2
     assert "checkpoint not found" in one_error(capfd)
     # An opset torch cannot write: one line (captured at the file descriptor: torch's exporter prints its graph there).
-    low, high = opset_range()
+    low, high = opset_range()  # torch 2.13 (pinned by the install) says
     for opset in (low - 1, high + 1):
         assert main(["export", str(path), "--onnx", str(tmp_path / "w.onnx"), "--opset", str(opset)]) == 2
         assert f"exports ONNX opsets {low} to {high}, got {opset}" in one_error(capfd)

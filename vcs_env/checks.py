@@ -64,12 +64,12 @@ def check_choice(name: str, value: str, choices: Sequence[str]) -> None:
         raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
 
 
-def check_reset_options(options, known: Sequence[str] = (), warn: bool = False) -> dict:
+def check_reset_options(options, known: Sequence[str] = (), warn: bool = False, made: str = "gym.make(id, n_robots=4)"):
     """Return ``options`` (``None`` as ``{}``) if it is a dict whose keys are all in ``known``.
 
-    A scenario is set when its env is made (``gym.make(id, n_robots=4)``), not by ``reset``: an option the env
-    does not read is refused (``ValueError`` naming it), never silently ignored; with ``warn`` (PettingZoo, whose API
-    test resets with an arbitrary option) it is ignored with a ``UserWarning`` naming it.
+    A scenario is set when its env is made (``made``: how, for the message), not by ``reset``: an option the env does
+    not read is refused (``ValueError`` naming it), never silently ignored; with ``warn`` (PettingZoo, whose API test
+    resets with an arbitrary option) it is ignored with a ``UserWarning`` naming it.
     """
     if options is None:
         return {}
@@ -78,10 +78,7 @@ def check_reset_options(options, known: Sequence[str] = (), warn: bool = False) 
     unknown = sorted(str(k) for k in options if k not in known)
     if unknown:
         reads = f"reads only {list(known)}" if known else "reads no options"
-        text = (
-            f"reset {reads}, got {unknown}: a scenario's settings are given when the env is made "
-            "(gym.make(id, n_robots=4), parallel_env(scenario=..., n_robots=4))"
-        )
+        text = f"reset {reads}, got {unknown}: the scenario is set when the env is made ({made})"
         if not warn:
             raise ValueError(text)
         warnings.warn(text + "; ignored", UserWarning, stacklevel=3)

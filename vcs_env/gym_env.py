@@ -229,7 +229,7 @@ class VcsNavVectorEnv(VectorEnv):
             seeds = list(seed)
             if len(seeds) != self.num_envs:
                 raise ValueError(f"got {len(seeds)} seeds for num_envs={self.num_envs}")
-        options = check_reset_options(options, ("reset_mask",))
+        options = check_reset_options(options, ("reset_mask",), made="gym.make_vec(id, num_envs, n_robots=4)")
         mask = np.ones(self.num_envs, dtype=bool)
         if "reset_mask" in options:
             mask = options["reset_mask"]

@@ -180,7 +180,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         return self.engine.world
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        check_reset_options(options, warn=True)
+        check_reset_options(options, warn=True, made="parallel_env(scenario=name, n_robots=4)")
         obs = self.engine.reset(None if seed is None else [seed])
         self.agents = list(self.possible_agents)
         if self._renderer is not None:
