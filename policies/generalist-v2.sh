@@ -14,9 +14,9 @@
 # shielded copy of it teaches it, vcs-env distil --teacher-shield), then a pass that also reads contacts at millimetre
 # resolution (--widen-fine) and adds room to stop short of driving robots on the open-floor entries, its episodes
 # half from the network's pre-contact states, two seeds, the better on validation; then a polish, 1 M more PPO steps
-# from it, faster on the crowds and the intersection, which teaches those entries in a last pass (the rest taught as
-# in the fine pass); of the last pass's rounds and the fine pass's network, the one that does best on validation:
-# $ROOT/policy/model.zip is the policy. No shield in the record: the network alone is the policy.
+# from it, faster on the crowds and the intersection, which teaches those entries in a last pass (the rest taught by
+# copies of the fine pass's network shielded as in the fine pass); of the last pass's best round on validation and the
+# fine pass's network, the one that does best on second validation seeds (VAL2): $ROOT/policy/model.zip is the policy. No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 # Run again, it skips every stage whose result is there; a stage that died leaves its directory without model.zip,
@@ -57,6 +57,11 @@ else
   # (2026-12-06, beside one to three other jobs). VAL2: the second validation seeds, disjoint from VAL.
   SHIELD_PASSES=${SHIELD_PASSES:-1} POLISH=${POLISH:-1000000} VAL2=${VAL2:-7100:7300}
 fi
+for range in "$VAL" "$VAL2"; do
+  [[ $range =~ ^[0-9]+:[0-9]+$ ]] || { echo "VAL and VAL2 are seed ranges FIRST:END such as 7000:7100, got '$range'" >&2; exit 2; }
+done
+[ "${VAL2%%:*}" -ge "${VAL##*:}" ] || [ "${VAL2##*:}" -le "${VAL%%:*}" ] ||
+  { echo "VAL2=$VAL2 overlaps VAL=$VAL: the second validation seeds must be new ones" >&2; exit 2; }
 MIX=(
   "circle-8-v0:n_robots=6-8/2"
   "circle-16-v0"
@@ -230,20 +235,20 @@ if [ ! -f "$ROOT/fine/model.zip" ]; then
 fi
 # The polish: PPO again, from the fine pass's network, as the start-state rounds (start states where it comes close to
 # a contact, half the worlds from them), 1 M steps at half the last round's learning rate, at the std the network
-# inherits; then, of that network and the polish's checkpoints, the one that solves most validation episodes. PPO does
-# not add success to a distilled network (docs/experiments.md, "The polish's
-# exploration noise"), but its checkpoints drive the crowds and the intersection faster (1.13-1.17x the expert's time
-# where the fine pass took 1.21-1.25x) while losing episodes on other maps: it only teaches, below.
+# inherits; then, of the polish's checkpoints (not the fine pass's network, which validation often prefers), the one
+# that solves most validation episodes. PPO does not add success to a distilled network (docs/experiments.md, "The
+# polish's exploration noise"), but its checkpoints drive the crowds and the intersection faster (1.13-1.17x the
+# expert's time where the fine pass took 1.21-1.25x) while losing episodes on other maps: it only teaches, below.
 if [ ! -f "$ROOT/polished/model.zip" ]; then
   [ -f "$ROOT/polish-states.npz" ] || start_states "$ROOT/fine/model.zip" "$STATES_EP" 580000 \
     "$ROOT/polish-states.npz" "${DANGER[@]}"
   [ -f "$ROOT/polish/model.zip" ] || more_ppo "$ROOT/fine/model.zip" "$POLISH" $((S0 + 77)) 5e-5 $((POLISH / 4)) \
     "$ROOT/polish-states.npz" slots-fine "$ROOT/polish" "${MIX[@]}" > "$ROOT/polish.log" 2>&1
-  vcs-env select "$ROOT/fine/model.zip" "$ROOT/polish" --no-progress --out "$ROOT/polished" \
-    --validation "${VALIDATION[@]}"
+  vcs-env select "$ROOT/polish" --no-progress --out "$ROOT/polished" --validation "${VALIDATION[@]}"
 fi
-# The last pass: the fine pass's network taught again as the fine pass teaches (copies of it shielded, --driving-stop on
-# the open-floor entries), but the four crowd entries and the intersection by a shielded copy of the polish's network;
+# The last pass: the fine pass's network taught again by copies of itself shielded as in the fine pass (--driving-stop on
+# the open-floor entries; no start states), but the four crowd entries and the intersection by a shielded copy of the
+# polish's network;
 # two seeds side by side. Of both runs' rounds the one that solves most validation episodes, then of it and the fine
 # pass's network the one that solves most episodes of 200 more validation seeds per set (the rounds are level with the
 # fine pass within a point: one set of 100 seeds does not tell them apart) is the policy: $ROOT/policy/model.zip. From
