@@ -16,7 +16,8 @@
 # half from the network's pre-contact states, two seeds, the better on validation; then a polish, 1 M more PPO steps
 # from it, faster on the crowds and the intersection, which teaches those entries in a last pass (the rest taught by
 # copies of the fine pass's network shielded as in the fine pass); of the last pass's best round on validation and the
-# fine pass's network, the one that does best on second validation seeds (VAL2): $ROOT/policy/model.zip is the policy. No shield in the record: the network alone is the policy.
+# fine pass's network, the one that does best on second validation seeds (VAL2): $ROOT/policy/model.zip is the policy.
+# No shield in the record: the network alone is the policy.
 # Usage: [ROOT=runs/generalist-v2] [RUNS="0:0 1:10"] [SMOKE=1] [PPO=... ROUNDS=... MOVERS=... MAPS=... (sizes)] bash policies/generalist-v2.sh
 # SMOKE=1 runs every stage at a tiny size (minutes), to check the recipe end to end before spending hours.
 # Run again, it skips every stage whose result is there; a stage that died leaves its directory without model.zip,
@@ -246,15 +247,14 @@ if [ ! -f "$ROOT/polished/model.zip" ]; then
     "$ROOT/polish-states.npz" slots-fine "$ROOT/polish" "${MIX[@]}" > "$ROOT/polish.log" 2>&1
   vcs-env select "$ROOT/polish" --no-progress --out "$ROOT/polished" --validation "${VALIDATION[@]}"
 fi
-# The last pass: the fine pass's network taught again by copies of itself shielded as in the fine pass (--driving-stop on
-# the open-floor entries; no start states), but the four crowd entries and the intersection by a shielded copy of the
-# polish's network;
-# two seeds side by side. Of both runs' rounds the one that solves most validation episodes, then of it and the fine
-# pass's network the one that solves most episodes of 200 more validation seeds per set (the rounds are level with the
-# fine pass within a point: one set of 100 seeds does not tell them apart) is the policy: $ROOT/policy/model.zip. From
-# the release of 2026-12-05 this took the crowds to 1.14-1.18x the expert's time and the intersection to 1.16x (from
-# 1.21-1.25x and 1.25x), level in success on every seed set (docs/experiments.md, "Faster teachers for the crowds and
-# the intersection").
+# The last pass: the fine pass's network taught again by copies of itself shielded as in the fine pass (--driving-stop
+# on the open-floor entries; no start states), but the four crowd entries and the intersection by a shielded copy of the
+# polish's network; two seeds side by side. Of both runs' rounds the one that solves most validation episodes, then of
+# it and the fine pass's network the one that solves most episodes of 200 more validation seeds per set (the rounds are
+# level with the fine pass within a point: one set of 100 seeds does not tell them apart) is the policy:
+# $ROOT/policy/model.zip. From the release of 2026-12-05 this took the crowds to 1.14-1.18x the expert's time and the
+# intersection to 1.16x (from 1.21-1.25x and 1.25x), level in success on every seed set (docs/experiments.md, "Faster
+# teachers for the crowds and the intersection").
 FAST=("${MIX[@]:5:4}" "${MIX[@]:18:1}")
 if [ ! -f "$ROOT/policy/model.zip" ]; then
   shielded_copy "$ROOT/fine/model.zip" "$ROOT/teacher-last"
