@@ -95,6 +95,10 @@ def learning_rate(cfg: TrainConfig):
     raise ValueError(f"lr_schedule must be constant or linear, got {cfg.lr_schedule!r}")
 
 
+LOG_STD_RANGE = (-20.0, 2.0)
+"""Bounds of a Gaussian policy's log std (std 2e-9 to 7.4), new or set on a loaded policy."""
+
+
 def check_ppo_settings(cfg: TrainConfig) -> None:
     """Raise ``ValueError`` naming the field for PPO settings SB3 would crash on or silently misuse."""
     for name in ("n_steps", "batch_size", "n_epochs"):
@@ -106,9 +110,9 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
     for name in ("ent_coef", "vf_coef"):
         check_positive(name, getattr(cfg, name), allow_zero=True)
     check_range("gae_lambda", cfg.gae_lambda, 0.0, 1.0)
-    check_range("log_std_init", cfg.log_std_init, -20.0, 2.0)
-    if cfg.init_log_std is not None:
-        check_range("init_log_std", cfg.init_log_std, -20.0, 2.0)
+    check_range("log_std_init", cfg.log_std_init, *LOG_STD_RANGE)
+    if cfg.init_log_std is not None:  # the log std set on an --init policy: the same bounds
+        check_range("init_log_std", cfg.init_log_std, *LOG_STD_RANGE)
     if cfg.target_kl is not None:
         check_positive("target_kl", cfg.target_kl)
     for name in ("eval_freq", "checkpoint_freq"):
