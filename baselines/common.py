@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from vcs_env.planning import Planner
 from vcs_env.routes import route_direction
 from vcs_env.state import WorldState
 
 
-def preferred_velocity(
-    world: WorldState, v_pref_max: np.ndarray | None = None, route: tuple[np.ndarray, np.ndarray] | None = None
-) -> np.ndarray:
+def preferred_velocity(world: WorldState, route: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Velocity toward the goal, capped so the robot can stop there (vcs-method §2.5).
 
-    ``s = min(v_pref_max, d / dt, sqrt(2 a_max d))`` toward the goal, and 0 within ``r_goal``.
+    ``s = min(v_max, d / dt, sqrt(2 a_max d))`` toward the goal, and 0 within ``r_goal``.
     Unicycles are also capped so that they can turn onto the goal, ``s <= omega_max d /
     (2 |sin(beta)|)`` (pure-pursuit curvature 2 sin(beta) / d for a goal at bearing beta;
     ``|sin(beta)|`` counts as 1 for goals behind): without it a fast robot can orbit its goal
@@ -30,15 +31,36 @@ def preferred_velocity(
     e = world.goal - world.pos
     if world.n_segments:
         e = (route_direction(world) if route is None else route)[0]
-    d = np.sqrt(np.einsum("...i,...i->...", e, e))
-    cap = world.v_max if v_pref_max is None else v_pref_max
-    s = np.minimum(np.minimum(cap, d / world.dt), np.sqrt(2.0 * world.a_max * d))
-    if not world.holonomic:
+    if world.holonomic:
+        cos_b = sin_b = world.v_max  # not read
+    else:  # numpy's trigonometry (baselines.vcs.kernel.period's module docstring)
         beta = np.arctan2(e[..., 1], e[..., 0]) - world.heading
-        sin_b = np.where(np.cos(beta) >= 0.0, np.abs(np.sin(beta)), 1.0)
-        s = np.minimum(s, world.omega_max * d / (2.0 * np.maximum(sin_b, 1e-9)))
-    s = np.where(d > world.r_goal, s, 0.0)
-    return e * (s / np.maximum(d, 1e-12))[..., None]
+        cos_b, sin_b = np.cos(beta), np.sin(beta)
+    out = np.empty(e.shape)
+    dt, r_goal = float(world.dt), float(world.r_goal)
+    _preferred(e, world.v_max, dt, world.a_max, world.omega_max, r_goal, world.holonomic, cos_b, sin_b, out)
+    return out
+
+
+@njit(cache=True)
+def _preferred(e, cap, dt, a_max, omega_max, r_goal, holonomic, cos_b, sin_b, out):
+    """:func:`preferred_velocity` into ``out`` ``(B, n, 2)`` [m/s] from the offsets ``e`` ``(B, n, 2)``
+    [m] to the goals (or waypoints), the robots' top speeds ``cap`` [m/s] and, for unicycles, the
+    cosines and sines of the goals' bearings ``(B, n)``."""
+    B, n = cap.shape
+    for b in range(B):
+        for i in range(n):
+            ex, ey = e[b, i, 0], e[b, i, 1]
+            d = math.sqrt(ex * ex + ey * ey)
+            s = min(min(cap[b, i], d / dt), math.sqrt(2.0 * a_max[b, i] * d))
+            if not holonomic:
+                sb = abs(sin_b[b, i]) if cos_b[b, i] >= 0.0 else 1.0
+                s = min(s, omega_max[b, i] * d / (2.0 * max(sb, 1e-9)))
+            if not d > r_goal:
+                s = 0.0
+            f = s / max(d, 1e-12)
+            out[b, i, 0] = ex * f
+            out[b, i, 1] = ey * f
 
 
 def velocity_to_target(world: WorldState, vel: np.ndarray, keep_heading: np.ndarray | None = None) -> np.ndarray:

@@ -298,3 +298,42 @@ def test_bounce_images_move_along_the_reflected_path():
                 gaps = np.linalg.norm(images[q::m] - p[0, q], axis=-1)
                 assert gaps.min() <= 2 * np.linalg.norm(vel[0, q]) * dt + 1e-9, (q, t)
     assert np.all(np.abs(img_pos[0, 3::m][1:]).max(axis=-1) >= FAR / 2)  # the standing obstacle: no images
+
+
+def test_the_planners_obstacles_are_the_numpy_oracles_bit_for_bit():
+    """The obstacles the search reads (one compiled call: movers turned a lead ahead, then the mirror
+    images of bouncing ones) are, bit for bit, the readable numpy composition: the velocities of
+    ``turned_velocities`` (numpy's trigonometry), their images in the edges they move toward."""
+    from baselines.vcs.planner import FAR, turned_velocities
+    from vcs_env.suites import SUITES
+
+    def images_oracle(pos, vel, radius, half):
+        edge = np.sign(vel) * (half - radius)[..., None]
+        moving = vel != 0.0
+        mirrored, flipped = np.where(moving, 2.0 * edge - pos, FAR), np.where(moving, -vel, 0.0)
+        img_x = np.stack((mirrored[..., 0], pos[..., 1]), -1), np.stack((flipped[..., 0], vel[..., 1]), -1)
+        img_y = np.stack((pos[..., 0], mirrored[..., 1]), -1), np.stack((vel[..., 0], flipped[..., 1]), -1)
+        return (
+            np.concatenate((pos, img_x[0], img_y[0], mirrored), axis=1),
+            np.concatenate((vel, img_x[1], img_y[1], flipped), axis=1),
+            np.concatenate((radius,) * 4, axis=1),
+        )
+
+    eng = NavEngine(SUITES["dynamic-fast-v0"].scenario, 3)
+    eng.reset([1000, 1001, 1002])
+    planner = VCSPlanner()
+    before = None
+    turned = 0
+    for step in range(60):
+        world = eng.world
+        kw = planner._kernel_world(world)
+        now = world.obs_vel.copy()
+        has = np.full(3, before is not None)
+        vel = turned_velocities(before if before is not None else now, now, has, float(world.dt), 0.2)
+        turned += int(np.any(vel != now))
+        want = images_oracle(world.obs_pos, vel, world.obs_radius, world.bounce_half)
+        for got, exp in zip((kw.obs_pos, kw.obs_vel, kw.obs_radius), want, strict=True):
+            assert got.tobytes() == exp.tobytes(), step
+        before = now
+        eng.step(planner.act(world))
+    assert turned > 30  # the obstacles turn (and the rule turns their velocities) in most steps

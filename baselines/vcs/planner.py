@@ -7,7 +7,7 @@ import operator
 
 import numpy as np
 
-from vcs_env.geometry import rotate, wrap_angle
+from vcs_env.geometry import rotate
 from vcs_env.planning import Planner, robots_mask
 from vcs_env.routes import route_direction
 from vcs_env.stall import goal_distances
@@ -60,13 +60,9 @@ class _MoverMemory:
         return cls(np.full(B, -1, dtype=np.int64), np.zeros(B, dtype=np.uint64), z, z.copy(), np.zeros(B, dtype=bool))
 
     def update(self, world: WorldState) -> None:
-        same = world.key == self.key
-        new = same & (world.steps == self.step + 1)
-        again = same & (world.steps == self.step)
-        self.before[new] = self.now[new]
-        self.has = new | (again & self.has)
-        self.now = world.obs_vel.copy()
-        self.step, self.key = world.steps.copy(), world.key.copy()
+        kernel.remember_movers(
+            world.steps, world.key, self.step, self.key, self.before, self.now, self.has, world.obs_vel
+        )
 
 
 class VCSPlanner(Planner):
@@ -229,30 +225,44 @@ class VCSPlanner(Planner):
         return np.where(flip, -angle, angle)
 
     def _kernel_world(self, world: WorldState) -> kernel.World:
-        """The world arrays as the kernels read them (with ``mirror_bounces``, the obstacles
-        followed by their mirror images, :func:`bounce_images`)."""
-        vel = self.obstacle_velocities(world)
-        obs = (world.obs_pos, vel, world.obs_radius)
-        if self.params.mirror_bounces and world.bounce_half is not None and world.n_obstacles:
-            obs = bounce_images(world.obs_pos, vel, world.obs_radius, world.bounce_half)
+        """The world arrays as the kernels read them: the obstacles with the velocities of
+        :meth:`obstacle_velocities`, with ``mirror_bounces`` followed by their mirror images
+        (:func:`bounce_images`)."""
+        images = self.params.mirror_bounces and world.bounce_half is not None and world.n_obstacles
+        obs = self._obstacles(world, 4 if images else 1)
         return kernel.World(
             world.pos, world.heading, world.speed, world.radius, world.v_max, world.a_max, world.omega_max,
             world.active, world.present, *obs, world.seg_a, world.seg_b, world.seg_present,
         )  # fmt: skip
 
+    def _obstacles(self, world: WorldState, images: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Positions ``(B, images m, 2)`` [m], velocities [m/s] and radii ``(B, images m)`` [m] of the
+        obstacles as the planner plans with them (:meth:`obstacle_velocities`), with ``images`` = 4
+        followed by their mirror images (:func:`bounce_images`; one compiled call for both)."""
+        lead = self.params.mover_turn_lead
+        B, m = world.batch_size, world.n_obstacles
+        turn = lead is not None and m > 0
+        if turn:
+            mem = self._movers
+            if mem is None or mem.now.shape != world.obs_vel.shape:
+                mem = self._movers = _MoverMemory.empty(B, m)
+            mem.update(world)
+            angle = turn_angles(mem.before, mem.now, mem.has, float(world.dt), lead)
+            cos_t, sin_t = np.cos(angle), np.sin(angle)
+        else:
+            cos_t = sin_t = world.obs_radius  # not read
+        out = np.empty((B, images * m, 2)), np.empty((B, images * m, 2)), np.empty((B, images * m))
+        half = -1.0 if world.bounce_half is None else float(world.bounce_half)
+        kernel.mover_images(world.obs_pos, world.obs_vel, turn, cos_t, sin_t, world.obs_radius, half, FAR, *out)
+        return out
+
     def obstacle_velocities(self, world: WorldState) -> np.ndarray:
         """The obstacle velocities ``(B, m, 2)`` [m/s] the planner plans with in this state: the
         sensed ones, turned a lead ahead with ``mover_turn_lead`` (:func:`turned_velocities`; the
         planner remembers the last period's, so asking again in the same state changes nothing)."""
-        vel = world.obs_vel
-        lead = self.params.mover_turn_lead
-        if lead is None or not world.n_obstacles:
-            return vel
-        mem = self._movers
-        if mem is None or mem.now.shape != vel.shape:
-            mem = self._movers = _MoverMemory.empty(world.batch_size, world.n_obstacles)
-        mem.update(world)
-        return turned_velocities(mem.before, mem.now, mem.has, float(world.dt), lead)
+        if self.params.mover_turn_lead is None or not world.n_obstacles:
+            return world.obs_vel
+        return self._obstacles(world, 1)[1]
 
     def _kernel_inputs(self, world: WorldState, kworld, own, comm, detour, planned) -> tuple:
         """The world, preferred velocities, memory and the robots to plan ``(B, n)`` bool, and the
@@ -302,8 +312,9 @@ class VCSPlanner(Planner):
         target, cost, goal_point = np.empty((B, n, 2)), np.empty((B, n)), np.empty((B, n, 2))
         cap = sum(self.params.weights) + 1.0
         kernel.finish(
-            kworld, bool(world.holonomic), float(world.dt), planned, own, own_angle, out, cap,
-            target, mem.out.prev, mem.out.has_prev, cost, goal_point,
+            world.speed, world.heading, world.active, world.a_max, world.omega_max, bool(world.holonomic),
+            float(world.dt), planned, own, own_angle, out, cap, target, mem.out.prev, mem.out.has_prev, cost,
+            goal_point,
         )  # fmt: skip
         self.last = {
             "target": out.target,
@@ -376,20 +387,22 @@ MAX_TURN_RATE = 2.0
 turn; a faster one (a bounce off an edge, a push) is a jump, and the obstacle keeps its velocity."""
 
 
+def turn_angles(before: np.ndarray, now: np.ndarray, has: np.ndarray, dt: float, lead: float) -> np.ndarray:
+    """The angles ``(B, m)`` [rad] by which :func:`turned_velocities` turns the velocities ``now``."""
+    out = np.empty(now.shape[:-1])
+    a0 = np.arctan2(before[..., 1], before[..., 0])  # numpy's arctan2 (kernel.period's module docstring)
+    a1 = np.arctan2(now[..., 1], now[..., 0])
+    kernel.turn_leads(a0, a1, before, now, has, dt, lead, STATIC_SPEED, MAX_TURN_RATE * dt, out)
+    return out
+
+
 def turned_velocities(before: np.ndarray, now: np.ndarray, has: np.ndarray, dt: float, lead: float) -> np.ndarray:
     """Obstacle velocities ``now`` ``(B, m, 2)`` [m/s] turned by their turn since ``before`` (one
     period ``dt`` [s] earlier; worlds where ``has`` ``(B,)`` is False have no such period) times
     ``lead / dt``: the heading each will have ``lead`` [s] from now at its current turn rate
     (``VCSParams.mover_turn_lead``). Obstacles at rest (below the kernel's ``STATIC_SPEED``), or that
     turned faster than :data:`MAX_TURN_RATE`, keep their velocity."""
-    a0 = np.arctan2(before[..., 1], before[..., 0])
-    a1 = np.arctan2(now[..., 1], now[..., 0])
-    turn = wrap_angle(a1 - a0)
-    moving = (np.hypot(before[..., 0], before[..., 1]) > STATIC_SPEED) & (
-        np.hypot(now[..., 0], now[..., 1]) > STATIC_SPEED
-    )
-    smooth = has[:, None] & moving & (np.abs(turn) <= MAX_TURN_RATE * dt)
-    return rotate(now, np.where(smooth, turn * (lead / dt), 0.0))
+    return rotate(now, turn_angles(before, now, has, dt, lead))
 
 
 ESCALATION = 4
@@ -408,13 +421,7 @@ def bounce_images(pos: np.ndarray, vel: np.ndarray, radius: np.ndarray, half: fl
     moves straight along the path the obstacle takes after it bounces, and is outside the arena
     until then, so a robot that plans against the images plans against the bounce. An axis the
     obstacle does not move along has no image there (put at :data:`FAR`)."""
-    edge = np.sign(vel) * (half - radius)[..., None]  # (B, m, 2) the reflecting line in each axis
-    moving = vel != 0.0
-    mirrored = np.where(moving, 2.0 * edge - pos, FAR)
-    flipped = np.where(moving, -vel, 0.0)
-    img_x = (np.stack((mirrored[..., 0], pos[..., 1]), -1), np.stack((flipped[..., 0], vel[..., 1]), -1))
-    img_y = (np.stack((pos[..., 0], mirrored[..., 1]), -1), np.stack((vel[..., 0], flipped[..., 1]), -1))
-    img_xy = (mirrored, flipped)
-    out_pos = np.concatenate((pos, img_x[0], img_y[0], img_xy[0]), axis=1)
-    out_vel = np.concatenate((vel, img_x[1], img_y[1], img_xy[1]), axis=1)
-    return out_pos, out_vel, np.concatenate((radius,) * 4, axis=1)
+    B, m = radius.shape
+    out = np.empty((B, 4 * m, 2)), np.empty((B, 4 * m, 2)), np.empty((B, 4 * m))
+    kernel.mover_images(pos, vel, False, radius, radius, radius, float(half), FAR, *out)
+    return out

@@ -3,8 +3,9 @@
 Scalar math mirrors :mod:`baselines.vcs.geometry` (which is the readable reference; tests check
 that both agree). Per robot (vcs-method §2.14), by stage:
 
-0. :mod:`.period`: the memory across periods and the stall and detour rules before the search,
-   the residual and polar targets after it (vcs-method §2.13, vcs-method §2.15);
+0. :mod:`.period`: the memory across periods, the stall and detour rules and the obstacles as the
+   search sees them before it, the residual and polar targets after it (vcs-method §2.4,
+   vcs-method §2.13, vcs-method §2.15);
 1. :mod:`.neighbours`: what the robot senses within r_ca, one record each: regulated radius r_eff
    (vcs-method §2.6), cone and apex (vcs-method §2.1, vcs-method §2.4), current time to
    collision t_c0;
@@ -23,7 +24,7 @@ cached kernels when a source of ``vcs_env`` or ``baselines`` changed (:mod:`vcs_
 edit in a new process. ``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
-from .period import finish, push, stall_rules, sync_memory
+from .period import finish, mover_images, push, remember_movers, stall_rules, sync_memory, turn_leads
 from .records import PARAMS, Inputs, Memory, Outputs, Setting, StallRules, World, params_record
 from .scalar import tau, tau_within
 from .search import evaluate_points, plan_batch
@@ -38,11 +39,14 @@ __all__ = [
     "World",
     "evaluate_points",
     "finish",
+    "mover_images",
     "params_record",
     "plan_batch",
     "push",
+    "remember_movers",
     "stall_rules",
     "sync_memory",
+    "turn_leads",
     "tau",
     "tau_within",
 ]
