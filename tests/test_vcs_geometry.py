@@ -1,6 +1,7 @@
 """VCS geometry, vcs-method §4.0 (U1-U7): vectorized reference functions against scalar twins and
 brute force, and the numba planner kernel against the numpy reference."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -300,12 +301,24 @@ def test_bounce_images_move_along_the_reflected_path():
     assert np.all(np.abs(img_pos[0, 3::m][1:]).max(axis=-1) >= FAR / 2)  # the standing obstacle: no images
 
 
-def test_the_planners_obstacles_are_the_numpy_oracles_bit_for_bit():
-    """The obstacles the search reads (one compiled call: movers turned a lead ahead, then the mirror
-    images of bouncing ones) are, bit for bit, the readable numpy composition: the velocities of
-    ``turned_velocities`` (numpy's trigonometry), their images in the edges they move toward."""
-    from baselines.vcs.planner import FAR, turned_velocities
+@pytest.mark.parametrize("motion", ["arbitrary", "stop_and_go"])
+def test_the_planners_obstacles_are_the_numpy_oracles_bit_for_bit(motion):
+    """The obstacles the search reads (compiled: movers turned a lead ahead, then the mirror images of
+    bouncing ones) are, bit for bit, the readable numpy composition: each velocity turned by its turn
+    over the last period times lead / dt (none for a jump, a mover at rest or a first period), then
+    their images in the edges they move toward."""
+    from baselines.vcs.kernel.records import STATIC_SPEED
+    from baselines.vcs.planner import FAR, MAX_TURN_RATE, turned_velocities
+    from vcs_env.geometry import rotate, wrap_angle
     from vcs_env.suites import SUITES
+
+    def turned_oracle(before, now, has, dt, lead):
+        turn = wrap_angle(np.arctan2(now[..., 1], now[..., 0]) - np.arctan2(before[..., 1], before[..., 0]))
+        moving = (np.hypot(before[..., 0], before[..., 1]) > STATIC_SPEED) & (
+            np.hypot(now[..., 0], now[..., 1]) > STATIC_SPEED
+        )
+        smooth = has[:, None] & moving & (np.abs(turn) <= MAX_TURN_RATE * dt)
+        return rotate(now, np.where(smooth, turn * (lead / dt), 0.0))
 
     def images_oracle(pos, vel, radius, half):
         edge = np.sign(vel) * (half - radius)[..., None]
@@ -319,21 +332,32 @@ def test_the_planners_obstacles_are_the_numpy_oracles_bit_for_bit():
             np.concatenate((radius,) * 4, axis=1),
         )
 
-    eng = NavEngine(SUITES["dynamic-fast-v0"].scenario, 3)
+    # a start from rest within a turn's reach of heading 0 (atan2 of a standstill), a stop, a turn
+    before = np.array([[[0.0, 0.0], [1.0, 0.0], [1.2, 0.05]]])
+    now = np.array([[[1.0, 0.1], [0.0, 0.0], [1.2, 0.1]]])
+    want = turned_oracle(before, now, np.array([True]), 0.1, 0.2)
+    assert turned_velocities(before, now, np.array([True]), 0.1, 0.2).tobytes() == want.tobytes()
+    assert want[0, 0].tobytes() == now[0, 0].tobytes() and want[0, 2].tobytes() != now[0, 2].tobytes()
+    scenario = dataclasses.replace(SUITES["dynamic-fast-v0"].scenario, obstacle_motion=motion)
+    eng = NavEngine(scenario, 3)
     eng.reset([1000, 1001, 1002])
     planner = VCSPlanner()
     before = None
-    turned = 0
+    turned = resting = 0
     for step in range(60):
         world = eng.world
         kw = planner._kernel_world(world)
         now = world.obs_vel.copy()
         has = np.full(3, before is not None)
-        vel = turned_velocities(before if before is not None else now, now, has, float(world.dt), 0.2)
+        vel = turned_oracle(before if before is not None else now, now, has, float(world.dt), 0.2)
         turned += int(np.any(vel != now))
+        resting += int(np.any(np.hypot(now[..., 0], now[..., 1]) <= STATIC_SPEED))
         want = images_oracle(world.obs_pos, vel, world.obs_radius, world.bounce_half)
         for got, exp in zip((kw.obs_pos, kw.obs_vel, kw.obs_radius), want, strict=True):
             assert got.tobytes() == exp.tobytes(), step
         before = now
         eng.step(planner.act(world))
-    assert turned > 30  # the obstacles turn (and the rule turns their velocities) in most steps
+    if motion == "arbitrary":
+        assert turned > 30  # the obstacles turn (and the rule turns their velocities) in most steps
+    else:
+        assert resting > 0  # movers at rest, and starting again (no turn is read from a standstill)
