@@ -77,6 +77,9 @@ class ScenarioConfig:
     """Random wall segments of walls maps (None: the preset's)."""
     n_wall_points: int | None = None
     """Nearest points on walls in every robot's observation (Scenario.n_wall_points; None: the preset's, 0)."""
+    wall_segments: bool | None = None
+    """Each nearest point on a wall also gives the wall segment it lies on, its direction and extent
+    (Scenario.wall_segments; None: the preset's, off)."""
     lidar_beams: int | None = None
     """Lidar beams in every robot's observation, over 360 degrees and 4 m (vcs_env.lidar; None: no lidar)."""
     stall_clock: bool | None = None
@@ -156,7 +159,8 @@ def scenario_base(name: str):
 
 _SCENARIO_FLAGS = (
     "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed",
-    "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "stall_clock",
+    "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "wall_segments",
+    "stall_clock",
 )  # fmt: skip
 FEATURES = ("flat", "contact", "slots", "slots-fine")
 """Names accepted by ``--features`` (what the policy's MLPs read, :mod:`agents.features`)."""

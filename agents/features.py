@@ -27,9 +27,11 @@ slot's features, its ``contact`` block and the robot's own block; the MLPs read 
 block, the rest of the observation after the slots (lidar) and the maximum and the mean of the codes
 of the real slots. The nearest points on walls, when the observation has them, are slots too
 (:func:`wall_slots`: still objects of radius 0), read by the same encoder (runs before 2026-11-28
-read them as flat numbers beside the lidar; their checkpoints keep doing so). It does not depend on
-the order of the slots, and one set of weights judges every neighbour. Actor and critic each train
-their own encoder.
+read them as flat numbers beside the lidar; their checkpoints keep doing so). When the wall points have
+their segment fields (``Scenario.wall_segments``), a wall point's time to contact in its ``contact``
+block is its wall segment's (:func:`segment_contact_time`), not the point's as a still disc. It does not
+depend on the order of the slots, and one set of weights judges every neighbour. Actor and critic each
+train their own encoder.
 
 ``slots-fine``: ``slots`` whose encoder also reads, per slot, the same contact at millimetre resolution: the
 ``contact`` block's scales put a 5 mm gap and a 20 mm one at 0.99 and 0.96 of ``exp(-g / G_REF)``, while the
@@ -52,8 +54,10 @@ start at zero), for ``vcs-env distil --init CHECKPOINT --widen-fine``.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
@@ -96,13 +100,13 @@ def contact_features(obs: torch.Tensor, n_neighbors: int, neighbor_dim: int = V1
     return slot_contacts(obs, slots).reshape(obs.shape[0], n_neighbors * CONTACT_DIM)
 
 
-def wall_slots(obs: torch.Tensor, walls: int, neighbor_dim: int) -> torch.Tensor:
-    """The last ``walls * 3`` numbers of observations ``(N, D)`` (the ``wall_points`` block) as neighbour
-    slots ``(N, walls, neighbor_dim)``: each nearest point on a wall a still object of radius 0 (mask =
-    valid, its position, velocity relative to the robot ``-(own speed, 0)``, gap = distance - own radius,
-    not a robot, not parked)."""
+def wall_slots(obs: torch.Tensor, walls: int, neighbor_dim: int, wall_dim: int = 3) -> torch.Tensor:
+    """The last ``walls * wall_dim`` numbers of observations ``(N, D)`` (the ``wall_points`` block, ``wall_dim``
+    fields per point) as neighbour slots ``(N, walls, neighbor_dim)``: each nearest point on a wall a still object
+    of radius 0 (mask = valid, its position, velocity relative to the robot ``-(own speed, 0)``, gap = distance -
+    own radius, not a robot, not parked)."""
     n = obs.shape[0]
-    block = obs[:, obs.shape[1] - 3 * walls :].reshape(n, walls, 3)
+    block = obs[:, obs.shape[1] - wall_dim * walls :].reshape(n, walls, wall_dim)
     valid, p = block[..., 0], block[..., 1:3]
     out = torch.zeros(n, walls, neighbor_dim, dtype=obs.dtype, device=obs.device)
     out[..., 0] = valid
@@ -114,9 +118,11 @@ def wall_slots(obs: torch.Tensor, walls: int, neighbor_dim: int) -> torch.Tensor
     return out
 
 
-def slot_contacts(obs: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
+def slot_contacts(obs: torch.Tensor, slots: torch.Tensor, segments: torch.Tensor | None = None) -> torch.Tensor:
     """The contact features ``(N, S, CONTACT_DIM)`` of neighbour slots ``(N, S, d)`` of observations ``(N, D)``
-    (module docstring; 0 in padding slots)."""
+    (module docstring; 0 in padding slots). With ``segments`` ``(N, W, 4)`` (the segment fields of the wall
+    points, :mod:`vcs_env.observations`), the last W slots are points on walls (:func:`wall_slots`) and their time to
+    contact is their wall segment's (:func:`segment_contact_time`), not the point's."""
     v_max = obs[:, 4:5] * V_REF  # [m/s]
     own_speed = obs[:, 0:1] * v_max  # [m/s], forward in the robot frame
     own_radius = obs[:, 7:8] * R_REF  # [m]
@@ -133,6 +139,10 @@ def slot_contacts(obs: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
     closing = (b < 0) & (disc >= 0) & (a > 1e-12)
     root = (-b - torch.sqrt(torch.clamp(disc, min=0.0))) / (2.0 * torch.clamp(a, min=1e-12))
     t_c = torch.where(c <= 0, torch.zeros_like(c), torch.where(closing, root.clamp(min=0.0), torch.full_like(c, 1e9)))
+    if segments is not None:
+        w = segments.shape[1]
+        wall = segment_contact_time(own_speed, p[:, -w:], segments, own_radius, gap[:, -w:])
+        t_c = torch.cat((t_c[:, : t_c.shape[1] - w], wall), dim=1)
     w = u.clone()
     w[..., 0] = w[..., 0] + own_speed
     reach_speed = v_max + torch.sqrt((w * w).sum(-1))
@@ -141,6 +151,45 @@ def slot_contacts(obs: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
         (torch.exp(-t_c / T_REF), torch.exp(-gap.clamp(min=0.0) / G_REF), torch.exp(-t_r / T_REF)), dim=-1
     )
     return block * mask[..., None]
+
+
+def segment_contact_time(
+    own_speed: torch.Tensor, p: torch.Tensor, segments: torch.Tensor, radius: torch.Tensor, gap: torch.Tensor
+) -> torch.Tensor:
+    """Time to contact [s] ``(N, W)`` of a robot driving ahead at ``own_speed`` ``(N, 1)`` [m/s] (radius ``radius``
+    ``(N, 1)`` [m]) with the wall segments through its nearest points ``p`` ``(N, W, 2)`` [m, robot frame], each
+    given by ``segments`` ``(N, W, 4)``: its unit direction ``(tx, ty)`` and how far it runs from ``p`` backward and
+    forward, / ``SENSE_REF`` (the observation's fields); ``gap`` ``(N, W)`` [m] the distance minus the radius. The
+    first time the robot's disc meets the segment: its side (the line, where the meeting point lies between the
+    ends) or an end (a point): 0 when touching, 1e9 (never) when it passes. A robot driving at a slant at a wall
+    closes on it at ``speed * cos(angle)``, where the nearest point seen as a still disc of radius 0 (the
+    ``contact`` feature's model) is passed by: 4 of the 6 at-fault wall contacts of the v2 network on ``walls-v0``'s
+    seeds 8000-8199 read "never" that way 0.4-1.2 s before (``docs/experiments.md``); the segment's ends keep a
+    door post from reading as a wall across the door."""
+    t = segments[..., :2]
+    back, ahead = segments[..., 2] * SENSE_REF, segments[..., 3] * SENSE_REF
+    v = own_speed.expand_as(gap)
+    never = torch.full_like(gap, 1e9)
+    # The side: the line's normal turned toward the robot, its distance d0 from the robot's centre.
+    normal = torch.stack((-t[..., 1], t[..., 0]), dim=-1)
+    d0 = -(p * normal).sum(-1)
+    normal = torch.where((d0 < 0)[..., None], -normal, normal)
+    d0 = d0.abs()
+    approach = -v * normal[..., 0]  # [m/s] toward the line
+    t_line = ((d0 - radius) / approach.clamp(min=1e-9)).clamp(min=0.0)
+    along = v * t_line * t[..., 0] - (p * t).sum(-1)  # where the centre meets the line's band, along t from p [m]
+    side = torch.where((approach > 1e-9) & (along >= -back) & (along <= ahead), t_line, never)
+
+    def end_time(q):  # first time |q - (v t, 0)| = radius, q (N, W, 2)
+        c = (q * q).sum(-1) - radius**2
+        b = -2.0 * v * q[..., 0]
+        a = (v * v).clamp(min=1e-12)
+        disc = b * b - 4.0 * a * c
+        root = ((-b - torch.sqrt(disc.clamp(min=0.0))) / (2.0 * a)).clamp(min=0.0)
+        return torch.where(c <= 0, torch.zeros_like(c), torch.where((b < 0) & (disc >= 0) & (v > 1e-6), root, never))
+
+    ends = torch.minimum(end_time(p - back[..., None] * t), end_time(p + ahead[..., None] * t))
+    return torch.where(gap <= 0, torch.zeros_like(gap), torch.minimum(side, ends))
 
 
 class ContactFeatures(BaseFeaturesExtractor):
@@ -175,10 +224,11 @@ class SlotEncoder(BaseFeaturesExtractor):
         neighbor_dim: int = V1_NEIGHBOR_DIM,
         wall_slots: int = 0,
         fine: bool = False,
+        wall_dim: int = 3,
     ):
         self.n_neighbors, self.width, self.neighbor_dim, self.wall_slots = n_neighbors, width, neighbor_dim, wall_slots
-        self.fine = fine
-        rest = observation_space.shape[0] - n_neighbors * neighbor_dim - 3 * wall_slots
+        self.fine, self.wall_dim = fine, wall_dim
+        rest = observation_space.shape[0] - n_neighbors * neighbor_dim - wall_dim * wall_slots
         super().__init__(observation_space, rest + 2 * (width // 2))  # + the maximum and the mean
         self.encoder = torch.nn.Sequential(
             torch.nn.Linear(neighbor_dim + CONTACT_DIM + EGO_DIM + FINE_DIM * fine, width),
@@ -192,9 +242,13 @@ class SlotEncoder(BaseFeaturesExtractor):
         end = EGO_DIM + k * d
         ego = observations[:, :EGO_DIM]
         slots = observations[:, EGO_DIM:end].reshape(n, k, d)
+        segments = None
         if walls:  # the nearest points on walls are slots too, read by the same encoder
-            slots = torch.cat((slots, wall_slots(observations, walls, d)), dim=1)
-        contact = slot_contacts(observations, slots)
+            slots = torch.cat((slots, wall_slots(observations, walls, d, self.wall_dim)), dim=1)
+            if self.wall_dim >= 7:  # with the segment fields, their time to contact is their wall segment's
+                block = observations[:, observations.shape[1] - self.wall_dim * walls :].reshape(n, walls, -1)
+                segments = block[..., 3:7]
+        contact = slot_contacts(observations, slots, segments)
         mask = slots[..., :1]  # (N, k, 1)
         parts = [slots, contact, ego[:, None, :].expand(n, slots.shape[1], EGO_DIM)]
         if self.fine:  # slots-fine: the gap and the time to contact at millimetre resolution (module docstring)
@@ -206,7 +260,7 @@ class SlotEncoder(BaseFeaturesExtractor):
         h = self.encoder(x) * mask  # ReLU outputs >= 0, so zeroed padding never wins the maximum
         pooled_max = h.max(dim=1).values
         pooled_mean = h.sum(dim=1) / mask.sum(dim=1).clamp(min=1.0)
-        rest = observations[:, end : observations.shape[1] - 3 * walls]
+        rest = observations[:, end : observations.shape[1] - self.wall_dim * walls]
         return torch.cat((ego, rest, pooled_max, pooled_mean), dim=-1)
 
 
@@ -229,6 +283,8 @@ def extractor_kwargs(features: str, layout: Layout) -> dict[str, Any]:
         if "wall_points" in layout:  # the last block (vcs_env.observations): the encoder reads it as slots
             assert layout.blocks[-1].name == "wall_points"
             kwargs["features_extractor_kwargs"]["wall_slots"] = layout.block("wall_points").items
+            if layout.block("wall_points").item_dim != 3:  # with the segment fields (Scenario.wall_segments)
+                kwargs["features_extractor_kwargs"]["wall_dim"] = layout.block("wall_points").item_dim
     return kwargs
 
 
@@ -258,3 +314,77 @@ def widen_fine(model) -> None:
     policy.features_extractor_kwargs = kwargs
     model.policy_kwargs["features_extractor_kwargs"] = kwargs
     policy.optimizer = policy.optimizer_class(policy.parameters(), lr=model.lr_schedule(1), **policy.optimizer_kwargs)
+
+
+def read_wall_segments(model, layout: Layout) -> None:
+    """Make the ``slots`` encoders of an SB3 ``model`` (actor's and critic's) read observations of ``layout``, whose
+    wall points have the segment fields (``Scenario.wall_segments``), and so take each wall point's time to contact from
+    its segment (:func:`segment_contact_time`), in place. The weights are kept: a wall point is a
+    slot of the same fields either way, and only its contact time changes meaning (from the point's to the wall's). The
+    model may have read wall points with or without the segment fields; ``ValueError`` for a model without ``slots``
+    encoders over wall points, or a ``layout`` without the segment fields or with other blocks than the model's."""
+    import gymnasium as gym
+
+    policy = getattr(model, "policy", None)
+    extractors = [getattr(policy, name, None) for name in ("pi_features_extractor", "vf_features_extractor")]
+    if not all(isinstance(e, SlotEncoder) and e.wall_slots for e in extractors):
+        raise ValueError(
+            "read_wall_segments takes an SB3 model with --features slots over wall points (--n-wall-points)"
+        )
+    if "wall_points" not in layout or "tx" not in layout.block("wall_points").fields:
+        raise ValueError("read_wall_segments: the layout's wall points need their segment fields (wall_segments=True)")
+    walls = layout.block("wall_points")
+    old = extractors[0]
+    rest = model.observation_space.shape[0] - old.wall_dim * old.wall_slots  # the floats before the wall points
+    if walls.items != old.wall_slots or layout.dim - walls.size != rest:
+        raise ValueError(
+            f"read_wall_segments: the layout ({layout.dim} floats, {walls.items} wall points) is not the model's "
+            f"observation ({model.observation_space.shape[0]} floats, {old.wall_slots} wall points) with segment fields"
+        )
+    kwargs = {**policy.features_extractor_kwargs, "wall_dim": walls.item_dim}
+    state = policy.state_dict()
+    low, high = layout.bounds()
+    model.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
+    model.policy_kwargs = {**model.policy_kwargs, "features_extractor_kwargs": kwargs}
+    model._setup_model()  # the policy rebuilt for the new space (SB3's own constructor path), then its weights back
+    model.policy.load_state_dict(state)
+
+
+def wall_segments_copy(checkpoint, out) -> Path:
+    """``vcs-env wall-segments``: copy an SB3 ``slots`` checkpoint over wall points (``--n-wall-points``, with or
+    without their segment fields) into the directory ``out`` (``model.zip`` and its run record) as a network that
+    reads the wall points' segment fields and takes each wall point's time to contact from its segment
+    (:func:`read_wall_segments`; the weights are the checkpoint's). The run record keeps the rest (the command that
+    trained it, its shield) and names the source (``wall_segments_from``). Returns the new ``model.zip``; ``ValueError``
+    for an existing ``out/model.zip``, a checkpoint without a run record or without wall points."""
+    import dataclasses
+    import json
+
+    from vcs_env.observations import observation_config, observation_layout, with_sensors
+    from vcs_env.scenario import Scenario
+
+    from .checkpoint import config_path, load_model, open_checkpoint
+
+    out = Path(out)
+    if (out / "model.zip").exists():
+        raise ValueError(f"{str(out / 'model.zip')!r} exists: give a new directory")
+    ckpt = open_checkpoint(checkpoint)
+    record = ckpt.record
+    if not isinstance(record, dict) or "observation" not in record:
+        raise ValueError(f"{ckpt.describe()} has no run record naming its observation: its sensing is unknown")
+    own = with_sensors(Scenario(), record["observation"])
+    if not own.n_wall_points:
+        raise ValueError(f"{ckpt.describe()} was trained without wall points (--n-wall-points): no walls to read")
+    wide = dataclasses.replace(own, wall_segments=True)
+    model = load_model(ckpt)  # its observation is its record's (read_wall_segments checks the sizes)
+    if not hasattr(model, "policy"):
+        raise ValueError(f"{ckpt.describe()} is not an SB3 checkpoint: vcs-env wall-segments copies SB3 networks")
+    read_wall_segments(model, observation_layout(wide))
+    out.mkdir(parents=True, exist_ok=True)
+    model.save(str(out / "model.zip"))
+    record = {**record, "observation": observation_config(wide), "observation_dim": observation_layout(wide).dim}
+    if isinstance(record.get("config"), dict):
+        record["config"] = {**record["config"], "wall_segments": True}
+    record["wall_segments_from"] = str(ckpt.path)
+    config_path(out / "model.zip").write_text(json.dumps(record, indent=2) + "\n")
+    return out / "model.zip"

@@ -111,7 +111,7 @@ def mixture_scenarios(cfg: ScenarioConfig, mixture: tuple[str, ...]) -> list:
     """Every scenario of a mixture: for each entry (:func:`parse_mixture_entry`) the product of its
     grids, applied to the preset together with the config's common flags (``max_steps``,
     ``on_collision``, ``obstacle_motion``, ``rewards``, shaping, the sensing ``n_wall_points``,
-    ``lidar_beams`` and ``stall_clock``). The per-scenario flags of ``cfg`` (``scenario`` and
+    ``wall_segments``, ``lidar_beams`` and ``stall_clock``). The per-scenario flags of ``cfg`` (``scenario`` and
     :data:`MIXTURE_FIELDS`) must be unset: entries set those. All scenarios must share one observation config."""
 
     per_entry = tuple(MIXTURE_FIELDS)

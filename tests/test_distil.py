@@ -192,6 +192,51 @@ def test_widen_fine_gives_the_student_the_fine_inputs_and_it_learns_its_teacher(
         distil(replace(cfg, init=str(flat), out=str(tmp_path / "flat")))
 
 
+def test_a_student_made_to_read_wall_segments_learns_and_teachers_without_them_read_their_own_fields(tmp_path):
+    """--wall-segments --read-wall-segments: a slots student and a teacher trained on wall points without their segment
+    fields; the teacher labels from its own fields of the run's observations (the same actions as on its own
+    observation), and the student, made to read the segments with its weights kept, learns it and saves as a
+    network reading the wider observation. Without --wall-segments, --read-wall-segments is refused."""
+    import dataclasses
+
+    from agents.features import extractor_kwargs
+    from agents.imitation.distil import load_teacher
+    from vcs_env.observations import observation_layout, observe
+    from vcs_env.sim import Simulator
+
+    scenario = make_scenario("doorway", n_robots=2, n_wall_points=3)
+    wide = dataclasses.replace(scenario, wall_segments=True)
+    kwargs = dict(net_arch=[32], **extractor_kwargs("slots", observation_layout(scenario)))
+
+    def slots_checkpoint(name, seed, scale):
+        model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=kwargs, seed=seed)
+        with torch.no_grad():
+            model.policy.action_net.weight.mul_(scale)
+        cfg = TrainConfig(net_arch=(32,), features="slots", n_wall_points=3)
+        return save_model(model, tmp_path / name / "model", "ppo", cfg, scenario)
+
+    start, teacher = slots_checkpoint("s", 3, 1.0), slots_checkpoint("t", 1, 60.0)
+    world = Simulator(wide, batch_size=2).reset(5)
+    obs = observe(world, wide).reshape(-1, observation_layout(wide).dim)
+    narrow = observe(world, scenario).reshape(len(obs), -1)
+    got = load_teacher(str(teacher), wide, shield=False).predict(obs, deterministic=True)[0]
+    np.testing.assert_array_equal(got, load_model(teacher, scenario).predict(narrow, deterministic=True)[0])
+    entry = "doorway:n_robots=2"
+    cfg = replace(short_run(tmp_path, start, mixture=(entry,), teacher=str(teacher)), n_wall_points=3)
+    with pytest.raises(ValueError, match="--wall-segments"):
+        distil(replace(cfg, read_wall_segments=True))
+    out = distil(replace(cfg, wall_segments=True, read_wall_segments=True, out=str(tmp_path / "seg")))["model"]
+    student = load_model(out, wide)
+    assert student.policy.pi_features_extractor.wall_dim == 7 and student.observation_space.shape == obs.shape[1:]
+    obs = play(wide, range(500, 504), teacher=lambda o: np.zeros((len(o), 2)))["observations"]
+    want = load_teacher(str(teacher), wide, shield=False).predict(obs, deterministic=True)[0]
+
+    def error(model):
+        return float(np.linalg.norm(model.predict(obs, deterministic=True)[0] - want, axis=1).mean())
+
+    assert error(student) < 0.3 * error(load_teacher(str(start), wide, shield=False))
+
+
 def test_each_teacher_is_checked_against_the_entry_it_labels(tmp_path):
     """Every teacher was loaded against the mixture's first entry: a crowd teacher labelling the crowd entry was told
     it ran outside its family (and a misfit named the first entry's kind)."""

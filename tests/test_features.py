@@ -4,6 +4,7 @@ sampling; ``--features slots`` against a slot-by-slot loop; and the choice trave
 bc, train --init and evaluation."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -21,6 +22,7 @@ from agents.features import (
     check_features,
     contact_features,
     slot_contacts,
+    wall_slots,
     widen_fine,
 )
 from vcs_env.observations import EGO_DIM, NEIGHBOR_DIM, observation_layout, observe
@@ -264,3 +266,129 @@ def test_widen_fine_keeps_the_actions_and_the_values_and_saves_a_slots_fine_chec
     contact = behaviour_clone(BCConfig(**small, out=str(tmp_path / "contact"), features="contact"))["model"]
     with pytest.raises(ValueError, match="--features slots"):
         widen_fine(load_model(contact, sc))
+
+
+def wall_oracle(world, b: int, i: int, k: int) -> np.ndarray:
+    """exp(-t_c / T_REF) ``(k,)`` of robot ``i``'s k nearest wall segments (nearest point first): t_c the first time
+    its disc, driving on at its velocity, meets the segment, by sampling t every 1 ms over 20 s (0: never)."""
+    pos, r = world.pos[b, i], world.radius[b, i]
+    vel = world.speed[b, i] * np.array([np.cos(world.heading[b, i]), np.sin(world.heading[b, i])])
+    t = np.arange(0.0, 20.0, 1e-3)
+    centre = pos + t[:, None] * vel
+    rows = []
+    for a, e, ok in zip(world.seg_a[b], world.seg_b[b], world.seg_present[b]):
+        u = e - a
+        near = np.clip((pos - a) @ u / (u @ u), 0.0, 1.0)
+        if not ok or np.hypot(*(a + near * u - pos)) > world.r_ca:
+            continue
+        s = np.clip((centre - a) @ u / (u @ u), 0.0, 1.0)
+        dist = np.hypot(*(a + s[:, None] * u - centre).T)
+        touching = np.flatnonzero(dist <= r)
+        rows.append((np.hypot(*(a + near * u - pos)), np.exp(-t[touching[0]] / T_REF) if len(touching) else 0.0))
+    rows.sort()
+    out = np.zeros(k)
+    out[: min(k, len(rows))] = [v for _, v in rows[:k]]
+    return out
+
+
+def test_segment_contact_is_the_time_the_robot_meets_the_wall_segment():
+    """With the wall points' segment fields, each wall point's contact time is the first time the robot's disc driving
+    on meets that wall segment, against an oracle sampling the motion in the world (room walls, doors and random
+    walls; random headings and speeds)."""
+    k = 6
+    for name, seed in (("room-v0", 3), ("walls-v0", 5), ("doorway-v0", 7)):
+        s = dataclasses.replace(get_suite(name).scenario, n_wall_points=k, wall_segments=True)
+        world = Simulator(s, batch_size=3).reset(seed)
+        rng = np.random.default_rng(seed)
+        world.heading[:] = rng.uniform(-np.pi, np.pi, world.heading.shape)
+        world.speed[:] = rng.uniform(0.0, world.v_max)
+        obs = torch.as_tensor(observe(world, s)).reshape(-1, observation_layout(s).dim)
+        enc = SlotEncoder(observation_space(s), s.n_neighbors, neighbor_dim=NEIGHBOR_DIM, wall_slots=k, wall_dim=7)
+        captured = []
+        enc.encoder[0].register_forward_hook(lambda mod, inp, out, into=captured: into.append(inp[0]))
+        enc(obs)
+        got = captured[0][:, -k:, NEIGHBOR_DIM].reshape(3, s.n_robots, k).numpy()
+        for b in range(3):
+            for i in range(s.n_robots):
+                np.testing.assert_allclose(got[b, i], wall_oracle(world, b, i, k), atol=2e-3)
+
+
+def slant_at_wall(wall=((-5.0, 1.0), (5.0, 1.0))):
+    """One robot at the origin driving 0.8 m/s at 30 degrees toward a long wall 1 m away along y = 1."""
+    from vcs_env.custom_layout import CustomLayout
+    from vcs_env.scenario import Scenario
+
+    layout = CustomLayout(start=((0.0, 0.0),), goal=((4.0, 3.0),), heading=(np.pi / 6,), speed=(0.8,), walls=(wall,))
+    s = Scenario(kind="custom", n_robots=1, custom=layout, n_wall_points=1, wall_segments=True)
+    return s, Simulator(s)
+
+
+def wall_contact_inputs(s, world) -> dict:
+    """exp(-t_c / T_REF) of the one wall slot: the point as a still disc (False) and the segment (True)."""
+    obs = torch.as_tensor(observe(world, s)[0])
+    enc = SlotEncoder(observation_space(s), s.n_neighbors, neighbor_dim=NEIGHBOR_DIM, wall_slots=1, wall_dim=7)
+    captured = []
+    enc.encoder[0].register_forward_hook(lambda mod, inp, o: captured.append(inp[0]))
+    enc(obs)
+    slots = torch.cat((obs[:, EGO_DIM : EGO_DIM + s.n_neighbors * NEIGHBOR_DIM].reshape(1, -1, NEIGHBOR_DIM),
+                       wall_slots(obs, 1, NEIGHBOR_DIM, 7)), dim=1)  # fmt: skip
+    return {False: float(slot_contacts(obs, slots)[0, -1, 0]), True: float(captured[0][0, -1, NEIGHBOR_DIM])}
+
+
+def test_segment_contact_reads_the_wall_where_the_point_reads_never_and_a_door_post_as_a_post():
+    """Driving at a slant at a long wall, the robot passes its nearest point 0.87 m off, so the point as a still disc
+    (the contact block's model) reads never; the segment reads 0.75 m / 0.4 m/s = 1.875 s, and the simulator
+    driving the robot on (no action) makes the first contact in the step that ends at 1.9 s. A wall that starts at
+    that point and runs away from the robot's path (a door post) reads never with both."""
+    s, sim = slant_at_wall()
+    got = wall_contact_inputs(s, sim.reset(0))
+    assert got[False] == 0.0 and got[True] == pytest.approx(np.exp(-1.875 / T_REF), rel=1e-5)
+    step = 0
+    while not sim.step(np.zeros((1, 1, 2))).wall_hits.any():
+        step += 1
+        assert step < 40
+    assert step * s.dt < 1.875 <= (step + 1) * s.dt
+    s, sim = slant_at_wall(wall=((0.0, 1.0), (-4.0, 1.0)))  # ends at the robot's nearest point, runs back
+    assert wall_contact_inputs(s, sim.reset(0)) == {False: 0.0, True: 0.0}
+
+
+def test_vcs_env_wall_segments_copies_a_network_to_read_wall_segments(tmp_path, capsys):
+    """``vcs-env wall-segments``: the copy has the original's weights, reads the wall points with their segment fields
+    (its run record says so, and names the source), and is evaluated with that sensing; where no wall is in range it
+    acts as the original. Existing output and checkpoints without wall points are refused by name."""
+    from stable_baselines3 import PPO
+
+    from agents.checkpoint import load_model, save_model
+    from agents.evaluate import evaluate
+    from agents.features import extractor_kwargs
+    from agents.runs import TrainConfig
+    from agents.vec_env import NavVecEnv
+    from vcs_cli import main
+    from vcs_env.scenario import make_scenario
+
+    scenario = make_scenario("doorway", n_robots=2, n_wall_points=3)
+    kwargs = dict(net_arch=[16], **extractor_kwargs("slots", observation_layout(scenario)))
+    model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=kwargs, seed=0)
+    cfg = TrainConfig(net_arch=(16,), features="slots", n_wall_points=3)
+    src = save_model(model, tmp_path / "src" / "model", "ppo", cfg, scenario)
+    assert main(["wall-segments", str(src), "--out", str(tmp_path / "seg")]) == 0
+    copy = load_model(tmp_path / "seg" / "model.zip")
+    assert copy.policy.pi_features_extractor.wall_dim == copy.policy.vf_features_extractor.wall_dim == 7
+    for a, b in zip(copy.policy.state_dict().values(), model.policy.state_dict().values(), strict=True):
+        assert torch.equal(a, b)
+    record = json.loads((tmp_path / "seg" / "model.json").read_text())
+    assert record["wall_segments_from"] == str(src) and record["config"]["wall_segments"]
+    wide = dataclasses.replace(scenario, wall_segments=True)
+    assert copy.observation_space.shape[0] == observation_layout(wide).dim == observation_layout(scenario).dim + 12
+    open_floor = dataclasses.replace(get_suite("circle-8-v0").scenario, n_robots=2, n_wall_points=3)
+    world = Simulator(dataclasses.replace(open_floor, wall_segments=True), batch_size=2).reset(1)
+    obs7 = observe(world, dataclasses.replace(open_floor, wall_segments=True)).reshape(4, -1)
+    obs3 = observe(world, open_floor).reshape(4, -1)
+    np.testing.assert_array_equal(copy.predict(obs7, deterministic=True)[0], model.predict(obs3, deterministic=True)[0])
+    res = evaluate(str(tmp_path / "seg" / "model.zip"), "doorway-v0-smoke", progress=False)
+    assert res.summary["success"]["n"] > 0
+    capsys.readouterr()
+    assert main(["wall-segments", str(src), "--out", str(tmp_path / "seg")]) == 2
+    assert "exists: give a new directory" in capsys.readouterr().err
+    assert main(["wall-segments", "policies/circle8/model.zip", "--out", str(tmp_path / "c8")]) == 2
+    assert "without wall points" in capsys.readouterr().err

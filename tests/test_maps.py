@@ -206,6 +206,7 @@ def test_nearest_wall_points_block_is_optional_and_matches_a_scalar_twin():
         observation_dim,
         observe,
         reference_observe,
+        sensors_of,
     )
 
     base = make_scenario("room", n_robots=4)
@@ -221,24 +222,43 @@ def test_nearest_wall_points_block_is_optional_and_matches_a_scalar_twin():
     assert obs.shape[-1] == observation_dim(s) == low.shape[0] and (obs >= low).all() and (obs <= high).all()
     np.testing.assert_array_equal(obs[..., : observation_dim(base)], observe(world, base))
     block = obs[..., observation_dim(base) :].reshape(2, 4, k, 3)
+    # With wall_segments each point also gives its wall segment: direction (turned ahead) and extent either side.
+    s7 = dataclasses.replace(s, wall_segments=True)
+    obs7 = observe(world, s7)
+    np.testing.assert_array_equal(obs7, reference_observe(world, s7))
+    low, high = observation_bounds(s7)
+    assert obs7.shape[-1] == observation_dim(s7) == observation_dim(s) + 4 * k == low.shape[0]
+    assert (obs7 >= low).all() and (obs7 <= high).all()
+    assert sensors_of(observation_config(s7))["wall_segments"]
+    assert not sensors_of(observation_config(s))["wall_segments"]
+    seg = obs7[..., observation_dim(base) :].reshape(2, 4, k, 7)
+    assert ((seg[..., 5] == 0) & (seg[..., 0] == 1)).any() and (seg[..., 5:] > 0).all(-1).any()  # ends and feet
     for b in range(2):
         for i in range(4):
             p, th = world.pos[b, i], world.heading[b, i]
+            c, sn = np.cos(th), np.sin(th)
             near = []
             for a, e, ok in zip(world.seg_a[b], world.seg_b[b], world.seg_present[b]):
                 t = min(max(float((p - a) @ (e - a) / ((e - a) @ (e - a))), 0.0), 1.0)
                 q = a + t * (e - a) - p
                 if ok and np.hypot(*q) <= world.r_ca:
-                    near.append(
-                        (np.hypot(*q), q[0] * np.cos(th) + q[1] * np.sin(th), -q[0] * np.sin(th) + q[1] * np.cos(th))
-                    )
+                    x, y = q[0] * c + q[1] * sn, -q[0] * sn + q[1] * c
+                    d = (e - a) / np.hypot(*(e - a))  # from a to b, then in the robot frame, turned ahead
+                    tx, ty = d[0] * c + d[1] * sn, -d[0] * sn + d[1] * c
+                    to_a, to_b = t * np.hypot(*(e - a)), (1 - t) * np.hypot(*(e - a))
+                    if tx < 0 or (tx == 0 and ty < 0):
+                        tx, ty, to_a, to_b = -tx, -ty, to_b, to_a
+                    near.append((np.hypot(*q), x, y, tx, ty, to_a, to_b))
             near.sort()
-            want = np.zeros((k, 3))
-            for j, (_, x, y) in enumerate(near[:k]):
-                want[j] = (1.0, np.clip(x / SENSE_REF, -1, 1), np.clip(y / SENSE_REF, -1, 1))
+            want = np.zeros((k, 7))
+            for j, (_, x, y, tx, ty, back, ahead) in enumerate(near[:k]):
+                want[j] = (1.0, *np.clip((x / SENSE_REF, y / SENSE_REF), -1, 1), tx, ty,
+                           *np.clip((back / SENSE_REF, ahead / SENSE_REF), 0, 1))  # fmt: skip
             # nearest first; points at equal distance (symmetric corners) may come in either order
-            np.testing.assert_allclose(np.sort(block[b, i], axis=0), np.sort(want, axis=0), atol=1e-6)
-            gaps = [d for d, _, _ in near[:k]]
+            np.testing.assert_allclose(np.sort(block[b, i], axis=0), np.sort(want[:, :3], axis=0), atol=1e-6)
+            got = seg[b, i][np.lexsort(np.round(seg[b, i], 4).T[::-1])]
+            np.testing.assert_allclose(got, want[np.lexsort(np.round(want, 4).T[::-1])], atol=1e-6)
+            gaps = [row[0] for row in near[:k]]
             got = np.hypot(block[b, i, :, 1], block[b, i, :, 2])[: len(gaps)] * SENSE_REF
             np.testing.assert_allclose(got, gaps, atol=1e-5)
             assert block[b, i, :, 0].sum() == min(k, len(near)) >= 4  # the room's walls are in range

@@ -122,6 +122,12 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
     assert "rewards=RewardWeights(" in old_key and old_key != scenario_key(sc)
     old = StartStates.load(StartStates({old_key: pool_of(sc)}).save(tmp_path / "old.npz"))
     assert old.matching([sc]) == [sc]
+    # ... and so do files written before a sensing field existed (wall_segments), whatever the sensing now.
+    before = old_key.replace(", wall_segments=False", "")
+    assert before != old_key
+    old = StartStates.load(StartStates({before: pool_of(sc)}).save(tmp_path / "before.npz"))
+    sensing = dataclasses.replace(sc, n_wall_points=4, wall_segments=True)
+    assert old.matching([sc, sensing]) == [sc, sensing]
     # A pool saved under another scenario's key (here: other robot count) is refused by name.
     wrong = StartStates({scenario_key(sc): starts.pools[scenario_key(small)]})
     with pytest.raises(ValueError, match=r"pool of scenario dynamic \(n=3, m=6\) has pos of shape \(2, 2\)"):

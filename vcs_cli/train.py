@@ -1,6 +1,6 @@
-"""``vcs-env train``, ``collect``, ``bc``, ``distil`` and ``collect-states``: the training and imitation layers
-of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
-:mod:`agents.train.collect_states`) on the command line.
+"""``vcs-env train``, ``collect``, ``bc``, ``distil``, ``collect-states`` and ``wall-segments``: the training and
+imitation layers of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
+:mod:`agents.train.collect_states`, :func:`agents.features.wall_segments_copy`) on the command line.
 
 The flags are the fields of the run configs (:mod:`agents.runs`, :func:`agents.config.add_config_args`).
 ``train --resume`` continues a checkpoint of an SB3 or RLlib PPO run, or the newest checkpoint of a run
@@ -139,8 +139,17 @@ def cmd_collect_states(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_wall_segments(args) -> int:
+    from agents.features import wall_segments_copy
+
+    path = wall_segments_copy(args.checkpoint, args.out)
+    print(f"{path}: the network of {args.checkpoint}, reading each wall point's segment (--wall-segments)")
+    return 0
+
+
 def add_commands(sub) -> None:
-    """Add ``train``, ``collect``, ``bc``, ``distil`` and ``collect-states`` to the ``vcs-env`` subcommands."""
+    """Add ``train``, ``collect``, ``bc``, ``distil``, ``collect-states`` and ``wall-segments`` to the ``vcs-env``
+    subcommands."""
     p = sub.add_parser(
         "train",
         help="train a PPO policy shared by all robots",
@@ -187,3 +196,13 @@ def add_commands(sub) -> None:
     )
     add_config_args(p, collect_states.StatesConfig)
     p.set_defaults(func=cmd_collect_states)
+
+    p = sub.add_parser(
+        "wall-segments",
+        help="a copy of a slots checkpoint that reads the wall points' segments (--wall-segments), weights kept",
+        description="Copy an SB3 slots checkpoint over wall points into OUT as a network that reads each wall "
+        "point's segment and takes its time to contact from it (agents.features.wall_segments_copy).",
+    )
+    p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
+    p.add_argument("--out", required=True, help="directory for model.zip and model.json")
+    p.set_defaults(func=cmd_wall_segments)

@@ -61,7 +61,12 @@ and ``tries`` (detours begun since it last made progress) / 4, clipped to [0, 1]
 ``wall_points`` (with ``Scenario.n_wall_points = k`` > 0; 0, off, by default): k slots of the
 nearest points on walls, nearest first (:func:`vcs_env.walls.nearest_wall_points`), each
 ``(valid, x / SENSE_REF, y / SENSE_REF)``: the point in the robot frame in metres over 10 m,
-clipped to ``[-1, 1]``, 0 in empty slots.
+clipped to ``[-1, 1]``, 0 in empty slots; with ``Scenario.wall_segments`` four more fields, the
+wall segment the point lies on: its unit direction ``tx, ty`` in the robot frame (turned to ``tx >= 0``),
+and how far it runs from the point backward (along ``-t``) and forward ``back, ahead`` [m] / 10 m,
+clipped to ``[0, 1]`` (at an end of the wall, a corner or a door post, one of them is 0): with them a
+policy knows where a wall it drives at a slant toward meets its path, and that a door post is not a
+wall across the door.
 
 :func:`observation_config` names everything that fixes the layout and its scales (for v2 the blocks
 with their items and fields); a checkpoint stores it (:mod:`agents.checkpoint`) and may only be used
@@ -71,6 +76,8 @@ runs a checkpoint on any suite with the sensing it was trained with (:func:`with
 
 Version history:
 
+* v2, 2026-12-06: the optional segment fields of the wall points (``Scenario.wall_segments``, off by
+  default, so every v2 observation without them reads as before).
 * v2, 2026-11-28: the optional ``clock`` block (``Scenario.stall_clock``, off by default, so every
   v2 observation without it reads as before).
 * v2: neighbour slots gain the parked flag (``NEIGHBOR_DIM`` 8 -> 9), so a policy can tell a robot
@@ -113,11 +120,13 @@ GOAL_REF = 20.0
 """Goal distance that reads 1 [m]; farther goals read 1 too (the bearing still points at them)."""
 SENSE_REF = 10.0
 """Scale of relative positions, gaps and the sensing radius [m]."""
+WALL_POINT_FIELDS = ("valid", "x", "y", "tx", "ty", "back", "ahead")
+"""Fields of a nearest-wall-point slot (the last four with ``Scenario.wall_segments`` only)."""
 WALL_POINT_DIM = 3
-"""Features per nearest-wall-point slot (valid, x, y)."""
+"""Features per nearest-wall-point slot without ``Scenario.wall_segments`` (valid, x, y)."""
 DT_REF = 1.0
 """Largest allowed step [s] (``Scenario.dt`` is in (0, 1])."""
-SENSOR_FIELDS = ("observation", "n_neighbors", "lidar", "n_wall_points", "stall_clock")
+SENSOR_FIELDS = ("observation", "n_neighbors", "lidar", "n_wall_points", "wall_segments", "stall_clock")
 """Scenario fields that only change what robots observe, never the episode's worlds."""
 _SCALES = {
     "goal_ref": GOAL_REF,
@@ -199,6 +208,27 @@ class Layout:
         b = self.block(name)
         return obs[..., self.span(name)].reshape(*obs.shape[:-1], b.items, b.item_dim)
 
+    def columns_of(self, other: Layout) -> np.ndarray:
+        """The columns ``(other.dim,)`` of this layout's observations that hold ``other``'s, field by field: an
+        observation of this layout, indexed with them, reads as one of ``other`` (e.g. wall points with their
+        segment fields read as wall points without). ``ValueError`` naming the first block or field of ``other``
+        that is not here (or has another item count)."""
+        at, starts = 0, {}
+        for b in self.blocks:
+            starts[b.name], at = at, at + b.size
+        cols = []
+        for b in other.blocks:
+            mine = next((m for m in self.blocks if m.name == b.name), None)
+            if mine is None or mine.items != b.items or not set(b.fields) <= set(mine.fields):
+                have = "none" if mine is None else f"{mine.items} items of {list(mine.fields)}"
+                raise ValueError(
+                    f"observation block {b.name!r} ({b.items} items of {list(b.fields)}) cannot be read from this "
+                    f"layout's (it has {have})"
+                )
+            for item in range(b.items):
+                cols += [starts[b.name] + item * mine.item_dim + mine.fields.index(f) for f in b.fields]
+        return np.asarray(cols, dtype=np.int64)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds ``(D,)`` float32."""
         low = np.concatenate([np.tile(np.asarray(b.low, dtype=np.float32), b.items) for b in self.blocks])
@@ -237,8 +267,9 @@ def observation_layout(scenario: Scenario) -> Layout:
         blocks.append(Block("lidar", spec.n_beams, ("range",), (0.0,), f"/ {spec.max_range} m", "range per beam"))
     if scenario.n_wall_points:
         blocks.append(
-            Block("wall_points", scenario.n_wall_points, ("valid", "x", "y"), (0.0, -1.0, -1.0),
-                  f"/ {SENSE_REF} m", "the nearest points on walls, nearest first")
+            Block("wall_points", scenario.n_wall_points, WALL_POINT_FIELDS[: 3 + 4 * scenario.wall_segments],
+                  (0.0, -1.0, -1.0, -1.0, -1.0, 0.0, 0.0)[: 3 + 4 * scenario.wall_segments],
+                  f"positions and extents / {SENSE_REF} m", "the nearest points on walls, nearest first")
         )  # fmt: skip
     return Layout(version, tuple(blocks))
 
@@ -290,13 +321,16 @@ def sensors_of(config: dict) -> dict:
     spec = LidarSpec(**config["lidar"]) if config.get("lidar") is not None else None
     if version == 1:
         return {"observation": 1, "n_neighbors": config["n_neighbors"], "lidar": spec,
-                "n_wall_points": config.get("n_wall_points", 0), "stall_clock": False}  # fmt: skip
+                "n_wall_points": config.get("n_wall_points", 0), "wall_segments": False,
+                "stall_clock": False}  # fmt: skip
     items = {b["name"]: b["items"] for b in config["blocks"]}
+    fields = {b["name"]: tuple(b.get("fields", ())) for b in config["blocks"]}
     unknown = set(items) - {"ego", "neighbors", "lidar", "wall_points", "clock"}
     if unknown:
         raise ValueError(f"observation blocks {sorted(unknown)} are not ones this vcs-env produces")
     return {"observation": version, "n_neighbors": items["neighbors"], "lidar": spec,
-            "n_wall_points": items.get("wall_points", 0), "stall_clock": "clock" in items}  # fmt: skip
+            "n_wall_points": items.get("wall_points", 0), "wall_segments": "tx" in fields.get("wall_points", ()),
+            "stall_clock": "clock" in items}  # fmt: skip
 
 
 def with_sensors(scenario: Scenario, config: dict) -> Scenario:
@@ -384,7 +418,7 @@ def observe(world: WorldState, scenario: Scenario) -> np.ndarray:
     if "lidar" in layout:  # the optional blocks, written in place
         lidar.write_observation(obs[..., layout.span("lidar")], world, scenario.lidar)
     if "wall_points" in layout:
-        obs[..., layout.span("wall_points")] = wall_points_block(world, scenario.n_wall_points)
+        obs[..., layout.span("wall_points")] = wall_points_block(world, scenario.n_wall_points, scenario.wall_segments)
     if "clock" in layout:
         obs[..., layout.span("clock")] = clock_block(world)
     return obs
@@ -408,11 +442,13 @@ def route_features(obs: np.ndarray, world: WorldState) -> None:
     obs[..., 3] = np.clip(np.where(far, (-s * e[..., 0] + c * e[..., 1]) / safe, 0.0), -1.0, 1.0)
 
 
-def wall_points_block(world: WorldState, k: int) -> np.ndarray:
-    """The nearest-wall-points block ``(B, n, k * WALL_POINT_DIM)`` float32 (module docstring)."""
-    points, valid = nearest_wall_points(world, k)
-    block = np.concatenate((valid[..., None], np.clip(points / SENSE_REF, -1.0, 1.0)), axis=-1)
-    return block.reshape(world.batch_size, world.n_robots, -1).astype(np.float32)
+def wall_points_block(world: WorldState, k: int, segments: bool = False) -> np.ndarray:
+    """The nearest-wall-points block ``(B, n, k * (3 + 4 segments))`` float32 (module docstring)."""
+    points, valid, seg = nearest_wall_points(world, k)
+    parts = [valid[..., None], np.clip(points / SENSE_REF, -1.0, 1.0)]
+    if segments:
+        parts += [seg[..., :2], np.clip(seg[..., 2:] / SENSE_REF, 0.0, 1.0)]
+    return np.concatenate(parts, axis=-1).reshape(world.batch_size, world.n_robots, -1).astype(np.float32)
 
 
 def _optional_blocks(obs: np.ndarray, world: WorldState, scenario: Scenario) -> np.ndarray:
@@ -422,7 +458,7 @@ def _optional_blocks(obs: np.ndarray, world: WorldState, scenario: Scenario) -> 
     if scenario.lidar is not None:
         obs = np.concatenate((obs, lidar.observation_block(world, scenario.lidar)), axis=-1)
     if scenario.n_wall_points:
-        obs = np.concatenate((obs, wall_points_block(world, scenario.n_wall_points)), axis=-1)
+        obs = np.concatenate((obs, wall_points_block(world, scenario.n_wall_points, scenario.wall_segments)), axis=-1)
     return obs
 
 

@@ -75,6 +75,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, addition (same id, 2026-12-06): with ``n_wall_points``, the optional segment fields of the wall points
+      (``wall_segments=True``, off by default): each point's wall segment, its direction and extent either side of
+      the point (``tx, ty, back, ahead``). Without it every observation is as before, bit for bit.
     * v2, fix (same id, 2026-12-05): a robot whose step passes through its goal disc and out again (a fast
       robot, a long ``dt``) stops at the step's point nearest its goal, where it arrived, instead of driving
       on to the step's end (up to ``v_max dt`` past its goal, its progress reward negative, a contact beyond

@@ -189,6 +189,10 @@ class Scenario:
     n_wall_points: int = 0
     """Optional block of the ``n_wall_points`` nearest points on walls appended to every robot's
     observation after the lidar (:func:`vcs_env.walls.nearest_wall_points`); 0: off."""
+    wall_segments: bool = False
+    """With ``n_wall_points``, each nearest point on a wall also gives the wall segment it lies on: its
+    direction and how far it runs on either side of the point (four more fields, ``tx, ty, back, ahead``);
+    False: three fields, as before."""
     stall_clock: bool = False
     """Keep each robot's stall clock (:mod:`vcs_env.stall`: how long it has been stuck and the detour the
     expert's stall rule gives it) and append it to every robot's observation after the neighbours, before the
@@ -237,6 +241,12 @@ class Scenario:
         for name in ("obstacle_radius", "obstacle_speed", "go_time", "stop_time", "wall_length"):  # lists from JSON
             object.__setattr__(self, name, tuple(getattr(self, name)))
         check_int("n_wall_points", self.n_wall_points, 0, 64)
+        if not isinstance(self.wall_segments, (bool, np.bool_)):
+            raise ValueError(f"wall_segments must be True or False, got {self.wall_segments!r}")
+        if self.wall_segments and not self.n_wall_points:
+            raise ValueError("wall_segments needs the wall points block: set n_wall_points > 0 (--n-wall-points)")
+        if self.wall_segments and self.observation < 2:
+            raise ValueError("wall_segments needs observation version 2 (v1's wall points have three fields)")
         check_int("observation", self.observation, 1, 2)
         if not isinstance(self.stall_clock, (bool, np.bool_)):
             raise ValueError(f"stall_clock must be True or False, got {self.stall_clock!r}")

@@ -37,6 +37,9 @@ from .state import WorldState
 
 _REWARDS = re.compile(r", rewards=RewardWeights\([^)]*\)")
 """The reward weights in a scenario's repr (keys of files written before they were left out)."""
+_SENSORS = re.compile(rf", (?:{'|'.join(SENSOR_FIELDS)})=[^,()]*")
+"""The sensing fields at their defaults in a scenario's repr: left out of the keys, so that a sensing field added
+later (``wall_segments``) leaves the keys of files written before it as they were."""
 
 
 def scenario_key(scenario: Scenario) -> str:
@@ -45,7 +48,12 @@ def scenario_key(scenario: Scenario) -> str:
     robot, obstacle or episode setting)."""
     defaults = {f.name: f.default for f in dataclasses.fields(Scenario) if f.name in SENSOR_FIELDS}
     # Default rewards too: a term that needs a sensor (stuck: the stall clock) must not outlive it.
-    return _REWARDS.sub("", repr(dataclasses.replace(scenario, rewards=RewardWeights(), **defaults)))
+    return _key(repr(dataclasses.replace(scenario, rewards=RewardWeights(), **defaults)))
+
+
+def _key(text: str) -> str:
+    """A scenario's repr without its reward weights and its sensing fields (:func:`scenario_key`)."""
+    return _SENSORS.sub("", _REWARDS.sub("", text))
 
 
 @dataclass
@@ -167,7 +175,7 @@ class StartStates:
         if "scenarios" not in arrays:
             raise ValueError(f"{str(path)!r} is not a start-state file (no 'scenarios' entry)")
         pools = {}
-        for s, key in enumerate(_REWARDS.sub("", k) for k in arrays["scenarios"].tolist()):
+        for s, key in enumerate(_key(k) for k in arrays["scenarios"].tolist()):
             parts = {"world": {}, "motion": {}}
             for name, value in arrays.items():
                 head, _, rest = name.partition("/")

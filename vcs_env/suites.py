@@ -100,6 +100,7 @@ LATER_FIELDS = {
         "wall_length",
         "lidar",
         "n_wall_points",
+        "wall_segments",
         "pedestrians",
         "observation",
         "stall_clock",

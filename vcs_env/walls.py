@@ -120,15 +120,18 @@ def clearance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
     return d.min(axis=-1)
 
 
-def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray]:
+def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The ``k`` nearest points on wall segments of every robot, in its frame: ``points`` ``(B, n,
-    k, 2)`` [m] (x ahead, y to the left) and ``valid`` ``(B, n, k)`` bool, nearest first; one
-    point per present segment (its point nearest the robot) whose distance is within ``r_ca``;
-    empty slots are 0 and not valid."""
+    k, 2)`` [m] (x ahead, y to the left), ``valid`` ``(B, n, k)`` bool and ``segments`` ``(B, n, k, 4)``,
+    nearest first; one point per present segment (its point nearest the robot) whose distance is within
+    ``r_ca``. ``segments`` is the wall the point lies on: its unit direction ``(tx, ty)`` in the robot
+    frame, turned to ``tx >= 0`` (ahead; ``ty > 0`` when square to the heading), then how far the segment
+    runs from the point backward (along ``-t``) and forward (along ``+t``) [m]; at an end of the segment (a
+    corner, a door post) one of them is 0. Empty slots are 0 and not valid."""
     B, n = world.batch_size, world.n_robots
-    points, valid = np.zeros((B, n, k, 2)), np.zeros((B, n, k), dtype=bool)
+    points, valid, segments = np.zeros((B, n, k, 2)), np.zeros((B, n, k), dtype=bool), np.zeros((B, n, k, 4))
     if world.n_segments == 0 or k == 0:
-        return points, valid
+        return points, valid, segments
     a, b = world.seg_a[:, None], world.seg_b[:, None]  # (B, 1, s, 2)
     p = world.pos[:, :, None]  # (B, n, 1, 2)
     u = b - a
@@ -139,10 +142,23 @@ def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray]:
     dist = np.where(world.seg_present[:, None] & (dist <= world.r_ca), dist, np.inf)
     order = np.argsort(dist, axis=-1, kind="stable")[..., :k]
     kk = order.shape[-1]
-    sel = np.take_along_axis(rel, order[..., None], axis=2)
     c, s = np.cos(world.heading)[..., None], np.sin(world.heading)[..., None]
-    points[:, :, :kk, 0] = c * sel[..., 0] + s * sel[..., 1]
-    points[:, :, :kk, 1] = -s * sel[..., 0] + c * sel[..., 1]
+
+    def frame(v):  # (B, n, kk, 2): world vectors (B, n|1, s, 2) of the chosen segments in the robot frame
+        v = np.take_along_axis(np.broadcast_to(v, rel.shape), order[..., None], axis=2)
+        return np.stack((c * v[..., 0] + s * v[..., 1], -s * v[..., 0] + c * v[..., 1]), axis=-1)
+
+    points[:, :, :kk] = frame(rel)
     valid[:, :, :kk] = np.isfinite(np.take_along_axis(dist, order, axis=-1))
+    length = np.sqrt(np.einsum("...i,...i->...", u, u))  # (B, 1, s) [m]
+    tangent = frame(u / np.maximum(length, 1e-300)[..., None])  # from a to b
+    t_sel = np.take_along_axis(t, order, axis=-1)
+    len_sel = np.take_along_axis(np.broadcast_to(length, t.shape), order, axis=-1)
+    to_a, to_b = t_sel * len_sel, (1.0 - t_sel) * len_sel  # [m] from the point to each end
+    flip = (tangent[..., 0] < 0.0) | ((tangent[..., 0] == 0.0) & (tangent[..., 1] < 0.0))
+    segments[:, :, :kk, :2] = np.where(flip[..., None], -tangent, tangent)
+    segments[:, :, :kk, 2] = np.where(flip, to_b, to_a)  # backward
+    segments[:, :, :kk, 3] = np.where(flip, to_a, to_b)  # forward
     points[~valid] = 0.0
-    return points, valid
+    segments[~valid] = 0.0
+    return points, valid, segments

@@ -17,6 +17,10 @@ Teachers should share the student's conventions (which side to pass on, who yiel
 one parent distil into one network cleanly; specialists imitated from the expert from scratch each learned their
 own, and a student taught by both collides where their families look alike (measured, ``docs/experiments.md``).
 
+A network teacher trained on fewer observation fields than the run has (wall points without their segment fields,
+``--wall-segments``) reads its own fields from the run's observations (:func:`load_teacher`); ``--read-wall-segments``
+makes a student trained without those fields read them (:func:`agents.features.read_wall_segments`, weights kept).
+
 Files: ``<out>/model.zip`` (+ ``model.json``: the teachers, per-round losses and row counts) and
 ``<out>/checkpoints/model_<rows>.zip`` after each round (``rows`` = labelled robot-steps so far), so that
 ``vcs-env select`` chooses among the rounds on validation episodes.
@@ -38,8 +42,9 @@ from typing import Any
 import numpy as np
 
 from vcs_env.checks import check_int, check_range
+from vcs_env.observations import observation_config, observation_layout, with_sensors
 
-from ..checkpoint import load_model, save_model
+from ..checkpoint import load_model, open_checkpoint, save_model
 from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
@@ -78,6 +83,9 @@ class DistilConfig(ScenarioConfig):
     """Give the student (a ``slots`` network) the ``slots-fine`` inputs before the first round, with zero weights
     (:func:`agents.features.widen_fine`): it starts acting as --init does and learns to read contacts at millimetre
     resolution."""
+    read_wall_segments: bool = False
+    """The student (its --init), trained on wall points without their segment fields, reads them, and so each wall
+    point's time to contact from its segment (needs --wall-segments; :func:`agents.features.read_wall_segments`)."""
     rounds: int = 4
     """DAgger rounds (the last one plays the student alone)."""
     beta: float = 1.0
@@ -139,6 +147,62 @@ def teachers_of(cfg: DistilConfig) -> dict[str, str]:
     return out
 
 
+class ColumnsPredictor:
+    """An SB3-style ``PolicyPredictor`` reading only the columns ``cols`` of each observation (:func:`load_teacher`)."""
+
+    def __init__(self, inner: Any, cols: np.ndarray):
+        self.inner, self.cols = inner, cols
+        self.observation_space = getattr(inner, "observation_space", None)
+        self.action_space = getattr(inner, "action_space", None)
+
+    def predict(self, observation, state=None, episode_start=None, deterministic: bool = False):
+        obs = np.asarray(observation)[..., self.cols]
+        return self.inner.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
+
+
+def load_teacher(path: str, scenario, shield: bool):
+    """The network teacher ``path`` for ``scenario``: as :func:`agents.policies.load_checkpoint` loads it, or, when its
+    run record names an observation with fewer fields than ``scenario``'s (wall points without their segment fields),
+    a :class:`ColumnsPredictor` reading its own fields from ``scenario``'s observations. ``ValueError`` naming the
+    block when the teacher reads a block or field the run's observation does not have."""
+    record = open_checkpoint(path).record
+    config = record.get("observation") if isinstance(record, dict) else None
+    if config is None or config == observation_config(scenario):
+        return load_checkpoint(path, scenario, shield=shield)
+    own = with_sensors(scenario, config)
+    try:
+        cols = observation_layout(scenario).columns_of(observation_layout(own))
+    except ValueError as e:
+        raise ValueError(f"teacher {path!r}: {e}") from None
+    return ColumnsPredictor(load_checkpoint(path, own, shield=shield), cols)
+
+
+def load_student(cfg: DistilConfig, scenario):
+    """The student's network (an SB3 model): --init (or --teacher), for ``scenario``; with --read-wall-segments, made to
+    read ``scenario``'s wall segments (:func:`agents.features.read_wall_segments`)."""
+    src = cfg.init or cfg.teacher
+    if not cfg.read_wall_segments:
+        model = load_model(src, scenario)
+    else:
+        if not scenario.wall_segments:
+            raise ValueError("--read-wall-segments reads the wall points' segment fields: add --wall-segments")
+        from ..features import read_wall_segments
+
+        record = open_checkpoint(src).record
+        config = record.get("observation") if isinstance(record, dict) else None
+        own = scenario if config is None else with_sensors(scenario, config)
+        try:  # the run's observation is the student's, with at most the segment fields more
+            observation_layout(scenario).columns_of(observation_layout(own))
+        except ValueError as e:
+            raise ValueError(f"--init {src!r}: {e}") from None
+        model = load_model(src, own)
+        if hasattr(model, "policy"):
+            read_wall_segments(model, observation_layout(scenario))
+    if not hasattr(model, "policy"):
+        raise ValueError(f"the student {src!r} must be an SB3 checkpoint (--init), to be trained")
+    return model
+
+
 def distil(cfg: DistilConfig) -> dict[str, Any]:
     """Run the distillation of the module docstring; returns the report (paths, rows, losses)."""
     check_fresh_out(cfg.out)
@@ -155,16 +219,18 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     starts = start_states(cfg, played, "distillation")
     # Each network teacher loaded for each entry it labels: checked against that entry's scenario, its shield too.
     loaded = {
-        entry: load_checkpoint(c, scenarios[0], shield=cfg.teacher_shield)
+        entry: load_teacher(c, scenarios[0], shield=cfg.teacher_shield)
         for entry, scenarios in groups
         if (c := teacher_of[entry]) != EXPERT
     }
-    bare = [teacher_of[e] for e, t in loaded.items() if cfg.teacher_shield and not isinstance(t, ShieldedPredictor)]
+    bare = [
+        teacher_of[e]
+        for e, t in loaded.items()
+        if cfg.teacher_shield and not isinstance(getattr(t, "inner", t), ShieldedPredictor)
+    ]
     if bare:
         raise ValueError(f"--teacher-shield: the run record of {bare[0]!r} names no shield (vcs-env shield adds one)")
-    model = load_model(cfg.init or cfg.teacher, first)
-    if not hasattr(model, "policy"):
-        raise ValueError(f"the student {cfg.init or cfg.teacher!r} must be an SB3 checkpoint (--init), to be trained")
+    model = load_student(cfg, first)
     if cfg.widen_fine:
         from ..features import widen_fine
 
