@@ -292,3 +292,22 @@ def test_rounds_start_from_saved_states_where_the_file_has_a_pool(tmp_path, caps
     other = StartStates({scenario_key(replace(sc, max_steps=50)): pool}, prob=1.0).save(tmp_path / "other.npz")
     with pytest.raises(ValueError, match="no start-state pool .* fits a distillation scenario"):
         distil(replace(cfg, out=str(tmp_path / "d-other"), start_states=str(other)))
+
+
+def test_a_teacher_of_another_observation_version_is_refused_not_adapted():
+    """A v1 teacher's fields are names a v2 run also has, but their meaning differs (v2's goal features follow the
+    route): only the same version and scales with fewer fields is read from the run's observations."""
+    import dataclasses
+
+    from agents.checkpoint import CheckpointError
+    from agents.imitation.distil import load_teacher, narrower
+    from vcs_env.observations import observation_config
+
+    v2 = make_scenario("doorway", n_robots=2, n_wall_points=3, wall_segments=True)
+    fewer = dataclasses.replace(v2, wall_segments=False)
+    assert narrower(observation_config(fewer), v2) == fewer
+    assert narrower(observation_config(v2), v2) is None and narrower(observation_config(v2), fewer) is None
+    v1 = dataclasses.replace(fewer, observation=1)
+    assert narrower(observation_config(v1), v2) is None
+    with pytest.raises(CheckpointError, match="observation"):
+        load_teacher("policies/generalist/model.zip", v2, shield=False)

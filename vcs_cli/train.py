@@ -1,6 +1,6 @@
 """``vcs-env train``, ``collect``, ``bc``, ``distil``, ``collect-states`` and ``wall-segments``: the training and
 imitation layers of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
-:mod:`agents.train.collect_states`, :func:`agents.features.wall_segments_copy`) on the command line.
+:mod:`agents.train.collect_states`, :func:`agents.wall_segments.wall_segments_copy`) on the command line.
 
 The flags are the fields of the run configs (:mod:`agents.runs`, :func:`agents.config.add_config_args`).
 ``train --resume`` continues a checkpoint of an SB3 or RLlib PPO run, or the newest checkpoint of a run
@@ -140,7 +140,7 @@ def cmd_collect_states(args: argparse.Namespace) -> int:
 
 
 def cmd_wall_segments(args) -> int:
-    from agents.features import wall_segments_copy
+    from agents.wall_segments import wall_segments_copy
 
     path = wall_segments_copy(args.checkpoint, args.out)
     print(f"{path}: the network of {args.checkpoint}, reading each wall point's segment (--wall-segments)")
@@ -201,7 +201,7 @@ def add_commands(sub) -> None:
         "wall-segments",
         help="a copy of a slots checkpoint that reads the wall points' segments (--wall-segments), weights kept",
         description="Copy an SB3 slots checkpoint over wall points into OUT as a network that reads each wall "
-        "point's segment and takes its time to contact from it (agents.features.wall_segments_copy).",
+        "point's segment and takes its time to contact from it (agents.wall_segments.wall_segments_copy).",
     )
     p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
     p.add_argument("--out", required=True, help="directory for model.zip and model.json")

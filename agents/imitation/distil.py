@@ -19,7 +19,7 @@ own, and a student taught by both collides where their families look alike (meas
 
 A network teacher trained on fewer observation fields than the run has (wall points without their segment fields,
 ``--wall-segments``) reads its own fields from the run's observations (:func:`load_teacher`); ``--read-wall-segments``
-makes a student trained without those fields read them (:func:`agents.features.read_wall_segments`, weights kept).
+makes a student trained without those fields read them (:func:`agents.wall_segments.read_wall_segments`, weights kept).
 
 Files: ``<out>/model.zip`` (+ ``model.json``: the teachers, per-round losses and row counts) and
 ``<out>/checkpoints/model_<rows>.zip`` after each round (``rows`` = labelled robot-steps so far), so that
@@ -50,6 +50,7 @@ from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
 from ..runs import check_fresh_out, scenario_family, start_states
 from ..shield import ShieldedPredictor
+from ..wall_segments import read_wall_segments
 from . import bc_fit
 from .data import concat_datasets, play
 
@@ -85,7 +86,7 @@ class DistilConfig(ScenarioConfig):
     resolution."""
     read_wall_segments: bool = False
     """The student (its --init), trained on wall points without their segment fields, reads them, and so each wall
-    point's time to contact from its segment (needs --wall-segments; :func:`agents.features.read_wall_segments`)."""
+    point's time to contact from its segment (needs --wall-segments; :mod:`agents.wall_segments`)."""
     rounds: int = 4
     """DAgger rounds (the last one plays the student alone)."""
     beta: float = 1.0
@@ -160,41 +161,49 @@ class ColumnsPredictor:
         return self.inner.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
 
 
+def narrower(config: dict | None, scenario):
+    """The scenario observed as ``config`` (a run record's observation) when that observation is ``scenario``'s with
+    fewer fields (the same version and scales; wall points without their segment fields), else None: such a
+    checkpoint reads its own columns of ``scenario``'s observations (:meth:`vcs_env.observations.Layout.columns_of`)."""
+    mine = observation_config(scenario)
+    if not isinstance(config, dict) or config == mine:
+        return None
+    if config.get("version") != mine["version"] or config.get("scales") != mine["scales"]:
+        return None
+    own = with_sensors(scenario, config)
+    try:
+        observation_layout(scenario).columns_of(observation_layout(own))
+    except ValueError:
+        return None
+    return own
+
+
 def load_teacher(path: str, scenario, shield: bool):
     """The network teacher ``path`` for ``scenario``: as :func:`agents.policies.load_checkpoint` loads it, or, when its
     run record names an observation with fewer fields than ``scenario``'s (wall points without their segment fields),
-    a :class:`ColumnsPredictor` reading its own fields from ``scenario``'s observations. ``ValueError`` naming the
-    block when the teacher reads a block or field the run's observation does not have."""
+    a :class:`ColumnsPredictor` reading its own fields from ``scenario``'s observations (:func:`narrower`). Any other
+    observation is refused as ``load_checkpoint`` refuses it (:class:`agents.checkpoint.CheckpointError`, naming the
+    block)."""
     record = open_checkpoint(path).record
-    config = record.get("observation") if isinstance(record, dict) else None
-    if config is None or config == observation_config(scenario):
+    own = narrower(record.get("observation") if isinstance(record, dict) else None, scenario)
+    if own is None:
         return load_checkpoint(path, scenario, shield=shield)
-    own = with_sensors(scenario, config)
-    try:
-        cols = observation_layout(scenario).columns_of(observation_layout(own))
-    except ValueError as e:
-        raise ValueError(f"teacher {path!r}: {e}") from None
+    cols = observation_layout(scenario).columns_of(observation_layout(own))
     return ColumnsPredictor(load_checkpoint(path, own, shield=shield), cols)
 
 
 def load_student(cfg: DistilConfig, scenario):
     """The student's network (an SB3 model): --init (or --teacher), for ``scenario``; with --read-wall-segments, made to
-    read ``scenario``'s wall segments (:func:`agents.features.read_wall_segments`)."""
+    read ``scenario``'s wall segments (:func:`agents.wall_segments.read_wall_segments`)."""
     src = cfg.init or cfg.teacher
     if not cfg.read_wall_segments:
         model = load_model(src, scenario)
     else:
         if not scenario.wall_segments:
             raise ValueError("--read-wall-segments reads the wall points' segment fields: add --wall-segments")
-        from ..features import read_wall_segments
-
         record = open_checkpoint(src).record
-        config = record.get("observation") if isinstance(record, dict) else None
-        own = scenario if config is None else with_sensors(scenario, config)
-        try:  # the run's observation is the student's, with at most the segment fields more
-            observation_layout(scenario).columns_of(observation_layout(own))
-        except ValueError as e:
-            raise ValueError(f"--init {src!r}: {e}") from None
+        # the run's observation is the student's, or the student's with the segment fields (else load_model refuses)
+        own = narrower(record.get("observation") if isinstance(record, dict) else None, scenario) or scenario
         model = load_model(src, own)
         if hasattr(model, "policy"):
             read_wall_segments(model, observation_layout(scenario))
