@@ -25,7 +25,8 @@ def read_wall_segments(model, layout: Layout) -> None:
     its segment (:func:`agents.features.segment_contact_time`), in place. The weights are kept: a wall point is a
     slot of the same fields either way, and only its contact time changes meaning (from the point's to the wall's). The
     model may have read wall points with or without the segment fields; ``ValueError`` for a model without ``slots``
-    encoders over wall points, or a ``layout`` without the segment fields or with other blocks than the model's."""
+    encoders over wall points, or a ``layout`` without the segment fields, with another number of wall points or
+    another size before them than the model's observation (sizes are checked, not block names)."""
     policy = getattr(model, "policy", None)
     extractors = [getattr(policy, name, None) for name in ("pi_features_extractor", "vf_features_extractor")]
     if not all(getattr(e, "wall_slots", 0) for e in extractors):  # agents.features.SlotEncoder over wall points

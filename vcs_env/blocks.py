@@ -85,20 +85,18 @@ class Layout:
         observation of this layout, indexed with them, reads as one of ``other`` (e.g. wall points with their
         segment fields read as wall points without). ``ValueError`` naming the first block or field of ``other``
         that is not here (or has another item count)."""
-        at, starts = 0, {}
-        for b in self.blocks:
-            starts[b.name], at = at, at + b.size
         cols = []
         for b in other.blocks:
-            mine = next((m for m in self.blocks if m.name == b.name), None)
+            mine = self.block(b.name) if b.name in self else None
             if mine is None or mine.items != b.items or not set(b.fields) <= set(mine.fields):
                 have = "none" if mine is None else f"{mine.items} items of {list(mine.fields)}"
                 raise ValueError(
                     f"observation block {b.name!r} ({b.items} items of {list(b.fields)}) cannot be read from this "
                     f"layout's (it has {have})"
                 )
+            start = self.span(b.name).start
             for item in range(b.items):
-                cols += [starts[b.name] + item * mine.item_dim + mine.fields.index(f) for f in b.fields]
+                cols += [start + item * mine.item_dim + mine.fields.index(f) for f in b.fields]
         return np.asarray(cols, dtype=np.int64)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:

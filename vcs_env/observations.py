@@ -348,7 +348,7 @@ def route_features(obs: np.ndarray, world: WorldState) -> None:
 
 def wall_points_block(world: WorldState, k: int, segments: bool = False) -> np.ndarray:
     """The nearest-wall-points block ``(B, n, k * (3 + 4 segments))`` float32 (module docstring)."""
-    points, valid, seg = nearest_wall_points(world, k)
+    points, valid, seg = nearest_wall_points(world, k, with_segments=segments)
     parts = [valid[..., None], np.clip(points / SENSE_REF, -1.0, 1.0)]
     if segments:
         parts += [seg[..., :2], np.clip(seg[..., 2:] / SENSE_REF, 0.0, 1.0)]

@@ -120,16 +120,18 @@ def clearance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
     return d.min(axis=-1)
 
 
-def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def nearest_wall_points(world, k: int, with_segments: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """The ``k`` nearest points on wall segments of every robot, in its frame: ``points`` ``(B, n,
     k, 2)`` [m] (x ahead, y to the left), ``valid`` ``(B, n, k)`` bool and ``segments`` ``(B, n, k, 4)``,
     nearest first; one point per present segment (its point nearest the robot) whose distance is within
     ``r_ca``. ``segments`` is the wall the point lies on: its unit direction ``(tx, ty)`` in the robot
     frame, turned to ``tx >= 0`` (ahead; ``ty > 0`` when square to the heading), then how far the segment
     runs from the point backward (along ``-t``) and forward (along ``+t``) [m]; at an end of the segment (a
-    corner, a door post) one of them is 0. Empty slots are 0 and not valid."""
+    corner, a door post) one of them is 0; computed only ``with_segments`` (else None). Empty slots are 0 and not
+    valid."""
     B, n = world.batch_size, world.n_robots
-    points, valid, segments = np.zeros((B, n, k, 2)), np.zeros((B, n, k), dtype=bool), np.zeros((B, n, k, 4))
+    points, valid = np.zeros((B, n, k, 2)), np.zeros((B, n, k), dtype=bool)
+    segments = np.zeros((B, n, k, 4)) if with_segments else None
     if world.n_segments == 0 or k == 0:
         return points, valid, segments
     a, b = world.seg_a[:, None], world.seg_b[:, None]  # (B, 1, s, 2)
@@ -150,8 +152,11 @@ def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
     points[:, :, :kk] = frame(rel)
     valid[:, :, :kk] = np.isfinite(np.take_along_axis(dist, order, axis=-1))
-    length = np.sqrt(np.einsum("...i,...i->...", u, u))  # (B, 1, s) [m]
-    tangent = frame(u / np.maximum(length, 1e-300)[..., None])  # from a to b
+    points[~valid] = 0.0
+    if not with_segments:
+        return points, valid, None
+    length = np.sqrt(len2)  # (B, 1, s) [m]
+    tangent = frame(u / length[..., None])  # from a to b
     t_sel = np.take_along_axis(t, order, axis=-1)
     len_sel = np.take_along_axis(np.broadcast_to(length, t.shape), order, axis=-1)
     to_a, to_b = t_sel * len_sel, (1.0 - t_sel) * len_sel  # [m] from the point to each end
@@ -159,6 +164,5 @@ def nearest_wall_points(world, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarr
     segments[:, :, :kk, :2] = np.where(flip[..., None], -tangent, tangent)
     segments[:, :, :kk, 2] = np.where(flip, to_b, to_a)  # backward
     segments[:, :, :kk, 3] = np.where(flip, to_a, to_b)  # forward
-    points[~valid] = 0.0
     segments[~valid] = 0.0
     return points, valid, segments

@@ -161,10 +161,11 @@ class ColumnsPredictor:
         return self.inner.predict(obs, state=state, episode_start=episode_start, deterministic=deterministic)
 
 
-def narrower(config: dict | None, scenario):
-    """The scenario observed as ``config`` (a run record's observation) when that observation is ``scenario``'s with
+def narrower(record: Any, scenario):
+    """The scenario observed as a run record names (its ``observation``) when that observation is ``scenario``'s with
     fewer fields (the same version and scales; wall points without their segment fields), else None: such a
     checkpoint reads its own columns of ``scenario``'s observations (:meth:`vcs_env.observations.Layout.columns_of`)."""
+    config = record.get("observation") if isinstance(record, dict) else None
     mine = observation_config(scenario)
     if not isinstance(config, dict) or config == mine:
         return None
@@ -184,8 +185,7 @@ def load_teacher(path: str, scenario, shield: bool):
     a :class:`ColumnsPredictor` reading its own fields from ``scenario``'s observations (:func:`narrower`). Any other
     observation is refused as ``load_checkpoint`` refuses it (:class:`agents.checkpoint.CheckpointError`, naming the
     block)."""
-    record = open_checkpoint(path).record
-    own = narrower(record.get("observation") if isinstance(record, dict) else None, scenario)
+    own = narrower(open_checkpoint(path).record, scenario)
     if own is None:
         return load_checkpoint(path, scenario, shield=shield)
     cols = observation_layout(scenario).columns_of(observation_layout(own))
@@ -201,9 +201,8 @@ def load_student(cfg: DistilConfig, scenario):
     else:
         if not scenario.wall_segments:
             raise ValueError("--read-wall-segments reads the wall points' segment fields: add --wall-segments")
-        record = open_checkpoint(src).record
         # the run's observation is the student's, or the student's with the segment fields (else load_model refuses)
-        own = narrower(record.get("observation") if isinstance(record, dict) else None, scenario) or scenario
+        own = narrower(open_checkpoint(src).record, scenario) or scenario
         model = load_model(src, own)
         if hasattr(model, "policy"):
             read_wall_segments(model, observation_layout(scenario))
