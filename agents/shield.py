@@ -20,6 +20,13 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   is at most ``robot_speed`` [m/s] or it is parked (observation v2's flag), since a moving
   robot reacts itself and a constant-velocity guess of it makes the shield fight reciprocal avoidance
   (on circle-24, counting every robot cost 15 points of success, ``docs/experiments.md``);
+* with ``robots_stand`` (on by default) a counted robot stands where it is over the horizon: at most
+  ``robot_speed`` it moves on less than ``robot_speed * horizon`` (0.075 m), and it reacts itself, so the shield
+  keeps the robot from driving into it and leaves its creep to it. Predicted creeping on, a robot at 0.02 m/s
+  drifting towards ours made every candidate fall short, and the least-overlap choice fled it: the shield replaced
+  the network's braking with creeping on, then speeding up, into a robot parked on the other side
+  (``intersection-v0`` seed 1089, a contact the network alone does not make). Run records written before the field
+  predict them at their observed velocity;
 * the gap is the distance between centres minus both radii [m]; to a *still* body (a point on a wall, a
   parked robot, a body at most ``robot_speed`` fast), whose prediction is exact, the shield keeps
   ``still_margin`` (0.01 m; 0.02 m in records before ``brake_backup``) instead of ``margin``, which is for the
@@ -153,6 +160,10 @@ class Shield:
     """Still bodies are judged along the better of two ways on: the candidate held over the horizon, or held for
     one step and then full braking without a turn; and full braking passes the driving guard (module docstring;
     False: held only, the rule of run records written before this field, 2026-12-05)."""
+    robots_stand: bool = True
+    """The robots the shield counts (parked, or at most ``robot_speed`` fast) stand where they are over the horizon
+    (module docstring; False: they move on at their observed velocity, the rule of run records written before this
+    field, 2026-12-06)."""
 
     def __post_init__(self):
         checks = [("horizon", 0.0, HORIZON_MAX), ("margin", None, None), ("robot_speed", None, None)]
@@ -167,7 +178,7 @@ class Shield:
             if high is not None and value > high:
                 raise ValueError(f"shield {name} must be at most {high:g}, got {value!r}")
             object.__setattr__(self, name, float(value))
-        for name in ("driving_guard", "keep_turn", "brake_backup", "driving_stop"):
+        for name in ("driving_guard", "keep_turn", "brake_backup", "driving_stop", "robots_stand"):
             value = getattr(self, name)
             if not isinstance(value, (bool, np.bool_)):
                 raise ValueError(f"shield {name} must be true or false, got {value!r}")
@@ -264,6 +275,9 @@ class Shield:
             still |= slots[..., fields.index("parked")] > 0.5
         counted = (slots[..., 0] > 0.5) & ((slots[..., 7] < 0.5) | still)
         driving = (slots[..., 0] > 0.5) & ~counted
+        if self.robots_stand:  # the counted robots stand where they are
+            standing = counted & (slots[..., 7] > 0.5)
+            vel[standing], speed[standing] = 0.0, 0.0
         reach = radius[:, None] + slots[..., 5] * R_REF
         gap = slots[..., 6] * SENSE_REF
         if "wall_points" in layout:  # the nearest points on walls: still points (radius 0)
@@ -435,8 +449,7 @@ def shield_from_record(record: dict[str, Any], where: str = "the run record") ->
         raise ValueError(f"the shield in {where} must be an object with keys of {keys}, got {spec!r}")
     try:
         # records without a key keep the rule they were run with
-        return Shield(
-            **{"still_margin": None, "driving_guard": False, "keep_turn": False, "brake_backup": False, **spec}
-        )
+        rules = ("driving_guard", "keep_turn", "brake_backup", "robots_stand")
+        return Shield(**{"still_margin": None, **dict.fromkeys(rules, False), **spec})
     except ValueError as e:
         raise ValueError(f"{where}: {e}") from None

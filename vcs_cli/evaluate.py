@@ -228,7 +228,7 @@ def _add_select(sub) -> None:
 SHIELD_FLAGS = {
     "horizon": shield.Shield.horizon, "margin": shield.Shield.margin, "robot_speed": shield.Shield.robot_speed,
     "still_margin": shield.Shield.still_margin, "no_driving_guard": False, "no_keep_turn": False,
-    "no_brake_backup": False, "driving_stop": False,
+    "no_brake_backup": False, "driving_stop": False, "no_robots_stand": False,
 }  # fmt: skip
 """The shield's settings on the command line, and their defaults."""
 
@@ -249,6 +249,7 @@ def cmd_shield(args) -> int:
             keep_turn=not args.no_keep_turn,
             brake_backup=not args.no_brake_backup,
             driving_stop=args.driving_stop,
+            robots_stand=not args.no_robots_stand,
         )
     )
     before = attach_shield(args.checkpoint, guard)
@@ -294,6 +295,11 @@ def _add_shield(sub) -> None:
         action="store_true",
         help="judge still bodies along the held candidate only, not also along one step and braking (the rule "
         "before 2026-12-05, with --still-margin 0.02)",
+    )
+    p.add_argument(
+        "--no-robots-stand",
+        action="store_true",
+        help="predict the parked and slow robots at their observed velocity, not standing (the rule before 2026-12-06)",
     )
     p.add_argument(
         "--driving-stop",

@@ -95,8 +95,8 @@ def shield_lines(shields: Mapping[str, dict[str, float] | None]) -> list[str]:
 def describe_shield(shield: dict[str, float]) -> str:
     """``horizon 1.5 s, margin 0.1 m, robots at most 0.05 m/s`` (and ``, still bodies 0.02 m`` with a still margin,
     ``, no closer to driving robots`` with the driving guard, ``, the policy's turn kept first`` with ``keep_turn``,
-    ``, still bodies also along braking`` with ``brake_backup``, ``, room to stop short of driving robots`` with
-    ``driving_stop``)."""
+    ``, still bodies also along braking`` with ``brake_backup``, ``, counted robots standing`` with ``robots_stand``,
+    ``, room to stop short of driving robots`` with ``driving_stop``)."""
     text = f"horizon {shield['horizon']:g} s, margin {shield['margin']:g} m"
     text += f", robots at most {shield['robot_speed']:g} m/s"
     still = shield.get("still_margin")
@@ -104,6 +104,7 @@ def describe_shield(shield: dict[str, float]) -> str:
     text = f"{text}, no closer to driving robots" if shield.get("driving_guard") else text
     text = f"{text}, the policy's turn kept first" if shield.get("keep_turn") else text
     text = f"{text}, still bodies also along braking" if shield.get("brake_backup") else text
+    text = f"{text}, counted robots standing" if shield.get("robots_stand") else text
     return f"{text}, room to stop short of driving robots" if shield.get("driving_stop") else text
 
 
