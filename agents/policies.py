@@ -149,11 +149,19 @@ def load_checkpoint(
     return model if guard is None else ShieldedPredictor(model, guard, scenario)
 
 
+MIN_ROWS = 64
+"""Fewest observation rows :func:`predictor_controller` hands a predictor in one call: fewer are padded with zero
+rows (inactive, episodes starting), whose actions are dropped. torch's matrix products take another code path for
+a handful of rows, whose float rounding differs from a larger batch's (here for fewer than 16 rows; 1e-6 in the
+actions), and a learned policy's episode turned on it: a seed run alone or with a few others could end otherwise
+than in a batch of many worlds. Padded, a seed plays the same episode whatever runs beside it, on one machine."""
+
+
 def predictor_controller(predictor: Any, deterministic: bool = True, name: str = "policy") -> Controller:
     """A controller from an SB3-style ``PolicyPredictor``.
 
-    Each call stacks the observations ``(B, n, D)`` into ``(B * n, D)``, calls ``predict`` once
-    and reshapes the actions back to ``(B, n, 2)``. A recurrent state is threaded through the
+    Each call stacks the observations ``(B, n, D)`` into ``(B * n, D)`` (padded to :data:`MIN_ROWS` rows), calls
+    ``predict`` once and reshapes the actions back to ``(B, n, 2)``. A recurrent state is threaded through the
     calls of one batch of episodes and reset (``episode_start``) when a new batch starts.
     Actions of robots that are not active are replaced by zeros (the simulator ignores them).
     """
@@ -162,20 +170,29 @@ def predictor_controller(predictor: Any, deterministic: bool = True, name: str =
     def control(world: WorldState, obs: np.ndarray) -> np.ndarray:
         nonlocal state
         B, n, D = obs.shape
+        rows, pad = B * n, max(MIN_ROWS - B * n, 0)
         starts = np.repeat(np.asarray(world.steps) == 0, n)
         if starts.all():
             state = None
-        extra = {"active": world.active.reshape(B * n)} if isinstance(predictor, ShieldedPredictor) else {}
+        flat = obs.reshape(rows, D)
+        active = world.active.reshape(rows)
+        if pad:
+            flat = np.concatenate((flat, np.zeros((pad, D), dtype=flat.dtype)))
+            starts = np.concatenate((starts, np.ones(pad, dtype=bool)))
+            active = np.concatenate((active, np.zeros(pad, dtype=bool)))
+        extra = {"active": active} if isinstance(predictor, ShieldedPredictor) else {}
         actions, state = predictor.predict(
-            obs.reshape(B * n, D), state=state, episode_start=starts, deterministic=deterministic, **extra
+            flat, state=state, episode_start=starts, deterministic=deterministic, **extra
         )
         actions = np.asarray(actions, dtype=np.float64)
-        if actions.shape not in ((B * n, 2), (B, n, 2)):
+        if not pad and actions.shape == (B, n, 2):
+            actions = actions.reshape(rows, 2)
+        if actions.shape != (rows + pad, 2):
             raise ValueError(
                 f"policy {name!r} returned actions of shape {actions.shape} for observations of shape "
-                f"{(B * n, D)}; expected {(B * n, 2)}"
+                f"{(rows + pad, D)}; expected {(rows + pad, 2)}"
             )
-        return np.where(world.active[..., None], actions.reshape(B, n, 2), 0.0)
+        return np.where(world.active[..., None], actions[:rows].reshape(B, n, 2), 0.0)
 
     return control
 
