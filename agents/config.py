@@ -58,10 +58,11 @@ class ScenarioConfig:
     max_steps: int | None = None
     """Episode step limit (None: the preset's)."""
     jitter: float | None = None
-    """Uniform noise on start positions [m] for circle/swap/crossing (None: the preset's, 0 for
-    circle, i.e. one fixed layout; the evaluation suites use 0.1)."""
+    """Uniform noise on start positions [m] for circle/swap/crossing (None: in training the preset's, 0 for
+    circle, i.e. one fixed layout; in evaluation, probes and ad-hoc seeds, the family suite's, 0.1)."""
     on_collision: str | None = None
-    """terminate or continue (None: the preset's, terminate)."""
+    """terminate or continue (None: in training the preset's, terminate; in evaluation the family suite's,
+    continue)."""
     layout_radius: float | None = None
     """Circle radius for circle/crowd, half lane length for swap/crossing [m] (None: the preset's)."""
     obstacle_speed: tuple[float, ...] | None = None
@@ -113,7 +114,12 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
         over["rewards"] = weights
     given = over if check is None else {k: v for k, v in over.items() if k in check}
     base = scenario_base(cfg.scenario)
-    scenario = _check_applies(make_scenario(base, **over), given)
+    return _time_limit(_check_applies(make_scenario(base, **over), given), base, cfg)
+
+
+def _time_limit(scenario, base, cfg: ScenarioConfig):
+    """``scenario`` with its time limit grown for a layout grown past ``base``'s, unless ``cfg`` sets
+    ``max_steps``; a note says so, or that a limit given is too short to arrive."""
     if cfg.max_steps is None:  # a grown layout, a grown limit
         scenario, note = fit_time_limit(scenario, base)
     else:
@@ -190,7 +196,8 @@ def probe_scenario(cfg: ScenarioConfig):
     """A scenario for ad-hoc evaluation: the scenario of the suite of the preset's family
     (:func:`family_suite`: its jitter, ``on_collision="continue"``, spacing, limits ...) with the
     flags given in ``cfg`` applied; presets without a suite (random, custom) start from the preset.
-    Reward flags are ignored (they do not change the metrics)."""
+    Reward flags are ignored (they do not change the metrics). Without ``max_steps`` the time limit grows with a
+    layout grown past the suite's, as in :func:`build_scenario`; notes say so."""
     base = scenario_base(cfg.scenario)
     suite = SUITES[cfg.scenario] if cfg.scenario in SUITES else family_suite(base.kind)
     base = base if suite is None else suite.scenario
@@ -198,7 +205,7 @@ def probe_scenario(cfg: ScenarioConfig):
     if suite is not None and "n_robots" in over and base.kind == "circle" and "layout_radius" not in over:
         # The suites' circle radius is for their n; keep the preset's rule (max(5, 0.3 n) [m]).
         over["layout_radius"] = None
-    return _check_applies(make_scenario(base, **over), _overrides(cfg))
+    return _time_limit(_check_applies(make_scenario(base, **over), _overrides(cfg)), base, cfg)
 
 
 _DIFF_FIELDS = (

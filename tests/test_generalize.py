@@ -66,6 +66,15 @@ def test_the_time_limit_grows_with_the_layout_or_refuses_a_hopeless_one(capsys):
     assert capsys.readouterr().out == ""
     # A kind with no bound on the trip (random starts and goals) is left alone.
     assert fit_time_limit(SCENARIOS["random"], SCENARIOS["random"]) == (SCENARIOS["random"], None)
+    # Ad-hoc evaluation (probe_scenario: from the family's suite) grows it too, and says so.
+    wide = probe_scenario(ScenarioConfig(scenario="circle", layout_radius=40.0))
+    assert (
+        wide.max_time >= TIME_MARGIN * wide.least_time_to_goal and "note: max_steps 600 ->" in capsys.readouterr().out
+    )
+    assert probe_scenario(ScenarioConfig(scenario="circle", layout_radius=40.0, max_steps=100)).max_steps == 100
+    assert "leaves no robot the time to arrive" in capsys.readouterr().out
+    assert probe_scenario(ScenarioConfig(scenario="circle")) == get_suite("circle-8-v0").scenario
+    assert capsys.readouterr().out == ""
 
 
 def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
@@ -92,6 +101,7 @@ def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
         (["--scenario", "circle"], "give --suite NAME, or scenario flags"),
         (["--seeds", "9:3"], "0 <= START < STOP"),
         (["--suite", "swap-v0-smoke", "--n-robots", "4"], "either --suite or scenario flags"),
+        (["--suite", "swap-v0-smoke", "--lidar-beams", "16"], "(got --suite and --lidar-beams)"),
         (["--scenario", "nope", "--seeds", "1:2"], "unknown scenario 'nope'"),
         (["--scenario", "crowd", "--obstacle-speed", "1", "--seeds", "1:2"], "obstacle_speed must be two numbers"),
         (["--scenario", "dynamic", "--obstacle-motion", "wobbly", "--seeds", "1:2"], "obstacle_motion must be one of"),
