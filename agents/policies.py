@@ -218,10 +218,28 @@ def warn_blind_training(scenarios: Sequence[Scenario]) -> None:
         )
 
 
+class RobotKindWarning(UserWarning):
+    """A policy trained on unicycle robots runs holonomic ones, or the other way round."""
+
+
 def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scenario:
     """``scenario``'s worlds observed with the sensing ``ckpt`` was trained with (its run record's
     observation config, :func:`vcs_env.observations.with_sensors`); ``scenario`` itself for a checkpoint
-    without one. Warns (:class:`BlindWarning`) when the worlds have walls the policy cannot see."""
+    without one. Warns (:class:`BlindWarning`) when the worlds have walls the policy cannot see, and
+    (:class:`RobotKindWarning`) when its record names the other robot kind: an action's second number is a
+    turn for unicycles and a sideways change of velocity for holonomic robots."""
+    robot = ckpt.record.get("scenario", {}).get("robot") if isinstance(ckpt.record, dict) else None
+    trained = robot.get("holonomic") if isinstance(robot, dict) else None
+    if isinstance(trained, bool) and trained != scenario.robot.holonomic:
+        kinds = {True: "holonomic", False: "unicycle"}
+        warnings.warn(
+            f"policy {label!r} was trained on {kinds[trained]} robots (its run record) and runs "
+            f"{kinds[scenario.robot.holonomic]} ones here: it reads its second action as a "
+            f"{'sideways velocity change' if trained else 'turn'}, the robots act on it as a "
+            f"{'turn' if trained else 'sideways velocity change'}",
+            RobotKindWarning,
+            stacklevel=3,
+        )
     config = ckpt.record.get("observation") if isinstance(ckpt.record, dict) else None
     if isinstance(config, dict):
         try:

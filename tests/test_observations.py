@@ -4,6 +4,7 @@ the goal features follow the route."""
 
 import dataclasses
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
     """The released circle8 reads observation v1: the harness runs it on a v2 suite's worlds with v1
     sensing (only the sensing fields change, and they change no episode: the expert's are the same
     with other sensing); among walls it warns that it cannot see them."""
-    from agents.policies import BlindWarning, resolve_policy
+    from agents.policies import BlindWarning, RobotKindWarning, resolve_policy
 
     suite = get_suite("circle-8-v0-smoke")
     resolved = resolve_policy("policies/circle8/model.zip", suite.scenario)
@@ -35,6 +36,13 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
     assert episodes(evaluate("vcs", other)) == episodes(evaluate("vcs", suite))
     with pytest.warns(BlindWarning, match="'circle8' cannot see walls .* kind='doorway' has walls"):
         resolve_policy("policies/circle8/model.zip", get_suite("doorway-v0-smoke").scenario)
+    # Trained on unicycles, run on holonomic robots: its turn would move them sideways.
+    holonomic = get_suite("random-dense-holonomic-v0-smoke").scenario
+    with pytest.warns(RobotKindWarning, match="trained on unicycle robots .* runs holonomic ones here"):
+        resolve_policy("policies/circle8/model.zip", holonomic)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RobotKindWarning)
+        resolve_policy("policies/circle8/model.zip", suite.scenario)
 
 
 def test_among_walls_the_v2_goal_features_follow_the_route_and_v1_reads_the_straight_goal():
