@@ -139,3 +139,14 @@ def test_reset_options_that_no_env_reads_are_refused():
     first = venv.reset()  # the seed set before the refusals still holds
     venv.seed(3)
     assert np.array_equal(venv.reset(), first) and first.shape[0] == 6
+
+
+def test_a_step_before_the_first_reset_says_so():
+    env = vcs_env.parallel_env(scenario="circle", n_robots=2, max_steps=5)
+    with pytest.raises(RuntimeError, match=r"step\(\) called before the first reset\(\)"):
+        env.step({})
+    env.reset(seed=0)
+    while env.agents:
+        env.step({a: np.array([0.0, 0.0], dtype=np.float32) for a in env.agents})
+    with pytest.raises(RuntimeError, match=r"step\(\) called on a finished episode"):
+        env.step({})

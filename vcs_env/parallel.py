@@ -150,6 +150,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         self.possible_agents = [f"robot_{i}" for i in range(self.scenario.n_robots)]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
+        self._started = False  # reset() called once
         self._obs_space = nav_spaces.observation_space(self.scenario)
         self._act_space = nav_spaces.action_space()
         self.state_space = nav_spaces.state_space(self.scenario)
@@ -185,7 +186,7 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     def reset(self, seed: int | None = None, options: dict | None = None):
         check_reset_options(options, warn=True, made="parallel_env(scenario=name, n_robots=4)")
         obs = self.engine.reset(None if seed is None else [seed])
-        self.agents = list(self.possible_agents)
+        self.agents, self._started = list(self.possible_agents), True
         if self._renderer is not None:
             self._renderer.reset()
         expert = self.engine.expert_action
@@ -198,7 +199,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
 
     def step(self, actions: Mapping[str, np.ndarray]):
         if not self.agents:
-            raise RuntimeError("step() called on a finished episode; call reset() first")
+            said = "on a finished episode" if self._started else "before the first reset()"
+            raise RuntimeError(f"step() called {said}; call reset() first")
         if not isinstance(actions, Mapping):
             raise ValueError(f"actions must be a dict {{agent: action}}, got {type(actions).__name__}")
         live = self.agents
