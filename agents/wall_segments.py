@@ -53,12 +53,13 @@ def read_wall_segments(model, layout: Layout) -> None:
 
 
 def wall_segments_copy(checkpoint, out) -> Path:
-    """``vcs-env wall-segments``: copy an SB3 ``slots`` checkpoint over wall points (``--n-wall-points``, with or
-    without their segment fields) into the directory ``out`` (``model.zip`` and its run record) as a network that
-    reads the wall points' segment fields and takes each wall point's time to contact from its segment
+    """``vcs-env wall-segments``: copy an SB3 ``slots`` checkpoint over wall points (``--n-wall-points``, without
+    their segment fields) into the directory ``out`` (``model.zip`` and its run record) as a network that reads the
+    wall points' segment fields and takes each wall point's time to contact from its segment
     (:func:`read_wall_segments`; the weights are the checkpoint's). The run record keeps the rest (the command that
     trained it, its shield) and names the source (``wall_segments_from``). Returns the new ``model.zip``; ``ValueError``
-    for an existing ``out/model.zip``, a checkpoint without a run record or without wall points."""
+    for an existing ``out/model.zip``, a checkpoint without a run record, without wall points or that reads their
+    segments already (a copy would change nothing but the record's source)."""
     out = Path(out)
     if (out / "model.zip").exists():
         raise ValueError(f"{str(out / 'model.zip')!r} exists: give a new directory")
@@ -69,6 +70,13 @@ def wall_segments_copy(checkpoint, out) -> Path:
     own = with_sensors(Scenario(), record["observation"])
     if not own.n_wall_points:
         raise ValueError(f"{ckpt.describe()} was trained without wall points (--n-wall-points): no walls to read")
+    if own.wall_segments:
+        source = record.get("wall_segments_from")
+        raise ValueError(
+            f"{ckpt.describe()} reads its wall points' segments already"
+            + (f" (a copy of {source!r})" if source else " (trained with --wall-segments)")
+            + ": nothing to copy"
+        )
     wide = dataclasses.replace(own, wall_segments=True)
     model = load_model(ckpt)  # its observation is its record's (read_wall_segments checks the sizes)
     if not hasattr(model, "policy"):

@@ -392,3 +392,5 @@ def test_vcs_env_wall_segments_copies_a_network_to_read_wall_segments(tmp_path, 
     assert "exists: give a new directory" in capsys.readouterr().err
     assert main(["wall-segments", "policies/circle8/model.zip", "--out", str(tmp_path / "c8")]) == 2
     assert "without wall points" in capsys.readouterr().err
+    assert main(["wall-segments", str(tmp_path / "seg" / "model.zip"), "--out", str(tmp_path / "again")]) == 2
+    assert f"reads its wall points' segments already (a copy of {str(src)!r})" in capsys.readouterr().err
