@@ -118,6 +118,13 @@ def test_impossible_layouts_say_so():
 def test_custom_validation():
     with pytest.raises(ValueError, match="n_robots"):
         make_scenario("custom", n_robots=3)
+    # A layout given without counts sets them: one robot, no obstacle (the preset has 2 and 1).
+    one = make_scenario("custom", custom=CustomLayout(start=((0.0, 0.0),), goal=((5.0, 0.0),)))
+    assert (one.n_robots, one.n_obstacles) == (1, 0) and (
+        SCENARIOS["custom"].n_robots,
+        SCENARIOS["custom"].n_obstacles,
+    ) == (2, 1)
+    assert vcs_env.parallel_env(scenario="custom", custom=one.custom).possible_agents == ["robot_0"]
     with pytest.raises(ValueError, match="custom"):
         dataclasses.replace(SCENARIOS["circle"], custom=SCENARIOS["custom"].custom)
     with pytest.raises(ValueError, match="increase strictly"):

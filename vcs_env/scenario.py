@@ -363,7 +363,8 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
 
     ``robot``, ``rewards``, ``lidar``, ``pedestrians`` and ``custom`` may be given as dicts: the fields to change
     (all of them where the base has none), so a run record's scenario (``record["scenario"]``, JSON) makes the
-    scenario again: ``make_scenario(s["kind"], **s)``.
+    scenario again: ``make_scenario(s["kind"], **s)``. A ``custom`` layout given for a custom scenario sets
+    ``n_robots`` and ``n_obstacles`` to its own counts unless they are given too.
     """
     if isinstance(name_or_scenario, Scenario):
         base = name_or_scenario
@@ -404,6 +405,10 @@ def make_scenario(name_or_scenario: str | Scenario = "circle", **overrides) -> S
             overrides[key] = cls(**given) if current is None else dataclasses.replace(current, **given)
     if base.kind == "custom" and overrides.get("kind", "custom") != "custom":
         overrides.setdefault("custom", None)
+    layout = overrides.get("custom")
+    if isinstance(layout, CustomLayout) and overrides.get("kind", base.kind) == "custom":  # counts from the layout
+        overrides.setdefault("n_robots", len(layout.start))
+        overrides.setdefault("n_obstacles", len(layout.obstacles))
     return dataclasses.replace(base, **overrides)
 
 
