@@ -203,6 +203,17 @@ shield_pass() {  # INIT TEACHER_DIR STOP OUT [distil options]: INIT taught by th
   vcs-env distil --mixture "${MIX[@]}" "${UP[@]}" "${SENSE[@]}" --on-collision terminate --teacher "$2/model.zip" \
     "${stop[@]}" --teacher-shield --init "$1" --rounds 5 --robots "$DISTIL_ROBOTS" --out "$4" "${@:5}" > "$4.log" 2>&1
 }
+two_seeds() {  # NAME INIT TEACHER_DIR [distil options]: shield_pass (STOP=1) with seeds 0 and 1 side by side, into
+  # $ROOT/NAME0 and $ROOT/NAME1
+  local pids=() seed pid
+  for seed in 0 1; do
+    [ -f "$ROOT/$1$seed/model.zip" ] || shield_pass "$2" "$3" 1 "$ROOT/$1$seed" --seed "$seed" "${@:4}" &
+    pids+=($!)
+  done
+  for pid in "${pids[@]}"; do
+    wait "$pid" || { echo "a $1 pass failed: see $ROOT/${1}0.log, $ROOT/${1}1.log" >&2; exit 1; }
+  done
+}
 prev="$ROOT/distilled/model.zip"
 for p in $(seq 1 "$SHIELD_PASSES"); do
   if [ ! -f "$ROOT/shielded$p/model.zip" ]; then
@@ -225,13 +236,7 @@ if [ ! -f "$ROOT/fine/model.zip" ]; then
   [ -f "$ROOT/fine-states.npz" ] || start_states "$prev" "$STATES_EP" 680000 "$ROOT/fine-states.npz" "${DANGER[@]}"
   shielded_copy "$prev" "$ROOT/teacher-fine"
   shielded_copy "$prev" "$ROOT/teacher-fine-stop" --driving-stop
-  pids=()
-  for seed in 0 1; do
-    [ -f "$ROOT/fine$seed/model.zip" ] || shield_pass "$prev" "$ROOT/teacher-fine" 1 "$ROOT/fine$seed" --widen-fine \
-      --seed "$seed" --start-states "$ROOT/fine-states.npz" &
-    pids+=($!)
-  done
-  for pid in "${pids[@]}"; do wait "$pid" || { echo "a fine pass failed: see $ROOT/fine0.log, $ROOT/fine1.log" >&2; exit 1; }; done
+  two_seeds fine "$prev" "$ROOT/teacher-fine" --widen-fine --start-states "$ROOT/fine-states.npz"
   vcs-env select "$ROOT/fine0/model.zip" "$ROOT/fine1/model.zip" --no-progress --out "$ROOT/fine" \
     --validation "${VALIDATION[@]}"
 fi
@@ -262,13 +267,7 @@ if [ ! -f "$ROOT/chosen/model.zip" ]; then
   shielded_copy "$ROOT/fine/model.zip" "$ROOT/teacher-last-stop" --driving-stop
   shielded_copy "$ROOT/polished/model.zip" "$ROOT/teacher-fast"
   TEACH_ALSO=(); for e in "${FAST[@]}"; do TEACH_ALSO+=("$e=$ROOT/teacher-fast/model.zip"); done
-  pids=()
-  for seed in 0 1; do
-    [ -f "$ROOT/last$seed/model.zip" ] || shield_pass "$ROOT/fine/model.zip" "$ROOT/teacher-last" 1 "$ROOT/last$seed" \
-      --seed "$seed" &
-    pids+=($!)
-  done
-  for pid in "${pids[@]}"; do wait "$pid" || { echo "a last pass failed: see $ROOT/last0.log, $ROOT/last1.log" >&2; exit 1; }; done
+  two_seeds last "$ROOT/fine/model.zip" "$ROOT/teacher-last"
   TEACH_ALSO=()
   [ -f "$ROOT/last/model.zip" ] || vcs-env select "$ROOT/last0" "$ROOT/last1" --no-progress --out "$ROOT/last" \
     --validation "${VALIDATION[@]}"
