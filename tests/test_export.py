@@ -110,13 +110,14 @@ def test_the_released_generalist_exports_with_a_note_on_its_shield(tmp_path, cap
     layout = json.loads((tmp_path / "g.json").read_text())
     assert "network only" in layout["shield_note"]
     # every parameter spelled out: the release's record predates still_margin, driving_guard, keep_turn,
-    # brake_backup and driving_stop: its rule
+    # brake_backup, driving_stop and robots_stand: its rule
     assert layout["shield"] == meta["shield"] | {
         "still_margin": None,
         "driving_guard": False,
         "keep_turn": False,
         "brake_backup": False,
         "driving_stop": False,
+        "robots_stand": False,
     }
     assert Shield(**layout["shield"]) == shield_from_record(meta)
 
