@@ -228,15 +228,15 @@ def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scena
     without one. Warns (:class:`BlindWarning`) when the worlds have walls the policy cannot see, and
     (:class:`RobotKindWarning`) when its record names the other robot kind: an action's second number is a
     turn for unicycles and a sideways change of velocity for holonomic robots."""
-    robot = ckpt.record.get("scenario", {}).get("robot") if isinstance(ckpt.record, dict) else None
-    trained = robot.get("holonomic") if isinstance(robot, dict) else None
+    trained = ckpt.record.get("scenario") if isinstance(ckpt.record, dict) else None
+    trained = trained.get("robot") if isinstance(trained, dict) else None
+    trained = trained.get("holonomic") if isinstance(trained, dict) else None
     if isinstance(trained, bool) and trained != scenario.robot.holonomic:
-        kinds = {True: "holonomic", False: "unicycle"}
+        kinds, second = {True: "holonomic", False: "unicycle"}, {True: "a sideways velocity change", False: "a turn"}
         warnings.warn(
             f"policy {label!r} was trained on {kinds[trained]} robots (its run record) and runs "
-            f"{kinds[scenario.robot.holonomic]} ones here: it reads its second action as a "
-            f"{'sideways velocity change' if trained else 'turn'}, the robots act on it as a "
-            f"{'turn' if trained else 'sideways velocity change'}",
+            f"{kinds[scenario.robot.holonomic]} ones here: its second action means {second[trained]} to it and "
+            f"{second[scenario.robot.holonomic]} to these robots",
             RobotKindWarning,
             stacklevel=3,
         )

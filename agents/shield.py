@@ -22,7 +22,7 @@ Prediction (per robot, in its own frame, :meth:`Shield.min_gaps`):
   (on circle-24, counting every robot cost 15 points of success, ``docs/experiments.md``);
 * with ``robots_stand`` (on by default) a counted robot stands where it is over the horizon: at most
   ``robot_speed`` it moves on less than ``robot_speed * horizon`` (0.075 m), and it reacts itself, so the shield
-  keeps the robot from driving into it and leaves its creep to it. Predicted creeping on, a robot at 0.02 m/s
+  keeps the robot from driving into it and leaves its creep to it. Predicted creeping on, a robot at 0.04 m/s
   drifting towards ours made every candidate fall short, and the least-overlap choice fled it: the shield replaced
   the network's braking with creeping on, then speeding up, into a robot parked on the other side
   (``intersection-v0`` seed 1089, a contact the network alone does not make). Run records written before the field
