@@ -197,7 +197,8 @@ class EpisodeFacts:
 
     @functools.cached_property
     def path_ratio(self) -> np.ndarray:
-        """``(n,)`` path length over the straight start-goal distance, NaN if not arrived."""
+        """``(n,)`` path length over the straight start-goal distance, NaN if not arrived. A robot parks where it
+        enters its goal disc (radius ``r_goal``), so a straight run reads ``(d - r_goal) / d``, just under 1."""
         straight = np.linalg.norm(self.ep.goal - self.ep.pos[0], axis=-1)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(self.arrived & (straight > 0), self.paths / straight, np.nan)
