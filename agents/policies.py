@@ -247,9 +247,14 @@ def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scena
         except (ValueError, KeyError, TypeError):
             pass  # left to the fit check, which names what differs
     if blind(scenario):
+        seen = (
+            "its observation has no lidar or wall-point block"
+            if isinstance(config, dict)
+            else "no run record names its sensing, so it runs with this scenario's, which has no lidar or wall points"
+        )
         warnings.warn(
-            f"policy {label!r} cannot see walls (its observation has no lidar or wall-point block), but "
-            f"kind={scenario.kind!r} has walls: expect it to drive into them",
+            f"policy {label!r} cannot see walls ({seen}), but kind={scenario.kind!r} has walls: expect it to drive "
+            "into them",
             BlindWarning,
             stacklevel=3,
         )

@@ -4,6 +4,7 @@ the goal features follow the route."""
 
 import dataclasses
 import json
+import shutil
 import warnings
 
 import numpy as np
@@ -17,7 +18,7 @@ from vcs_env.sim import Simulator
 from vcs_env.suites import get_suite
 
 
-def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_walls():
+def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_walls(tmp_path):
     """The released circle8 reads observation v1: the harness runs it on a v2 suite's worlds with v1
     sensing (only the sensing fields change, and they change no episode: the expert's are the same
     with other sensing); among walls it warns that it cannot see them."""
@@ -36,6 +37,12 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
     assert episodes(evaluate("vcs", other)) == episodes(evaluate("vcs", suite))
     with pytest.warns(BlindWarning, match="'circle8' cannot see walls .* kind='doorway' has walls"):
         resolve_policy("policies/circle8/model.zip", get_suite("doorway-v0-smoke").scenario)
+    # Without its run record the sensing is the scenario's, and the warning says so (the size check then refuses it).
+    bare = tmp_path / "bare" / "model.zip"
+    bare.parent.mkdir()
+    shutil.copy("policies/circle8/model.zip", bare)
+    with pytest.warns(BlindWarning, match="no run record names its sensing"), pytest.raises(ValueError, match="Box"):
+        resolve_policy(str(bare), get_suite("doorway-v0-smoke").scenario)
     # Trained on unicycles, run on holonomic robots: its turn would move them sideways.
     holonomic = get_suite("random-dense-holonomic-v0-smoke").scenario
     with pytest.warns(RobotKindWarning, match="trained on unicycle robots .* runs holonomic ones here"):
