@@ -107,7 +107,14 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
         raise ValueError(f"shaping must be one of {list(SHAPING)}, got {cfg.shaping!r}")
     over: dict[str, Any] = _overrides(cfg)
     weights = parse_weights(cfg.rewards)
+    if cfg.shaping == "none" and cfg.shaping_weight is not None:
+        raise ValueError("--shaping-weight weighs the --shaping term: give --shaping too (or the weight in --rewards)")
     if cfg.shaping != "none":
+        if cfg.shaping in weights:
+            raise ValueError(
+                f"--rewards sets {cfg.shaping}={weights[cfg.shaping]:g} and --shaping {cfg.shaping} sets its weight "
+                "too: give it once (--shaping with --shaping-weight, or the weight in --rewards alone)"
+            )
         weight = DEFAULT_SHAPING_WEIGHT[cfg.shaping] if cfg.shaping_weight is None else cfg.shaping_weight
         weights[cfg.shaping] = float(weight)
     if weights:

@@ -223,6 +223,10 @@ def check_run(cfg: TrainConfig) -> None:
         )
     if cfg.n_worlds < 1 or cfg.eval_episodes < 1:
         raise ValueError(f"n_worlds and eval_episodes must be >= 1, got {cfg.n_worlds} and {cfg.eval_episodes}")
+    for name, high in (("seed", 2**32 - 1), ("eval_seed", 2**63 - 1)):  # numpy's and torch's seeds; world seeds
+        value = getattr(cfg, name)
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= high:
+            raise ValueError(f"--{name.replace('_', '-')} must be an integer in [0, {high}], got {value!r}")
     check_choice("features", cfg.features, FEATURES)
     check_positive("max_grad_norm", cfg.max_grad_norm)  # the gradients' norm is clipped to it: 0 would learn nothing
     if cfg.init is not None and cfg.log_std_init != PolicyConfig.log_std_init:

@@ -150,3 +150,16 @@ def test_a_step_before_the_first_reset_says_so():
         env.step({a: np.array([0.0, 0.0], dtype=np.float32) for a in env.agents})
     with pytest.raises(RuntimeError, match=r"step\(\) called on a finished episode"):
         env.step({})
+
+
+def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_named(tmp_path, capsys):
+    base = ["train", "--n-robots", "2", "--timesteps", "64", "--n-worlds", "1", "--n-steps", "64", "--batch-size", "64"]
+    base += ["--eval-freq", "0", "--eval-episodes", "1", "--no-progress-bar", "--out", str(tmp_path / "run")]
+    assert vcs_cli.main([*base, "--lr-schedule", "bogus"]) == 2  # refused while PPO is set up
+    assert "bogus" in capsys.readouterr().err and not (tmp_path / "run").exists()
+    assert vcs_cli.main([*base, "--eval-seed", "-1"]) == 2  # refused before training, not at its first evaluation
+    assert "--eval-seed must be an integer in [0, " in capsys.readouterr().err and not (tmp_path / "run").exists()
+    assert vcs_cli.main([*base, "--shaping", "vcs_potential", "--rewards", "vcs_potential=0.7"]) == 2
+    assert "--rewards sets vcs_potential=0.7 and --shaping vcs_potential sets its weight too" in capsys.readouterr().err
+    assert vcs_cli.main([*base, "--shaping-weight", "0.4"]) == 2
+    assert "--shaping-weight weighs the --shaping term: give --shaping too" in capsys.readouterr().err

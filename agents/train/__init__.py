@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -295,48 +296,59 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     from ..vec_env import MixtureVecEnv, NavVecEnv
 
     out = Path(cfg.out)
+    made, wrote = not out.exists(), False
     out.mkdir(parents=True, exist_ok=True)
-    t_start = time.time()
-    if len(scenarios) == 1:
-        venv = NavVecEnv(scenario, cfg.n_worlds, expert=expert, gamma=cfg.gamma, start_states=starts, residual=residual)
-    else:
-        venv = MixtureVecEnv(
-            scenarios, cfg.n_worlds, expert=expert, gamma=cfg.gamma, balance=cfg.mixture_balance,
-            start_states=starts, residual=residual,
-        )  # fmt: skip
-    tb = str(out / "tb") if cfg.tensorboard else None
-    if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
-        model = resume.load(scenario, env=venv)
-        model.tensorboard_log = tb
-        model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
-        print(f"resumed {resume} at {model.num_timesteps} timesteps")
-    else:
-        kwargs = ppo_kwargs(cfg, scenario)
-        model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
-        if residual is not None:
-            zero_action_head(model)
-        if init:
-            meta = load_policy_weights(model, init, scenario)
-            print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
-            if cfg.init_log_std is not None:
-                with torch.no_grad():
-                    model.policy.log_std.fill_(cfg.init_log_std)
-    start_steps = int(model.num_timesteps)  # the checkpoint's for a resumed run, 0 for a new one
-    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
-    remaining = cfg.timesteps - model.num_timesteps
-    periodic = PeriodicEval(cfg, scenarios, out, t_start)
-    if resume:
-        periodic.restore(model.num_timesteps)
-    callback = _callback(cfg, scenarios, out, t_start, periodic, anneal, guide)
-    what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
-    what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
-    print(
-        f"training {what} shaping={cfg.shaping}"
-        + (f" guide={cfg.guide} (weight {cfg.guide_weight})" if guide else "")
-        + (f" residual={residual.planner} (scale {residual.scale})" if residual else "")
-        + f": {venv.num_envs} slots, {remaining} timesteps -> {out}",
-        flush=True,
-    )
+    try:  # a run refused while it is set up leaves no directory (or config.json) of its own behind
+        t_start = time.time()
+        if len(scenarios) == 1:
+            venv = NavVecEnv(
+                scenario, cfg.n_worlds, expert=expert, gamma=cfg.gamma, start_states=starts, residual=residual
+            )
+        else:
+            venv = MixtureVecEnv(
+                scenarios, cfg.n_worlds, expert=expert, gamma=cfg.gamma, balance=cfg.mixture_balance,
+                start_states=starts, residual=residual,
+            )  # fmt: skip
+        tb = str(out / "tb") if cfg.tensorboard else None
+        if resume:  # the weights, PPO settings and network are the checkpoint's; cfg.init only records the start
+            model = resume.load(scenario, env=venv)
+            model.tensorboard_log = tb
+            model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
+            print(f"resumed {resume} at {model.num_timesteps} timesteps")
+        else:
+            kwargs = ppo_kwargs(cfg, scenario)
+            model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
+            if residual is not None:
+                zero_action_head(model)
+            if init:
+                meta = load_policy_weights(model, init, scenario)
+                print(f"initialised the policy from {cfg.init} ({meta.get('kind', 'unknown')} checkpoint)")
+                if cfg.init_log_std is not None:
+                    with torch.no_grad():
+                        model.policy.log_std.fill_(cfg.init_log_std)
+        start_steps = int(model.num_timesteps)  # the checkpoint's for a resumed run, 0 for a new one
+        (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
+        wrote = True
+        remaining = cfg.timesteps - model.num_timesteps
+        periodic = PeriodicEval(cfg, scenarios, out, t_start)
+        if resume:
+            periodic.restore(model.num_timesteps)
+        callback = _callback(cfg, scenarios, out, t_start, periodic, anneal, guide)
+        what = ", ".join(f"{s.kind} (n={s.n_robots}, m={s.n_obstacles})" for s in scenarios[:6])
+        what += f" and {len(scenarios) - 6} more" if len(scenarios) > 6 else ""
+        print(
+            f"training {what} shaping={cfg.shaping}"
+            + (f" guide={cfg.guide} (weight {cfg.guide_weight})" if guide else "")
+            + (f" residual={residual.planner} (scale {residual.scale})" if residual else "")
+            + f": {venv.num_envs} slots, {remaining} timesteps -> {out}",
+            flush=True,
+        )
+    except BaseException:
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        elif wrote and resume is None:
+            (out / "config.json").unlink(missing_ok=True)
+        raise
     rollout = model.n_steps * venv.num_envs
     if remaining > 0 and remaining % rollout:
         print(
