@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -73,6 +74,8 @@ def parse_mixture_entry(text: str) -> tuple[str, dict[str, tuple]]:
             step = conv(step_text) if step_text else None
         except ValueError:
             raise ValueError(f"mixture entry {text!r}: {name} needs {conv.__name__} values, got {value!r}") from None
+        if not all(math.isfinite(v) for v in (lo, hi, 1.0 if step is None else step)):
+            raise ValueError(f"mixture entry {text!r}: {name} needs finite values, got {value!r}")
         if hi < lo or (step is not None and step <= 0):
             raise ValueError(f"mixture entry {text!r}: {name} needs LO <= HI and STEP > 0, got {value!r}")
         if name == "obstacle_speed":

@@ -152,6 +152,8 @@ def test_mixture_entries_expand_to_grids_and_bad_entries_are_named():
         ("circle:speed=1", "FIELD in"),
         ("circle:n_robots=8-4", "LO <= HI"),
         ("circle:n_robots=a", "needs int values"),
+        ("circle:jitter=inf", "jitter needs finite values, got 'inf'"),
+        ("circle:jitter=0-nan", "needs finite values"),
     ):
         with pytest.raises(ValueError, match=msg):
             parse_mixture_entry(entry)

@@ -169,6 +169,12 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     kept = out.read_bytes()
     assert main(["collect-states", *args, "--episodes", "1", "--out", str(out)]) == 2  # not written over
     assert "exists: the new data would replace it" in capsys.readouterr().err and out.read_bytes() == kept
+    for flag, value, said in (
+        ("--before", "inf", "before must be finite times > 0"),
+        ("--danger-time", "nan", "finite"),
+    ):
+        assert main(["collect-states", *args, flag, value, "--out", str(tmp_path / "bad.npz")]) == 2
+        assert said in capsys.readouterr().err
     ((key, contacts),) = StartStates.load(only).pools.items()
     ((_, pool),) = StartStates.load(out).pools.items()
     k = len(contacts)

@@ -23,6 +23,7 @@ Example (the states before the released generalist's contacts on the dynamic sce
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -107,10 +108,10 @@ def collect_states(cfg: StatesConfig) -> StartStates:
     torch.set_num_threads(1)
     if not 1 <= cfg.episodes <= SEED_STRIDE:
         raise ValueError(f"episodes must be in [1, {SEED_STRIDE}], got {cfg.episodes}")
-    if not cfg.before or min(cfg.before) <= 0:
-        raise ValueError(f"before must be times > 0 [s], got {cfg.before}")
-    if cfg.danger_time < 0:
-        raise ValueError(f"danger_time must be >= 0 [s], got {cfg.danger_time}")
+    if not cfg.before or not all(math.isfinite(t) and t > 0 for t in cfg.before):
+        raise ValueError(f"before must be finite times > 0 [s], got {cfg.before}")
+    if not (math.isfinite(cfg.danger_time) and cfg.danger_time >= 0):
+        raise ValueError(f"danger_time must be a finite time >= 0 [s], got {cfg.danger_time}")
     check_out_file(cfg.out, "--out", new=True)
     scenarios = scenarios_of(cfg, cfg.mixture)
     ckpt = open_checkpoint(cfg.policy)
