@@ -98,13 +98,19 @@ def contact_features(obs: torch.Tensor, n_neighbors: int, neighbor_dim: int = V1
     return slot_contacts(obs, slots).reshape(obs.shape[0], n_neighbors * CONTACT_DIM)
 
 
-def wall_slots(obs: torch.Tensor, walls: int, neighbor_dim: int, wall_dim: int = 3) -> torch.Tensor:
-    """The last ``walls * wall_dim`` numbers of observations ``(N, D)`` (the ``wall_points`` block, ``wall_dim``
-    fields per point) as neighbour slots ``(N, walls, neighbor_dim)``: each nearest point on a wall a still object
-    of radius 0 (mask = valid, its position, velocity relative to the robot ``-(own speed, 0)``, gap = distance -
-    own radius, not a robot, not parked)."""
-    n = obs.shape[0]
-    block = obs[:, obs.shape[1] - wall_dim * walls :].reshape(n, walls, wall_dim)
+def wall_block(obs: torch.Tensor, walls: int, wall_dim: int = 3) -> torch.Tensor:
+    """The ``wall_points`` block of observations ``(N, D)``, their last ``walls * wall_dim`` numbers, as
+    ``(N, walls, wall_dim)``: ``valid, x, y`` per point, then, with ``wall_dim`` 7, its segment's ``tx, ty, back,
+    ahead`` (:mod:`vcs_env.observations`)."""
+    return obs[:, obs.shape[1] - wall_dim * walls :].reshape(obs.shape[0], walls, wall_dim)
+
+
+def wall_slots(obs: torch.Tensor, block: torch.Tensor, neighbor_dim: int) -> torch.Tensor:
+    """The wall points ``block`` ``(N, walls, wall_dim)`` of observations ``(N, D)`` (:func:`wall_block`) as neighbour
+    slots ``(N, walls, neighbor_dim)``: each nearest point on a wall a still object of radius 0 (mask = valid, its
+    position, velocity relative to the robot ``-(own speed, 0)``, gap = distance - own radius, not a robot, not
+    parked)."""
+    n, walls = block.shape[:2]
     valid, p = block[..., 0], block[..., 1:3]
     out = torch.zeros(n, walls, neighbor_dim, dtype=obs.dtype, device=obs.device)
     out[..., 0] = valid
@@ -242,9 +248,9 @@ class SlotEncoder(BaseFeaturesExtractor):
         slots = observations[:, EGO_DIM:end].reshape(n, k, d)
         segments = None
         if walls:  # the nearest points on walls are slots too, read by the same encoder
-            slots = torch.cat((slots, wall_slots(observations, walls, d, self.wall_dim)), dim=1)
+            block = wall_block(observations, walls, self.wall_dim)
+            slots = torch.cat((slots, wall_slots(observations, block, d)), dim=1)
             if self.wall_dim >= 7:  # with the segment fields, their time to contact is their wall segment's
-                block = observations[:, observations.shape[1] - self.wall_dim * walls :].reshape(n, walls, -1)
                 segments = block[..., 3:7]
         contact = slot_contacts(observations, slots, segments)
         mask = slots[..., :1]  # (N, k, 1)

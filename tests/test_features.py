@@ -22,6 +22,7 @@ from agents.features import (
     check_features,
     contact_features,
     slot_contacts,
+    wall_block,
     wall_slots,
     widen_fine,
 )
@@ -331,7 +332,7 @@ def wall_contact_inputs(s, world) -> dict:
     enc.encoder[0].register_forward_hook(lambda mod, inp, o: captured.append(inp[0]))
     enc(obs)
     slots = torch.cat((obs[:, EGO_DIM : EGO_DIM + s.n_neighbors * NEIGHBOR_DIM].reshape(1, -1, NEIGHBOR_DIM),
-                       wall_slots(obs, 1, NEIGHBOR_DIM, 7)), dim=1)  # fmt: skip
+                       wall_slots(obs, wall_block(obs, 1, 7), NEIGHBOR_DIM)), dim=1)  # fmt: skip
     return {False: float(slot_contacts(obs, slots)[0, -1, 0]), True: float(captured[0][0, -1, NEIGHBOR_DIM])}
 
 
