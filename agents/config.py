@@ -175,6 +175,8 @@ _SCENARIO_FLAGS = (
     "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "wall_segments",
     "stall_clock",
 )  # fmt: skip
+SCENARIO_FLAGS = (*_SCENARIO_FLAGS, "lidar_beams")
+"""Every flag that changes a scenario (``lidar_beams`` becomes its ``lidar``, :func:`_overrides`)."""
 FEATURES = ("flat", "contact", "slots", "slots-fine")
 """Names accepted by ``--features`` (what the policy's MLPs read, :mod:`agents.features`)."""
 MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}

@@ -22,7 +22,7 @@ from pathlib import Path
 from agents import shield
 from agents.checkpoint import attach_shield
 from agents.config import (
-    _SCENARIO_FLAGS,
+    SCENARIO_FLAGS,
     ScenarioConfig,
     add_config_args,
     check_out_file,
@@ -55,13 +55,9 @@ def _print_summary(res: EvalResult) -> None:
         print(f"{metric.label:<20} {fmt(st['mean'], '.3f'):>9} {ci:>21} {st['n']:>5}")
 
 
-FLAGS = (*_SCENARIO_FLAGS, "lidar_beams")
-"""The scenario flags of an ad-hoc suite (``--suite`` takes none of them)."""
-
-
 def episodes_of(args) -> Suite:
     """The named suite, or an ad-hoc one from the scenario flags and ``--seeds``."""
-    given = [f for f in ("scenario", *FLAGS) if getattr(args, f, None) is not None]
+    given = [f for f in ("scenario", *SCENARIO_FLAGS) if getattr(args, f, None) is not None]
     if args.suite is not None:
         if given or args.seeds is not None:
             flags = ", ".join("--" + f.replace("_", "-") for f in given + (["seeds"] if args.seeds else []))
@@ -72,7 +68,7 @@ def episodes_of(args) -> Suite:
     cfg = config_from_args(ScenarioConfig, args)
     scenario = probe_scenario(cfg)
     seeds = parse_seeds(args.seeds)
-    changes = ",".join(f"{f}={getattr(cfg, f)}" for f in FLAGS if getattr(cfg, f) is not None)
+    changes = ",".join(f"{f}={getattr(cfg, f)}" for f in SCENARIO_FLAGS if getattr(cfg, f) is not None)
     name = f"{cfg.scenario}" + (f"[{changes}]" if changes else "") + f"@{seeds[0]}:{seeds[-1] + 1}"
     desc = f"ad-hoc: the {cfg.scenario} suite conventions" + (f" with {changes}" if changes else "")
     return Suite(name.replace(" ", ""), scenario, seeds, desc)
