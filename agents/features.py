@@ -135,18 +135,19 @@ def slot_contacts(obs: torch.Tensor, slots: torch.Tensor, segments: torch.Tensor
     u = slots[..., 3:5] * (2.0 * V_REF)
     radii = slots[..., 5] * R_REF + own_radius
     gap = slots[..., 6] * SENSE_REF
+    k = p.shape[1] - (0 if segments is None else segments.shape[1])  # the slots timed as discs
     # First root of |p + u t|^2 = R^2 for t >= 0: a t^2 + b t + c = 0.
-    a = (u * u).sum(-1)
-    b = 2.0 * (p * u).sum(-1)
-    c = (p * p).sum(-1) - radii**2
+    pk, uk = p[:, :k], u[:, :k]
+    a = (uk * uk).sum(-1)
+    b = 2.0 * (pk * uk).sum(-1)
+    c = (pk * pk).sum(-1) - radii[:, :k] ** 2
     disc = b * b - 4.0 * a * c
     closing = (b < 0) & (disc >= 0) & (a > 1e-12)
     root = (-b - torch.sqrt(torch.clamp(disc, min=0.0))) / (2.0 * torch.clamp(a, min=1e-12))
     t_c = torch.where(c <= 0, torch.zeros_like(c), torch.where(closing, root.clamp(min=0.0), torch.full_like(c, 1e9)))
-    if segments is not None:
-        w = segments.shape[1]
-        wall = segment_contact_time(own_speed, p[:, -w:], segments, own_radius, gap[:, -w:])
-        t_c = torch.cat((t_c[:, : t_c.shape[1] - w], wall), dim=1)
+    if segments is not None:  # the wall points: their segments' times
+        wall = segment_contact_time(own_speed, p[:, k:], segments, own_radius, gap[:, k:])
+        t_c = torch.cat((t_c, wall), dim=1)
     w = u.clone()
     w[..., 0] = w[..., 0] + own_speed
     reach_speed = v_max + torch.sqrt((w * w).sum(-1))
