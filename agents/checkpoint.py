@@ -464,8 +464,7 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
     """Copy the policy weights of ``checkpoint`` into ``model.policy`` (``train --init``).
 
     The architecture must match (same ``net_arch``); a mismatch raises :class:`CheckpointError`
-    naming the differing tensors. A checkpoint whose encoders read braking times (``vcs-env braking``) makes
-    ``model``'s read them too. Returns the checkpoint's run record.
+    naming the differing tensors. Returns the checkpoint's run record.
     """
     ckpt = open_checkpoint(checkpoint)
     src = ckpt.load(scenario)
@@ -486,8 +485,4 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
             f"(checkpoint vs run: {detail}); use the same --net-arch and --features"
         )
     model.policy.load_state_dict(theirs)
-    if getattr(src.policy.features_extractor, "braking", False):  # weights that read braking times keep reading them
-        from .features import read_braking
-
-        read_braking(model)
     return ckpt.record

@@ -33,11 +33,6 @@ block is its wall segment's (:func:`segment_contact_time`), not the point's as a
 depend on the order of the slots, and one set of weights judges every neighbour. Actor and critic each
 train their own encoder.
 
-``braking`` (a ``slots`` setting, ``vcs-env braking``, :func:`read_braking`): a still object's time to
-contact in the ``contact`` block (a parked robot's, a still obstacle's, a wall point's) is the time left before the
-robot must brake at ``a_max`` to stop short of it (:func:`braking_time`), not the time until it would touch driving on:
-the robot reads a parked robot 0.3 m ahead at 0.5 m/s as 0.1 s away, not 0.6 s.
-
 ``slots-fine``: ``slots`` whose encoder also reads, per slot, the same contact at millimetre resolution: the
 ``contact`` block's scales put a 5 mm gap and a 20 mm one at 0.99 and 0.96 of ``exp(-g / G_REF)``, while the
 v2 network's last contacts on the maps are creeping ones, a robot edging into a wall or a robot by millimetres
@@ -65,7 +60,7 @@ import torch
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from vcs_env.observations import EGO_DIM, SENSE_REF, Layout
-from vcs_env.scenario import A_REF, R_REF, V_REF
+from vcs_env.scenario import R_REF, V_REF
 
 from .config import FEATURES
 
@@ -84,8 +79,6 @@ FINE_G_REF = 0.02
 """Length scale of ``slots-fine``'s nearness input [m]."""
 FINE_T_REF = 0.25
 """Time scale of ``slots-fine``'s contact-time input [s]."""
-STILL_SPEED = 0.05
-"""[m/s] an object slower than this is still for ``braking`` (:func:`braking_time`)."""
 SLOT_WIDTH = 64
 """Width of the ``slots`` encoder's hidden layer (its code has ``SLOT_WIDTH // 2`` numbers). Stored in
 every checkpoint's ``features_extractor_kwargs``; checkpoints without it were trained at 128."""
@@ -129,14 +122,11 @@ def wall_slots(obs: torch.Tensor, block: torch.Tensor, neighbor_dim: int) -> tor
     return out
 
 
-def slot_contacts(
-    obs: torch.Tensor, slots: torch.Tensor, segments: torch.Tensor | None = None, braking: bool = False
-) -> torch.Tensor:
+def slot_contacts(obs: torch.Tensor, slots: torch.Tensor, segments: torch.Tensor | None = None) -> torch.Tensor:
     """The contact features ``(N, S, CONTACT_DIM)`` of neighbour slots ``(N, S, d)`` of observations ``(N, D)``
     (module docstring; 0 in padding slots). With ``segments`` ``(N, W, 4)`` (the segment fields of the wall
     points, :mod:`vcs_env.observations`), the last W slots are points on walls (:func:`wall_slots`) and their time to
-    contact is their wall segment's (:func:`segment_contact_time`), not the point's. With ``braking``, a still
-    object's time to contact is the time left to brake (:func:`braking_time`)."""
+    contact is their wall segment's (:func:`segment_contact_time`), not the point's."""
     v_max = obs[:, 4:5] * V_REF  # [m/s]
     own_speed = obs[:, 0:1] * v_max  # [m/s], forward in the robot frame
     own_radius = obs[:, 7:8] * R_REF  # [m]
@@ -160,28 +150,12 @@ def slot_contacts(
         t_c = torch.cat((t_c, wall), dim=1)
     w = u.clone()
     w[..., 0] = w[..., 0] + own_speed
-    object_speed = torch.sqrt((w * w).sum(-1))  # [m/s]
-    if braking:
-        t_c = braking_time(obs, t_c, object_speed)
-    reach_speed = v_max + object_speed
+    reach_speed = v_max + torch.sqrt((w * w).sum(-1))
     t_r = gap.clamp(min=0.0) / reach_speed.clamp(min=1e-6)
     block = torch.stack(
         (torch.exp(-t_c / T_REF), torch.exp(-gap.clamp(min=0.0) / G_REF), torch.exp(-t_r / T_REF)), dim=-1
     )
     return block * mask[..., None]
-
-
-def braking_time(obs: torch.Tensor, t_c: torch.Tensor, object_speed: torch.Tensor) -> torch.Tensor:
-    """``braking``'s time to contact ``(N, S)`` [s]: for a still object (its speed ``object_speed`` ``(N, S)`` below
-    :data:`STILL_SPEED`: a parked robot, a still obstacle, a point on a wall), the time to contact ``t_c`` ``(N, S)``
-    less half the time the robot takes to brake to rest, ``max(0, t_c - v / (2 a_max))``, ``v`` its speed [m/s]: the
-    time left before it must brake at ``a_max`` to stop short of the object. (Braking along its path from speed ``v``
-    takes it ``v^2 / (2 a_max)`` further, as far as driving on for ``v / (2 a_max)``, at any angle to the object.)
-    Other objects keep ``t_c``: braking to a stop does not keep the robot clear of what moves."""
-    a_max = (obs[:, 5:6] * A_REF).clamp(min=1e-6)  # [m/s^2]
-    own_speed = obs[:, 0:1] * obs[:, 4:5] * V_REF  # [m/s]
-    left = (t_c - own_speed / (2.0 * a_max)).clamp(min=0.0)
-    return torch.where(object_speed < STILL_SPEED, left, t_c)
 
 
 def segment_contact_time(
@@ -240,8 +214,7 @@ class SlotEncoder(BaseFeaturesExtractor):
 
     Each slot reads its own features, its :func:`contact_features` and the robot's own block
     (``EGO_DIM``), ``(N, k, neighbor_dim + CONTACT_DIM + EGO_DIM)``, and with ``fine`` the ``FINE_DIM`` inputs of
-    ``slots-fine`` (module docstring), with ``braking`` a still object's time to contact as the time left to brake
-    (:func:`braking_time`; no weights: ``vcs-env braking`` sets it on a trained network); the encoder (two layers of
+    ``slots-fine`` (module docstring); the encoder (two layers of
     ``width``, ReLU) maps it to ``width // 2`` numbers; the masked maximum and mean over the real
     slots (0 with none) follow the robot's own block and whatever the observation has after the
     slots (wall points, lidar). The same object reads the same wherever it sorts, and the weights
@@ -257,10 +230,9 @@ class SlotEncoder(BaseFeaturesExtractor):
         wall_slots: int = 0,
         fine: bool = False,
         wall_dim: int = 3,
-        braking: bool = False,
     ):
         self.n_neighbors, self.width, self.neighbor_dim, self.wall_slots = n_neighbors, width, neighbor_dim, wall_slots
-        self.fine, self.wall_dim, self.braking = fine, wall_dim, braking
+        self.fine, self.wall_dim = fine, wall_dim
         rest = observation_space.shape[0] - n_neighbors * neighbor_dim - wall_dim * wall_slots
         super().__init__(observation_space, rest + 2 * (width // 2))  # + the maximum and the mean
         self.encoder = torch.nn.Sequential(
@@ -281,7 +253,7 @@ class SlotEncoder(BaseFeaturesExtractor):
             slots = torch.cat((slots, wall_slots(observations, block, d)), dim=1)
             if self.wall_dim >= 7:  # with the segment fields, their time to contact is their wall segment's
                 segments = block[..., 3:7]
-        contact = slot_contacts(observations, slots, segments, self.braking)
+        contact = slot_contacts(observations, slots, segments)
         mask = slots[..., :1]  # (N, k, 1)
         parts = [slots, contact, ego[:, None, :].expand(n, slots.shape[1], EGO_DIM)]
         if self.fine:  # slots-fine: the gap and the time to contact at millimetre resolution (module docstring)
@@ -347,20 +319,3 @@ def widen_fine(model) -> None:
     policy.features_extractor_kwargs = kwargs
     model.policy_kwargs["features_extractor_kwargs"] = kwargs
     policy.optimizer = policy.optimizer_class(policy.parameters(), lr=model.lr_schedule(1), **policy.optimizer_kwargs)
-
-
-def read_braking(model) -> None:
-    """Make the ``slots`` encoders of an SB3 ``model`` (actor's and critic's) read a still object's time to contact
-    as the time left to brake (:func:`agents.features.braking_time`), in place; saved, the model loads so.
-    ``ValueError`` for a model without ``slots`` encoders, or one that reads so already."""
-    policy = getattr(model, "policy", None)
-    extractors = [getattr(policy, name, None) for name in ("pi_features_extractor", "vf_features_extractor")]
-    if not all(isinstance(e, SlotEncoder) for e in extractors):
-        raise ValueError("read_braking takes an SB3 model with --features slots (a SlotEncoder for actor and critic)")
-    if any(e.braking for e in extractors):
-        raise ValueError("read_braking: the model reads still objects' times to contact as braking times already")
-    for e in extractors:
-        e.braking = True
-    kwargs = {**policy.features_extractor_kwargs, "braking": True}
-    policy.features_extractor_kwargs = kwargs
-    model.policy_kwargs = {**model.policy_kwargs, "features_extractor_kwargs": kwargs}

@@ -7,6 +7,7 @@ segment's (:func:`agents.features.segment_contact_time`). Importing this module 
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -15,7 +16,7 @@ import numpy as np
 from vcs_env.observations import Layout, observation_config, observation_layout, with_sensors
 from vcs_env.scenario import Scenario
 
-from .copies import copy_network
+from .checkpoint import config_path, load_model, open_checkpoint
 
 
 def read_wall_segments(model, layout: Layout) -> None:
@@ -56,26 +57,36 @@ def wall_segments_copy(checkpoint, out) -> Path:
     their segment fields) into the directory ``out`` (``model.zip`` and its run record) as a network that reads the
     wall points' segment fields and takes each wall point's time to contact from its segment
     (:func:`read_wall_segments`; the weights are the checkpoint's). The run record keeps the rest (the command that
-    trained it, its shield) and names the source (``wall_segments_from``). Returns the new ``model.zip``;
-    :func:`agents.copies.copy_network` says what is refused; so is a checkpoint without wall points or that reads their
+    trained it, its shield) and names the source (``wall_segments_from``). Returns the new ``model.zip``; ``ValueError``
+    for an existing ``out/model.zip``, a checkpoint without a run record, without wall points or that reads their
     segments already (a copy would change nothing but the record's source)."""
-
-    def adapt(model, ckpt, record):
-        own = with_sensors(Scenario(), record["observation"])
-        if not own.n_wall_points:
-            raise ValueError(f"{ckpt.describe()} was trained without wall points (--n-wall-points): no walls to read")
-        if own.wall_segments:
-            source = record.get("wall_segments_from")
-            raise ValueError(
-                f"{ckpt.describe()} reads its wall points' segments already"
-                + (f" (a copy of {source!r})" if source else " (trained with --wall-segments)")
-                + ": nothing to copy"
-            )
-        wide = dataclasses.replace(own, wall_segments=True)
-        read_wall_segments(model, observation_layout(wide))  # the model's observation is its record's
-        record = {**record, "observation": observation_config(wide), "observation_dim": observation_layout(wide).dim}
-        if isinstance(record.get("config"), dict):
-            record["config"] = {**record["config"], "wall_segments": True}
-        return record
-
-    return copy_network(checkpoint, out, adapt, "wall_segments_from")
+    out = Path(out)
+    if (out / "model.zip").exists():
+        raise ValueError(f"{str(out / 'model.zip')!r} exists: give a new directory")
+    ckpt = open_checkpoint(checkpoint)
+    record = ckpt.record
+    if not isinstance(record, dict) or "observation" not in record:
+        raise ValueError(f"{ckpt.describe()} has no run record naming its observation: its sensing is unknown")
+    own = with_sensors(Scenario(), record["observation"])
+    if not own.n_wall_points:
+        raise ValueError(f"{ckpt.describe()} was trained without wall points (--n-wall-points): no walls to read")
+    if own.wall_segments:
+        source = record.get("wall_segments_from")
+        raise ValueError(
+            f"{ckpt.describe()} reads its wall points' segments already"
+            + (f" (a copy of {source!r})" if source else " (trained with --wall-segments)")
+            + ": nothing to copy"
+        )
+    wide = dataclasses.replace(own, wall_segments=True)
+    model = load_model(ckpt)  # its observation is its record's (read_wall_segments checks the sizes)
+    if not hasattr(model, "policy"):
+        raise ValueError(f"{ckpt.describe()} is not an SB3 checkpoint: vcs-env wall-segments copies SB3 networks")
+    read_wall_segments(model, observation_layout(wide))
+    out.mkdir(parents=True, exist_ok=True)
+    model.save(str(out / "model.zip"))
+    record = {**record, "observation": observation_config(wide), "observation_dim": observation_layout(wide).dim}
+    if isinstance(record.get("config"), dict):
+        record["config"] = {**record["config"], "wall_segments": True}
+    record["wall_segments_from"] = str(ckpt.path)
+    config_path(out / "model.zip").write_text(json.dumps(record, indent=2) + "\n")
+    return out / "model.zip"

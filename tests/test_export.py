@@ -97,20 +97,6 @@ def test_sb3_onnx_gives_the_deterministic_actions(tmp_path, features, kind, extr
     assert layout["checkpoint"]["format"] == "sb3" and layout["shield"] is None and layout["shield_note"] is None
 
 
-def test_a_network_reading_braking_times_exports_them(tmp_path):
-    """``vcs-env braking``'s copy exports with its braking times (it acts otherwise than the original here)."""
-    from agents.copies import braking_copy
-
-    scenario = make_scenario("corridor", n_wall_points=4)
-    path = sb3_checkpoint(tmp_path, scenario, "slots")
-    copy = braking_copy(path, tmp_path / "braking")
-    onnx_path, _ = open_checkpoint(copy).export_onnx(tmp_path / "braking.onnx")
-    obs = fresh_observations(scenario)
-    want, _ = load_model(copy).predict(obs, deterministic=True)
-    assert not np.array_equal(want, load_model(path).predict(obs, deterministic=True)[0])
-    assert np.abs(onnx_actions(onnx_path, obs) - want).max() <= 1e-5
-
-
 def test_the_released_generalist_exports_with_a_note_on_its_shield(tmp_path, capsys):
     meta = json.loads(GENERALIST.with_suffix(".json").read_text())
     assert meta.get("shield")  # the released policy carries a shield in its record

@@ -1,7 +1,6 @@
-"""``vcs-env train``, ``collect``, ``bc``, ``distil``, ``collect-states``, ``wall-segments`` and ``braking``: the
-training and imitation layers of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
-:mod:`agents.train.collect_states`, :func:`agents.wall_segments.wall_segments_copy`,
-:func:`agents.copies.braking_copy`) on the command line.
+"""``vcs-env train``, ``collect``, ``bc``, ``distil``, ``collect-states`` and ``wall-segments``: the training and
+imitation layers of ``agents`` (:mod:`agents.train`, :mod:`agents.train.rllib`, :mod:`agents.imitation`,
+:mod:`agents.train.collect_states`, :func:`agents.wall_segments.wall_segments_copy`) on the command line.
 
 The flags are the fields of the run configs (:mod:`agents.runs`, :func:`agents.config.add_config_args`).
 ``train --resume`` continues a checkpoint of an SB3 or RLlib PPO run, or the newest checkpoint of a run
@@ -148,17 +147,9 @@ def cmd_wall_segments(args) -> int:
     return 0
 
 
-def cmd_braking(args) -> int:
-    from agents.copies import braking_copy
-
-    path = braking_copy(args.checkpoint, args.out)
-    print(f"{path}: the network of {args.checkpoint}, reading a still object's time to contact as the time to brake")
-    return 0
-
-
 def add_commands(sub) -> None:
-    """Add ``train``, ``collect``, ``bc``, ``distil``, ``collect-states``, ``wall-segments`` and ``braking`` to the
-    ``vcs-env`` subcommands."""
+    """Add ``train``, ``collect``, ``bc``, ``distil``, ``collect-states`` and ``wall-segments`` to the ``vcs-env``
+    subcommands."""
     p = sub.add_parser(
         "train",
         help="train a PPO policy shared by all robots",
@@ -215,14 +206,3 @@ def add_commands(sub) -> None:
     p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
     p.add_argument("--out", required=True, help="directory for model.zip and model.json")
     p.set_defaults(func=cmd_wall_segments)
-
-    p = sub.add_parser(
-        "braking",
-        help="a copy of a slots checkpoint that reads a still object's time to contact as the time left to brake",
-        description="Copy an SB3 slots checkpoint into OUT as a network whose slot encoders read a still object's "
-        "time to contact (a parked robot's, a still obstacle's, a wall point's) as the time left before the robot "
-        "must brake at a_max to stop short of it; weights kept (agents.copies.braking_copy).",
-    )
-    p.add_argument("checkpoint", help="checkpoint .zip (with its run record .json beside it) or run directory")
-    p.add_argument("--out", required=True, help="directory for model.zip and model.json")
-    p.set_defaults(func=cmd_braking)
