@@ -27,6 +27,7 @@ torch, onnx and onnxruntime are imported when a checkpoint is exported, not befo
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -255,6 +256,23 @@ def opset_range() -> tuple[int, int] | None:
         return None
 
 
+@contextlib.contextmanager
+def _stdout_dropped():
+    """Drop what is written to the process's standard output (file descriptor 1) inside the block: the TorchScript
+    exporter turns its ONNX log on whatever it is told (torch 2.13) and writes the whole traced graph there when an
+    operator cannot be exported (hundreds of lines before our one-line error)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple[Path, Path]:
     """Write the deterministic actor of ``checkpoint`` (an :class:`agents.checkpoint.Checkpoint`) to
     ``out`` (``.onnx``) and its :func:`layout` to ``out`` with suffix ``.json``; return both paths.
@@ -308,7 +326,7 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
     example = torch.zeros(2, dim, dtype=torch.float32)  # not 1: no size-1 broadcast baked into the graph
     obs = np.random.default_rng(0).uniform(space.low, space.high, size=(CHECK_ROWS, dim)).astype(np.float32)
     try:
-        with warnings.catch_warnings(), torch.no_grad():
+        with warnings.catch_warnings(), torch.no_grad(), _stdout_dropped():
             warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation and tracer warnings
             torch.onnx.export(
                 actor,

@@ -187,6 +187,12 @@ def test_bad_input_gets_one_line_errors(tmp_path, capfd):
     for opset in (low - 1, high + 1):
         assert main(["export", str(path), "--onnx", str(tmp_path / "w.onnx"), "--opset", str(opset)]) == 2
         assert f"exports ONNX opsets {low} to {high}, got {opset}" in one_error(capfd)
+    # An opset torch has but cannot write this network in (slots: slices with dynamic inputs need opset 10 and up):
+    # one line, and nothing on stdout (torch's exporter writes its whole traced graph there before it refuses).
+    slots = sb3_checkpoint(tmp_path, scenario, "slots")
+    assert main(["export", str(slots), "--onnx", str(tmp_path / "w.onnx"), "--opset", "9"]) == 2
+    out, err = capfd.readouterr()
+    assert not out and len(err.strip().splitlines()) == 1 and "could not be exported at opset 9" in err
     # The layout would overwrite the run record beside the checkpoint: refused, the record kept.
     record_text = path.with_suffix(".json").read_text()
     assert main(["export", str(path), "--onnx", str(path.with_suffix(".onnx"))]) == 2
