@@ -434,3 +434,21 @@ def test_cli_errors_are_messages(tmp_path, capsys, monkeypatch):
         monkeypatch.setitem(sys.modules, "pyrvo", None)  # as if the orca extra were not installed
         assert cli.main([*base, "orca"]) == 2
         assert "pip install -e '.[orca]'" in capsys.readouterr().err
+
+
+def test_a_mixture_scored_with_fewer_episodes_than_scenarios_says_the_rest_are_left_out():
+    """Episode j plays scenario j % S (the periodic evaluation of train, bc's): fewer episodes than scenarios leave the
+    last ones unplayed, and a warning says so; one episode per scenario is silent."""
+    import warnings
+
+    from agents.evaluate import score_scenarios
+    from vcs_env.rollout import planner_controller
+    from vcs_env.scenario import make_scenario
+
+    scenarios = [make_scenario("circle", n_robots=n, max_steps=20) for n in (2, 3, 4)]
+    controller = planner_controller(PLANNERS["straight"]())
+    with pytest.warns(UserWarning, match="2 evaluation episodes over a mixture of 3 scenarios.* last 1 are not scored"):
+        assert score_scenarios(controller, scenarios, [0, 1])["episodes"] == 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert score_scenarios(controller, scenarios, [0, 1, 2])["episodes"] == 3

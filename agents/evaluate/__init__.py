@@ -28,6 +28,7 @@ import math
 import os
 import sys
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -357,7 +358,15 @@ def score_scenarios(
 ) -> dict[str, Any]:
     """:func:`score_seeds` over a mixture: episode ``j`` plays ``scenarios[j % len(scenarios)]``
     with ``seeds[j]``. Episode rates are over all episodes, robot rates and ``time_to_goal`` over
-    all robots; the per-robot arrays are flattened. One scenario gives :func:`score_seeds`."""
+    all robots; the per-robot arrays are flattened. One scenario gives :func:`score_seeds`. Fewer seeds than
+    scenarios leave the last scenarios unplayed: a ``UserWarning`` says so."""
+    if len(seeds) < len(scenarios):
+        warnings.warn(
+            f"{len(seeds)} evaluation episodes over a mixture of {len(scenarios)} scenarios: episode j plays scenario "
+            f"j % {len(scenarios)}, so the last {len(scenarios) - len(seeds)} are not scored (give at least "
+            f"{len(scenarios)} episodes, e.g. --eval-episodes {len(scenarios)})",
+            stacklevel=2,
+        )
     if len(scenarios) == 1:
         return score_seeds(controller, scenarios[0], seeds, action_mode)
     parts = [score_seeds(controller, s, part, action_mode) for s, part in mixture_split(scenarios, seeds)]
