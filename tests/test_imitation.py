@@ -29,7 +29,7 @@ def test_bc_takes_paths_and_dagger_labels_with_the_datasets_planner(tmp_path, mo
     assert json.loads((tmp_path / "bc" / "model.json").read_text())["config"]["data"] == str(data)
 
 
-def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on(tmp_path):
+def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on(tmp_path, capsys):
     import agents.imitation as imitation
     from agents.imitation.data import load_dataset
 
@@ -53,6 +53,12 @@ def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on
     # Holding out 90 % of 2 episodes still trains on one (it held out both: a ZeroDivisionError).
     cfg = imitation.BCConfig(data=str(path), out=str(tmp_path / "bc"), epochs=1, val_fraction=0.9, eval_episodes=1)
     assert imitation.behaviour_clone(cfg)["rows"] > 0
+    # The default share (10 %) of 2 episodes holds out none: said, not left to a missing number in the report.
+    capsys.readouterr()
+    cfg = imitation.BCConfig(data=str(path), out=str(tmp_path / "bc2"), epochs=1, eval_episodes=1)
+    report = imitation.behaviour_clone(cfg)
+    assert report["held_out_rows"] == 0 and "held_out_error" not in report
+    assert "val_fraction 0.1 of the dataset's 2 episode(s) holds out none" in capsys.readouterr().out
 
 
 def test_collect_names_the_file_it_writes(tmp_path, capsys):

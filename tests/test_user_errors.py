@@ -158,7 +158,11 @@ def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_nam
     assert vcs_cli.main([*base, "--lr-schedule", "bogus"]) == 2  # refused while PPO is set up
     assert "bogus" in capsys.readouterr().err and not (tmp_path / "run").exists()
     assert vcs_cli.main([*base, "--eval-seed", "-1"]) == 2  # refused before training, not at its first evaluation
-    assert "--eval-seed must be an integer in [0, " in capsys.readouterr().err and not (tmp_path / "run").exists()
+    assert "--eval-seed must be >= 0, got -1" in capsys.readouterr().err and not (tmp_path / "run").exists()
+    bc = ["bc", "--data", str(tmp_path / "none.npz"), "--out", str(tmp_path / "bc")]
+    for flag in ("--seed", "--dagger-seed", "--eval-seed"):  # every seed flag by its name, before anything is read
+        assert vcs_cli.main([*bc, flag, "-5"]) == 2
+        assert f"vcs-env bc: error: {flag} must be >= 0, got -5" in capsys.readouterr().err
     assert vcs_cli.main([*base, "--shaping", "vcs_potential", "--rewards", "vcs_potential=0.7"]) == 2
     assert "--rewards sets vcs_potential=0.7 and --shaping vcs_potential sets its weight too" in capsys.readouterr().err
     assert vcs_cli.main([*base, "--shaping-weight", "0.4"]) == 2

@@ -92,9 +92,11 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "episodes", 1) is not None and getattr(args, "episodes", 1) < 1:
         print(f"vcs-env {args.command}: error: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
         return 2
-    if isinstance(getattr(args, "seed", None), int) and args.seed < 0:
-        print(f"vcs-env {args.command}: error: --seed must be >= 0, got {args.seed}", file=sys.stderr)
-        return 2
+    for name, value in sorted(vars(args).items()):  # --seed, --eval-seed, --dagger-seed, ...: numpy's seeds are >= 0
+        if name.endswith("seed") and isinstance(value, int) and not isinstance(value, bool) and value < 0:
+            flag = "--" + name.replace("_", "-")
+            print(f"vcs-env {args.command}: error: {flag} must be >= 0, got {value}", file=sys.stderr)
+            return 2
     if args.command in COMPILING:
         compile_note()
     try:

@@ -316,6 +316,12 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     report: dict[str, Any] = {"rows": int(train_rows.sum()), "held_out_rows": int(val_rows.sum())}
     if len(Xv):
         report["held_out_error_init"] = action_error(policy, Xv, Yv)
+    elif cfg.val_fraction > 0:
+        episodes = len(np.unique(data["traj_seed"]))
+        print(
+            f"note: val_fraction {cfg.val_fraction} of the dataset's {episodes} episode(s) holds out none (whole "
+            "episodes are held out, and one is kept to train on): no held-out action error (collect more --episodes)"
+        )
 
     def fit(rows: np.ndarray, epochs: int, seed: int) -> list[float]:
         hist = bc_fit(
