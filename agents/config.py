@@ -65,6 +65,9 @@ class ScenarioConfig:
     continue)."""
     layout_radius: float | None = None
     """Circle radius for circle/crowd, half lane length for swap/crossing [m] (None: the preset's)."""
+    arena_half_size: float | None = None
+    """Half size of the square arena [m]: where random, dynamic and walls layouts place robots, walls and obstacles,
+    the doorway's wall, and the edges obstacles bounce off (None: the preset's)."""
     obstacle_speed: tuple[float, ...] | None = None
     """Obstacle speed range LOW HIGH [m/s], drawn per obstacle and episode (None: the preset's)."""
     obstacle_motion: str | None = None
@@ -139,16 +142,17 @@ def _time_limit(scenario, base, cfg: ScenarioConfig):
 def _check_applies(scenario, given: dict[str, Any]):
     """``scenario``, or a ``ValueError`` if a field in ``given`` (set by a flag or a mixture entry)
     cannot change its episodes: a layout field its kind does not read
-    (:attr:`vcs_env.layouts.ScenarioKind.reads`) or an obstacle setting without obstacles."""
+    (:attr:`vcs_env.layouts.ScenarioKind.reads`; the arena's size also where obstacles bounce off its edges or walk
+    in it as pedestrians) or an obstacle setting without obstacles."""
     reads = KINDS[scenario.kind].reads
-    for name in ("jitter", "layout_radius"):
-        if name in given and name not in reads:
-            uses = (
-                f"it reads {', '.join(sorted(reads))} only"
-                if reads
-                else "its layout reads neither jitter nor layout_radius"
+    arena_moves = scenario.n_obstacles and (scenario.bounce or scenario.obstacle_motion == "pedestrians")
+    for name in ("jitter", "layout_radius", "arena_half_size"):
+        if name in given and name not in reads and not (name == "arena_half_size" and arena_moves):
+            uses = f"it reads {', '.join(sorted(reads))} only" if reads else "its layout reads none of them"
+            raise ValueError(
+                f"{name} does not apply to {scenario.kind} scenarios (of jitter, layout_radius and arena_half_size, "
+                f"{uses}); leave it out"
             )
-            raise ValueError(f"{name} does not apply to {scenario.kind} scenarios ({uses}); leave it out")
     for name, kinds in MAP_FIELDS.items():
         if name in given and scenario.kind not in kinds:
             raise ValueError(f"{name} does not apply to {scenario.kind} scenarios (only to {', '.join(kinds)})")
@@ -171,8 +175,8 @@ def scenario_base(name: str):
 
 
 _SCENARIO_FLAGS = (
-    "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "obstacle_speed",
-    "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "wall_segments",
+    "n_robots", "n_obstacles", "max_steps", "jitter", "on_collision", "layout_radius", "arena_half_size",
+    "obstacle_speed", "obstacle_motion", "corridor_width", "door_width", "n_walls", "n_wall_points", "wall_segments",
     "stall_clock",
 )  # fmt: skip
 SCENARIO_FLAGS = (*_SCENARIO_FLAGS, "lidar_beams")

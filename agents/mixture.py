@@ -19,6 +19,7 @@ MIXTURE_FIELDS = {
     "n_obstacles": int,
     "jitter": float,
     "layout_radius": float,
+    "arena_half_size": float,
     "obstacle_speed": float,
     "corridor_width": float,
     "door_width": float,

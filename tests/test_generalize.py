@@ -3,6 +3,7 @@ suites, training on mixtures (groups of worlds), reproducible toy runs."""
 
 import dataclasses
 import json
+import math
 import re
 
 import numpy as np
@@ -75,6 +76,28 @@ def test_the_time_limit_grows_with_the_layout_or_refuses_a_hopeless_one(capsys):
     assert "leaves no robot the time to arrive" in capsys.readouterr().out
     assert probe_scenario(ScenarioConfig(scenario="circle")) == get_suite("circle-8-v0").scenario
     assert capsys.readouterr().out == ""
+    # A layout that spans the arena grows with an arena larger than the scenario it is made from: walls in 8 m against
+    # the preset's 6 m, 4/3 of the preset's limit; a smaller arena keeps the preset's.
+    preset = MAPS["walls"].max_steps
+    walls = build_scenario(ScenarioConfig(scenario="walls", arena_half_size=8.0))
+    assert walls.max_steps == math.ceil(preset * 8.0 / 6.0) > preset
+    assert "walls layout the arena's half size is 8 m (the scenario it grew from: 6 m)" in capsys.readouterr().out
+    assert build_scenario(ScenarioConfig(scenario="walls", arena_half_size=5.0)).max_steps == preset
+
+
+def test_arena_half_size_is_a_flag_where_the_arena_sets_the_worlds():
+    """``--arena-half-size`` (and the mixture field) sizes the layouts that span the arena, and the arena obstacles
+    bounce off; a scenario it cannot change refuses it by name, as a layout field it does not read."""
+    from agents.mixture import mixture_scenarios
+
+    assert build_scenario(ScenarioConfig(scenario="random", arena_half_size=7.5)).arena_half_size == 7.5
+    doors = mixture_scenarios(ScenarioConfig(), ("doorway:arena_half_size=4-5/1",))
+    assert [s.arena_half_size for s in doors] == [4, 5]
+    for name in ("circle", "crowd", "corridor"):
+        with pytest.raises(ValueError, match=f"arena_half_size does not apply to {name} scenarios"):
+            build_scenario(ScenarioConfig(scenario=name, arena_half_size=8.0))
+    bouncing = build_scenario(ScenarioConfig(scenario="dynamic-fast-v0", arena_half_size=8.0))
+    assert bouncing.bounce and bouncing.arena_half_size == 8.0
 
 
 def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
@@ -224,8 +247,8 @@ def test_mixture_grids_end_at_hi_and_fields_that_change_nothing_are_refused():
 
 @pytest.mark.parametrize("name", sorted({**SCENARIOS, **MAPS}))
 def test_each_kind_reads_exactly_the_layout_fields_it_declares(name):
-    """The oracle of ``ScenarioKind.reads``: changing a declared field changes some of five
-    worlds' starts, goals or obstacles; changing any other leaves all of them unchanged."""
+    """The oracle of ``ScenarioKind.reads``: changing a declared field (of jitter, layout_radius and arena_half_size)
+    changes some of five worlds' starts, goals or obstacles; changing any other leaves all of them unchanged."""
     from vcs_env.layouts import KINDS, generate
 
     base = {**SCENARIOS, **MAPS}[name]
@@ -237,7 +260,11 @@ def test_each_kind_reads_exactly_the_layout_fields_it_declares(name):
             out += [np.asarray(v) for v in vars(layout).values() if isinstance(v, np.ndarray)]
         return out
 
-    for field, value in (("jitter", base.jitter + 0.05), ("layout_radius", base.circle_radius + 0.5)):
+    for field, value in (
+        ("jitter", base.jitter + 0.05),
+        ("layout_radius", base.circle_radius + 0.5),
+        ("arena_half_size", base.arena_half_size + 1.0),
+    ):
         moved = dataclasses.replace(base, **{field: value})
         changed = any(a.shape != b.shape or not np.allclose(a, b) for a, b in zip(worlds(base), worlds(moved)))
         assert changed == (field in KINDS[base.kind].reads), (name, field)

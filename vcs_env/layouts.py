@@ -50,9 +50,10 @@ class ScenarioKind:
     summary: str = ""
     """One line for the docs and the command-line help (which fields it reads)."""
     reads: frozenset[str] = frozenset({"jitter", "layout_radius"})
-    """The optional layout fields (of ``jitter``, ``layout_radius``) that change this kind's worlds;
-    setting another one explicitly is an error in the command line and mixtures
-    (:func:`agents.config.build_scenario`)."""
+    """The optional layout fields (of ``jitter``, ``layout_radius``, ``arena_half_size``) that change this kind's
+    worlds; setting another one explicitly is an error in the command line and mixtures
+    (:func:`agents.config.build_scenario`; ``arena_half_size`` also applies where obstacles bounce off the arena's
+    edges or walk as pedestrians in it)."""
 
     def default_radius(self, s: Scenario) -> float:
         """``layout_radius`` when the scenario leaves it None [m]."""
@@ -198,7 +199,7 @@ class Crossing(ScenarioKind):
 class Random(ScenarioKind):
     name = "random"
     summary = "random starts and goals in the square arena ``[-arena_half_size, arena_half_size]^2``."
-    reads = frozenset()
+    reads = frozenset({"arena_half_size"})
 
     def check_layout(self, s: Scenario) -> None:
         check_arena(s)

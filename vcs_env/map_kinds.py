@@ -127,6 +127,7 @@ class Doorway(MapKind):
         "a bottleneck: a wall across the arena (half size ``arena_half_size``) at x = 0 with a door "
         "``door_width`` wide; groups on both sides at x = -+layout_radius swap sides."
     )
+    reads = frozenset({"jitter", "layout_radius", "arena_half_size"})
 
     def places(self, s, rng):
         return _two_way(s, 2.0 * s.arena_half_size)
@@ -246,7 +247,7 @@ class Walls(MapKind):
         "``n_walls`` random wall segments (length in ``wall_length``) inside a walled square arena of half size "
         "``arena_half_size``; random starts and goals clear of them, each with a route."
     )
-    reads = frozenset()
+    reads = frozenset({"arena_half_size"})
 
     def n_segments(self, s: Scenario) -> int:
         return 4 + s.n_walls

@@ -436,15 +436,26 @@ def fit_time_limit(scenario: Scenario, base: Scenario) -> tuple[Scenario, str | 
     ``max_steps`` is sized for its own layout (``n_robots=256`` makes a 76.8 m circle that nobody
     crosses in the circle preset's 60 s). A limit under :data:`TIME_MARGIN` times the least time to
     the goal grows in proportion to the least trip from ``base`` (the preset or suite the scenario was
-    made from, same kind), and to at least :data:`TIME_MARGIN` times that time; otherwise, or for
-    kinds without a bound on the trip, ``(scenario, None)``.
+    made from, same kind), and to at least :data:`TIME_MARGIN` times that time. Kinds whose layout spans the arena
+    (those that read ``arena_half_size``: random, dynamic, doorway and walls layouts) grow it in proportion to an
+    arena larger than ``base``'s. Otherwise ``(scenario, None)``.
     """
-    need, base_need = scenario.least_time_to_goal, base.least_time_to_goal  # [s]
-    if TIME_MARGIN * need <= scenario.max_time or base.kind != scenario.kind or base_need <= 0.0:
+    if base.kind != scenario.kind:
         return scenario, None
-    steps = max(math.ceil(base.max_steps * need / base_need), math.ceil(TIME_MARGIN * need / scenario.dt))
+    steps, why = scenario.max_steps, ""
+    need, base_need = scenario.least_time_to_goal, base.least_time_to_goal  # [s]
+    if TIME_MARGIN * need > scenario.max_time and base_need > 0.0:
+        steps = max(math.ceil(base.max_steps * need / base_need), math.ceil(TIME_MARGIN * need / scenario.dt))
+        why = f"every robot must travel at least {need * scenario.robot.v_max:.1f} m"
+    if "arena_half_size" in _kinds()[scenario.kind].reads and scenario.arena_half_size > base.arena_half_size:
+        wide = math.ceil(base.max_steps * scenario.arena_half_size / base.arena_half_size)
+        if wide > steps:
+            steps, half = wide, scenario.arena_half_size
+            why = f"the arena's half size is {half:g} m (the scenario it grew from: {base.arena_half_size:g} m)"
+    if steps <= scenario.max_steps:
+        return scenario, None
     note = (
         f"max_steps {scenario.max_steps} -> {steps} ({steps * scenario.dt:g} s): on this {scenario.kind} layout "
-        f"every robot must travel at least {need * scenario.robot.v_max:.1f} m, and the time limit grows with it"
+        f"{why}, and the time limit grows with it"
     )
     return dataclasses.replace(scenario, max_steps=steps), note
