@@ -18,6 +18,7 @@ import ast
 import dataclasses
 import functools
 import inspect
+import json
 import os
 import shlex
 import textwrap
@@ -272,17 +273,31 @@ def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
     return out
 
 
+def _is_run_record(path: Path) -> bool:
+    """``path`` holds a checkpoint's run record (a JSON object with its ``kind`` and ``config``)."""
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(record, dict) and "kind" in record and "config" in record
+
+
 def check_out_file(
     path: str | None, flag: str, suffixes: tuple[str, ...] = (), new: bool = False, writable: bool = False
 ) -> None:
     """Before any work: ``ValueError`` if the output file ``path`` of ``flag`` is an existing
-    directory or lacks one of ``suffixes`` (``new``: or exists at all, also with ``.npz`` added, as numpy
-    adds it; for data that took long to make; ``writable``: or cannot be written); its parent directory is made."""
+    directory, an existing checkpoint, dataset or run record (never overwritten), or lacks one of ``suffixes``
+    (``new``: or exists at all, also with ``.npz`` added, as numpy adds it; for data that took long to make;
+    ``writable``: or cannot be written); its parent directory is made."""
     if path is None:
         return
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{flag} {path!r} is a directory; give a file name")
+    if p.is_file() and p.suffix.lower() in (".zip", ".pt", ".npz", ".onnx"):
+        raise ValueError(f"{flag} {path!r} is a {p.suffix} file (a checkpoint or data) that this would overwrite")
+    if p.is_file() and _is_run_record(p):
+        raise ValueError(f"{flag} {path!r} is a checkpoint's run record that this would overwrite; give another file")
     if new and (p.exists() or p.with_name(p.name + ".npz").exists()):
         raise ValueError(f"{flag} {path!r} exists: the new data would replace it; give another name or remove it first")
     if suffixes and p.suffix.lower() not in suffixes:

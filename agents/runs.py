@@ -243,9 +243,15 @@ RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl",
 """What a training run (``vcs-env train`` of every backend, ``bc``, ``distil``) writes into its ``--out``."""
 
 
-def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False) -> None:
-    """A one-line ``ValueError`` when ``out`` already holds a run's files: a new run there would replace its model
-    and append its evaluations to the other run's (``resume_hint``: name ``--resume``, for a run that can go on)."""
+def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False, resume=None) -> None:
+    """A one-line ``ValueError`` when ``out`` is a file, or already holds a run's files: a new run there would replace
+    its model and append its evaluations to the other run's (``resume_hint``: name ``--resume``, for a run that can go
+    on). A run resumed from the checkpoint ``resume`` may go on in that checkpoint's own run directory, nowhere else
+    that holds a run."""
+    if Path(out).exists() and not Path(out).is_dir():
+        raise ValueError(f"--out {str(out)!r} is a file: give a directory for the run")
+    if resume is not None and Path(out).resolve() == resume.run_dir.resolve():
+        return
     held = [f for f in RUN_FILES if (Path(out) / f).exists()]
     if held:
         other = f", or --resume {str(out)!r} to continue that run" if resume_hint else ""

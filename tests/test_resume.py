@@ -66,6 +66,11 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     assert cli.main([*args, "--no-progress-bar"]) == 0
     line = [x for x in capsys.readouterr().out.splitlines() if x.startswith("reproduce:")][0]
     assert "--n-robots 6" in line and f"--resume {run / 'model.zip'}" in line and f"--out {out}" in line
+    # Into a directory that holds another run: refused (it replaced that run's model and cut its evaluations).
+    kept = (out / "eval.jsonl").read_text()
+    assert cli.main(["train", "--resume", str(run), "--timesteps", "12288", "--out", str(out)]) == 2
+    assert f"--out {str(out)!r} already holds a run" in capsys.readouterr().err
+    assert (out / "eval.jsonl").read_text() == kept
 
 
 @pytest.mark.slow

@@ -167,3 +167,27 @@ def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_nam
     assert "--rewards sets vcs_potential=0.7 and --shaping vcs_potential sets its weight too" in capsys.readouterr().err
     assert vcs_cli.main([*base, "--shaping-weight", "0.4"]) == 2
     assert "--shaping-weight weighs the --shaping term: give --shaping too" in capsys.readouterr().err
+
+
+def test_outputs_never_overwrite_a_checkpoint_its_record_or_a_file_given_as_a_run_directory(tmp_path, capsys):
+    """``--json`` over a checkpoint's run record or weights is refused before the episodes (it made the checkpoint
+    unloadable); a results file is replaced; a run directory that is a file is refused before any work."""
+    import shutil
+
+    run = tmp_path / "c8"
+    run.mkdir()
+    for f in ("model.zip", "model.json"):
+        shutil.copy(f"policies/circle8/{f}", run / f)
+    base = ["evaluate", "--suite", "circle-8-v0-smoke", "--policy", str(run), "--json"]
+    record = (run / "model.json").read_text()
+    assert vcs_cli.main([*base, str(run / "model.json")]) == 2
+    assert "is a checkpoint's run record that this would overwrite" in capsys.readouterr().err
+    assert vcs_cli.main([*base, str(run / "model.zip")]) == 2
+    assert "is a .zip file (a checkpoint or data) that this would overwrite" in capsys.readouterr().err
+    assert (run / "model.json").read_text() == record
+    for _ in range(2):  # a results file is written, then replaced
+        assert vcs_cli.main([*base, str(tmp_path / "results.json")]) == 0
+    (tmp_path / "afile").write_text("")
+    select = ["select", str(run), "--validation", "circle:0:2", "--out", str(tmp_path / "afile")]
+    assert vcs_cli.main(select) == 2
+    assert f"--out {str(tmp_path / 'afile')!r} is a file: give a directory for the run" in capsys.readouterr().err

@@ -269,8 +269,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     """Train (or resume from the checkpoint ``resume``) a shared PPO policy; returns the final
     evaluation and paths."""
     check_run(cfg)
-    if resume is None:
-        check_fresh_out(cfg.out, resume_hint=True)
+    check_fresh_out(cfg.out, resume_hint=resume is None, resume=open_checkpoint(resume) if resume else None)
     scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
     scenario = scenarios[0]
     print_suite_differences(scenarios)

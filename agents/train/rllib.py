@@ -213,8 +213,7 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
     scenario = build_scenario(cfg)
     check_config(cfg)
     warn_blind_training([scenario])
-    if resume is None:
-        check_fresh_out(cfg.out, resume_hint=True)
+    check_fresh_out(cfg.out, resume_hint=resume is None, resume=open_checkpoint(resume) if resume else None)
     if resume is not None:
         resume = open_checkpoint(resume)
         if not isinstance(resume, RLlibCheckpoint):
