@@ -389,7 +389,8 @@ def _parse_none(conv):
 
 def add_config_args(parser: argparse.ArgumentParser, cls: type, skip: tuple[str, ...] = ()) -> None:
     """Add one ``--field-name`` flag per field of dataclass ``cls``; defaults are ``None`` (=
-    "not given") so :func:`config_from_args` can tell given flags from defaults."""
+    "not given") so :func:`config_from_args` can tell given flags from defaults. A tuple field's flag takes one or
+    more values, and given again adds to them."""
     hints = typing.get_type_hints(cls)
     docs = field_docs(cls)
     for f in dataclasses.fields(cls):
@@ -403,7 +404,8 @@ def add_config_args(parser: argparse.ArgumentParser, cls: type, skip: tuple[str,
             parser.add_argument(flag, dest=f.name, action=argparse.BooleanOptionalAction, default=None, help=help_text)
         elif typing.get_origin(tp) is tuple:
             (item, *_rest) = typing.get_args(tp)
-            parser.add_argument(flag, dest=f.name, type=item, nargs="+", default=None, help=help_text)
+            # extend: a flag given twice adds to the first (``--mixture a --mixture b``), not replaces it
+            parser.add_argument(flag, dest=f.name, type=item, nargs="+", action="extend", default=None, help=help_text)
         else:
             conv = _parse_none(tp) if optional else tp
             parser.add_argument(flag, dest=f.name, type=conv, default=None, help=help_text)

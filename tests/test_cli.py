@@ -73,3 +73,16 @@ def test_first_command_says_it_compiles(monkeypatch, capsys):
     monkeypatch.setattr(kernels, "on_disk", lambda *k: True)
     vcs_cli.compile_note()
     assert capsys.readouterr().err == ""
+
+
+def test_a_list_flag_given_twice_adds_to_the_first():
+    """``--mixture a --mixture b`` (any tuple field's flag) and ``select --validation`` twice keep every value given;
+    the last one alone was kept (a mixture or a validation set silently dropped)."""
+    from agents.config import config_from_args
+    from agents.imitation import CollectConfig
+    from vcs_cli import build_parser
+
+    args = build_parser().parse_args(["collect", "--mixture", "circle:n_robots=4", "--mixture", "crowd", "--out", "x"])
+    assert config_from_args(CollectConfig, args).mixture == ("circle:n_robots=4", "crowd")
+    sets = ["--validation", "circle:0:2", "--validation", "crowd:0:2"]
+    assert build_parser().parse_args(["select", "c", *sets, "--out", "o"]).validation == ["circle:0:2", "crowd:0:2"]

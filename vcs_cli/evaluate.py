@@ -204,6 +204,7 @@ def _add_select(sub) -> None:
     p.add_argument(
         "--validation",
         nargs="+",
+        action="extend",  # given twice, the sets add up
         required=True,
         help="validation sets SCENARIO:START:STOP, e.g. dynamic-v0:7000:7300 (seeds no suite or probe uses)",
     )
