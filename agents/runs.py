@@ -237,6 +237,17 @@ def check_run(cfg: TrainConfig) -> None:
         raise ValueError(
             "--init-log-std sets the log std of the --init checkpoint's policy; a new policy's is --log-std-init"
         )
+    default = TrainConfig()
+    for name, partner, what in (  # a setting of another flag's feature, without that flag: it would change nothing
+        ("residual_scale", "residual", "scales a residual policy's correction"),
+        ("guide_weight", "guide", "weighs the --guide term"),
+        ("mixture_balance", "mixture", "balances the entries of a --mixture"),
+        ("start_prob", "start_states", "is the share of episodes started from the --start-states file"),
+    ):
+        off = getattr(cfg, partner) in (None, (), "none")
+        if off and getattr(cfg, name) != getattr(default, name):
+            flag, needs = "--" + name.replace("_", "-"), "--" + partner.replace("_", "-")
+            raise ValueError(f"{flag} {what}: give {needs} too, or leave {flag} out")
 
 
 RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl", "checkpoints")

@@ -167,6 +167,14 @@ def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_nam
     assert "--rewards sets vcs_potential=0.7 and --shaping vcs_potential sets its weight too" in capsys.readouterr().err
     assert vcs_cli.main([*base, "--shaping-weight", "0.4"]) == 2
     assert "--shaping-weight weighs the --shaping term: give --shaping too" in capsys.readouterr().err
+    for flag, value, needs in (  # a setting of another flag's feature alone changed nothing, and was recorded
+        ("--residual-scale", "0.9", "--residual"),
+        ("--guide-weight", "5", "--guide"),
+        ("--mixture-balance", "robots", "--mixture"),
+        ("--start-prob", "0.9", "--start-states"),
+    ):
+        assert vcs_cli.main([*base, flag, value]) == 2
+        assert f"give {needs} too, or leave {flag} out" in capsys.readouterr().err and not (tmp_path / "run").exists()
 
 
 def test_outputs_never_overwrite_a_checkpoint_its_record_or_a_file_given_as_a_run_directory(tmp_path, capsys):
