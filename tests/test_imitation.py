@@ -70,5 +70,8 @@ def test_collect_names_the_file_it_writes(tmp_path, capsys):
     assert cli.main([*base, "--out", str(tmp_path / "noext")]) == 0
     assert f"-> {tmp_path / 'noext.npz'}" in capsys.readouterr().out
     assert (tmp_path / "noext.npz").is_file()
+    from agents.imitation.data import load_dataset  # the name given to collect loads, as the name written does
+
+    assert load_dataset(tmp_path / "noext")[1] == load_dataset(tmp_path / "noext.npz")[1]
     assert cli.main([*base, "--out", str(tmp_path)]) == 2
     assert "is a directory" in capsys.readouterr().err

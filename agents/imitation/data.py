@@ -179,8 +179,11 @@ def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, 
 
 
 def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """``(arrays, meta)`` of a dataset; ``ValueError`` naming the problem if it is not one."""
+    """``(arrays, meta)`` of a dataset (``path``, or ``path`` with ``.npz`` added, as :func:`save_dataset` and numpy
+    write a name without it); ``ValueError`` naming the problem if it is not one."""
     path = Path(path)
+    if not path.is_file() and path.suffix != ".npz" and path.with_name(path.name + ".npz").is_file():
+        path = path.with_name(path.name + ".npz")
     if not path.is_file():
         raise ValueError(f"dataset not found: {str(path)!r} (make one with vcs-env collect)")
     if not zipfile.is_zipfile(path):  # numpy would try it as a pickle and say so
