@@ -294,12 +294,12 @@ def check_out_file(
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{flag} {path!r} is a directory; give a file name")
+    if new and (p.exists() or p.with_name(p.name + ".npz").exists()):
+        raise ValueError(f"{flag} {path!r} exists: the new data would replace it; give another name or remove it first")
     if p.is_file() and p.suffix.lower() in (".zip", ".pt", ".npz", ".onnx"):
         raise ValueError(f"{flag} {path!r} is a {p.suffix} file (a checkpoint or data) that this would overwrite")
     if p.is_file() and _is_run_record(p):
         raise ValueError(f"{flag} {path!r} is a checkpoint's run record that this would overwrite; give another file")
-    if new and (p.exists() or p.with_name(p.name + ".npz").exists()):
-        raise ValueError(f"{flag} {path!r} exists: the new data would replace it; give another name or remove it first")
     if suffixes and p.suffix.lower() not in suffixes:
         raise ValueError(f"{flag} must end in {' or '.join(suffixes)}, got {path!r}")
     try:

@@ -261,3 +261,33 @@ def test_robots_that_finished_in_a_saved_state_are_padding_in_the_vec_env():
             ended = True
             break
     assert ended
+
+
+def test_a_residual_policy_collects_its_states_as_evaluate_runs_it(tmp_path):
+    """A residual checkpoint (``train --residual vcs``) drives with its planner plus its correction: an untrained one,
+    its correction zero, is the VCS expert, which keeps clear of the movers; its network alone (zero actions: the
+    robots stand) is run into. collect-states played the network alone (states of a policy nobody runs)."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3 import PPO
+
+    from agents.checkpoint import save_model
+    from agents.runs import TrainConfig
+    from agents.train import zero_action_head
+    from agents.train.collect_states import StatesConfig, collect_states
+    from agents.vec_env import NavVecEnv
+
+    scenario = dynamic(n_obstacles=10, on_collision="terminate")
+    model = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs={"net_arch": [8]}, seed=0)
+    zero_action_head(model)
+    counts = {}
+    for residual in (None, "vcs"):
+        cfg = TrainConfig(net_arch=(8,), residual=residual, scenario="dynamic")
+        path = save_model(model, tmp_path / str(residual) / "model", "ppo", cfg, scenario)
+        states = collect_states(
+            StatesConfig(
+                policy=str(path), scenario="dynamic", n_robots=3, n_obstacles=10, on_collision="terminate",
+                episodes=8, out=str(tmp_path / f"{residual}.npz"),
+            )
+        )  # fmt: skip
+        counts[residual] = sum(len(p) for p in states.pools.values())
+    assert counts[None] > 2 * counts["vcs"]

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,10 +34,10 @@ from vcs_env.rewards import contact_times
 from vcs_env.rollout import Hook, Step, play
 from vcs_env.start_states import StartStates, StatePool, scenario_key
 
-from ..checkpoint import load_model, open_checkpoint
+from ..checkpoint import open_checkpoint
 from ..config import ScenarioConfig, check_out_file
 from ..mixture import scenarios_of
-from ..policies import predictor_controller, sensed_as_trained
+from ..policies import resolve_policy, sensed_as_trained
 
 DANGER_THIN = 20
 """One in this many danger steps is kept (neighbouring steps are near duplicates)."""
@@ -116,7 +117,11 @@ def collect_states(cfg: StatesConfig) -> StartStates:
     scenarios = scenarios_of(cfg, cfg.mixture)
     ckpt = open_checkpoint(cfg.policy)
     sensed = [sensed_as_trained(ckpt, sc, str(cfg.policy)) for sc in scenarios]  # the policy's own sensing
-    control = predictor_controller(load_model(ckpt, sensed[0]).policy)
+    # As evaluate runs it (any checkpoint format; a residual policy with its planner), without a shield: the states
+    # are where the policy itself comes close to a contact.
+    with warnings.catch_warnings():  # what the policy cannot sense was said just above
+        warnings.simplefilter("ignore")
+        control = resolve_policy(ckpt, sensed[0], shield=False).controller
     rng = np.random.default_rng(cfg.seed)
     pools: dict[str, list[StatePool]] = {}
     t0 = time.time()
