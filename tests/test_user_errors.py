@@ -142,9 +142,12 @@ def test_reset_options_that_no_env_reads_are_refused():
 
 
 def test_a_step_before_the_first_reset_says_so():
-    env = vcs_env.parallel_env(scenario="circle", n_robots=2, max_steps=5)
+    env = vcs_env.parallel_env(scenario="circle", n_robots=2, max_steps=5, render_mode="ansi")
     with pytest.raises(RuntimeError, match=r"step\(\) called before the first reset\(\)"):
         env.step({})
+    for call in ("state", "render"):  # they gave zeros and robots at (0, 0), "crashed"
+        with pytest.raises(RuntimeError, match=rf"{call}\(\) called before the first reset\(\)"):
+            getattr(env, call)()
     env.reset(seed=0)
     while env.agents:
         env.step({a: np.array([0.0, 0.0], dtype=np.float32) for a in env.agents})
@@ -199,3 +202,10 @@ def test_outputs_never_overwrite_a_checkpoint_its_record_or_a_file_given_as_a_ru
     select = ["select", str(run), "--validation", "circle:0:2", "--out", str(tmp_path / "afile")]
     assert vcs_cli.main(select) == 2
     assert f"--out {str(tmp_path / 'afile')!r} is a file: give a directory for the run" in capsys.readouterr().err
+
+
+def test_wrong_types_are_named_before_they_are_used():
+    with pytest.raises(ValueError, match="observation must be an integer in \\[1, 2\\], got None"):
+        vcs_env.make_scenario("walls", observation=None, n_wall_points=2, wall_segments=True)  # was a TypeError
+    with pytest.raises(ValueError, match="reward_terms must be a dict \\{name: \\(weight, fn\\)\\}, got a list"):
+        vcs_env.parallel_env(reward_terms=[("a", (1.0, lambda *a: 0.0))])  # was an AttributeError deep inside

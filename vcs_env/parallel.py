@@ -252,6 +252,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
             raise ValueError(f"missing actions for live agents {missing}")
 
     def state(self) -> np.ndarray:
+        if not self._started:
+            raise RuntimeError("state() called before the first reset(); call reset() first")
         return state_vector(self.engine.world)[0]
 
 

@@ -134,6 +134,8 @@ class RenderMixin:
     ``scenario``, ``engine``, ``metadata`` and ``_renderer``."""
 
     def render(self):
+        if not getattr(self, "_started", True):  # the world holds no episode yet (the PettingZoo env says)
+            raise RuntimeError("render() called before the first reset(); call reset() first")
         if self.render_mode is None:
             import gymnasium
 

@@ -299,10 +299,13 @@ def build_terms(
     ``extra`` adds ``{name: (weight, term or function)}`` after them.
 
     Raises:
-        ValueError: for an extra name that exists, or a spec that is not a (finite weight, term) pair.
+        ValueError: for ``extra`` not a mapping, an extra name that exists, or a spec that is not a (finite weight,
+            term) pair.
     """
     weights = dict(weights)
     terms = {cls.name: cls() for cls in TERMS if not cls.only_when_weighted or weights[cls.name] != 0.0}
+    if extra is not None and not isinstance(extra, Mapping):
+        raise ValueError(f"reward_terms must be a dict {{name: (weight, fn)}}, got a {type(extra).__name__}")
     for name, spec in (extra or {}).items():
         if name in weights:
             raise ValueError(f"reward term {name!r} already exists; pick another name")

@@ -241,13 +241,13 @@ class Scenario:
         for name in ("obstacle_radius", "obstacle_speed", "go_time", "stop_time", "wall_length"):  # lists from JSON
             object.__setattr__(self, name, tuple(getattr(self, name)))
         check_int("n_wall_points", self.n_wall_points, 0, 64)
+        check_int("observation", self.observation, 1, 2)
         if not isinstance(self.wall_segments, (bool, np.bool_)):
             raise ValueError(f"wall_segments must be True or False, got {self.wall_segments!r}")
         if self.wall_segments and not self.n_wall_points:
             raise ValueError("wall_segments needs the wall points block: set n_wall_points > 0 (--n-wall-points)")
         if self.wall_segments and self.observation < 2:
             raise ValueError("wall_segments needs observation version 2 (v1's wall points have three fields)")
-        check_int("observation", self.observation, 1, 2)
         if not isinstance(self.stall_clock, (bool, np.bool_)):
             raise ValueError(f"stall_clock must be True or False, got {self.stall_clock!r}")
         if self.stall_clock and self.observation < 2:
