@@ -364,6 +364,9 @@ def run(
     With ``merge``, the sections not run are kept from the existing JSON next to ``out`` (their
     numbers are from that earlier run)."""
     out = Path(out) if out is not None else default_out(quick)
+    if out.suffix.lower() == ".json" or out.is_dir():  # before the runs, not after them
+        what = "a directory" if out.is_dir() else "the raw numbers' own name (the .json beside the report)"
+        raise ValueError(f"--out {str(out)!r} is {what}: give the Markdown report's file name, e.g. RESULTS.md")
     sz = quick_sizes() if quick else Sizes()
     t0 = time.perf_counter()
     machine = machine_info()
@@ -437,7 +440,8 @@ def _jsonable(x):
 
 def _command_line() -> str:
     prog = Path(sys.argv[0]).name
-    prog = "python -m benchmarks" if prog == "__main__.py" else prog
+    if prog == "__main__.py":  # python -m PACKAGE: the package that ran (benchmarks, or vcs_cli's bench)
+        prog = f"python -m {Path(sys.argv[0]).parent.name}"
     return " ".join([prog, *sys.argv[1:]])
 
 

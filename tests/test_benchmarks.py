@@ -223,3 +223,12 @@ def test_jaxmarl_bench_quick_writes_its_tables_with_or_without_jaxmarl(tmp_path)
     for row in rows:
         for name in ("jaxmarl_step", "jaxmarl_scan"):
             assert row[name]["status"] == "ok" or "pip install jaxmarl" in row[name]["status"]
+
+
+def test_an_output_the_report_would_overwrite_is_refused_before_the_runs(tmp_path):
+    """``--out R.json`` wrote the Markdown report over its own raw numbers; a directory failed after the runs."""
+    from benchmarks.run import run
+
+    for out in (tmp_path / "R.json", tmp_path):
+        with pytest.raises(ValueError, match="give the Markdown report's file name"):
+            run(quick=True, out=out, sections=("env",))
