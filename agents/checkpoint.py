@@ -355,7 +355,7 @@ def find_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint | None:
     if isinstance(spec, Checkpoint):
         return spec
     path = Path(spec)
-    if path.suffix == ".json":  # a run record is not a checkpoint
+    if path.suffix in (".json", ".npz"):  # a run record, a dataset (vcs-env collect's): not checkpoints
         return None
     return next((c for fmt in FORMATS if (c := fmt.find(path)) is not None), None)
 
@@ -374,6 +374,8 @@ def open_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint:
         raise CheckpointError(
             f"{str(path)!r} is the run record; pass {path.with_suffix('.zip').name} or the run directory"
         )
+    if path.suffix == ".npz" and path.is_file():
+        raise CheckpointError(f"{str(path)!r} is a dataset (vcs-env collect's .npz), not a checkpoint ({ACCEPTED})")
     raise CheckpointError(f"checkpoint not found: {str(path)!r} (expected {ACCEPTED})")
 
 

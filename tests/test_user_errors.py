@@ -209,3 +209,12 @@ def test_wrong_types_are_named_before_they_are_used():
         vcs_env.make_scenario("walls", observation=None, n_wall_points=2, wall_segments=True)  # was a TypeError
     with pytest.raises(ValueError, match="reward_terms must be a dict \\{name: \\(weight, fn\\)\\}, got a list"):
         vcs_env.parallel_env(reward_terms=[("a", (1.0, lambda *a: 0.0))])  # was an AttributeError deep inside
+
+
+def test_a_dataset_given_as_a_policy_is_named_as_one(tmp_path):
+    """A collect dataset passed as --policy was read as an SB3 file and the error advised copying a run record."""
+    from agents.checkpoint import CheckpointError, open_checkpoint
+
+    np.savez(tmp_path / "data.npz", observations=np.zeros((1, 3)))
+    with pytest.raises(CheckpointError, match=r"is a dataset \(vcs-env collect's \.npz\), not a checkpoint"):
+        open_checkpoint(tmp_path / "data.npz")
