@@ -218,3 +218,22 @@ def test_a_dataset_given_as_a_policy_is_named_as_one(tmp_path):
     np.savez(tmp_path / "data.npz", observations=np.zeros((1, 3)))
     with pytest.raises(CheckpointError, match=r"is a dataset \(vcs-env collect's \.npz\), not a checkpoint"):
         open_checkpoint(tmp_path / "data.npz")
+
+
+def test_a_custom_goal_no_robot_can_arrive_at_is_refused():
+    """A goal inside a still obstacle, or two goals too close for both robots to park: every episode was truncated
+    (the goal on a wall was refused already). With finished robots leaving the world, shared goals are fine."""
+    from vcs_env.custom_layout import ObstacleTrajectory
+
+    twins = vcs_env.CustomLayout(start=[(0, 0), (0, 2)], goal=[(3, 1), (3, 1.25)])
+    with pytest.raises(ValueError, match="goals of robots 0 and 1 are too close for both to park there"):
+        vcs_env.make_scenario("custom", custom=twins)
+    assert vcs_env.make_scenario("custom", custom=twins, park_finished=False).n_robots == 2
+    apart = vcs_env.CustomLayout(start=[(0, 0), (0, 2)], goal=[(3, 1), (3, 1.35)])  # 0.35 + 2 r_goal >= 2 radii
+    assert vcs_env.make_scenario("custom", custom=apart).n_robots == 2
+    rock = ObstacleTrajectory(times=(0,), positions=((3, 0),), radius=0.5)
+    inside = vcs_env.CustomLayout(start=[(0, 0)], goal=[(3.5, 0)], obstacles=(rock,))
+    with pytest.raises(ValueError, match="the goal of robot 0 lies inside still obstacle 0"):
+        vcs_env.make_scenario("custom", custom=inside)
+    beside = vcs_env.CustomLayout(start=[(0, 0)], goal=[(3.7, 0)], obstacles=(rock,))  # 0.7 + r_goal > 0.75
+    assert vcs_env.make_scenario("custom", custom=beside).n_robots == 1
