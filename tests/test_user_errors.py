@@ -237,3 +237,12 @@ def test_a_custom_goal_no_robot_can_arrive_at_is_refused():
         vcs_env.make_scenario("custom", custom=inside)
     beside = vcs_env.CustomLayout(start=[(0, 0)], goal=[(3.7, 0)], obstacles=(rock,))  # 0.7 + r_goal > 0.75
     assert vcs_env.make_scenario("custom", custom=beside).n_robots == 1
+
+
+def test_a_crowd_whose_obstacles_cannot_fit_between_the_robots_is_refused_when_made():
+    """16 robots of radius 0.5 m on the crowd circle leave no room for an obstacle: every reset failed, the scenario
+    was accepted (the ring's length was checked, not the room between the robots)."""
+    with pytest.raises(ValueError, match="no crowd obstacle of radius 0.3 m fits"):
+        vcs_env.parallel_env(scenario="crowd", n_robots=16, n_obstacles=1, robot={"radius": 0.5})
+    env = vcs_env.parallel_env(scenario="crowd", n_robots=8, n_obstacles=1, robot={"radius": 0.5})
+    env.reset(seed=0)  # room for it: made and reset

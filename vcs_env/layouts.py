@@ -249,6 +249,17 @@ class Crowd(ScenarioKind):
                 f"{s.circle_radius:g} m: their starts and goals need {used:.1f} m of its {ring:.1f} m; "
                 "increase layout_radius"
             )
+        if s.n_obstacles:  # the length of the ring is not the room between the robots: the first obstacle must fit
+            start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
+            bodies = [(p, r) for p in np.concatenate((start, -start))]
+            try:
+                Crowd._search(np.random.default_rng(0), s, bodies, r_obs, 0)
+            except ValueError:
+                raise ValueError(
+                    f"no crowd obstacle of radius {r_obs:g} m fits, start and antipodal goal, between {s.n_robots} "
+                    f"robots of radius {r:g} m on a circle of radius {s.circle_radius:g} m; increase layout_radius or "
+                    "reduce n_robots / robot radius / obstacle_radius / min_separation"
+                ) from None
 
     def least_trip(self, s: Scenario) -> float:
         return max(0.0, 2.0 * s.circle_radius - s.r_goal)  # start and goal are antipodes of the ring
