@@ -95,6 +95,9 @@ def test_probes_inside_a_policys_training_ranges_are_named_and_left_out_of_its_g
     circle12 = training_boxes({"config": {"scenario": "circle", "n_robots": 12}})
     assert inside_training(Probe("circle", "n_robots=12", {"n_robots": 12}), circle12) is None
     assert training_boxes({}) == []
+    # A bc run trained on its dataset's scenarios (its config names the data, the record keeps the collect config).
+    bc = {"config": {"data": "d.npz"}, "dataset_meta": {"config": {"scenario": "crowd-5-v0", "n_obstacles": 3}}}
+    assert inside_training(Probe("crowd", "obstacles", {"n_obstacles": 3}), training_boxes(bc)) == "crowd-5-v0"
     # The gap check skips the cells of probes a policy trained on.
     row = {"probe": "a", "policies": {"vcs": {"success": 1.0}, "pol": {"success": 0.5}}, "inside": {"pol": "x"}}
     assert gaps({"expert": "vcs", "probes": [row]}, planners={"vcs"}) == {"pol": []}

@@ -127,8 +127,10 @@ def _axes(scenario) -> dict[str, tuple[float, float]]:
 def training_boxes(record: dict[str, Any]) -> list[tuple[str, str, dict[str, tuple[float, float]]]]:
     """The training scenarios of a checkpoint's run record as boxes: per mixture entry (or the one
     scenario) ``(entry, kind, {axis: (low, high)})``, the lowest and highest value each axis takes
-    over the entry's grid ([] for a record without a config)."""
+    over the entry's grid (a ``bc`` run's: its dataset's; [] for a record without a config)."""
     config = record.get("config") if isinstance(record, dict) else None
+    if isinstance(config, dict) and "scenario" not in config and isinstance(record.get("dataset_meta"), dict):
+        config = record["dataset_meta"].get("config")  # bc: the scenarios of its dataset (its DAgger rounds' too)
     if not config:
         return []
     cfg = config_from_dict(ScenarioConfig, config)
