@@ -246,3 +246,15 @@ def test_a_crowd_whose_obstacles_cannot_fit_between_the_robots_is_refused_when_m
         vcs_env.parallel_env(scenario="crowd", n_robots=16, n_obstacles=1, robot={"radius": 0.5})
     env = vcs_env.parallel_env(scenario="crowd", n_robots=8, n_obstacles=1, robot={"radius": 0.5})
     env.reset(seed=0)  # room for it: made and reset
+
+
+def test_an_env_whose_time_limit_nobody_can_arrive_in_warns():
+    """The command line grows a grown layout's time limit; the envs keep the scenario's, and now say when no robot can
+    arrive in it (a 76.8 m circle of 256 robots in the preset's 60 s: every episode truncated, silently)."""
+    import warnings
+
+    with pytest.warns(UserWarning, match="leaves no robot the time to arrive.*every episode will be truncated"):
+        vcs_env.parallel_env(scenario="circle", n_robots=256)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vcs_env.parallel_env(scenario="circle", n_robots=256, max_steps=2000)

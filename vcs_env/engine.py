@@ -13,6 +13,7 @@ adapters over it, so episode semantics are defined once:
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -31,7 +32,7 @@ from .rewards import (
     checked_term,
     weighted_sum,
 )
-from .scenario import Scenario, make_scenario
+from .scenario import Scenario, make_scenario, short_time_limit
 from .sim import Simulator, StepEvents
 from .start_states import StartStates
 from .state import WorldState
@@ -96,10 +97,16 @@ def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict
     """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
     given as a model's name is the Scenario field, set together with ``overrides`` (so that
     ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario); an
-    ``ObstacleMotion`` object (or None) goes to the engine as it is."""
+    ``ObstacleMotion`` object (or None) goes to the engine as it is. A ``UserWarning`` when the time limit leaves no
+    robot the time to arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it)."""
     if isinstance(obstacle_motion, str):
-        return make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
-    return make_scenario(scenario, **overrides), obstacle_motion
+        out = make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
+    else:
+        out = make_scenario(scenario, **overrides), obstacle_motion
+    note = short_time_limit(out[0])
+    if note:
+        warnings.warn(f"{note}: every episode will be truncated (give max_steps)", UserWarning, stacklevel=3)
+    return out
 
 
 class NavEngine:
