@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vcs_env.layouts import KINDS
+from vcs_env.applies import MAP_FIELDS, check_applies  # noqa: F401 (MAP_FIELDS: agents' name)
 from vcs_env.lidar import LidarSpec
 from vcs_env.scenario import RewardWeights, fit_time_limit, make_scenario, short_time_limit
 from vcs_env.suites import SUITES
@@ -141,27 +141,9 @@ def _time_limit(scenario, base, cfg: ScenarioConfig):
 
 
 def _check_applies(scenario, given: dict[str, Any]):
-    """``scenario``, or a ``ValueError`` if a field in ``given`` (set by a flag or a mixture entry)
-    cannot change its episodes: a layout field its kind does not read
-    (:attr:`vcs_env.layouts.ScenarioKind.reads`; the arena's size also where obstacles bounce off its edges or walk
-    in it as pedestrians) or an obstacle setting without obstacles."""
-    reads = KINDS[scenario.kind].reads
-    arena_moves = scenario.n_obstacles and (scenario.bounce or scenario.obstacle_motion == "pedestrians")
-    for name in ("jitter", "layout_radius", "arena_half_size"):
-        if name in given and name not in reads and not (name == "arena_half_size" and arena_moves):
-            uses = f"it reads {', '.join(sorted(reads))} only" if reads else "its layout reads none of them"
-            raise ValueError(
-                f"{name} does not apply to {scenario.kind} scenarios (of jitter, layout_radius and arena_half_size, "
-                f"{uses}); leave it out"
-            )
-    for name, kinds in MAP_FIELDS.items():
-        if name in given and scenario.kind not in kinds:
-            raise ValueError(f"{name} does not apply to {scenario.kind} scenarios (only to {', '.join(kinds)})")
-    for name in ("obstacle_speed", "obstacle_motion"):
-        if name in given and scenario.n_obstacles == 0:
-            raise ValueError(
-                f"{name} needs obstacles, and this {scenario.kind} scenario has n_obstacles=0 (set n_obstacles too)"
-            )
+    """``scenario``, or a ``ValueError`` if a field in ``given`` (set by a flag or a mixture entry) cannot change its
+    episodes (:func:`vcs_env.applies.check_applies`)."""
+    check_applies(scenario, given)
     return scenario
 
 
@@ -184,8 +166,6 @@ SCENARIO_FLAGS = (*_SCENARIO_FLAGS, "lidar_beams")
 """Every flag that changes a scenario (``lidar_beams`` becomes its ``lidar``, :func:`_overrides`)."""
 FEATURES = ("flat", "contact", "slots", "slots-fine")
 """Names accepted by ``--features`` (what the policy's MLPs read, :mod:`agents.features`)."""
-MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}
-"""Map fields and the kinds that read them (flags, mixture entries and probe axes)."""
 
 
 def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:

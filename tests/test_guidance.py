@@ -133,7 +133,13 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
     with pytest.raises(CheckpointError, match="is a residual policy: its network's action is a correction of the vcs"):
         load_checkpoint(res["model"], make_scenario("circle", n_robots=4))
     # --init from it trains on only as the same residual (the correction network drove as a policy: 0.00).
-    plain = dataclasses.replace(cfg, residual=None, out=str(tmp_path / "plain"), init=str(res["model"]))
+    plain = dataclasses.replace(
+        cfg,
+        residual=None,
+        residual_scale=TrainConfig.residual_scale,
+        out=str(tmp_path / "plain"),
+        init=str(res["model"]),
+    )
     with pytest.raises(ValueError, match="is a residual policy \\(--residual vcs --residual-scale 0.25\\)"):
         train(plain)
     other = dataclasses.replace(plain, residual="vcs", residual_scale=0.5)
@@ -347,7 +353,8 @@ def test_the_imitation_loss_pulls_the_policy_to_the_expert_until_its_weight_is_z
     scenario = make_scenario("circle", n_robots=4)
     errors = {}
     for guide in ("none", "imitation_loss"):
-        res = train(TrainConfig(**common, guide=guide, guide_weight=5.0, out=str(tmp_path / guide)))
+        weight = {"guide_weight": 5.0} if guide != "none" else {}  # a weight without a guide is refused
+        res = train(TrainConfig(**common, guide=guide, **weight, out=str(tmp_path / guide)))
         errors[guide] = _action_error(load_model(res["model"], scenario), scenario)
     assert errors["imitation_loss"] < 0.9 * errors["none"], errors
     # At its anneal step the weight is zero: PPO's optimiser is left as it is (plain PPO from there on).

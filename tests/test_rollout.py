@@ -82,4 +82,4 @@ def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monk
     assert "is a file; give a directory" in capsys.readouterr().err
     monkeypatch.undo()
     assert cli.main(["train", "--n-robots", "2", "--timesteps", "10", "--out", str(afile)]) == 2
-    assert "File exists" in capsys.readouterr().err
+    assert "is a file: give a directory for the run" in capsys.readouterr().err

@@ -258,3 +258,22 @@ def test_an_env_whose_time_limit_nobody_can_arrive_in_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         vcs_env.parallel_env(scenario="circle", n_robots=256, max_steps=2000)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"scenario": "random", "jitter": 2.0}, "jitter does not apply to random scenarios"),
+        ({"scenario": "circle", "n_walls": 3}, "n_walls does not apply to circle scenarios"),
+        ({"scenario": "dynamic", "layout_radius": 3.0}, "layout_radius does not apply to dynamic scenarios"),
+        ({"scenario": "circle", "obstacle_motion": "constant"}, "obstacle_motion needs obstacles"),
+    ],
+)
+def test_an_env_keyword_that_cannot_change_the_episodes_is_refused_as_on_the_command_line(kwargs, message):
+    """The envs dropped these silently (the same worlds as without them); the command line refused them by name."""
+    import gymnasium as gym
+
+    with pytest.raises(ValueError, match=message):
+        vcs_env.parallel_env(**kwargs)
+    with pytest.raises(ValueError, match=message):
+        gym.make("vcs_env/Navigation-v2", **kwargs)

@@ -117,3 +117,27 @@ class CustomLayout:
         for o in self.obstacles:
             if not isinstance(o, ObstacleTrajectory):
                 raise ValueError(f"CustomLayout.obstacles must hold ObstacleTrajectory objects, got {type(o)}")
+
+
+def check_goals(s, goal: np.ndarray, obs_pos: np.ndarray, obs_radius: np.ndarray) -> None:
+    """A ``ValueError`` for a goal of custom scenario ``s`` no robot can arrive at (come within ``r_goal`` of, clear of
+    the other bodies): inside a still obstacle (one waypoint; ``obs_pos`` ``(m, 2)`` [m], ``obs_radius`` ``(m,)``
+    [m]), or, with finished robots parked (``park_finished``), too close to another robot's goal for both to park.
+    ``goal`` ``(n, 2)`` [m]."""
+    r, reach = s.robot.radius, s.r_goal
+    for k, o in enumerate(s.custom.obstacles):
+        gap = np.linalg.norm(goal - obs_pos[k], axis=-1) + reach - r - obs_radius[k]
+        if len(o.times) == 1 and np.any(gap < 0):
+            raise ValueError(
+                f"custom layout: the goal of robot {int(np.argmin(gap))} lies inside still obstacle {k} (no robot can "
+                f"come within r_goal={reach:g} m of it)"
+            )
+    if s.park_finished and len(goal) > 1:
+        gap = np.linalg.norm(goal[:, None] - goal[None], axis=-1) + 2 * reach - 2 * r
+        np.fill_diagonal(gap, np.inf)
+        if np.any(gap < 0):
+            i, j = np.unravel_index(np.argmin(gap), gap.shape)
+            raise ValueError(
+                f"custom layout: the goals of robots {min(i, j)} and {max(i, j)} are too close for both to park there "
+                f"(finished robots stay; their centres {2 * r:g} m apart, each within r_goal={reach:g} m of its goal)"
+            )

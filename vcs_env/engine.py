@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .applies import check_applies
 from .observations import observe
 from .planning import Planner, own_planner
 from .rewards import (
@@ -97,12 +98,15 @@ def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict
     """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
     given as a model's name is the Scenario field, set together with ``overrides`` (so that
     ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario); an
-    ``ObstacleMotion`` object (or None) goes to the engine as it is. A ``UserWarning`` when the time limit leaves no
-    robot the time to arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it)."""
+    ``ObstacleMotion`` object (or None) goes to the engine as it is. A keyword that cannot change the episodes (a
+    layout field the kind does not read, an obstacle setting without obstacles: :func:`vcs_env.applies.check_applies`,
+    as on the command line) is a ``ValueError``; a ``UserWarning`` when the time limit leaves no robot the time to
+    arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it)."""
     if isinstance(obstacle_motion, str):
         out = make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
     else:
         out = make_scenario(scenario, **overrides), obstacle_motion
+    check_applies(out[0], {*overrides, *(["obstacle_motion"] if isinstance(obstacle_motion, str) else [])})
     note = short_time_limit(out[0])
     if note:
         warnings.warn(f"{note}: every episode will be truncated (give max_steps)", UserWarning, stacklevel=3)

@@ -22,6 +22,7 @@ import numpy as np
 if TYPE_CHECKING:  # scenario.py looks kinds up here when it validates
     from .scenario import Scenario
 
+from .custom_layout import check_goals
 from .placement import (  # noqa: F401  (re-exported: the building blocks of every kind)
     MAX_TRIES,
     MIN_GOAL_DISTANCE,
@@ -380,27 +381,7 @@ class Custom(ScenarioKind):
             raise ValueError(
                 f"custom layout overlaps at t=0: bodies {min(i, j)} and {max(i, j)} (robots first, then obstacles)"
             )
-        # A goal no robot can arrive at (within r_goal of it, clear of the others): inside a still obstacle, or, with
-        # finished robots parked, too close to another robot's goal for both to park.
-        r, reach = s.robot.radius, s.r_goal
-        still = [k for k, o in enumerate(s.custom.obstacles) if len(o.times) == 1]
-        for k in still:
-            gap = np.linalg.norm(lay.goal - lay.obs_pos[k], axis=-1) + reach - r - lay.obs_radius[k]
-            if np.any(gap < 0):
-                raise ValueError(
-                    f"custom layout: the goal of robot {int(np.argmin(gap))} lies inside still obstacle {k} (no robot "
-                    f"can come within r_goal={reach:g} m of it)"
-                )
-        if s.park_finished and s.n_robots > 1:
-            gap = np.linalg.norm(lay.goal[:, None] - lay.goal[None], axis=-1) + 2 * reach - 2 * r
-            np.fill_diagonal(gap, np.inf)
-            if np.any(gap < 0):
-                i, j = np.unravel_index(np.argmin(gap), gap.shape)
-                raise ValueError(
-                    f"custom layout: the goals of robots {min(i, j)} and {max(i, j)} are too close for both to park "
-                    f"there (finished robots stay; their centres {2 * r:g} m apart, each within r_goal={reach:g} m of "
-                    "its goal)"
-                )
+        check_goals(s, lay.goal, lay.obs_pos, lay.obs_radius)
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         c, n, m = s.custom, s.n_robots, s.n_obstacles

@@ -1,0 +1,33 @@
+"""Which scenario fields a layout kind reads: the one check, shared by the command line (flags, mixture entries) and
+the envs' keywords, that a field given cannot go unused."""
+
+from __future__ import annotations
+
+from . import layouts
+
+MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}
+"""Map fields and the kinds that read them (flags, mixture entries, env keywords and probe axes)."""
+
+
+def check_applies(scenario, given) -> None:
+    """A ``ValueError`` if a field named in ``given`` (set by a flag, a mixture entry or an env's keyword) cannot
+    change ``scenario``'s episodes: a layout field its kind does not read (:attr:`ScenarioKind.reads`; the arena's
+    size also where obstacles bounce off its edges or walk in it as pedestrians), a map field of another kind, or an
+    obstacle setting without obstacles."""
+    reads = layouts.KINDS[scenario.kind].reads  # looked up now: kinds of one's own may be registered late
+    arena_moves = scenario.n_obstacles and (scenario.bounce or scenario.obstacle_motion == "pedestrians")
+    for name in ("jitter", "layout_radius", "arena_half_size"):
+        if name in given and name not in reads and not (name == "arena_half_size" and arena_moves):
+            uses = f"it reads {', '.join(sorted(reads))} only" if reads else "its layout reads none of them"
+            raise ValueError(
+                f"{name} does not apply to {scenario.kind} scenarios (of jitter, layout_radius and arena_half_size, "
+                f"{uses}); leave it out"
+            )
+    for name, kinds in MAP_FIELDS.items():
+        if name in given and scenario.kind not in kinds:
+            raise ValueError(f"{name} does not apply to {scenario.kind} scenarios (only to {', '.join(kinds)})")
+    for name in ("obstacle_speed", "obstacle_motion"):
+        if name in given and scenario.n_obstacles == 0:
+            raise ValueError(
+                f"{name} needs obstacles, and this {scenario.kind} scenario has n_obstacles=0 (set n_obstacles too)"
+            )
