@@ -260,6 +260,11 @@ def test_an_env_whose_time_limit_nobody_can_arrive_in_warns():
         vcs_env.parallel_env(scenario="circle", n_robots=256, max_steps=2000)
 
 
+SCRIPTED = vcs_env.CustomLayout(
+    start=[(0, 0)], goal=[(4, 0)], obstacles=(vcs_env.ObstacleTrajectory(times=(0, 5), positions=((2, 2), (2, -2))),)
+)
+
+
 @pytest.mark.parametrize(
     "kwargs, message",
     [
@@ -267,6 +272,7 @@ def test_an_env_whose_time_limit_nobody_can_arrive_in_warns():
         ({"scenario": "circle", "n_walls": 3}, "n_walls does not apply to circle scenarios"),
         ({"scenario": "dynamic", "layout_radius": 3.0}, "layout_radius does not apply to dynamic scenarios"),
         ({"scenario": "circle", "obstacle_motion": "constant"}, "obstacle_motion needs obstacles"),
+        ({"scenario": "custom", "custom": SCRIPTED, "bounce": True}, "bounce does not apply to custom scenarios"),
     ],
 )
 def test_an_env_keyword_that_cannot_change_the_episodes_is_refused_as_on_the_command_line(kwargs, message):

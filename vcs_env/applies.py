@@ -12,8 +12,8 @@ MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("do
 def check_applies(scenario, given) -> None:
     """A ``ValueError`` if a field named in ``given`` (set by a flag, a mixture entry or an env's keyword) cannot
     change ``scenario``'s episodes: a layout field its kind does not read (:attr:`ScenarioKind.reads`; the arena's
-    size also where obstacles bounce off its edges or walk in it as pedestrians), a map field of another kind, or an
-    obstacle setting without obstacles."""
+    size also where obstacles bounce off its edges or walk in it as pedestrians), a map field of another kind, an
+    obstacle setting without obstacles, or one of a custom layout, whose obstacles follow their scripts."""
     reads = layouts.KINDS[scenario.kind].reads  # looked up now: kinds of one's own may be registered late
     arena_moves = scenario.n_obstacles and (scenario.bounce or scenario.obstacle_motion == "pedestrians")
     for name in ("jitter", "layout_radius", "arena_half_size"):
@@ -26,6 +26,13 @@ def check_applies(scenario, given) -> None:
     for name, kinds in MAP_FIELDS.items():
         if name in given and scenario.kind not in kinds:
             raise ValueError(f"{name} does not apply to {scenario.kind} scenarios (only to {', '.join(kinds)})")
+    if scenario.kind == "custom":  # obstacles.make_motion: a custom layout's obstacles follow their scripts
+        for name in ("obstacle_motion", "obstacle_speed", "obstacle_radius", "bounce", "pedestrians", "turn_rate"):
+            if name in given:
+                raise ValueError(
+                    f"{name} does not apply to custom scenarios: their obstacles follow their scripts "
+                    "(CustomLayout.obstacles, ObstacleTrajectory times, positions and radius)"
+                )
     for name in ("obstacle_speed", "obstacle_motion"):
         if name in given and scenario.n_obstacles == 0:
             raise ValueError(
