@@ -86,7 +86,8 @@ def check_arena(s: Scenario) -> None:
     if area > 0.5 * side * side or s.arena_half_size <= max(r, r_obs) + s.min_separation:
         raise ValueError(
             f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles in an arena of half size "
-            f"{s.arena_half_size:g} m without overlap; increase arena_half_size or reduce the counts"
+            f"{s.arena_half_size:g} m without overlap (min_separation={s.min_separation:g} m between bodies); increase "
+            "arena_half_size or reduce the counts or min_separation"
         )
 
 
