@@ -347,3 +347,12 @@ def test_waypoints_of_a_batch_are_those_of_each_world_alone(name):
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
         arr[:] = before
+
+
+def test_walls_whose_obstacles_find_no_room_are_drawn_again():
+    """A walls layout whose obstacles found no room among its walls failed the reset (seeds 10 and 42 here, after the
+    trial layouts passed); the walls are drawn again, as when a robot finds no place or route."""
+    env = vcs_env.parallel_env(scenario="walls", n_robots=2, n_walls=4, arena_half_size=2.6, n_obstacles=8)
+    for seed in (10, 42):
+        env.reset(seed=seed)
+        assert len(env.engine.world.obs_pos[0]) == 8

@@ -281,7 +281,12 @@ class Walls(MapKind):
                 last = str(e)
                 continue
             if np.isfinite(Roadmap(seg, r).next_waypoints(start, goal)[1]).all():
-                lay = finish(s, start, goal, *place_obstacles(s, rng, start, goal, obs_radius, seg))
+                try:
+                    placed = place_obstacles(s, rng, start, goal, obs_radius, seg)
+                except ValueError as e:  # no room for the obstacles among these walls: draw other walls
+                    last = str(e)
+                    continue
+                lay = finish(s, start, goal, *placed)
                 lay.segments = seg
                 return lay
             last = "no route for every robot"
