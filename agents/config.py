@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vcs_env.applies import MAP_FIELDS, check_applies  # noqa: F401 (MAP_FIELDS: agents' name)
+from vcs_env.applies import check_applies
 from vcs_env.lidar import LidarSpec
 from vcs_env.scenario import RewardWeights, fit_time_limit, make_scenario, short_time_limit
 from vcs_env.suites import SUITES
@@ -125,7 +125,9 @@ def build_scenario(cfg: ScenarioConfig, check: tuple[str, ...] | None = None):
         over["rewards"] = weights
     given = over if check is None else {k: v for k, v in over.items() if k in check}
     base = scenario_base(cfg.scenario)
-    return _time_limit(_check_applies(make_scenario(base, **over), given), base, cfg)
+    scenario = make_scenario(base, **over)
+    check_applies(scenario, given)
+    return _time_limit(scenario, base, cfg)
 
 
 def _time_limit(scenario, base, cfg: ScenarioConfig):
@@ -137,13 +139,6 @@ def _time_limit(scenario, base, cfg: ScenarioConfig):
         note = short_time_limit(scenario)
     if note:
         print(f"note: {note} (--max-steps sets it)", flush=True)
-    return scenario
-
-
-def _check_applies(scenario, given: dict[str, Any]):
-    """``scenario``, or a ``ValueError`` if a field in ``given`` (set by a flag or a mixture entry) cannot change its
-    episodes (:func:`vcs_env.applies.check_applies`)."""
-    check_applies(scenario, given)
     return scenario
 
 
@@ -199,7 +194,9 @@ def probe_scenario(cfg: ScenarioConfig):
     if suite is not None and "n_robots" in over and base.kind == "circle" and "layout_radius" not in over:
         # The suites' circle radius is for their n; keep the preset's rule (max(5, 0.3 n) [m]).
         over["layout_radius"] = None
-    return _time_limit(_check_applies(make_scenario(base, **over), _overrides(cfg)), base, cfg)
+    scenario = make_scenario(base, **over)
+    check_applies(scenario, _overrides(cfg))
+    return _time_limit(scenario, base, cfg)
 
 
 _DIFF_FIELDS = (

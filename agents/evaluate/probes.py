@@ -25,10 +25,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from vcs_env.applies import MAP_FIELDS
 from vcs_env.suites import Suite
 
 from ..checkpoint import open_checkpoint
-from ..config import MAP_FIELDS, ScenarioConfig, build_scenario, config_from_dict, probe_scenario
+from ..config import ScenarioConfig, build_scenario, config_from_dict, probe_scenario
 from ..mixture import mixture_scenarios
 from ..policies import is_checkpoint_spec, policy_label
 from . import compare

@@ -269,7 +269,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     """Train (or resume from the checkpoint ``resume``) a shared PPO policy; returns the final
     evaluation and paths."""
     check_run(cfg)
-    check_fresh_out(cfg.out, resume_hint=resume is None, resume=open_checkpoint(resume) if resume else None)
+    init, resume = (open_checkpoint(p) if p else None for p in (cfg.init, resume))  # fail fast, before torch
+    check_fresh_out(cfg.out, resume_hint=resume is None, resume=resume)
     scenarios = mixture_scenarios(cfg, cfg.mixture) if cfg.mixture else [build_scenario(cfg)]
     scenario = scenarios[0]
     print_suite_differences(scenarios)
@@ -280,7 +281,6 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     if cfg.mixture_balance not in ("worlds", "robots"):
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
     starts = start_states(cfg, scenarios)
-    init, resume = (open_checkpoint(p) if p else None for p in (cfg.init, resume))  # fail fast, before torch
     resume = kept_start(resume, cfg.out) if resume is not None else None
     if init is not None and resume is None:  # a resumed run's --init only records where it started
         check_init_residual(init, residual)

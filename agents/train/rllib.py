@@ -213,9 +213,9 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
     scenario = build_scenario(cfg)
     check_config(cfg)
     warn_blind_training([scenario])
-    check_fresh_out(cfg.out, resume_hint=resume is None, resume=open_checkpoint(resume) if resume else None)
+    resume = open_checkpoint(resume) if resume is not None else None
+    check_fresh_out(cfg.out, resume_hint=resume is None, resume=resume)
     if resume is not None:
-        resume = open_checkpoint(resume)
         if not isinstance(resume, RLlibCheckpoint):
             raise ValueError(f"--backend rllib continues RLlib checkpoints; {resume.describe()} is an SB3 one")
         resume = kept_start(resume, cfg.out)
