@@ -283,3 +283,14 @@ def test_an_env_keyword_that_cannot_change_the_episodes_is_refused_as_on_the_com
         vcs_env.parallel_env(**kwargs)
     with pytest.raises(ValueError, match=message):
         gym.make("vcs_env/Navigation-v2", **kwargs)
+
+
+@pytest.mark.parametrize("field, value", [("bounce", True), ("turn_rate", 1.0), ("go_time", [1.0, 2.0])])
+def test_a_custom_scenario_built_directly_refuses_what_its_scripts_ignore(field, value):
+    """``Scenario(kind="custom", bounce=True)`` was accepted and the scripts drove the obstacles as without it; the
+    defaults, also as lists from JSON, stay accepted."""
+    from vcs_env.scenario import Scenario
+
+    with pytest.raises(ValueError, match=f"{field} does not apply to custom scenarios"):
+        Scenario(kind="custom", custom=SCRIPTED, n_robots=1, n_obstacles=1, **{field: value})
+    Scenario(kind="custom", custom=SCRIPTED, n_robots=1, n_obstacles=1, bounce=False, go_time=[2.0, 5.0])

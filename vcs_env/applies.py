@@ -4,6 +4,7 @@ the envs' keywords, that a field given cannot go unused."""
 from __future__ import annotations
 
 from . import layouts
+from .custom_layout import SCRIPTED
 
 MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("doorway", "room"), "n_walls": ("walls",)}
 """Map fields and the kinds that read them (flags, mixture entries, env keywords and probe axes)."""
@@ -26,8 +27,8 @@ def check_applies(scenario, given) -> None:
     for name, kinds in MAP_FIELDS.items():
         if name in given and scenario.kind not in kinds:
             raise ValueError(f"{name} does not apply to {scenario.kind} scenarios (only to {', '.join(kinds)})")
-    if scenario.kind == "custom":  # obstacles.make_motion: a custom layout's obstacles follow their scripts
-        for name in ("obstacle_motion", "obstacle_speed", "obstacle_radius", "bounce", "pedestrians", "turn_rate"):
+    if scenario.kind == "custom":  # a custom layout's obstacles follow their scripts (custom_layout.check_scripted)
+        for name in SCRIPTED:
             if name in given:
                 raise ValueError(
                     f"{name} does not apply to custom scenarios: their obstacles follow their scripts "

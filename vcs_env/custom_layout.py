@@ -7,7 +7,7 @@ re-exported by :mod:`vcs_env.scenario`, where they belong to :class:`~vcs_env.sc
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass, fields
 
 import numpy as np
 
@@ -117,6 +117,27 @@ class CustomLayout:
         for o in self.obstacles:
             if not isinstance(o, ObstacleTrajectory):
                 raise ValueError(f"CustomLayout.obstacles must hold ObstacleTrajectory objects, got {type(o)}")
+
+
+SCRIPTED = ("obstacle_motion", "obstacle_speed", "obstacle_radius", "bounce", "pedestrians", "turn_rate", "turn_period",
+            "go_time", "stop_time")  # fmt: skip
+"""Scenario fields a custom layout's obstacles ignore: they follow their scripts (``CustomLayout.obstacles``)."""
+
+
+def check_scripted(s) -> None:
+    """A ``ValueError`` for a custom scenario ``s`` whose initial speeds exceed ``v_max``, or that sets a field of
+    ``SCRIPTED`` away from its default: it could not change the episodes (``Scenario(kind="custom", bounce=True)``
+    would otherwise be accepted and ignored)."""
+    if s.custom.speed is not None and max(s.custom.speed) > s.robot.v_max:
+        raise ValueError(f"custom.speed must be <= robot.v_max = {s.robot.v_max}, got {max(s.custom.speed)}")
+    for f in fields(s):
+        default = f.default if f.default_factory is MISSING else f.default_factory()
+        value = getattr(s, f.name)
+        if f.name in SCRIPTED and (tuple(value) if isinstance(value, list) else value) != default:
+            raise ValueError(
+                f"{f.name} does not apply to custom scenarios: their obstacles follow their scripts "
+                "(CustomLayout.obstacles, ObstacleTrajectory times, positions and radius); leave it out"
+            )
 
 
 def check_goals(s, goal: np.ndarray, obs_pos: np.ndarray, obs_radius: np.ndarray) -> None:

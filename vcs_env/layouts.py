@@ -22,7 +22,7 @@ import numpy as np
 if TYPE_CHECKING:  # scenario.py looks kinds up here when it validates
     from .scenario import Scenario
 
-from .custom_layout import check_goals
+from .custom_layout import check_goals, check_scripted
 from .placement import (  # noqa: F401  (re-exported: the building blocks of every kind)
     MAX_TRIES,
     MIN_GOAL_DISTANCE,
@@ -363,8 +363,7 @@ class Custom(ScenarioKind):
                 f"n_obstacles must equal the number of custom obstacles ({len(s.custom.obstacles)}), "
                 f"got {s.n_obstacles}"
             )
-        if s.custom.speed is not None and max(s.custom.speed) > s.robot.v_max:
-            raise ValueError(f"custom.speed must be <= robot.v_max = {s.robot.v_max}, got {max(s.custom.speed)}")
+        check_scripted(s)
 
     def n_segments(self, s: Scenario) -> int:
         return len(s.custom.walls)
