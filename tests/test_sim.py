@@ -347,7 +347,7 @@ class _Drift(ObstacleMotion):
 
 def test_an_obstacle_motion_of_ones_own_is_checked_by_name():
     """Velocities of another shape failed inside numba or numpy, NaN ones made the obstacles vanish from every
-    collision check, and a scalar parameter failed in reset."""
+    collision check, speeds above V_REF were clipped in the observations, and a scalar parameter failed in reset."""
     s = vcs_env.make_scenario("dynamic", n_robots=2, n_obstacles=3)
     env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: 0.5 * np.ones_like(pos)))
     env.reset(seed=0)
@@ -355,6 +355,9 @@ def test_an_obstacle_motion_of_ones_own_is_checked_by_name():
     for said, out in {
         r"must have shape \(1, 3, 2\), got \(1, 3\)": lambda pos: np.ones(pos.shape[:2]),
         "must be finite": lambda pos: np.full(pos.shape, np.nan),
+        "reached 4.243 m/s, above the 3.0 m/s that observations scale velocities by": lambda pos: np.full(
+            pos.shape, 3.0
+        ),
     }.items():
         env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(out))
         with pytest.raises(ValueError, match="the velocity of obstacle motion _Drift " + said):

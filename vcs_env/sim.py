@@ -24,7 +24,7 @@ from .dynamics import ACTION_MODES, check_actions
 from .geometry import closest_approach
 from .layouts import generate, segment_capacity
 from .obstacles import ObstacleMotion, make_motion
-from .scenario import Scenario
+from .scenario import V_REF, Scenario
 from .start_states import StartStates, StatePool
 from .state import WorldState
 
@@ -283,12 +283,19 @@ class Simulator:
 
     def _motion_velocity(self, params: dict, worlds: WorldState) -> np.ndarray:
         """The motion model's velocities ``(B, m, 2)`` [m/s] for ``worlds``, checked (a model of one's own that gives
-        another shape is named; NaN obstacles escaped every collision check)."""
+        another shape is named; NaN obstacles escaped every collision check; speeds above ``V_REF`` were clipped in
+        the observations, which scale velocities by it)."""
         vel = self.motion.world_velocity(params, worlds, self.scenario.dt)
         ok = isinstance(vel, np.ndarray) and vel.dtype == np.float64 and vel.shape == worlds.obs_pos.shape
-        if not (ok and np.isfinite(vel).all()):
+        if not (ok and np.einsum("...i,...i->...", vel, vel).max(initial=0.0) <= V_REF**2 + 1e-9):
             what = f"the velocity of obstacle motion {type(self.motion).__name__}"
             vel = check_actions(vel, worlds.obs_pos.shape, what)
+            fastest = float(np.linalg.norm(vel, axis=-1).max(initial=0.0))
+            if fastest > V_REF + 1e-9:
+                raise ValueError(
+                    f"{what} reached {fastest:.3f} m/s, above the {V_REF} m/s that observations scale velocities by "
+                    "(vcs_env.scenario.V_REF, as Scenario.obstacle_speed): keep obstacle speeds at or below it"
+                )
         return vel
 
     # ------------------------------------------------------------------- step
