@@ -294,3 +294,24 @@ def test_a_custom_scenario_built_directly_refuses_what_its_scripts_ignore(field,
     with pytest.raises(ValueError, match=f"{field} does not apply to custom scenarios"):
         Scenario(kind="custom", custom=SCRIPTED, n_robots=1, n_obstacles=1, **{field: value})
     Scenario(kind="custom", custom=SCRIPTED, n_robots=1, n_obstacles=1, bounce=False, go_time=[2.0, 5.0])
+
+
+def test_the_time_limit_warning_names_the_users_line():
+    """A fixed stacklevel named a line inside the library for the class constructors and inside Gymnasium for
+    ``gym.make``; the warning now points at the caller's line, however it made the env."""
+    import warnings
+
+    import gymnasium as gym
+
+    from vcs_env.parallel import VcsNavParallelEnv
+
+    makers = [
+        lambda: vcs_env.parallel_env(scenario="circle", n_robots=256),
+        lambda: VcsNavParallelEnv(scenario="circle", n_robots=256),
+        lambda: gym.make("vcs_env/Navigation-v2", scenario="circle", n_robots=256),
+    ]
+    for make in makers:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            make()
+        assert [w.filename for w in caught if "time to arrive" in str(w.message)] == [__file__]

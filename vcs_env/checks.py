@@ -4,6 +4,8 @@ the allowed values and the value it got, so bad input never reaches numpy."""
 from __future__ import annotations
 
 import math
+import os
+import sys
 import warnings
 from collections.abc import Sequence
 
@@ -81,5 +83,21 @@ def check_reset_options(options, known: Sequence[str] = (), warn: bool = False, 
         text = f"reset {reads}, got {unknown}: the scenario is set when the env is made ({made})"
         if not warn:
             raise ValueError(text)
-        warnings.warn(text + "; ignored", UserWarning, stacklevel=3)
+        warnings.warn(text + "; ignored", UserWarning, stacklevel=user_stacklevel())
     return options
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` for a warning raised by this function's caller that points at the user's line: the first
+    frame outside this project's packages and the front ends' libraries (Gymnasium's ``make``, PettingZoo's
+    wrappers), however many constructors lie between (a fixed level named a line inside them)."""
+    import gymnasium
+    import pettingzoo
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    ours = [os.path.join(root, p) for p in ("vcs_env", "agents", "baselines", "vcs_cli")]
+    inside = tuple(d + os.sep for d in ours + [os.path.dirname(m.__file__) for m in (gymnasium, pettingzoo)])
+    frame, level = sys._getframe(1), 1
+    while frame.f_back is not None and os.path.abspath(frame.f_code.co_filename).startswith(inside):
+        frame, level = frame.f_back, level + 1
+    return level

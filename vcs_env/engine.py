@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from .applies import check_applies
+from .checks import user_stacklevel
 from .observations import observe
 from .planning import Planner, own_planner
 from .rewards import (
@@ -109,7 +110,9 @@ def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict
     check_applies(out[0], {*overrides, *(["obstacle_motion"] if isinstance(obstacle_motion, str) else [])})
     note = short_time_limit(out[0])
     if note:
-        warnings.warn(f"{note}: every episode will be truncated (give max_steps)", UserWarning, stacklevel=3)
+        warnings.warn(
+            f"{note}: every episode will be truncated (give max_steps)", UserWarning, stacklevel=user_stacklevel()
+        )
     return out
 
 

@@ -23,6 +23,7 @@ from importlib.metadata import EntryPoint, entry_points
 
 import numpy as np
 
+from .checks import user_stacklevel
 from .dynamics import check_actions, target_to_action
 from .state import WorldState
 
@@ -188,5 +189,5 @@ def env_copy(obj, what: str):
         return copy.deepcopy(obj)
     except Exception as e:  # deepcopy raises what the object's own parts raise (TypeError, PicklingError, ...)
         said = f"{what} cannot be copied ({e}); this env uses the object itself: give every env its own"
-        warnings.warn(said, stacklevel=4)
+        warnings.warn(said, stacklevel=user_stacklevel())
         return obj
