@@ -145,6 +145,16 @@ def test_aggregate_takes_time_over_the_solved_mask_only():
         metrics.aggregate(rows, solved_mask=[True, False])
 
 
+def test_the_interval_of_a_bounded_metric_stays_in_its_range():
+    """With few episodes the normal interval left the range: a share of time in personal space from -0.2, an SPL
+    above 1; a metric without bounds (min separation may be negative) keeps the plain interval."""
+    rows = [{"personal_intrusion": x, "spl": 1.0 - x, "jerk": x, "min_separation": x} for x in (0.0, 0.0, 0.6)]
+    agg = metrics.aggregate(rows)
+    assert agg["personal_intrusion"]["low"] == 0.0 and agg["spl"]["high"] == 1.0 and agg["jerk"]["low"] == 0.0
+    assert agg["personal_intrusion"]["high"] == agg["min_separation"]["high"] > 0.5
+    assert agg["min_separation"]["low"] < 0.0
+
+
 @pytest.mark.slow
 def test_a_new_metric_is_one_object(monkeypatch, capsys, tmp_path):
     """Adding a Metric to METRICS puts it in the rows, the aggregate, the comparison table, the

@@ -223,7 +223,13 @@ class Metric:
     """A column of the comparison table and a line of the ``evaluate`` summary."""
     plot: bool = True
     """A bar chart in the comparison report."""
+    bounds: tuple[float, float] = (-math.inf, math.inf)
+    """The range of an episode's value: the normal interval of the mean is kept within it (with few episodes it
+    could leave it, e.g. a negative share)."""
 
+
+UNIT, PLUS = (0.0, 1.0), (0.0, math.inf)
+"""The ranges of shares and of non-negative quantities (:attr:`Metric.bounds`)."""
 
 METRICS: tuple[Metric, ...] = (
     Metric("success", "success", lambda f: float(f.success), rate=True),
@@ -248,8 +254,10 @@ METRICS: tuple[Metric, ...] = (
     ),
     Metric("timeout", "timeout", lambda f: float(not f.success and not f.collided and not f.deadlock), rate=True),
     Metric("deadlock", "deadlock", lambda f: float(f.deadlock), rate=True),
-    Metric("arrived_fraction", "arrived fraction", lambda f: float(f.arrived.mean()), table=False, plot=False),
-    Metric("time_to_goal", "time to goal [s]", lambda f: _mean(f.arrival_time), solved_only=True),
+    Metric(
+        "arrived_fraction", "arrived fraction", lambda f: float(f.arrived.mean()), table=False, plot=False, bounds=UNIT
+    ),
+    Metric("time_to_goal", "time to goal [s]", lambda f: _mean(f.arrival_time), solved_only=True, bounds=PLUS),
     Metric(
         "makespan",
         "makespan [s]",
@@ -257,6 +265,7 @@ METRICS: tuple[Metric, ...] = (
         solved_only=True,
         table=False,
         plot=False,
+        bounds=PLUS,
     ),
     Metric("extra_time", "extra time [s]", lambda f: _mean(f.arrival_time - f.ep.straight_time), solved_only=True),
     Metric(
@@ -266,30 +275,42 @@ METRICS: tuple[Metric, ...] = (
         solved_only=True,
         table=False,
         plot=False,
+        bounds=PLUS,
     ),
-    Metric("path_ratio", "path ratio", lambda f: _mean(f.path_ratio), solved_only=True),
+    Metric("path_ratio", "path ratio", lambda f: _mean(f.path_ratio), solved_only=True, bounds=PLUS),
     Metric("min_separation", "min separation [m]", lambda f: _min_separation(f.ep)),
-    Metric("heading_change", "heading change [rad]", lambda f: float(heading_change(f.ep).mean())),
-    Metric("speed_reversals", "speed reversals", lambda f: float(speed_reversals(f.ep).mean())),
-    Metric("jerk", "jerk [m/s^3]", lambda f: float(mean_jerk(f.ep).mean())),
+    Metric("heading_change", "heading change [rad]", lambda f: float(heading_change(f.ep).mean()), bounds=PLUS),
+    Metric("speed_reversals", "speed reversals", lambda f: float(speed_reversals(f.ep).mean()), bounds=PLUS),
+    Metric("jerk", "jerk [m/s^3]", lambda f: float(mean_jerk(f.ep).mean()), bounds=PLUS),
     Metric(
-        "intimate_intrusion", "intimate intrusion", lambda f: _mean(intrusion_share(f.ep, INTIMATE_ZONE)), plot=False
+        "intimate_intrusion",
+        "intimate intrusion",
+        lambda f: _mean(intrusion_share(f.ep, INTIMATE_ZONE)),
+        plot=False,
+        bounds=UNIT,
     ),
-    Metric("personal_intrusion", "personal intrusion", lambda f: _mean(intrusion_share(f.ep, PERSONAL_ZONE))),
+    Metric(
+        "personal_intrusion", "personal intrusion", lambda f: _mean(intrusion_share(f.ep, PERSONAL_ZONE)), bounds=UNIT
+    ),
     Metric("min_human_distance", "min person gap [m]", lambda f: _min(min_human_gap(f.ep)), plot=False),
-    Metric("min_ttc", "min TTC [s]", lambda f: _min(min_time_to_collision(f.ep))),
+    Metric("min_ttc", "min TTC [s]", lambda f: _min(min_time_to_collision(f.ep)), bounds=PLUS),
     Metric(
-        "path_irregularity", "path irregularity [rad/m]", lambda f: _mean(path_irregularity(f.ep, f.paths)), plot=False
+        "path_irregularity",
+        "path irregularity [rad/m]",
+        lambda f: _mean(path_irregularity(f.ep, f.paths)),
+        plot=False,
+        bounds=PLUS,
     ),
-    Metric("spl", "SPL", lambda f: _mean(spl(f.ep, f.robot_success, f.paths))),
+    Metric("spl", "SPL", lambda f: _mean(spl(f.ep, f.robot_success, f.paths)), bounds=UNIT),
     Metric(
         "compute_per_decision",
         "compute per decision [s]",
         lambda f: f.ep.compute_time / max(f.ep.decisions, 1),
         table=False,
         plot=False,
+        bounds=PLUS,
     ),
-    Metric("steps", "steps", lambda f: float(f.ep.steps), table=False, plot=False),
+    Metric("steps", "steps", lambda f: float(f.ep.steps), table=False, plot=False, bounds=PLUS),
 )
 """Every metric of an episode, in the order of the rows, the table and the plots."""
 
@@ -339,9 +360,9 @@ def aggregate(
     """Mean and 95 % interval of every metric over episodes.
 
     Rates use the Wilson interval; other metrics the normal interval of the mean over the
-    episodes where they are defined (:attr:`Metric.rate`). With ``solved_mask``, the
-    :attr:`Metric.solved_only` metrics (time and path) are taken over the masked episodes only
-    (e.g. those every compared policy solved).
+    episodes where they are defined (:attr:`Metric.rate`), kept within the metric's range
+    (:attr:`Metric.bounds`). With ``solved_mask``, the :attr:`Metric.solved_only` metrics (time and
+    path) are taken over the masked episodes only (e.g. those every compared policy solved).
 
     Returns:
         ``{metric: {"mean", "low", "high", "n"}}``.
@@ -375,5 +396,6 @@ def aggregate(
             continue
         m = float(vals.mean())
         half = 1.96 * float(vals.std(ddof=1)) / math.sqrt(n) if n > 1 else 0.0
-        out[k] = {"mean": m, "low": m - half, "high": m + half, "n": n}
+        lo, hi = metric.bounds if metric is not None else (-math.inf, math.inf)
+        out[k] = {"mean": m, "low": max(lo, m - half), "high": min(hi, m + half), "n": n}
     return out
