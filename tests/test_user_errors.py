@@ -273,6 +273,12 @@ SCRIPTED = vcs_env.CustomLayout(
         ({"scenario": "dynamic", "layout_radius": 3.0}, "layout_radius does not apply to dynamic scenarios"),
         ({"scenario": "circle", "obstacle_motion": "constant"}, "obstacle_motion needs obstacles"),
         ({"scenario": "custom", "custom": SCRIPTED, "bounce": True}, "bounce does not apply to custom scenarios"),
+        (
+            {"scenario": "crowd", "obstacle_motion": "pedestrians", "obstacle_speed": (2.0, 2.5)},
+            "obstacle_speed does not apply to obstacle_motion='pedestrians'.*PedestrianSpec.v_pref",
+        ),
+        ({"scenario": "dynamic", "obstacle_motion": "constant", "turn_rate": 1.0}, "turn_rate does not apply to"),
+        ({"scenario": "crowdnav-circle-v0", "go_time": (1.0, 2.0)}, "go_time does not apply to"),
     ],
 )
 def test_an_env_keyword_that_cannot_change_the_episodes_is_refused_as_on_the_command_line(kwargs, message):
@@ -315,3 +321,13 @@ def test_the_time_limit_warning_names_the_users_line():
             warnings.simplefilter("always")
             make()
         assert [w.filename for w in caught if "time to arrive" in str(w.message)] == [__file__]
+
+
+def test_motion_settings_stay_with_the_motions_that_read_them():
+    """What the refusals above leave alone: a preset's own unread settings (the crowd's speeds under pedestrians),
+    a field the named motion reads, and any field beside an obstacle motion object of one's own (it may read it)."""
+    from vcs_env.obstacles import ObstacleMotion
+
+    vcs_env.parallel_env(scenario="crowd", obstacle_motion="pedestrians")
+    vcs_env.parallel_env(scenario="dynamic", obstacle_motion="arbitrary", turn_rate=1.0, obstacle_speed=(0.3, 0.4))
+    vcs_env.parallel_env(scenario="dynamic", obstacle_motion=ObstacleMotion(), turn_rate=1.0)

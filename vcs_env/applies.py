@@ -10,11 +10,13 @@ MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("do
 """Map fields and the kinds that read them (flags, mixture entries, env keywords and probe axes)."""
 
 
-def check_applies(scenario, given) -> None:
+def check_applies(scenario, given, own_motion: bool = False) -> None:
     """A ``ValueError`` if a field named in ``given`` (set by a flag, a mixture entry or an env's keyword) cannot
     change ``scenario``'s episodes: a layout field its kind does not read (:attr:`ScenarioKind.reads`; the arena's
     size also where obstacles bounce off its edges or walk in it as pedestrians), a map field of another kind, an
-    obstacle setting without obstacles, or one of a custom layout, whose obstacles follow their scripts."""
+    obstacle setting without obstacles, or one of a custom layout, whose obstacles follow their scripts, or a motion
+    setting the named obstacle motion does not read (:func:`vcs_env.obstacles.check_motion_fields`; not with
+    ``own_motion``, an ``ObstacleMotion`` object of one's own, which may read any field)."""
     reads = layouts.KINDS[scenario.kind].reads  # looked up now: kinds of one's own may be registered late
     arena_moves = scenario.n_obstacles and (scenario.bounce or scenario.obstacle_motion == "pedestrians")
     for name in ("jitter", "layout_radius", "arena_half_size"):
@@ -39,3 +41,7 @@ def check_applies(scenario, given) -> None:
             raise ValueError(
                 f"{name} needs obstacles, and this {scenario.kind} scenario has n_obstacles=0 (set n_obstacles too)"
             )
+    if not own_motion and scenario.n_obstacles and scenario.kind != "custom":
+        from .obstacles import check_motion_fields  # late: obstacles imports the scenario module
+
+        check_motion_fields(scenario, given)

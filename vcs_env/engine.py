@@ -107,7 +107,8 @@ def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict
         out = make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
     else:
         out = make_scenario(scenario, **overrides), obstacle_motion
-    check_applies(out[0], {*overrides, *(["obstacle_motion"] if isinstance(obstacle_motion, str) else [])})
+    named = ["obstacle_motion"] if isinstance(obstacle_motion, str) else []
+    check_applies(out[0], {*overrides, *named}, own_motion=out[1] is not None)
     note = short_time_limit(out[0])
     if note:
         warnings.warn(

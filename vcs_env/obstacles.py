@@ -35,6 +35,9 @@ class ObstacleMotion:
     """Base class: static obstacles."""
 
     name = "static"
+    reads: frozenset[str] = frozenset()
+    """The fields of :data:`MOTION_FIELDS` this model reads from the scenario (a field it does not read is refused
+    when given: :func:`check_motion_fields`)."""
 
     def init(self, rng: np.random.Generator, scenario: Scenario, pos: np.ndarray, target: np.ndarray) -> Params:
         """Draw one world's parameters.
@@ -88,6 +91,7 @@ class ConstantVelocity(ObstacleMotion):
     """Straight line at a constant speed toward (and past) the target point."""
 
     name = "constant"
+    reads = frozenset({"obstacle_speed"})
 
     def init(self, rng, scenario, pos, target):
         return {"vel": _direction(pos, target) * _draw_speed(rng, scenario, len(pos))[:, None]}
@@ -103,6 +107,7 @@ class Patrol(ObstacleMotion):
     """Back and forth between the start and the target point at a constant speed."""
 
     name = "patrol"
+    reads = frozenset({"obstacle_speed"})
 
     def init(self, rng, scenario, pos, target):
         return {
@@ -140,6 +145,7 @@ class Arbitrary(ObstacleMotion):
     for the first :data:`MAX_PERIODS` periods."""
 
     name = "arbitrary"
+    reads = frozenset({"obstacle_speed", "turn_rate", "turn_period"})
 
     def init(self, rng, scenario, pos, target):
         m = len(pos)
@@ -171,6 +177,7 @@ class StopAndGo(ObstacleMotion):
     :data:`MAX_PERIODS` phases."""
 
     name = "stop_and_go"
+    reads = frozenset({"obstacle_speed", "go_time", "stop_time"})
 
     def init(self, rng, scenario, pos, target):
         m = len(pos)
@@ -350,6 +357,26 @@ MOTION_MODELS: dict[str, type[ObstacleMotion]] = {
     "stop_and_go": StopAndGo,
     "pedestrians": Pedestrians,
 }
+
+
+MOTION_FIELDS = ("obstacle_speed", "turn_rate", "turn_period", "go_time", "stop_time")
+"""The scenario fields that set the built-in motion models (each model's ``reads``)."""
+
+
+def check_motion_fields(scenario: Scenario, given) -> None:
+    """A ``ValueError`` for a field of :data:`MOTION_FIELDS` in ``given`` (set by a flag, a mixture entry or an env
+    keyword) that the motion ``scenario.obstacle_motion`` names does not read (the preset's own values are left
+    alone: ``scenario="crowd", obstacle_motion="pedestrians"`` keeps the crowd's unread speeds)."""
+    motion = MOTION_MODELS[scenario.obstacle_motion]
+    for name in MOTION_FIELDS:
+        if name in given and name not in motion.reads:
+            reads = f"it reads {', '.join(sorted(motion.reads))} only" if motion.reads else "it reads none of them"
+            walk = "; pedestrians walk at PedestrianSpec.v_pref (pedestrians=...)" if motion is Pedestrians else ""
+            fields = ", ".join(MOTION_FIELDS)
+            raise ValueError(
+                f"{name} does not apply to obstacle_motion={scenario.obstacle_motion!r} (of {fields}, {reads}{walk}); "
+                "leave it out or choose another obstacle_motion"
+            )
 
 
 def make_motion(scenario: Scenario) -> ObstacleMotion:
