@@ -254,6 +254,17 @@ def test_bad_arguments_raise_one_line_value_errors(kwargs, match):
     assert "\n" not in str(err.value)
 
 
+def test_the_time_limit_warning_reads_the_envs_own_max_steps():
+    """It warned "every episode will be truncated" from the scenario's 600 steps after max_steps=20000 was given."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert VcsNavEnv("circle", n_robots=200, max_steps=20000).engine.max_steps == 20000
+    with pytest.warns(UserWarning, match="leaves no robot the time to arrive"):
+        VcsNavEnv("circle", n_robots=200)
+
+
 def test_bad_seed_and_actions_raise_value_errors():
     env = VcsNavEnv("swap", 2)
     with pytest.raises(ValueError, match="seed must be a non-negative integer"):

@@ -258,6 +258,9 @@ def test_an_env_whose_time_limit_nobody_can_arrive_in_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         vcs_env.parallel_env(scenario="circle", n_robots=256, max_steps=2000)
+        vcs_env.parallel_env(scenario="circle", n_robots=256, max_cycles=2000)  # the env's own limit counts
+    with pytest.warns(UserWarning, match="max_steps=20 .*leaves no robot the time to arrive"):
+        vcs_env.parallel_env(scenario="circle", max_cycles=20)
 
 
 SCRIPTED = vcs_env.CustomLayout(

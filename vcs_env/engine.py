@@ -95,21 +95,24 @@ def check_max_steps(value, name: str = "max_steps") -> int:
     return int(value)
 
 
-def env_scenario(scenario: str | Scenario, obstacle_motion: Any, overrides: dict) -> tuple[Scenario, Any]:
+def env_scenario(
+    scenario: str | Scenario, obstacle_motion: Any, overrides: dict, max_steps: int | None = None
+) -> tuple[Scenario, Any]:
     """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
     given as a model's name is the Scenario field, set together with ``overrides`` (so that
     ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario); an
     ``ObstacleMotion`` object (or None) goes to the engine as it is. A keyword that cannot change the episodes (a
     layout field the kind does not read, an obstacle setting without obstacles: :func:`vcs_env.applies.check_applies`,
     as on the command line) is a ``ValueError``; a ``UserWarning`` when the time limit leaves no robot the time to
-    arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it)."""
+    arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it) in ``max_steps``, the
+    env's own limit where it has one (PettingZoo's ``max_cycles``, TorchRL's ``max_steps``), else the scenario's."""
     if isinstance(obstacle_motion, str):
         out = make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
     else:
         out = make_scenario(scenario, **overrides), obstacle_motion
     named = ["obstacle_motion"] if isinstance(obstacle_motion, str) else []
     check_applies(out[0], {*overrides, *named}, own_motion=out[1] is not None)
-    note = short_time_limit(out[0])
+    note = short_time_limit(out[0] if max_steps is None else dataclasses.replace(out[0], max_steps=max_steps))
     if note:
         warnings.warn(
             f"{note}: every episode will be truncated (give max_steps)", UserWarning, stacklevel=user_stacklevel()

@@ -139,9 +139,9 @@ class VcsNavEnv(EnvBase):
             torch.empty(1, device=device)  # an accelerator this torch was not built for, or that is absent
         except (RuntimeError, TypeError, AssertionError) as e:
             raise ValueError(f"device must be a torch device such as 'cpu', got {device!r} ({e})") from None
-        scen, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         if max_steps is not None:
             max_steps = check_max_steps(max_steps)
+        scen, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides, max_steps)
         engine = NavEngine(scen, int(num_envs), action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps)
         super().__init__(device=device, batch_size=torch.Size([int(num_envs)]))
         self.engine = engine
