@@ -191,3 +191,19 @@ def test_one_planner_instance_as_others_and_expert_gives_the_same_episode(vector
         return np.array(out)
 
     np.testing.assert_array_equal(run(True), run(False))
+
+
+def test_a_robot_arriving_on_the_time_limits_step_is_truncated_too_as_in_sync():
+    """gym.make's TimeLimit marks its last step truncated also when the robot terminates on it; the vector entry
+    point said terminated only. The expert's robot arrives on step 138 of seed 0 here."""
+    kw = dict(scenario="crowd", n_obstacles=3, expert="vcs", max_episode_steps=138)
+    flags = {}
+    for mode in ("vector_entry_point", "sync"):
+        env = gym.make_vec("vcs_env/Navigation-v2", num_envs=1, vectorization_mode=mode, **kw)
+        info = env.reset(seed=0)[1]
+        flags[mode] = []
+        for _ in range(139):
+            _, _, terminated, truncated, info = env.step(np.asarray(info["expert_action"], np.float32).reshape(1, 2))
+            flags[mode].append((bool(terminated[0]), bool(truncated[0])))
+    assert flags["sync"][137] == (True, True)
+    assert flags["vector_entry_point"] == flags["sync"]

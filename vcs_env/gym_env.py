@@ -178,8 +178,10 @@ class VcsNavVectorEnv(VectorEnv):
         self.render_mode = None
         self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides)
         limit = self.scenario.max_steps
+        self._time_limit = None  # gym.make's TimeLimit in the other modes: truncated at it, also when terminated
         if max_episode_steps is not None:
-            limit = min(limit, check_max_steps(max_episode_steps, "max_episode_steps"))
+            self._time_limit = check_max_steps(max_episode_steps, "max_episode_steps")
+            limit = min(limit, self._time_limit)
         self.engine = NavEngine(
             self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
         )
@@ -261,6 +263,8 @@ class VcsNavVectorEnv(VectorEnv):
         reward = np.where(stepped, res.reward[:, 0], 0.0)
         terminated = res.terminated[:, 0] & stepped
         truncated = res.truncated[:, 0] & stepped
+        if self._time_limit is not None:  # as TimeLimit: its last step is truncated, whatever else it is
+            truncated |= stepped & (eng.world.steps >= self._time_limit)
         info = self._step_info(res, stepped) if stepped.any() else {}
         if restart.any():
             self._start(np.flatnonzero(restart), [None] * int(restart.sum()))
