@@ -56,6 +56,16 @@ def test_a_task_config_overrides_the_scenario():
         VcsNavTask.CIRCLE.get_task({"scenario": "no-such-suite"}).get_env_fun(1, True, 0, "cpu")
 
 
+def test_the_potential_shaping_discounts_with_the_runs_gamma(tmp_path):
+    """vcs_potential shaping is policy-invariant only with the learner's discount; the task's env kept 0.99 whatever
+    --gamma said."""
+    assert VcsNavTask.CIRCLE.get_task({"gamma": 0.9}).get_env_fun(1, True, 0, "cpu")().engine.gamma == 0.9
+    assert VcsNavTask.CIRCLE.get_task().get_env_fun(1, True, 0, "cpu")().engine.gamma == 0.99
+    cfg = BenchMARLConfig(**TINY, timesteps=4 * 32 * 4, gamma=0.9)
+    exp = make_experiment(cfg, make_scenario("circle", n_robots=4), tmp_path / "bm")
+    assert exp.test_env.base_env.engine.gamma == 0.9
+
+
 def fresh_observations(scenario, n: int = 1000, seed: int = 0) -> np.ndarray:
     """``(n, D)`` observations of driving robots in fresh episodes (random actions)."""
     from vcs_env.engine import NavEngine

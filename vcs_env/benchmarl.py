@@ -41,8 +41,9 @@ DEFAULTS: dict[str, str] = {
     "doorway": "doorway-v0",
 }
 """The scenario of each task of :class:`VcsNavTask` when its config names none (a suite's scenario)."""
-KEYS = ("scenario", "max_steps", "action_mode", "expert")
-"""Task config entries that are not Scenario fields."""
+KEYS = ("scenario", "max_steps", "action_mode", "expert", "gamma")
+"""Task config entries that are not Scenario fields (those of :class:`~vcs_env.torchrl.VcsNavEnv`; ``gamma`` is the
+discount of the ``vcs_potential`` shaping, which should be the algorithm's: ``vcs-env train`` passes ``--gamma``)."""
 
 
 def task_scenario(config: dict[str, Any], name: str) -> Scenario:
@@ -81,6 +82,7 @@ class VcsNavClass(TaskClass):
                 action_mode=config.get("action_mode", "delta"),
                 expert=config.get("expert"),
                 max_steps=config.get("max_steps"),
+                gamma=config.get("gamma", 0.99),
                 device=device,
             )
             if seed is not None:

@@ -213,7 +213,8 @@ def make_experiment(cfg: BenchMARLConfig, scenario, folder: Path, callbacks=()):
     check_config(cfg, scenario.n_robots)
     folder.mkdir(parents=True, exist_ok=True)
     model = MlpConfig(num_cells=list(cfg.net_arch), activation_class=torch.nn.Tanh, layer_class=torch.nn.Linear)
-    task = VcsNavClass(name=scenario.kind.upper(), config={"scenario": scenario, "max_steps": cfg.max_steps})
+    config = {"scenario": scenario, "max_steps": cfg.max_steps, "gamma": cfg.gamma}  # gamma: vcs_potential's too
+    task = VcsNavClass(name=scenario.kind.upper(), config=config)
     return Experiment(
         task,
         algorithm_config(cfg),
