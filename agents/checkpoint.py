@@ -362,6 +362,13 @@ def find_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint | None:
 
 def open_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint:
     """The checkpoint ``spec`` names, or a one-line :class:`CheckpointError` naming every accepted form."""
+    p = Path(spec) if not isinstance(spec, Checkpoint) else None
+    if p is not None and re.fullmatch(r"checkpoint_\d+\.pt", p.name) and p.parent.name == "checkpoints":
+        run = p.parents[3] if len(p.parents) > 3 and p.parents[2].name == "benchmarl" else Path("<run>")
+        raise CheckpointError(  # BenchMARL's folder, kept in <run>/benchmarl/<experiment>/checkpoints/
+            f"{str(p)!r} is BenchMARL's own checkpoint of its experiment; pass the run's policy "
+            f"{str(run / 'actor.pt')!r} (or checkpoints/actor_<steps>.pt beside it) or the run directory {str(run)!r}"
+        )
     found = find_checkpoint(spec)
     if found is not None:
         return found

@@ -180,6 +180,11 @@ def test_a_file_that_is_not_an_actor_is_refused(tmp_path):
     with pytest.raises(Exception, match="corrupt or unreadable") as err:
         load_model(bad)
     assert "\n" not in str(err.value)  # one line, whatever torch says
+    internal = tmp_path / "run" / "benchmarl" / "exp" / "checkpoints" / "checkpoint_1024.pt"
+    internal.parent.mkdir(parents=True)
+    torch.save({"state": 1}, internal)  # BenchMARL's own: export and evaluate said it was not an SB3 checkpoint
+    with pytest.raises(Exception, match="BenchMARL's own checkpoint.*'" + str(tmp_path / "run" / "actor.pt")):
+        load_model(internal)
 
 
 def test_a_linear_schedule_brings_the_learning_rate_to_zero_at_the_end_of_the_budget(tmp_path):
