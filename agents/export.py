@@ -340,7 +340,9 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
             )
             expected = actor(torch.as_tensor(obs)).numpy()
         onnx.checker.check_model(onnx.load(str(part)))
-        session = ort.InferenceSession(str(part), providers=["CPUExecutionProvider"])
+        quiet = ort.SessionOptions()
+        quiet.log_severity_level = 4  # a file it cannot load raises below; its own log line said it first
+        session = ort.InferenceSession(str(part), quiet, providers=["CPUExecutionProvider"])
         got = session.run([OUTPUT], {INPUT: obs})[0]
     except Exception as e:  # an opset torch cannot write, an operator it cannot export, a file onnx refuses ...
         part.unlink(missing_ok=True)

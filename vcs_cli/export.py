@@ -28,7 +28,9 @@ def add_commands(sub) -> None:
         help="export a checkpoint's deterministic actor to ONNX (observation in, action out) with its layout as JSON",
         description=export.__doc__.split("\n\n")[0],
     )
-    p.add_argument("checkpoint", help="SB3 .zip, RLlib checkpoint directory, or a run directory of either")
+    p.add_argument(
+        "checkpoint", help="SB3 .zip, RLlib checkpoint directory, BenchMARL actor.pt, or a run directory of any"
+    )
     p.add_argument("--onnx", required=True, help="output file ending in .onnx (OUT.json is written beside it)")
     p.add_argument("--opset", type=int, default=export.OPSET, help=f"ONNX opset (default {export.OPSET})")
     p.set_defaults(func=cmd_export)
