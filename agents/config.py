@@ -168,6 +168,8 @@ def _overrides(cfg: ScenarioConfig) -> dict[str, Any]:
     over = {name: getattr(cfg, name) for name in _SCENARIO_FLAGS if getattr(cfg, name) is not None}
     if cfg.lidar_beams is not None:
         over["lidar"] = LidarSpec(n_beams=cfg.lidar_beams)
+    if over.get("obstacle_motion", "pedestrians") != "pedestrians":
+        over["pedestrians"] = None  # another motion than a suite's pedestrians: their spec goes (no flag sets it)
     if "obstacle_speed" in over:
         over["obstacle_speed"] = tuple(float(v) for v in over["obstacle_speed"])
         if len(over["obstacle_speed"]) != 2:

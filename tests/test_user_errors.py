@@ -334,3 +334,15 @@ def test_motion_settings_stay_with_the_motions_that_read_them():
     vcs_env.parallel_env(scenario="crowd", obstacle_motion="pedestrians")
     vcs_env.parallel_env(scenario="dynamic", obstacle_motion="arbitrary", turn_rate=1.0, obstacle_speed=(0.3, 0.4))
     vcs_env.parallel_env(scenario="dynamic", obstacle_motion=ObstacleMotion(), turn_rate=1.0)
+
+
+def test_another_motion_on_a_suite_with_pedestrians():
+    """No flag sets or clears a suite's PedestrianSpec, and --obstacle-motion constant on a CrowdNav suite failed
+    naming it; the command line now drops the spec with the motion, and the envs' error says how to."""
+    from agents.config import ScenarioConfig, build_scenario
+
+    s = build_scenario(ScenarioConfig(scenario="crowdnav-circle-v0", obstacle_motion="constant"))
+    assert s.obstacle_motion == "constant" and s.pedestrians is None
+    with pytest.raises(ValueError, match="give pedestrians=None too"):
+        vcs_env.parallel_env(scenario="crowdnav-circle-v0", obstacle_motion="constant")
+    vcs_env.parallel_env(scenario="crowdnav-circle-v0", obstacle_motion="constant", pedestrians=None)

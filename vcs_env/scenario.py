@@ -262,7 +262,10 @@ class Scenario:
             if not isinstance(self.pedestrians, PedestrianSpec):
                 raise ValueError(f"pedestrians must be a PedestrianSpec or None, got {type(self.pedestrians).__name__}")
             if self.obstacle_motion != "pedestrians":
-                raise ValueError(f"pedestrians needs obstacle_motion='pedestrians', got {self.obstacle_motion!r}")
+                raise ValueError(
+                    f"pedestrians needs obstacle_motion='pedestrians', got {self.obstacle_motion!r} (for another "
+                    "motion on a scenario with pedestrians, give pedestrians=None too)"
+                )
         _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
