@@ -286,3 +286,12 @@ def test_nearly_collinear_segments_far_apart_do_not_cross():
         ab, pq = b - a, q - p
         spurious_before += det(ab, p - a) * det(ab, q - a) < 0 and det(pq, a - p) * det(pq, b - p) < 0
     assert spurious_before > 0  # the side tests alone read crossings here: the case is exercised
+
+
+def test_box_segments_refuses_a_half_size_that_is_not_positive():
+    """box_segments(-1.0) drew the box of half size 1 (its corners in another order)."""
+    from vcs_env.walls import box_segments
+
+    for args in ((-1.0,), (2.0, -0.5), (0.0,)):
+        with pytest.raises(ValueError, match="must be > 0"):
+            box_segments(*args)

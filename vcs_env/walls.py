@@ -71,8 +71,12 @@ def polygon_segments(vertices: Sequence[Sequence[float]]) -> np.ndarray:
 
 
 def box_segments(half_x: float, half_y: float | None = None) -> np.ndarray:
-    """The four walls ``(4, 2, 2)`` [m] of the rectangle ``[-half_x, half_x] x [-half_y, half_y]``."""
+    """The four walls ``(4, 2, 2)`` [m] of the rectangle ``[-half_x, half_x] x [-half_y, half_y]``; half sizes must be
+    positive (a negative one drew the box of its size)."""
     hy = half_x if half_y is None else half_y
+    for name, v in (("half_x", half_x), ("half_y", hy)):
+        if isinstance(v, (int, float, np.number)) and not isinstance(v, bool) and v <= 0:
+            raise ValueError(f"box_segments: {name} must be > 0 [m], got {v!r}")
     return polygon_segments(((-half_x, -hy), (half_x, -hy), (half_x, hy), (-half_x, hy)))
 
 
