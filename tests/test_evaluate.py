@@ -189,6 +189,14 @@ def test_a_metric_that_gives_other_than_one_number_or_a_taken_name_is_named(monk
     monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS[:-1], metrics.Metric("success", "s", lambda f: 1.0)))
     with pytest.raises(ValueError, match="two metrics in METRICS are named 'success'"):
         metrics.episode_metrics(ep)
+    base = metrics.METRICS[:-1]
+    for bad, said in [
+        (metrics.Metric("half", "half", lambda f: "0.5"), "metric 'half' gave '0.5'.*one number per episode"),
+        (metrics.Metric("hits", "hits", lambda f: 2.0, rate=True), "metric 'hits' is a rate.*gave 2.0"),
+    ]:  # a string was taken as its number; a rate of 2 failed in the Wilson interval as 'math domain error'
+        monkeypatch.setattr(metrics, "METRICS", (*base, bad))
+        with pytest.raises(ValueError, match=said):
+            metrics.episode_metrics(ep)
 
 
 def test_metric_flags_match_the_documented_groups():

@@ -89,3 +89,13 @@ def test_intrusion_share_equals_scalar_twin():
                 gaps = [np.linalg.norm(ep.pos[t, 0] - ep.obs_pos[t, k]) - 0.25 - 0.3 for k in range(4)]
                 hits += min(gaps) < zone
         assert social_metrics.intrusion_share(ep, zone)[0] == pytest.approx(hits / total)
+
+
+def test_an_intrusion_zone_must_be_a_positive_number():
+    """NaN or a negative zone read 0 intrusions everywhere."""
+    from vcs_env.social_metrics import intrusion_share
+
+    ep = make_episode([(x, 0.0) for x in range(5)])
+    for zone in (float("nan"), -1.0, 0.0, "0.5"):
+        with pytest.raises(ValueError, match="zone must be a number > 0"):
+            intrusion_share(ep, zone)

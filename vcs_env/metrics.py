@@ -333,13 +333,15 @@ def episode_metrics(ep: Episode) -> dict[str, float]:
             raise ValueError(f"two metrics in METRICS are named {m.name!r}: a name is the key of a row's value")
         value = m.compute(facts)
         try:
-            if np.ndim(value) != 0 or value is None:
+            if np.ndim(value) != 0 or value is None or isinstance(value, (str, bytes, np.str_, np.bytes_)):
                 raise TypeError
             out[m.name] = float(value)
         except (TypeError, ValueError):
             raise ValueError(
                 f"metric {m.name!r} gave {value!r}: a metric gives one number per episode (average per-robot values)"
             ) from None
+        if m.rate and not (0.0 <= out[m.name] <= 1.0 or math.isnan(out[m.name])):
+            raise ValueError(f"metric {m.name!r} is a rate (rate=True) and gave {value!r}: a rate's value is in [0, 1]")
     return out
 
 

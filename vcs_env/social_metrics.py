@@ -44,7 +44,10 @@ def nearest_gap(ep: Episode) -> np.ndarray:
 
 
 def intrusion_share(ep: Episode, zone: float) -> np.ndarray:
-    """Share of the robot's driving states in which some obstacle is closer than ``zone`` [m] ``(n,)``."""
+    """Share of the robot's driving states in which some obstacle is closer than ``zone`` [m] ``(n,)``; ``zone`` a
+    number > 0 (NaN or a negative zone read 0 everywhere)."""
+    if isinstance(zone, bool) or not isinstance(zone, (int, float, np.number)) or not zone > 0:
+        raise ValueError(f"intrusion_share: zone must be a number > 0 [m], got {zone!r}")
     during = driving_states(ep)
     inside = (nearest_gap(ep) < zone) & during
     with np.errstate(invalid="ignore", divide="ignore"):
