@@ -257,3 +257,21 @@ def test_square_crossing_pedestrians_start_and_walk_to_points_clear_of_walls(kin
         goals = sim.motion_params["goals"][0, :, 0]
         for points in (w.obs_pos[0], goals):
             assert (clearance(points, segments) >= w.obs_radius[0] + s.min_separation - 1e-9).all()
+
+
+def test_square_crossers_need_no_room_on_the_crowd_ring_and_are_drawn_where_they_walk():
+    """The crowd ring's capacity refused a 16th pedestrian crossing the square (their ring places are replaced);
+    the drawn area was the ring's, leaving square and wander pedestrians out of frame. Layouts that fitted before
+    draw as before (the suites' resets hashed unchanged when this changed)."""
+    env = vcs_env.parallel_env(scenario="crowdnav-square-v0", n_obstacles=16)
+    env.reset(seed=0)
+    pos, h = env.engine.world.obs_pos[0], env.scenario.arena_half_size
+    assert pos.shape == (16, 2) and np.all(np.abs(pos) <= h)
+    with pytest.raises(ValueError, match="crowd circle"):  # pedestrians that cross the circle still need its room
+        vcs_env.parallel_env(scenario="crowdnav-circle-v0", n_obstacles=16)
+    for policy in ("square", "wander"):
+        s = vcs_env.make_scenario("crowdnav-square-v0", arena_half_size=7.0)
+        s = dataclasses.replace(s, pedestrians=dataclasses.replace(s.pedestrians, goal_policy=policy))
+        assert s.view_extent >= 7.0 + s.robot.radius
+    circle = vcs_env.make_scenario("crowdnav-circle-v0", arena_half_size=7.0)
+    assert circle.view_extent < 7.0  # circle crossers stay near their ring

@@ -24,6 +24,7 @@ if TYPE_CHECKING:  # scenario.py looks kinds up here when it validates
 
 from .custom_layout import check_goals, check_scripted
 from .placement import (  # noqa: F401  (re-exported: the building blocks of every kind)
+    CROWD_REDRAWS,
     MAX_TRIES,
     MIN_GOAL_DISTANCE,
     Ahead,
@@ -34,12 +35,16 @@ from .placement import (  # noqa: F401  (re-exported: the building blocks of eve
     check_ring,
     check_walls,
     circle_points,
+    crowd_ring,
+    crowd_view,
     finish,
     jittered,
     obstacle_radii,
+    on_ring,
     place_discs,
     place_obstacles,
     ring_crossers,
+    walks_square,
 )
 
 
@@ -223,11 +228,6 @@ class Dynamic(Random):
     summary = "random starts and goals among obstacles on arbitrary trajectories bouncing in the arena."
 
 
-CROWD_REDRAWS = 20
-"""Times a crowd layout places all its obstacles afresh (same generator) when the ones placed first
-left no room on the ring for the next, before reset gives up with ``ValueError``."""
-
-
 class Crowd(ScenarioKind):
     name = "crowd"
     summary = (
@@ -239,18 +239,15 @@ class Crowd(ScenarioKind):
     def check_layout(self, s: Scenario) -> None:
         check_ring(s)
         r, r_obs = s.robot.radius, s.obstacle_radius[1]
-        ring = 2.0 * math.pi * s.circle_radius
-        # Every body takes two places on the ring, its start and the antipodal goal (with an even
-        # robot count the robots' goals are each other's starts).
-        robot_places = s.n_robots if s.n_robots % 2 == 0 else 2 * s.n_robots
-        used = robot_places * (2 * r + s.min_separation) + 2 * s.n_obstacles * (2 * r_obs + s.min_separation)
+        m = 0 if walks_square(s) else s.n_obstacles  # pedestrians crossing the square need no place on the ring
+        used, ring = crowd_ring(s, m)
         if used > ring:
             raise ValueError(
                 f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles on a crowd circle of radius "
                 f"{s.circle_radius:g} m: their starts and goals need {used:.1f} m of its {ring:.1f} m; "
                 "increase layout_radius"
             )
-        if s.n_obstacles:  # the length of the ring is not the room between the robots: the first obstacle must fit
+        if m:  # the length of the ring is not the room between the robots: the first obstacle must fit
             start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
             bodies = [(p, r) for p in np.concatenate((start, -start))]
             try:
@@ -269,12 +266,13 @@ class Crowd(ScenarioKind):
         obs_radius = obstacle_radii(s, rng)
         start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
         goal = -start
-        for attempt in range(CROWD_REDRAWS):
+        obs_pos = obs_target = np.zeros((s.n_obstacles, 2))  # square walkers without room on the ring: placed later
+        for attempt in range(CROWD_REDRAWS if on_ring(s) else 0):
             try:
                 obs_pos, obs_target = self._obstacles(rng, s, start, goal, obs_radius)
                 break
             except ValueError:  # the obstacles placed first left no room for one: place them all again
-                if attempt == CROWD_REDRAWS - 1:
+                if attempt == CROWD_REDRAWS - 1 and not walks_square(s):
                     raise
         return finish(s, start, goal, obs_pos, obs_target, obs_radius)
 
@@ -341,7 +339,7 @@ class Crowd(ScenarioKind):
         return (ring[:, None] + off[None]).reshape(-1, 2)
 
     def view_extent(self, s: Scenario) -> float:
-        return s.circle_radius + s.jitter + 0.5 + s.robot.radius + 0.5
+        return crowd_view(s)
 
 
 class Custom(ScenarioKind):

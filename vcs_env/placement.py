@@ -50,6 +50,45 @@ def _view(s: Scenario, half: float) -> float:
     return half + s.robot.radius + 0.5
 
 
+CROWD_REDRAWS = 20
+"""Times a crowd layout places all its obstacles afresh (same generator) when the ones placed first
+left no room on the ring for the next, before reset gives up with ``ValueError``."""
+
+
+def walks_square(s: Scenario) -> bool:
+    """Whether the obstacles are pedestrians crossing the square (CrowdNav's square crossing): they are placed in
+    the square (:meth:`vcs_env.obstacles.Pedestrians.place`), whatever places their layout kind gave them."""
+    return s.obstacle_motion == "pedestrians" and s.pedestrians is not None and s.pedestrians.goal_policy == "square"
+
+
+def crowd_ring(s: Scenario, m: int) -> tuple[float, float]:
+    """The length [m] of a crowd's ring that its robots and ``m`` obstacles take, starts and antipodal goals (with
+    an even robot count the robots' goals are each other's starts), and the ring's length [m]."""
+    robot_places = s.n_robots if s.n_robots % 2 == 0 else 2 * s.n_robots
+    sep = s.min_separation
+    used = robot_places * (2 * s.robot.radius + sep) + 2 * m * (2 * s.obstacle_radius[1] + sep)
+    return used, 2.0 * math.pi * s.circle_radius
+
+
+def on_ring(s: Scenario) -> bool:
+    """Whether a crowd's kind places its obstacles on its ring: always, but for pedestrians crossing the square for
+    whom the ring has no room (their places there would be replaced anyway; where it has, the draws stay as they
+    were)."""
+    return not walks_square(s) or bool(np.less_equal(*crowd_ring(s, s.n_obstacles)))
+
+
+def crowd_view(s: Scenario) -> float:
+    """Drawn half size [m] of a crowd: its ring with the obstacles' 0.5 m of start noise, and the arena where the
+    obstacles move in it (bouncing off its edges, or pedestrians with goals in it)."""
+    half = s.circle_radius + s.jitter + 0.5
+    pedestrians = s.obstacle_motion == "pedestrians" and (
+        s.pedestrians is None or s.pedestrians.goal_policy != "circle"
+    )
+    if s.n_obstacles and (s.bounce or pedestrians):
+        half = max(half, s.arena_half_size)
+    return half + s.robot.radius + 0.5
+
+
 def check_ring(s: Scenario) -> None:
     """Neighbours on the layout circle must not overlap."""
     need = 2.0 * s.robot.radius + s.min_separation + 2.0 * s.jitter
