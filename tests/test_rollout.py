@@ -52,9 +52,16 @@ def test_rendering_happens_outside_the_timed_controller_calls(monkeypatch):
         return planner.act(world)
 
     (ep,) = run_episodes(make_scenario("crowd", max_steps=12), control, [3], render_worlds=[0])
-    assert len(ep.frames) == ep.steps + 1 == len(draws)
+    frames = list(ep.frames)  # drawn when read (a run held every frame: about 1 GB for 10 episodes of rollout --gif)
+    assert len(ep.frames) == ep.steps + 1 == len(draws) == len(frames)
     assert min(draws) > max(calls)  # every frame is drawn after the last controller call
     assert np.asarray(ep.frames[0]).ndim == 3
+    # The frames are those one renderer draws state after state (trails included), read in any order or sliced.
+    r = render.Renderer(make_scenario("crowd", max_steps=12).view_extent, size=400)
+    eager = [r.draw(w) for w in ep.frames.snapshots]
+    assert all(np.array_equal(a, b) for a, b in zip(frames, eager))
+    assert np.array_equal(ep.frames[7], eager[7]) and np.array_equal(ep.frames[-1], eager[-1])
+    assert [np.array_equal(a, b) for a, b in zip(ep.frames[::3], eager[::3])] == [True] * len(eager[::3])
 
 
 def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monkeypatch):

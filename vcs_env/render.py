@@ -170,7 +170,8 @@ def ansi(world: WorldState) -> str:
 
 def write_video(frames: Iterable[np.ndarray], path: str, fps: int = 10) -> str:
     """Write ``(H, W, 3)`` uint8 frames to a ``.gif`` (Pillow) or ``.mp4`` (imageio-ffmpeg). The frames are
-    converted one at a time as they are written (a generator of them never holds them all)."""
+    converted one at a time as they are written (a generator of them is never held whole; Pillow's GIF writer keeps
+    each frame in its palette form, a third of its size, until the file is written)."""
     frames = iter(frames)
     first = next(frames, None)
     if first is None:

@@ -240,17 +240,48 @@ class EpisodeRecorder(Hook):
             )
 
 
+class Frames(Sequence):
+    """The rendered frames of one episode ``(H, W, 3)`` uint8, drawn from its state snapshots when read (frame ``k``
+    with the trails of the states before it), never all held at once: ``rollout --gif`` of 10 episodes held
+    about 1 GB of frames. Slices are frames too (``ep.frames[::3]``)."""
+
+    def __init__(self, snapshots: list, extent: float, size: int, picks: range | None = None) -> None:
+        self.snapshots, self.extent, self.size = snapshots, extent, size
+        self.picks = range(len(snapshots)) if picks is None else picks
+
+    def __len__(self) -> int:
+        return len(self.picks)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return Frames(self.snapshots, self.extent, self.size, self.picks[i])
+        return self._draw(self._renderer(), self.picks[i])
+
+    def __iter__(self):
+        r = self._renderer()
+        return (self._draw(r, k) for k in self.picks)
+
+    def _renderer(self):
+        from .render import Renderer
+
+        return Renderer(self.extent, size=self.size)
+
+    def _draw(self, r, k: int) -> np.ndarray:
+        r.trails = [w.pos[0] for w in self.snapshots[:k]]  # the trail of the states before (draw adds its own)
+        return r.draw(self.snapshots[k])
+
+
 class FrameRecorder(Hook):
-    """Renders chosen worlds into ``frames[index]`` (index into the whole seed list): the initial
-    state and the state after every step of the episode. During the run it only keeps state
-    snapshots; it draws them when the batch ends, outside the timed controller calls."""
+    """Renders chosen worlds into ``frames[index]`` (index into the whole seed list, :class:`Frames`): the initial
+    state and the state after every step of the episode. During the run it only keeps state snapshots; they are
+    drawn when the frames are read, after the run, outside the timed controller calls."""
 
     def __init__(self, extent: float, worlds: Iterable[int], size: int = 400) -> None:
         from .render import Renderer
 
         Renderer(extent, size=size)._pygame()  # a missing render extra fails here, before the run
         self.extent, self.size = extent, size
-        self.frames: dict[int, list[np.ndarray]] = {int(i): [] for i in worlds}
+        self.frames: dict[int, Frames | list] = {int(i): [] for i in worlds}
 
     def begin(self, engine: NavEngine, seeds: Sequence[int], first: int) -> None:
         self.w = engine.world
@@ -263,11 +294,8 @@ class FrameRecorder(Hook):
                 snaps.append(self.w.world(b))
 
     def end(self) -> None:
-        from .render import Renderer
-
         for b, snaps in self.snapshots.items():
-            r = Renderer(self.extent, size=self.size)
-            self.frames[self.local[b]] = [r.draw(state) for state in snaps]
+            self.frames[self.local[b]] = Frames(snaps, self.extent, self.size)
 
 
 def run_episodes(
