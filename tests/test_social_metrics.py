@@ -99,3 +99,12 @@ def test_an_intrusion_zone_must_be_a_positive_number():
     for zone in (float("nan"), -1.0, 0.0, "0.5"):
         with pytest.raises(ValueError, match="zone must be a number > 0"):
             intrusion_share(ep, zone)
+
+
+def test_a_hand_made_episode_whose_arrays_disagree_is_named():
+    """A person added to obs_pos but not to obs_radius read 0 intrusions and then failed in numpy's min."""
+    ep = make_episode([(x, 0.0) for x in range(5)])
+    person = dataclasses.replace(ep, obs_pos=np.tile([[[2.0, 0.9]]], (len(ep.pos), 1, 1)))
+    with pytest.raises(ValueError, match=r"Episode.obs_pos has shape \(5, 1, 2\), expected \(5, 0, 2\)"):
+        metrics.episode_metrics(person)
+    metrics.episode_metrics(dataclasses.replace(person, obs_radius=np.array([0.3])))  # with its radius: fine

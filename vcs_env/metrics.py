@@ -137,6 +137,7 @@ class EpisodeFacts:
     each computed once, on first use."""
 
     def __init__(self, ep: Episode):
+        ep.check()
         self.ep = ep
 
     @functools.cached_property

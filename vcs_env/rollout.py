@@ -67,6 +67,27 @@ class Episode:
     def n_robots(self) -> int:
         return self.pos.shape[1]
 
+    def check(self) -> None:
+        """A ``ValueError`` naming the first array whose shape disagrees with the episode's ``T`` steps, ``n`` robots
+        and ``m`` obstacles (from ``actions``, ``pos`` and ``obs_radius``), as a hand-made episode may; the metrics
+        check it first (a mismatch failed deep in numpy, or gave a wrong value silently)."""
+        T, n, m = len(self.actions), (np.shape(self.pos) + (-1, -1))[1], len(self.obs_radius)
+        s = None if self.segments is None else len(self.segments)
+        want = {"pos": (T + 1, n, 2), "radius": (n,), "goal": (n, 2), "heading": (T + 1, n), "speed": (T + 1, n),
+                "obs_pos": (T + 1, m, 2), "actions": (T, n, 2), "acted": (T, n), "collided": (T, n),
+                "robot_contact": (T, n), "obstacle_contact": (T, n), "min_separation": (T, n), "reached_step": (n,),
+                "straight_time": (n,), "robot_hits": (T, n, n), "obstacle_hits": (T, n, m),
+                "wall_hits": (T, n, s)}  # fmt: skip
+        for name, shape in want.items():
+            value = getattr(self, name)
+            if value is None or (name == "wall_hits" and s is None and np.shape(value)[:2] == (T, n)):
+                continue
+            if np.shape(value) != shape:
+                raise ValueError(
+                    f"Episode.{name} has shape {np.shape(value)}, expected {shape} (T={T} steps from actions, "
+                    f"n={n} robots from pos, m={m} obstacles from obs_radius)"
+                )
+
 
 @dataclass
 class Step:
