@@ -317,3 +317,24 @@ def test_among_walls_progress_is_the_decrease_of_the_route_length():
         route_gain += res.terms["progress"][0, 0]
         straight_gain += (res.events.goal_dist_before - res.events.goal_dist_after)[0, 0]
     assert 0.0 < route_gain < 0.75 * straight_gain
+
+
+def test_imitation_in_absolute_mode_wraps_the_heading_and_planners_refuse_an_unknown_mode():
+    """Headings pi and -pi are one absolute command (the robot ends the step in the same place) but the imitation
+    term read them 2 apart (-0.71 for the one, -0.0007 for the other); act(world, "Delta") was taken as absolute."""
+    terms, places = [], []
+    for h in (1.0, -1.0):
+        env = vcs_env.parallel_env(
+            scenario="swap", n_robots=2, action_mode="absolute", rewards=RewardWeights(vcs_imitation=1.0)
+        )
+        _, infos = env.reset(seed=0)
+        actions = {a: infos[a]["expert_action"] for a in env.agents}
+        assert abs(abs(actions["robot_1"][1]) - 1.0) < 0.01  # the expert heads (nearly) west: pi or -pi
+        actions["robot_1"] = np.array([actions["robot_1"][0], h], np.float32)
+        _, _, _, _, infos = env.step(actions)
+        terms.append(infos["robot_1"]["reward_terms"]["vcs_imitation"])
+        places.append(env.world.pos[0, 1].copy())
+    np.testing.assert_allclose(places[0], places[1], atol=1e-12)
+    assert abs(terms[0] - terms[1]) < 1e-9 and terms[0] > -0.01
+    with pytest.raises(ValueError, match="action_mode must be one of"):
+        vcs_env.make_planner("vcs").act(env.world, "Delta")

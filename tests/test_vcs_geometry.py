@@ -212,6 +212,10 @@ def test_kernel_admissibility_matches_numpy_reference(reciprocity):
         ("reciprocity", "orca"),
         ("r_ca", 0.0),
         ("fallback_clearance", -0.1),
+        ("tau_s", 0.0),  # accepted, then a ZeroDivisionError in the search near walls
+        ("stall_speed", 1.5),  # fractions of v_max: accepted above 1, and every robot detoured for good
+        ("perturbation", 5.0),
+        ("give_way_speed", 5.0),
     ],
 )
 def test_vcs_params_reject_bad_values_naming_the_field(field, value):
@@ -226,6 +230,7 @@ def test_vcs_params_accept_the_edges_of_their_ranges():
     from baselines.vcs.params import HORIZONS, VCSParams
 
     VCSParams(w_safety=0.0, detour_jitter=0.0, detour_angle=-math.pi, window_margin_steps=0, horizon=3, n_v=2)
+    VCSParams(perturbation=0.0, stall_speed=1.0, give_way_speed=0.0)
     for horizon in HORIZONS:
         assert VCSParams(horizon=horizon).horizon == horizon
 

@@ -145,6 +145,8 @@ def target_to_action(world: WorldState, target: np.ndarray, action_mode: str = "
     Returns:
         Actions ``(B, n, 2)`` in ``[-1, 1]`` (float32).
     """
+    if action_mode not in ACTION_MODES:  # every other string was taken for "absolute"
+        raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {action_mode!r}")
     t_speed = np.clip(target[..., 0], 0.0, world.v_max)
     t_head = target[..., 1]
     if world.holonomic:

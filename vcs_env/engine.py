@@ -225,7 +225,9 @@ class NavEngine:
         crashed = events.collided & (self.scenario.on_collision == "terminate")
         terminated = events.reached | crashed
         truncated = world.active & (world.steps >= self.max_steps)[:, None]
-        x = StepInput(world, events, actions, crashed, self.scenario.dt, self.gamma, self.expert, prev_expert)
+        x = StepInput(
+            world, events, actions, crashed, self.scenario.dt, self.gamma, self.expert, prev_expert, self.action_mode
+        )
         terms = {name: term(x) for name, term in self.terms.items()}
         for name in self._custom:  # the built-in terms are trusted (and checking costs a few % at large B)
             terms[name] = checked_term(name, terms[name], world.active.shape)

@@ -47,7 +47,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     ## Rewards
     Weighted sum of named terms (``progress``, ``arrival``, ``collision``, ``time``, optional
     ``vcs_imitation`` / ``vcs_potential`` shaping and custom ``reward_terms``), weights in
-    ``scenario.rewards``. ``info[agent]["reward_terms"]`` has every unweighted term.
+    ``scenario.rewards``. ``info[agent]["reward_terms"]`` has each term in use, unweighted (the shaping and
+    pairwise terms only when weighted).
 
     ## Starting State
     Drawn from the scenario with the generator seeded by ``reset(seed=...)``.
@@ -75,6 +76,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, fix (same id, 2026-12-07): the ``vcs_imitation`` term (weight 0 by default) with
+      ``action_mode="absolute"`` and unicycles compares headings wrapped (commands of heading pi and -pi, one
+      motion, read 2 apart). Every other reward, and this one in ``delta`` mode, unchanged.
     * v2, addition (same id, 2026-12-06): with ``n_wall_points``, the optional segment fields of the wall points
       (``wall_segments=True``, off by default): each point's wall segment, its direction and extent either side of
       the point (``tx, ty, back, ahead``). Without it every observation is as before, bit for bit.

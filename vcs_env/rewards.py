@@ -40,6 +40,7 @@ class StepInput:
     gamma: float  # discount of potential-based shaping
     expert: Planner | None
     expert_action: np.ndarray | None  # (B, n, 2) the expert's action for the state before the step
+    action_mode: str = "delta"  # how the actions command the robots (vcs_env.dynamics.ACTION_MODES)
 
 
 class RewardTerm:
@@ -126,7 +127,8 @@ class Time(RewardTerm):
 
 class VcsImitation(RewardTerm):
     """``-|a - a_expert| / (2 sqrt 2)`` in [-1, 0]: distance of the taken and the expert action
-    in the one-step velocity change window (both in action units, clipped to [-1, 1])."""
+    in the one-step velocity change window (both in action units, clipped to [-1, 1]); a unicycle's
+    absolute heading component differs by its wrapped angle (headings pi and -pi are one command)."""
 
     name = "vcs_imitation"
     needs_expert = True
@@ -134,6 +136,8 @@ class VcsImitation(RewardTerm):
 
     def __call__(self, x: StepInput) -> np.ndarray:
         diff = np.clip(np.asarray(x.actions, dtype=np.float64), -1.0, 1.0) - x.expert_action
+        if x.action_mode == "absolute" and not x.world.holonomic:  # a_1 pi is a heading [rad]: wrap the difference
+            diff[..., 1] = (diff[..., 1] + 1.0) % 2.0 - 1.0
         return np.where(x.events.acted, -np.sqrt(np.einsum("...i,...i->...", diff, diff)) / (2.0 * np.sqrt(2.0)), 0.0)
 
 

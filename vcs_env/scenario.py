@@ -79,7 +79,8 @@ class RobotSpec:
 class RewardWeights:
     """Weights of the named reward terms; the reward is the weighted sum of the terms.
 
-    Terms (per robot and step; each is reported in ``info["reward_terms"]`` before weighting):
+    Terms (per robot and step; each in use is reported in ``info["reward_terms"]`` before weighting: the first four
+    always, the others only when weighted, :attr:`vcs_env.rewards.RewardTerm.only_when_weighted`):
     ``progress`` = decrease of the remaining route length [m] (the goal distance on open floor;
     among walls the route around them, :class:`vcs_env.rewards.Progress`); ``arrival`` = 1 on the step the goal is
     reached; ``collision`` = -1 on every step the robot touches something; ``time`` = -dt [s];

@@ -278,16 +278,12 @@ class VCSParams:
             "eps_overlap",
             "t_margin",
             "t_margin_robots",
-            "tau_s",
-            "perturbation",
-            "stall_speed",
             "stall_goal_margin",
             "stall_time",
             "progress_window",
             "detour_time",
             "detour_jitter",
             "give_way_margin",
-            "give_way_speed",
             "give_way_slack",
             "give_way_stop",
             "w_goal",
@@ -299,9 +295,11 @@ class VCSParams:
         ):
             check_positive(f"VCSParams.{name}", getattr(self, name), allow_zero=True)
         check_range("VCSParams.detour_jitter", self.detour_jitter, 0.0, 1.0, hi_open=True)
+        for name in ("perturbation", "stall_speed", "give_way_speed"):  # fractions of v_max
+            check_range(f"VCSParams.{name} (a fraction of v_max)", getattr(self, name), 0.0, 1.0)
         check_range("VCSParams.give_way_angle [rad]", self.give_way_angle, 0.0, math.pi / 2, lo_open=True)
         check_positive("VCSParams.give_way_range", self.give_way_range)
-        for name in ("t_max", "kappa"):
+        for name in ("t_max", "kappa", "tau_s"):  # tau_s divides the safety term's time to contact
             check_positive(f"VCSParams.{name}", getattr(self, name))
         if isinstance(self.horizon, str):
             check_choice("VCSParams.horizon (or a number of seconds)", self.horizon, HORIZONS)
