@@ -91,12 +91,11 @@ def user_stacklevel() -> int:
     """The ``stacklevel`` for a warning raised by this function's caller that points at the user's line: the first
     frame outside this project's packages and the front ends' libraries (Gymnasium's ``make``, PettingZoo's
     wrappers), however many constructors lie between (a fixed level named a line inside them)."""
-    import gymnasium
-    import pettingzoo
-
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ours = [os.path.join(root, p) for p in ("vcs_env", "agents", "baselines", "vcs_cli")]
-    inside = tuple(d + os.sep for d in ours + [os.path.dirname(m.__file__) for m in (gymnasium, pettingzoo)])
+    fronts = [sys.modules.get(name) for name in ("gymnasium", "pettingzoo")]  # loaded by then if they made the env
+    fronts = [os.path.dirname(m.__file__) for m in fronts if getattr(m, "__file__", None)]
+    inside = tuple(d + os.sep for d in ours + fronts)
     frame, level = sys._getframe(1), 1
     while frame.f_back is not None and os.path.abspath(frame.f_code.co_filename).startswith(inside):
         frame, level = frame.f_back, level + 1
