@@ -146,13 +146,21 @@ def test_aggregate_takes_time_over_the_solved_mask_only():
 
 
 def test_the_interval_of_a_bounded_metric_stays_in_its_range():
-    """With few episodes the normal interval left the range: a share of time in personal space from -0.2, an SPL
-    above 1; a metric without bounds (min separation may be negative) keeps the plain interval."""
+    """With few episodes the interval left the range: a share of time in personal space from -0.2, an SPL above 1;
+    a metric without bounds (min separation may be negative) keeps the plain interval. Its half-width is Student's
+    t's (1.96 made three episodes' intervals 2.2x too narrow), and one episode gives none (it read "± 0.00")."""
+    from agents.evaluate.report import format_stat
+
     rows = [{"personal_intrusion": x, "spl": 1.0 - x, "jerk": x, "min_separation": x} for x in (0.0, 0.0, 0.6)]
     agg = metrics.aggregate(rows)
     assert agg["personal_intrusion"]["low"] == 0.0 and agg["spl"]["high"] == 1.0 and agg["jerk"]["low"] == 0.0
-    assert agg["personal_intrusion"]["high"] == agg["min_separation"]["high"] > 0.5
-    assert agg["min_separation"]["low"] < 0.0
+    half = 4.303 * np.std([0.0, 0.0, 0.6], ddof=1) / np.sqrt(3)  # t at 0.975 with 2 degrees of freedom
+    assert agg["min_separation"]["high"] == pytest.approx(0.2 + half) and agg["min_separation"]["low"] < 0.0
+    assert format_stat(agg["min_separation"], rate=False) == f"0.20 ± {half:.2f}"
+    assert format_stat(agg["personal_intrusion"], rate=False) == "0.20 [0.00, 1.00]"  # cut by the range: both ends
+    one = metrics.aggregate([{"jerk": 0.7}])["jerk"]
+    assert one["n"] == 1 and np.isnan(one["low"]) and format_stat(one, rate=False) == "0.70"
+    assert metrics.t95(1) == 12.706 and abs(metrics.t95(60) - 2.000) < 0.004 and abs(metrics.t95(10**6) - 1.96) < 0.001
 
 
 @pytest.mark.slow

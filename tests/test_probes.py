@@ -72,6 +72,9 @@ def test_gap_check_counts_only_probes_the_expert_solves():
 
     table = {"expert": "vcs", "probes": [row("a", 1.0, 0.95), row("b", 0.96, 0.80), row("c", 0.90, 0.10)]}
     assert gaps(table, planners={"vcs", "hrvo"}) == {"pol": [("b", pytest.approx(0.16))]}
+    # A gap of exactly 10 points is within the bar at any episode count (79/80 against 71/80 read 0.10000000000000009).
+    table = {"expert": "vcs", "probes": [row("d", 79 / 80, 71 / 80), row("e", 76 / 80, 68 / 80)]}
+    assert gaps(table, planners={"vcs", "hrvo"}) == {"pol": []}
 
 
 def test_probes_inside_a_policys_training_ranges_are_named_and_left_out_of_its_gaps():

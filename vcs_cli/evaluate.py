@@ -51,7 +51,8 @@ def _print_summary(res: EvalResult) -> None:
         st = res.summary.get(metric.name)
         if st is None:
             continue
-        ci = "-" if st["n"] == 0 else f"[{fmt(st['low'], '.3f')}, {fmt(st['high'], '.3f')}]"
+        ci = "-" if st["n"] < 2 and not metric.rate else f"[{fmt(st['low'], '.3f')}, {fmt(st['high'], '.3f')}]"
+        ci = "-" if st["n"] == 0 else ci
         print(f"{metric.label:<20} {fmt(st['mean'], '.3f'):>9} {ci:>21} {st['n']:>5}")
 
 

@@ -25,13 +25,17 @@ def table_metrics() -> list[Metric]:
 
 
 def format_stat(stat: Mapping[str, float], rate: bool, digits: int = 2) -> str:
-    """``0.95 [0.89, 0.98]`` for a rate, ``12.30 ± 0.41`` for a mean, ``-`` when undefined."""
+    """``0.95 [0.89, 0.98]`` for a rate, ``12.30 ± 0.41`` for a mean (``0.87 [0.67, 1.00]`` where the metric's
+    range cuts its interval; ``5.92`` alone from one episode), ``-`` when undefined."""
     m = stat.get("mean", math.nan)
     if stat.get("n", 0) == 0 or not math.isfinite(m):
         return "-"
-    if rate:
-        return f"{m:.{digits}f} [{stat['low']:.{digits}f}, {stat['high']:.{digits}f}]"
-    return f"{m:.{digits}f} ± {stat['high'] - m:.{digits}f}"
+    lo, hi = stat.get("low", math.nan), stat.get("high", math.nan)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return f"{m:.{digits}f}"
+    if rate or abs((hi - m) - (m - lo)) > 1e-9 * max(1.0, abs(m)):
+        return f"{m:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
+    return f"{m:.{digits}f} ± {hi - m:.{digits}f}"
 
 
 def table_lines(comparison: Comparison) -> list[str]:
@@ -73,7 +77,8 @@ def markdown_table(comparison: Comparison) -> str:
             f"Rates over all {n_all} episodes with 95 % Wilson intervals; collision = any contact, split into "
             "robot-robot and robot-obstacle (an episode can have both). Time to goal, extra time (over the "
             f"straight line at v_max) and path ratio over the {n_solved} episodes every policy solved; the other "
-            "means over all episodes where defined, ± the 95 % half-width. Min separation is the smallest "
+            "means over all episodes where defined, ± the 95 % half-width (Student's t; [low, high] where the "
+            "metric's range cuts it; none from one episode). Min separation is the smallest "
             "surface gap (negative = overlap). ms/decision = policy compute time per active robot per step.",
             *shield_lines({name: res.shield for name, res in comparison.results.items()}),
             "",
@@ -142,6 +147,8 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
         fig = Figure(figsize=(max(3.0, 0.9 * len(names) + 1.5), 3.2))
         ax = fig.subplots()
         ax.bar(range(len(names)), np.nan_to_num(means), yerr=err, capsize=4, color="tab:blue", alpha=0.8)
+        for i in np.flatnonzero(~np.isfinite(np.asarray(means, dtype=float))):  # undefined: no bar, not a 0
+            ax.annotate("n/a", (i, 0), ha="center", va="bottom", fontsize=8, color="0.4")
         ax.set_xticks(
             range(len(names)), names, rotation=30 if len(names) > 4 else 0, ha="right" if len(names) > 4 else "center"
         )
