@@ -312,7 +312,8 @@ def resolve_policy(
         label = name or getattr(policy, "name", None) or type(policy).__name__
         if getattr(policy, "observation_space", None) is not None:
             check_observation_space(policy.observation_space, scenario, f"policy {label!r}")
-        return ResolvedPolicy(str(label), predictor_controller(policy, deterministic, str(label)), "predictor")
+        guard = dataclasses.asdict(policy.shield) if isinstance(policy, ShieldedPredictor) else None  # as for a path
+        return ResolvedPolicy(str(label), predictor_controller(policy, deterministic, str(label)), "predictor", guard)
     raise ValueError(
         "a policy must be a planner name, a vcs_env.planning.Planner, a ResidualPolicy, an object with an SB3-style "
         f"predict(observation, state, episode_start, deterministic) method, or a checkpoint path; got "

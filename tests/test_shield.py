@@ -445,6 +445,12 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     network, _ = shielded.model.predict(obs, deterministic=True)
     assert action.shape == (2,) and action.dtype == np.float32 and shielded.replaced == shielded.decisions == 1
     np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, V1)[0])
+    # Given as the loaded object, the evaluation records its shield as it does for the path.
+    from agents.policies import resolve_policy
+
+    for given in (shielded, model):
+        guard = resolve_policy(given, scenario, "delta", True, "g", True).shield
+        assert guard == dataclasses.asdict(Shield(horizon=1.0, margin=0.2))
     capsys.readouterr()
     assert main(["shield", str(model), "--no-driving-guard"]) == 0  # the rule of records before the guard
     assert "(it replaces {'horizon': 1.0, 'margin': 0.2" in capsys.readouterr().out  # the earlier shield is named
