@@ -261,8 +261,9 @@ def test_the_time_limit_warning_reads_the_envs_own_max_steps():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert VcsNavEnv("circle", n_robots=200, max_steps=20000).engine.max_steps == 20000
-    with pytest.warns(UserWarning, match="leaves no robot the time to arrive"):
+    with pytest.warns(UserWarning, match="leaves no robot the time to arrive") as caught:
         VcsNavEnv("circle", n_robots=200)
+    assert caught[0].filename == __file__  # the user's line, not TorchRL's env metaclass
 
 
 def test_bad_seed_and_actions_raise_value_errors():

@@ -90,10 +90,11 @@ def check_reset_options(options, known: Sequence[str] = (), warn: bool = False, 
 def user_stacklevel() -> int:
     """The ``stacklevel`` for a warning raised by this function's caller that points at the user's line: the first
     frame outside this project's packages and the front ends' libraries (Gymnasium's ``make``, PettingZoo's
-    wrappers), however many constructors lie between (a fixed level named a line inside them)."""
+    wrappers, TorchRL's env metaclass, BenchMARL), however many constructors lie between (a fixed level named a
+    line inside them)."""
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ours = [os.path.join(root, p) for p in ("vcs_env", "agents", "baselines", "vcs_cli")]
-    fronts = [sys.modules.get(name) for name in ("gymnasium", "pettingzoo")]  # loaded by then if they made the env
+    fronts = [sys.modules.get(m) for m in ("gymnasium", "pettingzoo", "torchrl", "benchmarl")]  # loaded if they made it
     fronts = [os.path.dirname(m.__file__) for m in fronts if getattr(m, "__file__", None)]
     inside = tuple(d + os.sep for d in ours + fronts)
     frame, level = sys._getframe(1), 1
