@@ -220,6 +220,37 @@ def test_pickle_round_trip():
         np.testing.assert_array_equal(a[k], b[k])
 
 
+def test_a_copy_taken_mid_episode_continues_as_the_env_would():
+    """EzPickle rebuilt the PettingZoo env from its arguments: a deepcopy or pickle taken mid-episode was an env never
+    reset (its step raised), and the AEC wrapper's copy listed live agents over an empty inner env."""
+    import copy
+
+    env = vcs_env.parallel_env(scenario="dynamic", n_robots=3, expert="vcs", render_mode="rgb_array")
+    _, infos = env.reset(seed=3)
+    for _ in range(15):
+        _, _, _, _, infos = env.step({a: infos[a]["expert_action"] for a in env.agents})
+    env.render()  # a renderer (pygame) stays behind; the copies open their own
+    copies = [copy.deepcopy(env), pickle.loads(pickle.dumps(env))]
+    runs = []
+    for e in [env, *copies]:
+        i, steps = infos, []
+        for _ in range(10):
+            obs, rew, _, _, i = e.step({a: i[a]["expert_action"] for a in e.agents})
+            steps.append((np.concatenate([obs[a] for a in sorted(obs)]), sorted(rew.items())))
+        runs.append(steps)
+        assert e.render().shape[-1] == 3
+    for other in runs[1:]:
+        assert all(np.array_equal(x[0], y[0]) and x[1] == y[1] for x, y in zip(runs[0], other))
+    aec = vcs_env.env(scenario="circle", n_robots=2)
+    aec.reset(seed=0)
+    for _ in range(6):
+        aec.step(np.zeros(2, np.float32))
+    twin = copy.deepcopy(aec)
+    for e in (aec, twin):
+        e.step(np.full(2, 0.5, np.float32))
+    np.testing.assert_array_equal(aec.observe(aec.agent_selection), twin.observe(twin.agent_selection))
+
+
 @pytest.mark.parametrize("env_id", sorted(vcs_env.GYM_IDS))
 def test_gymnasium_check_env(env_id):
     env = gym.make(env_id, render_mode="rgb_array")

@@ -6,7 +6,6 @@ from collections.abc import Mapping
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import EzPickle
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -20,7 +19,7 @@ from .render import Renderer, RenderMixin
 from .scenario import Scenario
 
 
-class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
+class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     """Multi-robot navigation among moving obstacles (``vcs_nav_v2``).
 
     ## Description
@@ -131,18 +130,6 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv, EzPickle):
         gamma: float = 0.99,
         **scenario_overrides,
     ):
-        EzPickle.__init__(
-            self,
-            scenario,
-            render_mode,
-            max_cycles,
-            action_mode,
-            expert,
-            reward_terms,
-            obstacle_motion,
-            gamma,
-            **scenario_overrides,
-        )
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         if max_cycles is not None:

@@ -131,7 +131,16 @@ class Renderer:
 
 class RenderMixin:
     """``render()`` and ``close()`` of the API adapters, which provide ``render_mode``,
-    ``scenario``, ``engine``, ``metadata`` and ``_renderer``."""
+    ``scenario``, ``engine``, ``metadata`` and ``_renderer``; and their state for ``pickle`` and ``copy.deepcopy``."""
+
+    def __getstate__(self):
+        """The env's whole state, mid-episode included (a copy continues as the env would; gymnasium's EzPickle rebuilt
+        an env never reset from the constructor's arguments); the renderer stays behind (a copy that renders opens
+        its own, its trails starting afresh)."""
+        return {**self.__dict__, "_renderer": None}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
     def render(self):
         if not getattr(self, "_started", True):  # the world holds no episode yet (the PettingZoo env says)

@@ -244,10 +244,10 @@ class Simulator:
 
     def restore(self, pool: StatePool, states: Sequence[int], worlds: Sequence[int] | None = None) -> WorldState:
         """Put states ``states`` of ``pool`` (a pool of this scenario) into ``worlds`` (default: all,
-        one state each): those worlds then continue exactly as the worlds the states were taken from
-        (:mod:`vcs_env.start_states`). Their generators are not touched. Returns the world state.
-        Behind a :class:`~vcs_env.engine.NavEngine` (expert, reward terms) pass ``start_states`` to
-        it instead, so they see the restored worlds from their first step."""
+        one state each): their bodies, obstacles and random draws then continue exactly as those of the worlds the
+        states were taken from, their stall clocks start afresh (:mod:`vcs_env.start_states`). Their generators are
+        not touched. Returns the world state. Behind a :class:`~vcs_env.engine.NavEngine` (expert, reward terms)
+        pass ``start_states`` to it instead, so they see the restored worlds from their first step."""
         idx = world_indices(worlds, self.batch_size)
         states = [int(i) for i in states]
         if len(states) != len(idx):

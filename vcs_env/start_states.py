@@ -1,13 +1,16 @@
 """Start-state pools: episodes that begin from saved world states instead of fresh layouts.
 
 A :class:`StatePool` holds K snapshots of single worlds of one scenario: every per-world array of
-:class:`~vcs_env.state.WorldState` (clock, step count and random key included) and the obstacle
-motion model's per-world state. A :class:`~vcs_env.sim.Simulator` given :class:`StartStates` starts
+:class:`~vcs_env.state.WorldState` (time, step count and random key included; not the stall clock) and the
+obstacle motion model's per-world state. A :class:`~vcs_env.sim.Simulator` given :class:`StartStates` starts
 each world it resets, with probability ``prob``, from a state of its scenario's pool drawn with that
 world's own generator (after the fresh layout was drawn, so the world's random stream does not
-depend on the pool's contents); the episode then runs as usual from there: a restored world
-continues exactly as the world it was taken from, and its clock and step count go on from the
-snapshot, so it ends at the original time limit.
+depend on the pool's contents); the episode then runs as usual from there: a restored world's bodies,
+obstacles and random draws continue exactly as those of the world it was taken from, and its time and step
+count go on from the snapshot, so it ends at the original time limit. What remembers the past starts afresh,
+as at a reset: the stall clock (:mod:`vcs_env.stall`: its observation block and the ``stuck`` reward) and an
+expert's own memory (the VCS planner's last periods and movers), so these, and the expert's actions, may differ
+from the original world's after the restore.
 
 Training uses this to make rare situations frequent, e.g. the moments before a policy's contacts
 (:mod:`agents.train.collect_states`, ``vcs-env collect-states`` and ``vcs-env train --start-states``).

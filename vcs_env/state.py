@@ -58,8 +58,8 @@ class WorldState:
 
     def saved_arrays(self) -> dict[str, np.ndarray]:
         """The per-world arrays a saved state holds (:mod:`vcs_env.start_states`): :meth:`arrays` without
-        the stall clock, which follows from the motion (a restored world starts a new clock, as the
-        expert's memory clears when a world jumps)."""
+        the stall clock (a restored world starts a new clock, as the expert's memory starts afresh when a world
+        jumps, so the two stay in step)."""
         return {f: v for f, v in self.arrays().items() if f != "clock"}
 
     @property
