@@ -275,3 +275,5 @@ def test_square_crossers_need_no_room_on_the_crowd_ring_and_are_drawn_where_they
         assert s.view_extent >= 7.0 + s.robot.radius
     circle = vcs_env.make_scenario("crowdnav-circle-v0", arena_half_size=7.0)
     assert circle.view_extent < 7.0  # circle crossers stay near their ring
+    default = vcs_env.make_scenario("crowd", obstacle_motion="pedestrians", arena_half_size=7.0)
+    assert default.pedestrians is None and default.view_extent < 7.0  # PedestrianSpec()'s cross the circle too

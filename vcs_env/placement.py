@@ -81,10 +81,8 @@ def crowd_view(s: Scenario) -> float:
     """Drawn half size [m] of a crowd: its ring with the obstacles' 0.5 m of start noise, and the arena where the
     obstacles move in it (bouncing off its edges, or pedestrians with goals in it)."""
     half = s.circle_radius + s.jitter + 0.5
-    pedestrians = s.obstacle_motion == "pedestrians" and (
-        s.pedestrians is None or s.pedestrians.goal_policy != "circle"
-    )
-    if s.n_obstacles and (s.bounce or pedestrians):
+    walkers = s.obstacle_motion == "pedestrians" and s.pedestrians is not None and s.pedestrians.goal_policy != "circle"
+    if s.n_obstacles and (s.bounce or walkers):  # (no spec: PedestrianSpec(), whose walkers cross the circle)
         half = max(half, s.arena_half_size)
     return half + s.robot.radius + 0.5
 
