@@ -225,8 +225,8 @@ class Metric:
     plot: bool = True
     """A bar chart in the comparison report."""
     bounds: tuple[float, float] = (-math.inf, math.inf)
-    """The range of an episode's value: the normal interval of the mean is kept within it (with few episodes it
-    could leave it, e.g. a negative share)."""
+    """The range of an episode's value: the interval of the mean is kept within it (with few episodes it could
+    leave it, e.g. a negative share)."""
 
 
 UNIT, PLUS = (0.0, 1.0), (0.0, math.inf)
