@@ -295,3 +295,26 @@ def test_box_segments_refuses_a_half_size_that_is_not_positive():
     for args in ((-1.0,), (2.0, -0.5), (0.0,)):
         with pytest.raises(ValueError, match="must be > 0"):
             box_segments(*args)
+
+
+def test_a_wall_square_to_the_heading_reads_the_same_at_any_heading():
+    """Two robots in the same situation mirrored through the origin (headings 0 and pi, a wall with a door square to
+    both) read their wall segments differently: cos(pi / 2) is 6e-17, so the tie at tx = 0 went by rounding."""
+    import math
+
+    import vcs_env
+    from vcs_env import observations
+    from vcs_env.scenario import CustomLayout, Scenario
+
+    walls = (((0.0, 0.6), (0.0, 4.0)), ((0.0, -4.0), (0.0, -0.6)))
+    layout = CustomLayout(
+        start=((-2.0, 1.5), (2.0, -1.5)), goal=((-2.0, 2.5), (2.0, -2.5)), heading=(0.0, math.pi), walls=walls
+    )
+    s = Scenario(kind="custom", n_robots=2, custom=layout, n_wall_points=2, wall_segments=True, n_neighbors=1)
+    obs, _ = vcs_env.parallel_env(scenario=s).reset(seed=0)
+    read = observations.observation_layout(s).read
+    a, b = (read(obs[f"robot_{i}"], "wall_points") for i in (0, 1))
+    np.testing.assert_allclose(
+        a, b, rtol=0, atol=1e-12
+    )  # ty was +1 for one and -1 for the other, back and ahead swapped
+    assert a[0, 4] == b[0, 4] == 1.0 and a[0, 3] == b[0, 3] == 0.0  # the wall ahead: ty = +1, tx exactly 0

@@ -76,6 +76,10 @@ runs a checkpoint on any suite with the sensing it was trained with (:func:`with
 
 Version history:
 
+* v2, fix (2026-12-07): a wall segment square to the robot's heading within rounding reads ``ty = +1`` (its
+  direction turned ahead, ``tx`` 0) at any heading; ``cos(pi / 2)`` is 6e-17, so a robot heading ``pi`` or ``pi / 2``
+  read ``ty = -1`` (``back`` and ``ahead`` swapped) where one heading 0 read ``+1``. The released v2 network's results
+  on the seven map suites are the same with it (every rate and time).
 * v2, 2026-12-06: the optional segment fields of the wall points (``Scenario.wall_segments``, off by
   default, so every v2 observation without them reads as before).
 * v2, 2026-11-28: the optional ``clock`` block (``Scenario.stall_clock``, off by default, so every

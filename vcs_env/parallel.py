@@ -75,6 +75,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, fix (same id, 2026-12-07): with ``wall_segments``, a wall square to the robot's heading reads the same
+      at every heading (the rounding of ``cos(pi / 2)`` flipped its direction and swapped its extents at headings
+      ``pi`` and ``pi / 2``).
     * v2, fix (same id, 2026-12-07): the ``vcs_imitation`` term (weight 0 by default) with
       ``action_mode="absolute"`` and unicycles compares headings wrapped (commands of heading pi and -pi, one
       motion, read 2 apart). Every other reward, and this one in ``delta`` mode, unchanged.

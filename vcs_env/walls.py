@@ -164,7 +164,11 @@ def nearest_wall_points(world, k: int, with_segments: bool = False) -> tuple[np.
     t_sel = np.take_along_axis(t, order, axis=-1)
     len_sel = np.take_along_axis(np.broadcast_to(length, t.shape), order, axis=-1)
     to_a, to_b = t_sel * len_sel, (1.0 - t_sel) * len_sel  # [m] from the point to each end
-    flip = (tangent[..., 0] < 0.0) | ((tangent[..., 0] == 0.0) & (tangent[..., 1] < 0.0))
+    # Square to the heading within rounding (cos(pi / 2) is 6e-17): ty > 0, as for an exact 0 (a wall ahead read
+    # ty = +1 or -1 by the rounding of the robot's heading, e.g. at headings 0 and pi, the same situation otherwise).
+    square = np.abs(tangent[..., 0]) <= 1e-12
+    tangent[..., 0] = np.where(square, 0.0, tangent[..., 0])
+    flip = np.where(square, tangent[..., 1] < 0.0, tangent[..., 0] < 0.0)
     segments[:, :, :kk, :2] = np.where(flip[..., None], -tangent, tangent)
     segments[:, :, :kk, 2] = np.where(flip, to_b, to_a)  # backward
     segments[:, :, :kk, 3] = np.where(flip, to_a, to_b)  # forward
