@@ -13,8 +13,8 @@ Noise (``noise`` > 0, the standard deviation [m]) is Gaussian, drawn from the wo
 counter-based noise (:mod:`vcs_env.noise`): a pure function of the world key, the step and the
 robot, so a scan depends on the world state only. Noisy ranges are clipped to ``[0, max_range]``.
 
-In the observation (:mod:`vcs_env.observations`) the scan is appended after the neighbour slots
-as ``range / max_range`` in ``[0, 1]``, beam 0 first.
+In the observation (:mod:`vcs_env.observations`) the scan is appended after the neighbour slots (and the
+stall clock's block, when the scenario keeps it) as ``range / max_range`` in ``[0, 1]``, beam 0 first.
 """
 
 from __future__ import annotations

@@ -51,9 +51,10 @@ zero-padded:
 ``clock`` (with ``Scenario.stall_clock``; off by default):
 1 item, the robot's stall clock
 (:mod:`vcs_env.stall`, the memory the expert frees deadlocks with): ``detouring`` (1 while the
-stall rule has the robot detour), ``detour_left``, ``stalled`` (time slow and away from the goal),
-``no_progress`` (time since it last came closer to its goal) [s] / ``CLOCK_REF`` (5 s) in [0, 1],
-and ``tries`` (detours begun since it last made progress) / 4, clipped to [0, 1].
+stall rule has the robot detour), ``detour_left``, ``stalled`` (time slow and away from the goal; 0 while
+detouring), ``no_progress`` (time since the last progress mark: since it last came closer to its goal, or since
+its last detour began, whichever is later) [s] / ``CLOCK_REF`` (5 s) in [0, 1], and ``tries`` (detours begun
+since it last made progress) / 4, clipped to [0, 1].
 
 ``lidar`` (with ``Scenario.lidar``; off by default): one item per beam, ``range / max_range`` in
 ``[0, 1]`` (:mod:`vcs_env.lidar`).
