@@ -39,6 +39,11 @@ def notebooks() -> list[Path]:
 
 if __name__ == "__main__":
     wanted = sys.argv[1:]
+    names = [p.name for p in notebooks()]
+    if any(w.startswith("-") for w in wanted) or any(not any(w in n for n in names) for w in wanted):
+        # --help, or a name that matches no notebook: it ran nothing and said nothing
+        print(f"usage: python notebooks/execute.py [NAME ...]  (parts of notebook names: {', '.join(names)})")
+        sys.exit(0 if wanted in (["-h"], ["--help"]) else 2)
     for nb_path in notebooks():
         if not wanted or any(w in nb_path.name for w in wanted):
             print("executing", nb_path.name, flush=True)
