@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from vcs_env.parallel import VcsNavParallelEnv
+
 from . import env_bench, peers, planner_bench, train_bench
 from .timing import fit_exponent, ratio
 
@@ -158,7 +160,7 @@ def _render_env(env: dict) -> list[str]:
         "",
         "### PettingZoo parallel API, B = 1",
         "",
-        "| robots n | ours (vcs_nav_v1) | MPE simple_spread | ours / MPE |",
+        f"| robots n | ours ({VcsNavParallelEnv.metadata['name']}) | MPE simple_spread | ours / MPE |",
         "|---|---|---|---|",
     ]
     for e in env["single"]:

@@ -64,6 +64,7 @@ def test_quick_run_writes_report_and_json(quick):
         "## 5. Where the time goes",
     ):
         assert heading in text
+    assert "| ours (vcs_nav_v2) |" in text  # the env it steps (the label said v1)
     assert set(SECTIONS) <= set(data) | {"profiles"}
     assert data["meta"]["quick"] and data["meta"]["machine"]["cpu"]
     assert data["targets"] and all(t["met"] for t in data["targets"])
