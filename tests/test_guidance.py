@@ -408,3 +408,19 @@ def test_jump_start_lets_the_expert_drive_then_hands_the_robots_over():
     assert guided.jump_share == 0.0
     with pytest.raises(ValueError, match="--guide jump_start needs --guide-anneal"):
         JumpStart(1.0, 0)
+
+
+def test_jump_start_guides_the_first_episodes_of_a_run_too(tmp_path, monkeypatch):
+    """SB3 resets the worlds before the first rollout starts, when the share was still 0: a run's first episode in
+    every world went unguided (a tiny run's weights were those of a run without --guide)."""
+    from agents.train.guide import JumpStart
+
+    shares = []
+    start = NavVecEnv._start_episodes
+    monkeypatch.setattr(NavVecEnv, "_start_episodes", lambda self, w: (shares.append(self.jump_share), start(self, w)))
+    tiny = dict(scenario="circle", n_robots=4, n_worlds=2, n_steps=32, batch_size=64, n_epochs=1, timesteps=64)
+    cfg = TrainConfig(**tiny, eval_freq=0, eval_episodes=2, guide="jump_start", guide_anneal=10**6)
+    train(dataclasses.replace(cfg, out=str(tmp_path / "run")))
+    assert shares[0] == 1.0  # the episodes of the first reset: the expert drives them first
+    with pytest.raises(ValueError, match=r"in \(0, 1\], got 2"):  # capped at 1 before, the record saying 2
+        JumpStart(2.0, 1000)

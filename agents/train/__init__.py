@@ -355,6 +355,8 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
             f"{model.num_timesteps + -(-remaining // rollout) * rollout} timesteps, not {cfg.timesteps}",
             flush=True,
         )
+    if isinstance(guide, JumpStart):  # SB3 resets the worlds before the first rollout starts: guide those too
+        guide.rollout_start(venv, start_steps)
     if remaining > 0:
         model.learn(
             total_timesteps=remaining,

@@ -129,7 +129,9 @@ class JumpStart:
     def __init__(self, share: float, anneal: int):
         if anneal <= 0:
             raise ValueError("--guide jump_start needs --guide-anneal, the step at which the expert stops driving")
-        self.share, self.anneal, self.current = min(1.0, float(share)), int(anneal), 0.0
+        if not 0.0 < float(share) <= 1.0:  # a share; above 1 it was capped silently, the record saying otherwise
+            raise ValueError(f"--guide-weight of jump_start is a share of half the step limit, in (0, 1], got {share}")
+        self.share, self.anneal, self.current = float(share), int(anneal), 0.0
 
     def rollout_start(self, venv, timesteps: int) -> None:
         """Set the share of the episodes that start from now on in every group of ``venv``."""
