@@ -127,7 +127,7 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
     again = scalar_results(score_scenarios(resolved.controller, [make_scenario("circle", n_robots=4)], seeds))
     assert same([again], [{k: res["evaluation"][k] for k in again}])
     # Loaded as a predictor of observations it would act as the correction alone: refused unless asked for.
-    from agents.checkpoint import CheckpointError
+    from agents.checkpoint import CheckpointError, open_checkpoint
     from agents.policies import load_checkpoint
 
     with pytest.raises(CheckpointError, match="is a residual policy: its network's action is a correction of the vcs"):
@@ -147,11 +147,23 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
         train(other)
     with pytest.raises(ValueError, match="is no residual policy"):
         train(dataclasses.replace(cfg, out=str(tmp_path / "r2"), init="policies/circle8/model.zip"))
+    # bc and distil from it trained the correction network as a policy (0.00); a shield was written into its record,
+    # which evaluate then refused.
+    from agents.residual import refuse_residual_start
+    from vcs_cli import main
+
+    with pytest.raises(ValueError, match="bc --init .*a residual policy over vcs"):
+        refuse_residual_start(open_checkpoint(res["model"]).record, str(res["model"]), "bc --init")
+    distil_args = ["distil", "--mixture", "circle-8-v0-smoke", "--teacher", "vcs", "--init", str(res["model"])]
+    assert main([*distil_args, "--out", str(tmp_path / "d")]) == 2
+    assert "distil --init" in capsys.readouterr().err
+    assert main(["shield", str(res["model"])]) == 2
+    assert "is a residual policy over vcs" in capsys.readouterr().err and "shield" not in json.loads(
+        (tmp_path / "run" / "model.json").read_text()
+    )
     net = load_checkpoint(res["model"], make_scenario("circle", n_robots=4), network_only=True)
     assert net.predict(np.zeros(net.observation_space.shape, dtype=np.float32), deterministic=True)[0].shape == (2,)
     pytest.importorskip("onnxruntime", reason="the export extra")
-    from agents.checkpoint import open_checkpoint
-
     _, side = open_checkpoint(res["model"]).export_onnx(tmp_path / "res.onnx")
     rule = json.loads(side.read_text())["residual"]
     assert rule["planner"] == "vcs" and rule["scale"] == 0.25 and "planner_action" in rule["action"]

@@ -20,7 +20,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from agents import shield
-from agents.checkpoint import attach_shield
+from agents.checkpoint import attach_shield, open_checkpoint
 from agents.config import (
     SCENARIO_FLAGS,
     ScenarioConfig,
@@ -254,6 +254,14 @@ def cmd_shield(args) -> int:
             robots_stand=not args.no_robots_stand,
         )
     )
+    if guard is not None:  # a shield filters a network's actions, a residual's network corrects a planner's
+        record = open_checkpoint(args.checkpoint).record
+        residual = (record.get("config") or {}).get("residual") if isinstance(record, dict) else None
+        if residual:
+            raise ValueError(
+                f"{args.checkpoint} is a residual policy over {residual} (its network corrects the planner's actions); "
+                "a shield filters a network's own actions, and evaluate would refuse the record: none written"
+            )
     before = attach_shield(args.checkpoint, guard)
     if guard is None:
         said = "removed the shield from" if before is not None else "no shield to remove in"
