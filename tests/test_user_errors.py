@@ -346,3 +346,18 @@ def test_another_motion_on_a_suite_with_pedestrians():
     with pytest.raises(ValueError, match="give pedestrians=None too"):
         vcs_env.parallel_env(scenario="crowdnav-circle-v0", obstacle_motion="constant")
     vcs_env.parallel_env(scenario="crowdnav-circle-v0", obstacle_motion="constant", pedestrians=None)
+
+
+def test_imitation_flags_without_their_partner_are_refused():
+    """They were accepted and the run was bit for bit the one without them (a helper's sweep compared weights)."""
+    from agents.imitation import BCConfig
+    from agents.imitation.distil import DistilConfig
+
+    for kw in ({"dagger_beta": 0.3}, {"dagger_seed": 7}, {"dagger_episodes": 3}, {"dagger_epochs": 2}):
+        with pytest.raises(ValueError, match="set DAgger's rounds: give --dagger-iters too"):
+            BCConfig(**kw)
+        BCConfig(**kw, dagger_iters=1)
+    with pytest.raises(ValueError, match="--init keeps the checkpoint's"):
+        BCConfig(init="policies/circle8/model.zip", log_std_init=-1.0)
+    with pytest.raises(ValueError, match="--start-prob is the share of episodes begun from --start-states"):
+        DistilConfig(start_prob=0.3)

@@ -197,6 +197,10 @@ def action_error(policy, obs: np.ndarray, actions: np.ndarray) -> float:
     return float(np.linalg.norm(pred - actions, axis=-1).mean())
 
 
+DAGGER_FLAGS = ("dagger_episodes", "dagger_beta", "dagger_epochs", "dagger_seed")
+"""The settings of DAgger's rounds, read only with ``dagger_iters`` > 0."""
+
+
 @dataclass
 class BCConfig:
     """``vcs-env bc``: behaviour cloning (and optional DAgger) into a PPO actor-critic."""
@@ -261,6 +265,11 @@ class BCConfig:
         check_choice("BCConfig.loss", self.loss, LOSSES)
         if self.epochs == 0 and self.dagger_iters == 0:
             raise ValueError("BCConfig: epochs 0 and dagger_iters 0 would train nothing")
+        unread = [f"--{f.replace('_', '-')}" for f in DAGGER_FLAGS if getattr(self, f) != getattr(BCConfig, f)]
+        if unread and self.dagger_iters == 0:  # accepted, and the run was the same without them
+            raise ValueError(f"{', '.join(unread)} set DAgger's rounds: give --dagger-iters too (0: plain BC)")
+        if self.init and self.log_std_init != BCConfig.log_std_init:  # the checkpoint's std is kept
+            raise ValueError("--log-std-init sets a fresh policy's std; --init keeps the checkpoint's: leave it out")
 
 
 def _split(data: dict[str, np.ndarray], frac: float, seed: int) -> tuple[np.ndarray, np.ndarray]:

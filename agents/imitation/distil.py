@@ -118,6 +118,8 @@ class DistilConfig(ScenarioConfig):
         check_range("DistilConfig.beta", self.beta, 0.0, 1.0)
         check_range("DistilConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
         check_range("DistilConfig.start_prob", self.start_prob, 0.0, 1.0)
+        if self.start_states is None and self.start_prob != DistilConfig.start_prob:  # as train refuses it
+            raise ValueError("--start-prob is the share of episodes begun from --start-states: give those too")
 
 
 def teachers_of(cfg: DistilConfig) -> dict[str, str]:
