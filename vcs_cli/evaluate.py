@@ -34,6 +34,7 @@ from agents.evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate, select
 from agents.evaluate import probes as probe_table
 from agents.evaluate.report import describe_shield, fmt, table_lines, table_metrics, write_report
 from agents.policies import is_checkpoint_spec
+from agents.residual import Residual
 from benchmarks.timing import machine_info
 from vcs_env.suites import Suite, get_suite, suite_names
 
@@ -256,11 +257,11 @@ def cmd_shield(args) -> int:
     )
     if guard is not None:  # a shield filters a network's actions, a residual's network corrects a planner's
         record = open_checkpoint(args.checkpoint).record
-        residual = (record.get("config") or {}).get("residual") if isinstance(record, dict) else None
-        if residual:
+        residual = Residual.of(record.get("config") or {}) if isinstance(record, dict) else None
+        if residual is not None:
             raise ValueError(
-                f"{args.checkpoint} is a residual policy over {residual} (its network corrects the planner's actions); "
-                "a shield filters a network's own actions, and evaluate would refuse the record: none written"
+                f"{args.checkpoint} is a residual policy over {residual.planner} (its network corrects the planner's "
+                "actions); a shield filters a network's own actions, and evaluate would refuse the record: none written"
             )
     before = attach_shield(args.checkpoint, guard)
     if guard is None:

@@ -266,7 +266,7 @@ class Crowd(ScenarioKind):
         obs_radius = obstacle_radii(s, rng)
         start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
         goal = -start
-        obs_pos = obs_target = np.zeros((s.n_obstacles, 2))  # square walkers without room on the ring: placed later
+        obs_pos, obs_target = np.zeros((2, s.n_obstacles, 2))  # square walkers without room on the ring: placed later
         for attempt in range(CROWD_REDRAWS if on_ring(s) else 0):
             try:
                 obs_pos, obs_target = self._obstacles(rng, s, start, goal, obs_radius)

@@ -55,10 +55,18 @@ CROWD_REDRAWS = 20
 left no room on the ring for the next, before reset gives up with ``ValueError``."""
 
 
+def pedestrian_goals(s: Scenario) -> str | None:
+    """The goal policy of the obstacles if they walk as pedestrians (``PedestrianSpec.goal_policy``; no spec is
+    ``PedestrianSpec()``'s ``"circle"``), else None."""
+    if s.obstacle_motion != "pedestrians":
+        return None
+    return "circle" if s.pedestrians is None else s.pedestrians.goal_policy
+
+
 def walks_square(s: Scenario) -> bool:
     """Whether the obstacles are pedestrians crossing the square (CrowdNav's square crossing): they are placed in
     the square (:meth:`vcs_env.obstacles.Pedestrians.place`), whatever places their layout kind gave them."""
-    return s.obstacle_motion == "pedestrians" and s.pedestrians is not None and s.pedestrians.goal_policy == "square"
+    return pedestrian_goals(s) == "square"
 
 
 def crowd_ring(s: Scenario, m: int) -> tuple[float, float]:
@@ -81,8 +89,7 @@ def crowd_view(s: Scenario) -> float:
     """Drawn half size [m] of a crowd: its ring with the obstacles' 0.5 m of start noise, and the arena where the
     obstacles move in it (bouncing off its edges, or pedestrians with goals in it)."""
     half = s.circle_radius + s.jitter + 0.5
-    walkers = s.obstacle_motion == "pedestrians" and s.pedestrians is not None and s.pedestrians.goal_policy != "circle"
-    if s.n_obstacles and (s.bounce or walkers):  # (no spec: PedestrianSpec(), whose walkers cross the circle)
+    if s.n_obstacles and (s.bounce or pedestrian_goals(s) in ("square", "wander")):
         half = max(half, s.arena_half_size)
     return half + s.robot.radius + 0.5
 
