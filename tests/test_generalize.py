@@ -98,6 +98,11 @@ def test_arena_half_size_is_a_flag_where_the_arena_sets_the_worlds():
             build_scenario(ScenarioConfig(scenario=name, arena_half_size=8.0))
     bouncing = build_scenario(ScenarioConfig(scenario="dynamic-fast-v0", arena_half_size=8.0))
     assert bouncing.bounce and bouncing.arena_half_size == 8.0
+    square = build_scenario(ScenarioConfig(scenario="crowdnav-square-v0", arena_half_size=6.0))
+    assert square.arena_half_size == 6.0  # pedestrians crossing the square walk in the arena
+    for suite in ("crowdnav-circle-v0", "crowdnav-circle-unicycle-v0"):  # those crossing the circle never read it
+        with pytest.raises(ValueError, match="arena_half_size does not apply to crowd scenarios"):
+            build_scenario(ScenarioConfig(scenario=suite, arena_half_size=8.0))
 
 
 def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):

@@ -85,11 +85,18 @@ def on_ring(s: Scenario) -> bool:
     return not walks_square(s) or bool(np.less_equal(*crowd_ring(s, s.n_obstacles)))
 
 
+def arena_moves(s: Scenario) -> bool:
+    """Whether obstacles move in the arena, so that its size (``arena_half_size``) shapes the episodes whatever the
+    layout kind: they bounce off its edges, or walk as pedestrians with goals in it (crossing the square or
+    wandering; pedestrians crossing the circle never read it)."""
+    return bool(s.n_obstacles) and (s.bounce or pedestrian_goals(s) in ("square", "wander"))
+
+
 def crowd_view(s: Scenario) -> float:
     """Drawn half size [m] of a crowd: its ring with the obstacles' 0.5 m of start noise, and the arena where the
-    obstacles move in it (bouncing off its edges, or pedestrians with goals in it)."""
+    obstacles move in it (:func:`arena_moves`)."""
     half = s.circle_radius + s.jitter + 0.5
-    if s.n_obstacles and (s.bounce or pedestrian_goals(s) in ("square", "wander")):
+    if arena_moves(s):
         half = max(half, s.arena_half_size)
     return half + s.robot.radius + 0.5
 
