@@ -104,6 +104,21 @@ def test_the_expert_teaches_the_entries_it_is_named_for(tmp_path):
         return float(np.linalg.norm(act - expert["actions"], axis=1).mean())
 
     assert error(out["model"]) < 0.5 * error(start)
+    with pytest.raises(ValueError, match="--teacher-shield puts network teachers behind their shield"):
+        cfg = short_run(tmp_path, start, mixture=("circle:n_robots=3",), teacher=EXPERT, teacher_shield=True)
+        distil(replace(cfg, out=str(tmp_path / "shielded")))
+
+
+def test_settings_a_distillation_cannot_use_are_refused():
+    """Each would leave the run bit for bit the one without it: the mixing of a round that plays the student alone,
+    and rewards, which no round reads."""
+    with pytest.raises(ValueError, match="with --rounds 1 the one round plays the student alone"):
+        DistilConfig(rounds=1, beta=0.5)
+    DistilConfig(rounds=2, beta=0.5)
+    with pytest.raises(ValueError, match="--shaping sets a reward, and distillation reads none"):
+        DistilConfig(shaping="vcs_potential")
+    with pytest.raises(ValueError, match="--rewards sets a reward"):
+        DistilConfig(rewards="collision=20")
 
 
 def test_bad_teacher_pairs_are_named():

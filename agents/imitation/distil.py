@@ -120,6 +120,17 @@ class DistilConfig(ScenarioConfig):
         check_range("DistilConfig.start_prob", self.start_prob, 0.0, 1.0)
         if self.start_states is None and self.start_prob != DistilConfig.start_prob:  # as train refuses it
             raise ValueError("--start-prob is the share of episodes begun from --start-states: give those too")
+        if self.rounds == 1 and self.beta != DistilConfig.beta:
+            raise ValueError(
+                "--beta mixes the teachers' actions into the rounds before the last; with --rounds 1 the "
+                "one round plays the student alone: give more rounds, or leave --beta out"
+            )
+        for flag, value in (("--shaping", self.shaping != "none"), ("--rewards", self.rewards is not None)):
+            if value:
+                raise ValueError(
+                    f"{flag} sets a reward, and distillation reads none (the student learns the "
+                    f"teachers' actions): leave {flag} out"
+                )
 
 
 def teachers_of(cfg: DistilConfig) -> dict[str, str]:
@@ -240,6 +251,11 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
         for e, t in loaded.items()
         if cfg.teacher_shield and not isinstance(getattr(t, "inner", t), ShieldedPredictor)
     ]
+    if cfg.teacher_shield and not loaded:
+        raise ValueError(
+            "--teacher-shield puts network teachers behind their shield; the VCS expert labels every "
+            "entry here: leave --teacher-shield out"
+        )
     if bare:
         raise ValueError(f"--teacher-shield: the run record of {bare[0]!r} names no shield (vcs-env shield adds one)")
     model = load_student(cfg, first)
