@@ -52,6 +52,12 @@ def test_random_walls_differ_by_seed():
         # Robots outside the arena's walls (they drove round the outside of the box).
         ({"kind": "doorway", "arena_half_size": 2.0, "layout_radius": 3.0}, "outside the arena's walls"),
         ({"kind": "doorway", "n_robots": 30, "arena_half_size": 4.0, "layout_radius": 2.22}, "outside the arena"),
+        # Robots that would start in contact with each other (they collided at the first step, doing nothing).
+        ({"kind": "corridor", "lane_spacing": 0.49}, "starts of robots 0 and 1 are 0.490 m apart, need >= 0.800"),
+        ({"kind": "doorway", "lane_spacing": 0.7}, "starts of robots 0 and 1"),
+        ({"kind": "corridor", "layout_radius": 0.2}, "starts of robots 0 and 2"),
+        ({"kind": "intersection", "layout_radius": 0.3}, "starts of robots 0 and 2"),  # the two groups meet
+        ({"kind": "corridor", "n_robots": 8, "corridor_width": 4.0, "lane_spacing": 0.9, "jitter": 0.1}, "2 jitter"),
         # Random walls too dense to draw a layout for every seed: refused here, not at some reset.
         (
             {"kind": "walls", "n_walls": 30, "wall_length": (3, 5), "arena_half_size": 4.0, "n_robots": 6},

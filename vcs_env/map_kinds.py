@@ -16,6 +16,7 @@ from .placement import (
     Layout,
     _view,
     check_arena,
+    check_spacing,
     check_walls,
     circle_points,
     finish,
@@ -58,6 +59,7 @@ class MapKind(ScenarioKind):
         seg = self.walls(s, start, goal)
         # Jitter moves starts by up to ``jitter``: the unjittered places keep that much more room.
         check_walls(s, finish(s, start, goal, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)), seg, s.jitter)
+        check_spacing(s, start, goal, "increase lane_spacing or layout_radius, or reduce jitter")
         if s.n_obstacles:  # obstacles between the walls: a map too dense for them is refused here, not at reset
             check_trial_layouts(self, s, "reduce n_obstacles / obstacle_radius or increase arena_half_size")
 

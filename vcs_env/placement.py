@@ -156,7 +156,7 @@ def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, ex
         ("obstacle", lay.obs_pos, lay.obs_radius, 0.0),
     ):
         gap = clearance(pts, seg) - rad
-        if np.any(gap < s.min_separation + more):
+        if np.any(gap < s.min_separation + more - 1e-9):  # a gap of exactly the need passes (0.3 + 0.1 rounds up)
             i = int(np.argmin(gap))
             body = float(np.broadcast_to(rad, gap.shape)[i])
             raise ValueError(
@@ -173,6 +173,23 @@ def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, ex
                 f"{s.kind} layout: no route for robot {i} from {np.round(lay.start[i], 3).tolist()} to "
                 f"{np.round(lay.goal[i], 3).tolist()} between the walls (robot radius {r} m: gaps and doors "
                 f"narrower than about a robot diameter + 0.2 m = {2 * r + 0.2:.2f} m hold no route, vcs_env.routes)"
+            )
+
+
+def check_spacing(s: Scenario, start: np.ndarray, goal: np.ndarray, hint: str) -> None:
+    """Starts ``(n, 2)`` [m] (before their ``jitter``) at least 2 radius + ``min_separation`` + 2 jitter apart, goals
+    2 radius + ``min_separation``; a ``ValueError`` naming the closest pair and ``hint`` (the fields to change)
+    otherwise: robots would start in contact, or park on one another."""
+    base = 2.0 * s.robot.radius + s.min_separation
+    for what, pts, need in (("start", start, base + 2.0 * s.jitter), ("goal", goal, base)):
+        if len(pts) < 2:
+            continue
+        d = np.linalg.norm(pts[:, None] - pts[None], axis=-1) + np.diag(np.full(len(pts), np.inf))
+        if d.min() < need - 1e-9:  # a spacing of exactly the need passes, as check_lanes
+            i, j = sorted(np.unravel_index(np.argmin(d), d.shape))
+            raise ValueError(
+                f"{s.kind}: the {what}s of robots {i} and {j} are {d[i, j]:.3f} m apart, need >= {need:.3f} m "
+                f"(2 radius + min_separation{' + 2 jitter' if what == 'start' and s.jitter else ''}); {hint}"
             )
 
 
