@@ -242,6 +242,22 @@ def test_bounce_keeps_obstacles_in_the_arena():
     pos, _, sim = run_obstacles(s, 600)
     r = sim.world.obs_radius[0]
     assert np.all(np.abs(pos) <= 4.0 - r[None, :, None] + 1e-9)
+    # Steps long against the arena: as long as the room from the centre to the edge, the obstacles stay in; longer,
+    # a reversed step would carry them out through the opposite edge (they reached 3.98 m in a 2 m arena): refused.
+    kw = dict(n_robots=1, n_obstacles=3, arena_half_size=2.0, obstacle_radius=(0.4, 0.4), dt=1.0)
+    for motion in ("constant", "arbitrary"):
+        s = vcs_env.make_scenario("dynamic", obstacle_motion=motion, obstacle_speed=(1.6, 1.6), **kw)
+        for seed in range(4):
+            pos, _, _ = run_obstacles(s, 60, seed)
+            assert np.all(np.abs(pos) <= 1.6 + 1e-9)
+    with pytest.raises(ValueError, match="bouncing obstacles at up to 1.7 m/s move 1.7 m in a step"):
+        vcs_env.make_scenario("dynamic", obstacle_speed=(1.7, 1.7), **kw)
+    s = vcs_env.make_scenario("dynamic", obstacle_speed=(1.6, 1.6), **kw)
+    env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: np.where(pos > 0, -2.0, 2.0)))
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="obstacle motion _Drift moved an obstacle so far in one step"):
+        for _ in range(20):
+            env.step({a: np.zeros(2, np.float32) for a in env.agents})
 
 
 def test_scripted_trajectory_hits_its_waypoints():

@@ -267,6 +267,17 @@ class Scenario:
                     f"pedestrians needs obstacle_motion='pedestrians', got {self.obstacle_motion!r} (for another "
                     "motion on a scenario with pedestrians, give pedestrians=None too)"
                 )
+        if self.bounce and self.n_obstacles:
+            walkers = self.obstacle_motion == "pedestrians"
+            fastest = (self.pedestrians or PedestrianSpec()).top_speed if walkers else self.obstacle_speed[1]
+            room = self.arena_half_size - self.obstacle_radius[1]
+            if fastest * self.dt > room:  # a reversed step would carry the disc out through the opposite edge
+                raise ValueError(
+                    f"bouncing obstacles at up to {fastest:g} m/s move {fastest * self.dt:g} m in a step of "
+                    f"dt={self.dt:g} s, more than the {room:g} m from the arena's centre to where their edge meets its "
+                    "wall (arena_half_size - the largest obstacle_radius): they would leave the arena; reduce dt or "
+                    "the obstacles' speed, or increase arena_half_size"
+                )
         _kinds()[self.kind].check_layout(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
