@@ -154,9 +154,9 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     checkpoint_freq: int = 500_000
     """Save a resumable checkpoint every this many timesteps (0: never)."""
     progress_bar: bool = True
-    """Show SB3's progress bar (needs tqdm and rich, the train extra)."""
+    """Show SB3's progress bar (needs tqdm and rich, the train extra; the SB3 backend only)."""
     tensorboard: bool = True
-    """Write TensorBoard logs under <out>/tb."""
+    """Write TensorBoard logs under <out>/tb (the SB3 backend only)."""
 
 
 ADAPTERS = ("batched", "pettingzoo")
@@ -205,6 +205,8 @@ class BenchMARLConfig(TrainConfig):
 
 BENCHMARL_ONLY = ("algorithm",)
 """Fields (flags) of a BenchMARL run only."""
+SB3_ONLY = ("progress_bar", "tensorboard")
+"""Flags only the SB3 backend reads (RLlib and BenchMARL runs log to their own folders and print their own lines)."""
 
 FIXED_ON_RESUME = (
     "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",

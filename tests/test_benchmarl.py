@@ -163,6 +163,9 @@ def test_compare_loads_a_benchmarl_run(tmp_path):
         (["--algorithm", "mappo"], "--algorithm only apply to --backend benchmarl"),
         (["--backend", "benchmarl", "--num-env-runners", "2"], "--num-env-runners only apply to --backend rllib"),
         (["--backend", "benchmarl", "--resume", "runs/x"], "--resume is not available with --backend benchmarl"),
+        (["--backend", "benchmarl", "--guide-anneal", "1000"], "--guide-anneal not available with --backend benchmarl"),
+        (["--backend", "benchmarl", "--no-progress-bar"], "--progress-bar only apply to --backend sb3"),
+        (["--backend", "rllib", "--tensorboard"], "--tensorboard only apply to --backend sb3"),
     ],
 )
 def test_bad_input_gets_one_line_errors(tmp_path, argv, message, capsys):

@@ -20,7 +20,15 @@ from agents import imitation
 from agents.checkpoint import Checkpoint, latest_checkpoint
 from agents.config import add_config_args, config_command, config_from_args, config_from_dict
 from agents.imitation import distil
-from agents.runs import BENCHMARL_ONLY, FIXED_ON_RESUME, RLLIB_ONLY, BenchMARLConfig, RLlibConfig, TrainConfig
+from agents.runs import (
+    BENCHMARL_ONLY,
+    FIXED_ON_RESUME,
+    RLLIB_ONLY,
+    SB3_ONLY,
+    BenchMARLConfig,
+    RLlibConfig,
+    TrainConfig,
+)
 from agents.train import collect_states
 
 KINDS = {"ppo": TrainConfig, "rllib_ppo": RLlibConfig}
@@ -84,6 +92,7 @@ def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str
 def cmd_train(args: argparse.Namespace) -> int:
     if args.backend == "benchmarl":  # None: sb3, or a resumed run's own backend
         check_backend_flags(args, "rllib", RLLIB_ONLY)
+        check_backend_flags(args, "sb3", SB3_ONLY)
         if args.resume:
             raise ValueError("--resume is not available with --backend benchmarl (start a new run)")
         from agents.train import benchmarl
@@ -100,6 +109,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         check_backend_flags(args, "rllib", RLLIB_ONLY)
         agents.train.train(config_from_args(TrainConfig, args, base), resume=ckpt)
         return 0
+    check_backend_flags(args, "sb3", SB3_ONLY)
     try:
         agents.train.rllib.train(config_from_args(RLlibConfig, args, base), resume=ckpt)
     except (RuntimeError, ConnectionError) as e:  # a cluster that cannot run it: one line

@@ -91,6 +91,7 @@ def check_config(cfg: BenchMARLConfig, n_robots: int) -> None:
         f"--lr-schedule {cfg.lr_schedule}": cfg.lr_schedule not in ("constant", "linear"),
         "--target-kl": cfg.target_kl is not None,
         "--shaping": cfg.shaping != "none",
+        "--guide-anneal": cfg.guide_anneal != default.guide_anneal,  # it anneals --shaping or --guide
         "--vf-coef": cfg.vf_coef != default.vf_coef,  # BenchMARL's critic_coef 1.0
         "--log-std-init": cfg.log_std_init != default.log_std_init,  # BenchMARL's scale starts at 1
     }
