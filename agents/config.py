@@ -319,6 +319,8 @@ def parse_weights(text: str | None) -> dict[str, float]:
         name = name.strip()
         if not sep or name not in names:
             raise ValueError(f"rewards must be name=weight pairs with names in {names}, got {item!r}")
+        if name in out:
+            raise ValueError(f"rewards: {name!r} is given twice ({text!r}); give each weight once")
         try:
             out[name] = float(value)
         except ValueError:

@@ -158,6 +158,8 @@ def test_the_interval_of_a_bounded_metric_stays_in_its_range():
     assert agg["min_separation"]["high"] == pytest.approx(0.2 + half) and agg["min_separation"]["low"] < 0.0
     assert format_stat(agg["min_separation"], rate=False) == f"0.20 ± {half:.2f}"
     assert format_stat(agg["personal_intrusion"], rate=False) == "0.20 [0.00, 1.00]"  # cut by the range: both ends
+    ttc = metrics.aggregate([{"min_ttc": x} for x in (0.0, 10.0, 10.0)])["min_ttc"]  # capped at TTC_CAP = 10 s
+    assert ttc["high"] == 10.0 and ttc["low"] == 0.0
     one = metrics.aggregate([{"jerk": 0.7}])["jerk"]
     assert one["n"] == 1 and np.isnan(one["low"]) and format_stat(one, rate=False) == "0.70"
     assert metrics.t95(1) == 12.706 and abs(metrics.t95(60) - 2.000) < 0.004 and abs(metrics.t95(10**6) - 1.96) < 0.001

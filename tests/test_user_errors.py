@@ -44,6 +44,12 @@ def test_a_label_without_a_policy_is_named(tmp_path, capsys):
     args = ["compare", "--suite", "circle-8-v0", "--policies", "ppo=", "--out", str(tmp_path / "c"), "--no-plots"]
     assert vcs_cli.main(args) == 2
     assert "policy 'ppo=' has a label and nothing after '='" in capsys.readouterr().err
+    args[4] = "x|y=vcs"  # the table's column separator: every column after it was shifted
+    assert vcs_cli.main(args) == 2
+    assert "policy label 'x|y' holds '|'" in capsys.readouterr().err
+    args[4] = "vcs"  # which episode to plot, with no plots: it changed nothing
+    assert vcs_cli.main([*args, "--episode", "2"]) == 2
+    assert "--episode chooses the episode whose trajectories are plotted" in capsys.readouterr().err
 
 
 def test_suite_names_give_the_suites_scenario_everywhere_a_scenario_is_named():
@@ -168,6 +174,8 @@ def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_nam
         assert f"vcs-env bc: error: {flag} must be >= 0, got -5" in capsys.readouterr().err
     assert vcs_cli.main([*base, "--shaping", "vcs_potential", "--rewards", "vcs_potential=0.7"]) == 2
     assert "--rewards sets vcs_potential=0.7 and --shaping vcs_potential sets its weight too" in capsys.readouterr().err
+    assert vcs_cli.main([*base, "--rewards", "collision=1,time=2,collision=5"]) == 2  # the last one won, silently
+    assert "rewards: 'collision' is given twice" in capsys.readouterr().err
     assert vcs_cli.main([*base, "--shaping-weight", "0.4"]) == 2
     assert "--shaping-weight weighs the --shaping term: give --shaping too" in capsys.readouterr().err
     for flag, value, needs in (  # a setting of another flag's feature alone changed nothing, and was recorded

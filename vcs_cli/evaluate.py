@@ -97,6 +97,9 @@ def cmd_evaluate(args) -> int:
 def cmd_compare(args) -> int:
     policies = probe_table.policy_labels([p.strip() for p in args.policies.split(",") if p.strip()], expert=None)
     suite = episodes_of(args)
+    if args.episode is not None and args.no_plots:
+        raise ValueError("--episode chooses the episode whose trajectories are plotted: leave it out with --no-plots")
+    args.episode = 0 if args.episode is None else args.episode
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
     check_out_dir(args.out)
@@ -338,7 +341,7 @@ def add_commands(sub) -> None:
         help="comma-separated planner names and/or checkpoint paths, each optionally LABEL=... (its name in tables)",
     )
     p.add_argument("--out", required=True, help="output directory for results.md, results.json and plots")
-    p.add_argument("--episode", type=int, default=0, help="index of the episode whose trajectories to plot")
+    p.add_argument("--episode", type=int, default=None, help="index of the episode whose trajectories to plot (0)")
     p.add_argument("--no-plots", action="store_true", help="skip the matplotlib plots")
     p.set_defaults(func=cmd_compare)
 

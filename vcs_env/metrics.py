@@ -34,6 +34,7 @@ from .rollout import Episode
 from .social_metrics import (
     INTIMATE_ZONE,
     PERSONAL_ZONE,
+    TTC_CAP,
     intrusion_share,
     min_human_gap,
     min_time_to_collision,
@@ -294,7 +295,7 @@ METRICS: tuple[Metric, ...] = (
         "personal_intrusion", "personal intrusion", lambda f: _mean(intrusion_share(f.ep, PERSONAL_ZONE)), bounds=UNIT
     ),
     Metric("min_human_distance", "min person gap [m]", lambda f: _min(min_human_gap(f.ep)), plot=False),
-    Metric("min_ttc", "min TTC [s]", lambda f: _min(min_time_to_collision(f.ep)), bounds=PLUS),
+    Metric("min_ttc", "min TTC [s]", lambda f: _min(min_time_to_collision(f.ep)), bounds=(0.0, TTC_CAP)),
     Metric(
         "path_irregularity",
         "path irregularity [rad/m]",

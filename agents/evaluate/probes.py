@@ -189,6 +189,8 @@ def policy_labels(specs: list[str], expert: str | None = "vcs") -> dict[str, str
             label, spec = named.strip(), rest.strip()
         else:
             label = policy_label(spec)
+        if "|" in label or "\n" in label:  # the results.md table's column separator
+            raise ValueError(f"policy label {label!r} holds '|' or a line break, which would break the results table")
         if label in out:
             raise ValueError(
                 f"two policies would be labelled {label!r} in the table: {out[label]}, {spec} (name them: LABEL=PATH)"
