@@ -47,6 +47,10 @@ def test_a_label_without_a_policy_is_named(tmp_path, capsys):
     args[4] = "x|y=vcs"  # the table's column separator: every column after it was shifted
     assert vcs_cli.main(args) == 2
     assert "policy label 'x|y' holds '|'" in capsys.readouterr().err
+    adhoc = ["evaluate", "--policy", "vcs", "--scenario", "circle", "--seeds", "0:2", "--no-progress"]
+    for flag in (["--lidar-beams", "8"], ["--stall-clock"], ["--n-wall-points", "4"]):  # the same episodes renamed
+        assert vcs_cli.main([*adhoc, *flag]) == 2
+        assert f"{flag[0]} set what robots sense, which never changes an episode" in capsys.readouterr().err
     args[4] = "vcs"  # which episode to plot, with no plots: it changed nothing
     assert vcs_cli.main([*args, "--episode", "2"]) == 2
     assert "--episode chooses the episode whose trajectories are plotted" in capsys.readouterr().err

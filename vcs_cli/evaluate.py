@@ -57,6 +57,10 @@ def _print_summary(res: EvalResult) -> None:
         print(f"{metric.label:<20} {fmt(st['mean'], '.3f'):>9} {ci:>21} {st['n']:>5}")
 
 
+SENSING_FLAGS = ("n_wall_points", "wall_segments", "stall_clock", "lidar_beams")
+"""Scenario flags that set only what robots sense (the observation), not the episodes."""
+
+
 def episodes_of(args) -> Suite:
     """The named suite, or an ad-hoc one from the scenario flags and ``--seeds``."""
     given = [f for f in ("scenario", *SCENARIO_FLAGS) if getattr(args, f, None) is not None]
@@ -67,6 +71,12 @@ def episodes_of(args) -> Suite:
         return get_suite(args.suite)
     if args.seeds is None:
         raise ValueError("give --suite NAME, or scenario flags (--scenario circle --n-robots 12 ...) with --seeds A:B")
+    sensing = [f"--{f.replace('_', '-')}" for f in SENSING_FLAGS if f in given]
+    if sensing:  # the same episodes under another suite name and fingerprint
+        raise ValueError(
+            f"{', '.join(sensing)} set what robots sense, which never changes an episode: each checkpoint runs with "
+            "the sensing its run record names, planners read none; leave it out"
+        )
     cfg = config_from_args(ScenarioConfig, args)
     scenario = probe_scenario(cfg)
     seeds = parse_seeds(args.seeds)
