@@ -5,9 +5,10 @@ import math
 import numpy as np
 import pytest
 
+import vcs_env
 from vcs_env import metrics
 from vcs_env.contacts import FAULT_SPEED, contact_events
-from vcs_env.rollout import Episode
+from vcs_env.rollout import Episode, run_episodes
 
 
 def episode(pos, obs_pos, robot_hits, obstacle_hits, acted, reached_step, dt=0.1):
@@ -53,6 +54,25 @@ def test_a_robot_driving_into_a_parked_one_is_at_fault_and_the_parked_one_is_not
     assert (c1.kind, c1.other, c1.at_fault, c1.toward) == ("robot", 0, False, 0.0)
     row = metrics.episode_metrics(ep)
     assert row["collision"] == 1 and row["at_fault_collision"] == 1 and row["not_at_fault_collision"] == 0
+
+
+def test_a_robot_that_one_step_carries_past_a_body_is_at_fault():
+    """The direction to the other body is taken where they first touch within the step: from the end of the step, a
+    robot carried past a standing robot's centre (speed x dt above its radius) read as moving away from it."""
+    pos = [[[0.0, 0.0], [0.6, 0.0]], [[0.9, 0.02], [0.6, 0.0]]]  # 9 m/s for 0.1 s, through robot 1
+    hits = np.zeros((1, 2, 2), bool)
+    hits[0, 0, 1] = hits[0, 1, 0] = True
+    ep = episode(pos, np.zeros((2, 0, 2)), hits, np.zeros((1, 2, 0)), [[1, 0]], [-1, 0])
+    (c0, c1) = sorted(contact_events(ep), key=lambda c: c.robot)
+    assert c0.at_fault and c0.toward == pytest.approx(9.0, rel=1e-3) and not c1.at_fault
+    # The same through a thin wall, simulated: one robot, nothing else in the world, so it alone can be at fault.
+    s = vcs_env.Scenario(
+        kind="custom", n_robots=1, on_collision="continue", max_steps=5, robot=vcs_env.RobotSpec(v_max=3.0, a_max=10.0),
+        custom=vcs_env.CustomLayout(start=[(-0.56, 0)], goal=[(3, 0)], speed=[3.0], walls=[((0, -1), (0, 1))]),
+    )  # fmt: skip
+    (ep,) = run_episodes(s, lambda w, o: np.ones((1, 1, 2)) * [1.0, 0.0], [0])
+    (c,) = contact_events(ep)
+    assert c.kind == "wall" and c.at_fault and c.toward == pytest.approx(3.0)
 
 
 def test_an_obstacle_running_into_a_standing_robot_is_not_its_fault():

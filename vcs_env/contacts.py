@@ -6,9 +6,10 @@ body (the simulator's swept test, :attr:`~vcs_env.rollout.Episode.robot_hits` an
 longer drives: it arrived, or stopped after a crash), an ``"obstacle"`` or a ``"wall"`` segment
 (``wall_hits``; its "centre" is the point of the segment nearest the robot). The robot is **at
 fault** when its own velocity over that step had a component toward the other body's centre
-of more than :data:`FAULT_SPEED`: it drove into the contact. A robot hit while standing, or
-while moving away or past, is not at fault. A contact between two robots is two contacts, one
-per robot; both, one or neither may be at fault.
+of more than :data:`FAULT_SPEED`, the centre as it was when the bodies first touched within the
+step (:func:`first_touch`): it drove into the contact. A robot hit while standing, or while
+moving away or past, is not at fault. A contact between two robots is two contacts, one per
+robot; both, one or neither may be at fault.
 """
 
 from __future__ import annotations
@@ -47,6 +48,25 @@ class Contact:
         return self.toward > FAULT_SPEED
 
 
+TOUCH_SAMPLES = 257
+"""Points of a step at which :func:`first_touch` measures the gap (the step's 256 parts)."""
+
+
+def first_touch(p0: np.ndarray, p1: np.ndarray, radius: float, other) -> tuple[np.ndarray, np.ndarray]:
+    """The robot's centre and the other body's "centre" ``(2,)`` [m] when they first touch within a step, the robot
+    moving from ``p0`` to ``p1`` in a straight line: the first of :data:`TOUCH_SAMPLES` points of the step where the
+    gap is at most 0 (``radius`` [m]: both radii), else where it is least (a swept graze). ``other(s, pos)`` gives
+    the other body's centre ``(k, 2)`` at fractions ``s (k,)`` of the step, the robot at ``pos = p0 + s (p1 - p0)``
+    ``(k, 2)``. Measured at the end of the step instead, a robot that a step carries past a body's centre (speed x
+    dt above its radius, or a thin wall) read as moving away from it."""
+    s = np.linspace(0.0, 1.0, TOUCH_SAMPLES)
+    pos = p0 + s[:, None] * (p1 - p0)
+    centre = other(s, pos)
+    gap = np.linalg.norm(centre - pos, axis=-1) - radius
+    k = int(np.argmax(gap <= 1e-9)) if np.any(gap <= 1e-9) else int(np.argmin(gap))
+    return pos[k], centre[k]
+
+
 def contact_events(ep: Episode) -> list[Contact]:
     """Every contact of the episode, by step, then robot, then other body.
 
@@ -70,12 +90,19 @@ def contact_events(ep: Episode) -> list[Contact]:
             run += 1
         if j < n + m:
             other = ep.pos[:, j] if j < n else ep.obs_pos[:, j - n]
-        else:  # the nearest point of the wall segment, step by step
+
+            def along(s, _pos, o=other[t], o1=other[t + 1]):  # the body moves in a straight line too
+                return o + s[:, None] * (o1 - o)
+        else:  # the nearest point of the wall segment
             a, b = ep.segments[j - n - m]
             ab = b - a
-            u = np.clip((ep.pos[:, i] - a) @ ab / (ab @ ab), 0.0, 1.0)
-            other = a + u[:, None] * ab
-        centre = other[t + 1] - ep.pos[t + 1, i]
+
+            def along(_s, pos, a=a, ab=ab):
+                return a + np.clip((pos - a) @ ab / (ab @ ab), 0.0, 1.0)[:, None] * ab
+
+            other = along(None, ep.pos[:, i])
+        here, there = first_touch(ep.pos[t, i], ep.pos[t + 1, i], ep.radius[i] + radius[j], along)
+        centre = there - here
         dist = float(np.linalg.norm(centre))
         velocity = (ep.pos[t + 1, i] - ep.pos[t, i]) / ep.dt
         toward = float(velocity @ centre / dist) if dist > 0 else float(np.linalg.norm(velocity))
