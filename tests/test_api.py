@@ -312,6 +312,12 @@ def test_pettingzoo_registry():
     assert env.observation_space("robot_0").shape == (11 + 9 * 8,)
     v1 = pettingzoo.make("parallel", "vcs_env/VcsNav-v1", scenario="swap")  # observation v1 stays available
     assert v1.observation_space("robot_0").shape == (11 + 8 * 8,) and v1.scenario.observation == 1
+    # A scenario of one version given to the other version's id: refused by name (the id's version replaced it).
+    with pytest.raises(ValueError, match="the scenario given has observation=1, and observation=2 is given too"):
+        pettingzoo.make("parallel", vcs_env.PZ_ID, scenario=v1.scenario)
+    with pytest.raises(ValueError, match="use the id of the scenario's version"):
+        gym.make("vcs_env/Navigation-v2", scenario=v1.scenario)
+    assert gym.make("vcs_env/Navigation-v1", scenario=v1.scenario).observation_space.shape == (11 + 8 * 8,)
     env.reset(seed=0)
     aec = pettingzoo.make("aec", vcs_env.PZ_ID, scenario="swap")
     aec.reset(seed=0)

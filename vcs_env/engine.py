@@ -106,6 +106,14 @@ def env_scenario(
     as on the command line) is a ``ValueError``; a ``UserWarning`` when the time limit leaves no robot the time to
     arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it) in ``max_steps``, the
     env's own limit where it has one (PettingZoo's ``max_cycles``, TorchRL's ``max_steps``), else the scenario's."""
+    version = overrides.get("observation")
+    if isinstance(scenario, Scenario) and version is not None and version != scenario.observation:
+        raise ValueError(  # the registered ids give observation=2 (-v2) or 1 (-v1); it replaced the scenario's own
+            f"the scenario given has observation={scenario.observation}, and observation={version} is given too (the "
+            f"registered -v{version} ids give it): use the id of the scenario's version (e.g. "
+            f"vcs_env/Navigation-v{scenario.observation}, vcs_env/VcsNav-v{scenario.observation}), or give one of "
+            "the two only"
+        )
     if isinstance(obstacle_motion, str):
         out = make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
     else:
