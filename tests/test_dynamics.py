@@ -183,3 +183,7 @@ def test_robot_spec_limits_are_validated():
         vcs_env.RobotSpec(a_max=-1.0)
     with pytest.raises(ValueError, match="robot.omega_max"):
         vcs_env.RobotSpec(omega_max=float("nan"))
+    for name in ("a_max", "omega_max"):  # a step of 1e-9 made each of the expert's decisions take seconds
+        with pytest.raises(ValueError, match=rf"robot.{name} must be a finite number in \[0.001, "):
+            vcs_env.RobotSpec(**{name: 1e-8})
+        vcs_env.RobotSpec(**{name: 1e-3})

@@ -50,6 +50,10 @@ def _suites():
     return SUITES
 
 
+LEAST_LIMIT = 1e-3
+"""Least ``RobotSpec.a_max`` [m/s^2] and ``omega_max`` [rad/s]."""
+
+
 @dataclass(frozen=True)
 class RobotSpec:
     """Body and motion limits of every robot of a scenario."""
@@ -59,9 +63,9 @@ class RobotSpec:
     v_max: float = 1.0
     """Top speed [m/s], in (0, 3]. Unicycle robots never reverse: 0 <= speed <= v_max."""
     a_max: float = 0.5
-    """Largest speed change per second [m/s^2], in (0, 10]; |dv| <= a_max * dt per step."""
+    """Largest speed change per second [m/s^2], in [0.001, 10]; |dv| <= a_max * dt per step."""
     omega_max: float = math.pi / 2
-    """Largest turn rate [rad/s], in (0, 2 pi]; |dtheta| <= omega_max * dt per step (unicycle)."""
+    """Largest turn rate [rad/s], in [0.001, 2 pi]; |dtheta| <= omega_max * dt per step (unicycle)."""
     holonomic: bool = False
     """If True the velocity vector may change in any direction by up to a_max * dt per step and
     the heading is the direction of motion (no turn-rate limit). Default: unicycle."""
@@ -69,8 +73,10 @@ class RobotSpec:
     def __post_init__(self) -> None:
         check_range("robot.radius", self.radius, 0.0, R_REF, lo_open=True)
         check_range("robot.v_max", self.v_max, 0.0, V_REF, lo_open=True)
-        check_range("robot.a_max", self.a_max, 0.0, A_REF, lo_open=True)
-        check_range("robot.omega_max", self.omega_max, 0.0, OMEGA_REF, lo_open=True)
+        # Limits below LEAST_LIMIT: the expert's window counts steps of a_max dt (omega_max dt), and a step of 1e-9
+        # made each decision take seconds (a robot of 1e-3 m/s^2 needs 1000 s to reach 1 m/s).
+        check_range("robot.a_max", self.a_max, LEAST_LIMIT, A_REF)
+        check_range("robot.omega_max", self.omega_max, LEAST_LIMIT, OMEGA_REF)
         if not isinstance(self.holonomic, bool):
             raise ValueError(f"robot.holonomic must be a bool, got {self.holonomic!r}")
 
