@@ -239,15 +239,23 @@ def check_run(cfg: TrainConfig) -> None:
         raise ValueError(
             "--init-log-std sets the log std of the --init checkpoint's policy; a new policy's is --log-std-init"
         )
-    default = TrainConfig()
-    for name, partner, what in (  # a setting of another flag's feature, without that flag: it would change nothing
-        ("residual_scale", "residual", "scales a residual policy's correction"),
-        ("guide_weight", "guide", "weighs the --guide term"),
-        ("mixture_balance", "mixture", "balances the entries of a --mixture"),
-        ("start_prob", "start_states", "is the share of episodes started from the --start-states file"),
-    ):
-        off = getattr(cfg, partner) in (None, (), "none")
-        if off and getattr(cfg, name) != getattr(default, name):
+    check_partners(cfg, {name for name, *_ in PARTNERS if getattr(cfg, name) != getattr(TrainConfig(), name)})
+
+
+PARTNERS = (
+    ("residual_scale", "residual", "scales a residual policy's correction"),
+    ("guide_weight", "guide", "weighs the --guide term"),
+    ("mixture_balance", "mixture", "balances the entries of a --mixture"),
+    ("start_prob", "start_states", "is the share of episodes started from the --start-states file"),
+)
+"""Settings of another flag's feature, ``(setting, the flag it needs, what it does)``: alone it would change nothing."""
+
+
+def check_partners(cfg: TrainConfig, given) -> None:
+    """A one-line ``ValueError`` for a setting of :data:`PARTNERS` in ``given`` (flag names set on the command line, or
+    the fields that differ from their defaults) whose partner flag is off in ``cfg``."""
+    for name, partner, what in PARTNERS:
+        if name in given and getattr(cfg, partner) in (None, (), "none"):
             flag, needs = "--" + name.replace("_", "-"), "--" + partner.replace("_", "-")
             raise ValueError(f"{flag} {what}: give {needs} too, or leave {flag} out")
 

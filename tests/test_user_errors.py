@@ -187,6 +187,8 @@ def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_nam
         ("--guide-weight", "5", "--guide"),
         ("--mixture-balance", "robots", "--mixture"),
         ("--start-prob", "0.9", "--start-states"),
+        ("--residual-scale", "0.5", "--residual"),  # the default value, given: the same
+        ("--guide-weight", "1.0", "--guide"),
     ):
         assert vcs_cli.main([*base, flag, value]) == 2
         assert f"give {needs} too, or leave {flag} out" in capsys.readouterr().err and not (tmp_path / "run").exists()

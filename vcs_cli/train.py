@@ -23,11 +23,13 @@ from agents.imitation import distil
 from agents.runs import (
     BENCHMARL_ONLY,
     FIXED_ON_RESUME,
+    PARTNERS,
     RLLIB_ONLY,
     SB3_ONLY,
     BenchMARLConfig,
     RLlibConfig,
     TrainConfig,
+    check_partners,
 )
 from agents.train import collect_states
 
@@ -90,6 +92,7 @@ def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    given = {name for name, *_ in PARTNERS if getattr(args, name, None) is not None}  # a default given counts too
     if args.backend == "benchmarl":  # None: sb3, or a resumed run's own backend
         check_backend_flags(args, "rllib", RLLIB_ONLY)
         check_backend_flags(args, "sb3", SB3_ONLY)
@@ -97,7 +100,9 @@ def cmd_train(args: argparse.Namespace) -> int:
             raise ValueError("--resume is not available with --backend benchmarl (start a new run)")
         from agents.train import benchmarl
 
-        benchmarl.train(config_from_args(BenchMARLConfig, args))
+        cfg = config_from_args(BenchMARLConfig, args)
+        check_partners(cfg, given)
+        benchmarl.train(cfg)
         return 0
     check_backend_flags(args, "benchmarl", BENCHMARL_ONLY)
     base, ckpt = resume_base(args) if args.resume else (None, None)
@@ -107,11 +112,15 @@ def cmd_train(args: argparse.Namespace) -> int:
     rllib = (args.backend or run_backend) == "rllib"
     if not rllib:
         check_backend_flags(args, "rllib", RLLIB_ONLY)
-        agents.train.train(config_from_args(TrainConfig, args, base), resume=ckpt)
+        cfg = config_from_args(TrainConfig, args, base)
+        check_partners(cfg, given)
+        agents.train.train(cfg, resume=ckpt)
         return 0
     check_backend_flags(args, "sb3", SB3_ONLY)
+    cfg = config_from_args(RLlibConfig, args, base)
+    check_partners(cfg, given)
     try:
-        agents.train.rllib.train(config_from_args(RLlibConfig, args, base), resume=ckpt)
+        agents.train.rllib.train(cfg, resume=ckpt)
     except (RuntimeError, ConnectionError) as e:  # a cluster that cannot run it: one line
         print(f"vcs-env train: error: {e}", file=sys.stderr)
         return 2
