@@ -273,6 +273,8 @@ def test_square_crossers_need_no_room_on_the_crowd_ring_and_are_drawn_where_they
         s = vcs_env.make_scenario("crowdnav-square-v0", arena_half_size=7.0)
         s = dataclasses.replace(s, pedestrians=dataclasses.replace(s.pedestrians, goal_policy=policy))
         assert s.view_extent >= 7.0 + s.robot.radius
+    with pytest.raises(ValueError, match="pedestrians crossing the square: trial layout . of 8 found no place"):
+        vcs_env.make_scenario("crowdnav-square-v0", arena_half_size=1.0)  # refused here, not at some reset
     circle = vcs_env.make_scenario("crowdnav-circle-v0", arena_half_size=7.0)
     assert circle.view_extent < 7.0  # circle crossers stay near their ring
     default = vcs_env.make_scenario("crowd", obstacle_motion="pedestrians", arena_half_size=7.0)

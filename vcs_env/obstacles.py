@@ -322,6 +322,24 @@ class Pedestrians(ObstacleMotion):
         params["vel"] = np.where(flip, -params["vel"], params["vel"])
 
 
+def check_square_crossing(s: Scenario) -> None:
+    """Pedestrians crossing the square are placed at reset (:func:`_square_crossing`); a scenario whose square has no
+    room for them is refused here, with the first of the trial layouts of the maps (seeds 0-7) that fails, not by a
+    reset that fails at random (an autoreset in the middle of training)."""
+    from .layouts import generate  # late: layouts imports the scenario module too
+    from .map_kinds import TRIAL_LAYOUTS
+
+    for seed in range(TRIAL_LAYOUTS):
+        rng = np.random.default_rng(seed)
+        try:
+            _square_crossing(rng, s, generate(s, rng))
+        except ValueError as e:
+            raise ValueError(
+                f"pedestrians crossing the square: trial layout {seed} of {TRIAL_LAYOUTS} found no place for them, so "
+                f"resets would fail at random; increase arena_half_size or reduce n_obstacles ({e})"
+            ) from None
+
+
 def _square_crossing(rng: np.random.Generator, s: Scenario, lay: Layout) -> tuple[np.ndarray, np.ndarray]:
     """CrowdNav's square crossing: each pedestrian starts on a random half (x < 0 or x > 0) of the
     square ``[-h, h]^2`` (``h = arena_half_size``) and walks to a point on the other half; starts keep

@@ -285,6 +285,14 @@ class Scenario:
                     "the obstacles' speed, or increase arena_half_size"
                 )
         _kinds()[self.kind].check_layout(self)
+        if (
+            self.n_obstacles
+            and self.obstacle_motion == "pedestrians"
+            and (self.pedestrians or PedestrianSpec()).goal_policy == "square"
+        ):
+            from .obstacles import check_square_crossing  # late: obstacles imports this module
+
+            check_square_crossing(self)
 
     # Derived quantities are properties, never defaults computed from other fields.
     @property
