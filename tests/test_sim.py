@@ -10,6 +10,7 @@ import vcs_env
 from vcs_env.engine import NavEngine
 from vcs_env.observations import EGO_DIM, GOAL_REF, SENSE_REF, observation_layout, observe
 from vcs_env.obstacles import MOTION_MODELS, ObstacleMotion, Trajectory
+from vcs_env.pedestrians import PedestrianSpec
 from vcs_env.scenario import CustomLayout, ObstacleTrajectory
 from vcs_env.sim import Simulator
 
@@ -252,10 +253,21 @@ def test_bounce_keeps_obstacles_in_the_arena():
             assert np.all(np.abs(pos) <= 1.6 + 1e-9)
     with pytest.raises(ValueError, match="bouncing obstacles at up to 1.7 m/s move 1.7 m in a step"):
         vcs_env.make_scenario("dynamic", obstacle_speed=(1.7, 1.7), **kw)
+    # Bouncing obstacles start inside the arena: a crowd ring beyond it is refused (its obstacles started up to 2.8 m
+    # out, held there by the bounce), and square-crossing pedestrians keep their discs inside it (they overhung).
+    for ring in ({"scenario": "crowd", "layout_radius": 8.0}, {"scenario": "crowd-20-v0"}):
+        with pytest.raises(ValueError, match="reach beyond the arena they bounce in"):
+            vcs_env.parallel_env(**ring, bounce=True, obstacle_motion="arbitrary")
+    walkers = vcs_env.make_scenario(
+        "dynamic", obstacle_motion="pedestrians", pedestrians=PedestrianSpec(goal_policy="square")
+    )
+    sim = Simulator(walkers, 50)
+    sim.reset(list(range(50)))
+    assert (np.abs(sim.world.obs_pos) + sim.world.obs_radius[..., None] <= walkers.arena_half_size + 1e-12).all()
     s = vcs_env.make_scenario("dynamic", obstacle_speed=(1.6, 1.6), **kw)
     env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: np.where(pos > 0, -2.0, 2.0)))
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="obstacle motion _Drift moved an obstacle so far in one step"):
+    with pytest.raises(ValueError, match="obstacle motion _Drift left an obstacle beyond an arena edge after its bounce"):
         for _ in range(20):
             env.step({a: np.zeros(2, np.float32) for a in env.agents})
 

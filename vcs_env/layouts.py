@@ -27,6 +27,7 @@ from .placement import (  # noqa: F401  (re-exported: the building blocks of eve
     CROWD_REDRAWS,
     MAX_TRIES,
     MIN_GOAL_DISTANCE,
+    RING_NOISE,
     Ahead,
     Layout,
     _view,
@@ -240,6 +241,12 @@ class Crowd(ScenarioKind):
         check_ring(s)
         r, r_obs = s.robot.radius, s.obstacle_radius[1]
         m = 0 if walks_square(s) else s.n_obstacles  # pedestrians crossing the square need no place on the ring
+        if m and s.bounce and s.circle_radius + RING_NOISE + r_obs > s.arena_half_size:
+            raise ValueError(
+                f"crowd obstacles start on the ring of radius {s.circle_radius:g} m (+-{RING_NOISE:g} m), and their "
+                f"discs (radius up to {r_obs:g} m) reach beyond the arena they bounce in (arena_half_size="
+                f"{s.arena_half_size:g} m); increase arena_half_size or reduce layout_radius"
+            )
         used, ring = crowd_ring(s, m)
         if used > ring:
             raise ValueError(
@@ -297,8 +304,8 @@ class Crowd(ScenarioKind):
             ahead = Ahead(rng, 3 * chunk)
             u = ahead.u.reshape(-1, 3)
             ang = (2.0 * np.pi) * u[:, 0]
-            px = R * np.cos(ang) + (-0.5 + 1.0 * u[:, 1])
-            py = R * np.sin(ang) + (-0.5 + 1.0 * u[:, 2])
+            px = R * np.cos(ang) + (-RING_NOISE + 2.0 * RING_NOISE * u[:, 1])
+            py = R * np.sin(ang) + (-RING_NOISE + 2.0 * RING_NOISE * u[:, 2])
             k, used, tries, status = ring_crossers(px, py, centre, rad, radius, k, tries, sep, MAX_TRIES, pos)
             ahead.settle(3 * used)
             if status == 2:  # the random draws found no room: search every place, in an order drawn from rng
@@ -335,7 +342,7 @@ class Crowd(ScenarioKind):
         circle, each with a 5 x 5 grid of the +-0.5 m noise."""
         ang = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
         ring = s.circle_radius * np.stack((np.cos(ang), np.sin(ang)), axis=-1)
-        off = np.stack(np.meshgrid(*2 * (np.linspace(-0.5, 0.5, 5),)), axis=-1).reshape(-1, 2)
+        off = np.stack(np.meshgrid(*2 * (np.linspace(-RING_NOISE, RING_NOISE, 5),)), axis=-1).reshape(-1, 2)
         return (ring[:, None] + off[None]).reshape(-1, 2)
 
     def view_extent(self, s: Scenario) -> float:

@@ -342,14 +342,17 @@ def check_square_crossing(s: Scenario) -> None:
 
 def _square_crossing(rng: np.random.Generator, s: Scenario, lay: Layout) -> tuple[np.ndarray, np.ndarray]:
     """CrowdNav's square crossing: each pedestrian starts on a random half (x < 0 or x > 0) of the
-    square ``[-h, h]^2`` (``h = arena_half_size``) and walks to a point on the other half; starts keep
+    square ``[-h, h]^2`` (``h = arena_half_size``; its disc inside it where obstacles bounce off its edges) and walks
+    to a point on the other half; starts keep
     ``min_separation`` from the robots' starts and earlier starts, goals from the robots' goals and
     earlier goals, and both from the layout's walls (a map kind). Returns ``(start, goal)``, ``(m, 2)`` each [m]."""
-    h, radius = s.arena_half_size, lay.obs_radius
+    radius = lay.obs_radius
     starts = [(p, s.robot.radius) for p in lay.start]
     goals = [(p, s.robot.radius) for p in lay.goal]
 
     def draw(side: float, taken: list, k: int, what: str) -> np.ndarray:
+        # Centres in the square, as CrowdNav's; discs inside it where they bounce off its edges.
+        h = s.arena_half_size - (radius[k] if s.bounce else 0.0)
         for _ in range(MAX_TRIES):
             p = np.array([rng.random() * h * side, (rng.random() - 0.5) * 2.0 * h])
             walls_ok = not len(lay.segments) or clearance(p, lay.segments) >= radius[k] + s.min_separation

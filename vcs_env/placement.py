@@ -50,6 +50,8 @@ def _view(s: Scenario, half: float) -> float:
     return half + s.robot.radius + 0.5
 
 
+RING_NOISE = 0.5
+"""[m] Crowd obstacles start on the ring with up to this much uniform noise per axis (CrowdNav's circle crossing)."""
 CROWD_REDRAWS = 20
 """Times a crowd layout places all its obstacles afresh (same generator) when the ones placed first
 left no room on the ring for the next, before reset gives up with ``ValueError``."""
@@ -95,7 +97,7 @@ def arena_moves(s: Scenario) -> bool:
 def crowd_view(s: Scenario) -> float:
     """Drawn half size [m] of a crowd: its ring with the obstacles' 0.5 m of start noise, and the arena where the
     obstacles move in it (:func:`arena_moves`)."""
-    half = s.circle_radius + s.jitter + 0.5
+    half = s.circle_radius + s.jitter + RING_NOISE
     if arena_moves(s):
         half = max(half, s.arena_half_size)
     return half + s.robot.radius + 0.5

@@ -407,9 +407,10 @@ class Simulator:
                 out = flip & (np.abs(w.obs_pos + vel * s.dt) + w.obs_radius[..., None] > s.arena_half_size + 1e-9)
                 if out.any():  # Scenario refuses such steps for the built-in motions; one's own motion is held here
                     raise ValueError(
-                        f"obstacle motion {type(self.motion).__name__} moved an obstacle so far in one step (dt="
-                        f"{s.dt:g} s) that its bounce off one arena edge carries it out through the other; reduce dt "
-                        "or the obstacles' speed, or increase arena_half_size"
+                        f"obstacle motion {type(self.motion).__name__} left an obstacle beyond an arena edge after its "
+                        f"bounce: it moved so far in one step (dt={s.dt:g} s) that the bounce off one edge carries it "
+                        "out through the other, or it was already outside; reduce dt or the obstacles' speed, or "
+                        "increase arena_half_size"
                     )
                 self.motion.reflect(self.motion_params, flip)
         return vel
