@@ -116,7 +116,11 @@ def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
     report = tmp_path / "report"
     args = ["compare", "--policies", "vcs,straight", "--scenario", "crowd", "--n-obstacles", "3"]
     assert cli.main([*args, "--seeds", "10:12", "--out", str(report), "--no-plots", "--no-progress"]) == 0
-    assert json.loads((report / "results.json").read_text())["seeds"] == [10, 11]
+    data = json.loads((report / "results.json").read_text())
+    assert data["seeds"] == [10, 11]
+    # The report records the command that made it, with the date and machine.
+    assert data["provenance"].startswith("`vcs-env compare --policies vcs,straight --scenario crowd --n-obstacles 3")
+    assert data["provenance"] in (report / "results.md").read_text()
     args = ["evaluate", "--policy", "vcs", "--scenario", "dynamic", "--obstacle-motion", "constant", "--seeds", "3:4"]
     assert cli.main([*args, "--json", str(out), "--no-progress"]) == 0
     assert json.loads(out.read_text())["suite"] == "dynamic[obstacle_motion=constant]@3:4"

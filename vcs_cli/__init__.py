@@ -89,6 +89,7 @@ def package_version() -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for the reports that record it
     if getattr(args, "episodes", 1) is not None and getattr(args, "episodes", 1) < 1:
         print(f"vcs-env {args.command}: error: --episodes must be >= 1, got {args.episodes}", file=sys.stderr)
         return 2

@@ -32,7 +32,7 @@ from agents.config import (
 )
 from agents.evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate, selection
 from agents.evaluate import probes as probe_table
-from agents.evaluate.report import describe_shield, fmt, table_lines, table_metrics, write_report
+from agents.evaluate.report import describe_shield, fmt, provenance, table_lines, table_metrics, write_report
 from agents.policies import is_checkpoint_spec
 from agents.residual import Residual
 from benchmarks.timing import machine_info
@@ -122,7 +122,8 @@ def cmd_compare(args) -> int:
         progress=False if args.no_progress else None,
         shield=not args.no_shield,
     )
-    files = write_report(comp, args.out, episode=args.episode, plots=not args.no_plots)
+    made = provenance(shlex.join(["vcs-env", *args.argv]), machine_info())
+    files = write_report(comp, args.out, episode=args.episode, plots=not args.no_plots, provenance=made)
     print("\n".join(table_lines(comp)))
     print(f"wrote {len(files)} files to {args.out} (results.md, results.json{', plots' if not args.no_plots else ''})")
     return 0

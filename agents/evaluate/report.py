@@ -3,6 +3,7 @@ charts, one per metric that :data:`vcs_env.metrics.METRICS` marks as a table col
 
 from __future__ import annotations
 
+import datetime
 import json
 import math
 import os
@@ -51,8 +52,9 @@ def table_lines(comparison: Comparison) -> list[str]:
     return lines
 
 
-def markdown_table(comparison: Comparison) -> str:
-    """The comparison as a markdown document: title, table, legend, extra-time percentiles."""
+def markdown_table(comparison: Comparison, provenance: str | None = None) -> str:
+    """The comparison as a markdown document: title, the command, machine and date that made it (``provenance``),
+    table, legend, extra-time percentiles."""
     lines = table_lines(comparison)
     s = comparison.suite
     n_all, n_solved = s.n_episodes, int(comparison.solved_by_all.sum())
@@ -71,6 +73,7 @@ def markdown_table(comparison: Comparison) -> str:
             "",
             f"{s.description}. {n_all} episodes (seeds {s.seeds[0]}..{s.seeds[-1]}), suite fingerprint "
             f"`{s.fingerprint}`.",
+            *(["", provenance] if provenance else []),
             "",
             *lines,
             "",
@@ -203,10 +206,16 @@ PLOT_FILES = ("bar_*.png", "trajectory_*.png")
 
 
 def write_report(
-    comparison: Comparison, out_dir: str | os.PathLike, episode: int | None = 0, plots: bool = True
+    comparison: Comparison,
+    out_dir: str | os.PathLike,
+    episode: int | None = 0,
+    plots: bool = True,
+    provenance: str | None = None,
 ) -> list[Path]:
     """Write ``results.md``, ``results.json`` and (``plots``) the PNGs into ``out_dir``; the plots of an earlier report
     there (``bar_*.png``, ``trajectory_*.png``) go first, so that every file of the report is of this comparison.
+    ``provenance``: the command, machine and date that made it (``vcs-env compare`` gives :func:`provenance`), a line
+    of ``results.md`` and the JSON's ``"provenance"``.
 
     Returns:
         The written files.
@@ -217,12 +226,22 @@ def write_report(
         for old in out.glob(pattern):
             old.unlink()
     md, js = out / "results.md", out / "results.json"
-    md.write_text(markdown_table(comparison))
-    js.write_text(results_json(comparison.to_dict()))
+    md.write_text(markdown_table(comparison, provenance))
+    js.write_text(results_json({**({"provenance": provenance} if provenance else {}), **comparison.to_dict()}))
     written = [md, js]
     if plots:
         written += write_plots(comparison, out, episode)
     return written
+
+
+def provenance(command: str, machine: dict) -> str:
+    """``command`` (a shell line) with the date and ``machine`` (:func:`benchmarks.timing.machine_info`: ``cpu``,
+    ``usable_cores``, ``load_average``), as a report records it."""
+    load = ", ".join(f"{x:.1f}" for x in machine.get("load_average") or ())
+    return (
+        f"`{command}` ({datetime.date.today().isoformat()}, {machine['cpu']}, {machine['usable_cores']} cores, load "
+        f"average {load})"
+    )
 
 
 def _rounded(x, digits: int = 6):
