@@ -154,7 +154,7 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     checkpoint_freq: int = 500_000
     """Save a resumable checkpoint every this many timesteps (0: never)."""
     progress_bar: bool = True
-    """Show SB3's progress bar (needs tqdm and rich, the train extra; the SB3 backend only)."""
+    """Show SB3's progress bar (needs tqdm and rich, the train extra; RLlib shows none, BenchMARL its own)."""
     tensorboard: bool = True
     """Write TensorBoard logs under <out>/tb (the SB3 backend only)."""
 
@@ -205,8 +205,18 @@ class BenchMARLConfig(TrainConfig):
 
 BENCHMARL_ONLY = ("algorithm",)
 """Fields (flags) of a BenchMARL run only."""
-SB3_ONLY = ("progress_bar", "tensorboard")
-"""Flags only the SB3 backend reads (RLlib and BenchMARL runs log to their own folders and print their own lines)."""
+UNHONOURED = {
+    "rllib": {
+        "progress_bar": (True, "RLlib prints its own lines"),
+        "tensorboard": (True, "TensorBoard logs: SB3 only"),
+    },
+    "benchmarl": {
+        "progress_bar": (False, "BenchMARL shows its own progress bar"),
+        "tensorboard": (True, "TensorBoard logs: SB3 only"),
+    },
+}
+"""Per backend, the SB3 display flags it cannot honour: ``{flag: (value asked, why)}`` (asking for what it does anyway
+is fine: no bar from RLlib, BenchMARL's own bar)."""
 
 FIXED_ON_RESUME = (
     "net_arch", "features", "log_std_init", "n_steps", "batch_size", "n_epochs", "learning_rate", "lr_schedule",

@@ -164,8 +164,16 @@ def test_compare_loads_a_benchmarl_run(tmp_path):
         (["--backend", "benchmarl", "--num-env-runners", "2"], "--num-env-runners only apply to --backend rllib"),
         (["--backend", "benchmarl", "--resume", "runs/x"], "--resume is not available with --backend benchmarl"),
         (["--backend", "benchmarl", "--guide-anneal", "1000"], "--guide-anneal not available with --backend benchmarl"),
-        (["--backend", "benchmarl", "--no-progress-bar"], "--progress-bar only apply to --backend sb3"),
-        (["--backend", "rllib", "--tensorboard"], "--tensorboard only apply to --backend sb3"),
+        (
+            ["--backend", "benchmarl", "--no-progress-bar"],
+            "--no-progress-bar is not available with --backend benchmarl",
+        ),
+        (["--backend", "benchmarl", "--tensorboard"], "--tensorboard is not available with --backend benchmarl"),
+        (["--backend", "rllib", "--tensorboard"], "--tensorboard is not available with --backend rllib"),
+        (
+            ["--backend", "rllib", "--progress-bar"],
+            "--progress-bar is not available with --backend rllib (RLlib prints",
+        ),
     ],
 )
 def test_bad_input_gets_one_line_errors(tmp_path, argv, message, capsys):

@@ -25,7 +25,7 @@ from agents.runs import (
     FIXED_ON_RESUME,
     PARTNERS,
     RLLIB_ONLY,
-    SB3_ONLY,
+    UNHONOURED,
     BenchMARLConfig,
     RLlibConfig,
     TrainConfig,
@@ -91,11 +91,19 @@ def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str
         raise ValueError(f"{', '.join(given)} only apply to --backend {backend}")
 
 
+def check_display_flags(args: argparse.Namespace, backend: str) -> None:
+    """``ValueError`` naming an SB3 display flag (``--progress-bar``, ``--tensorboard``) ``backend`` cannot honour."""
+    for name, (value, why) in UNHONOURED[backend].items():
+        if getattr(args, name, None) is value:
+            flag = "--" + ("" if value else "no-") + name.replace("_", "-")
+            raise ValueError(f"{flag} is not available with --backend {backend} ({why})")
+
+
 def cmd_train(args: argparse.Namespace) -> int:
     given = {name for name, *_ in PARTNERS if getattr(args, name, None) is not None}  # a default given counts too
     if args.backend == "benchmarl":  # None: sb3, or a resumed run's own backend
         check_backend_flags(args, "rllib", RLLIB_ONLY)
-        check_backend_flags(args, "sb3", SB3_ONLY)
+        check_display_flags(args, "benchmarl")
         if args.resume:
             raise ValueError("--resume is not available with --backend benchmarl (start a new run)")
         from agents.train import benchmarl
@@ -116,7 +124,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         check_partners(cfg, given)
         agents.train.train(cfg, resume=ckpt)
         return 0
-    check_backend_flags(args, "sb3", SB3_ONLY)
+    check_display_flags(args, "rllib")
     cfg = config_from_args(RLlibConfig, args, base)
     check_partners(cfg, given)
     try:
