@@ -267,7 +267,9 @@ def test_bounce_keeps_obstacles_in_the_arena():
     s = vcs_env.make_scenario("dynamic", obstacle_speed=(1.6, 1.6), **kw)
     env = vcs_env.parallel_env(scenario=s, obstacle_motion=_Drift(lambda pos: np.where(pos > 0, -2.0, 2.0)))
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="obstacle motion _Drift left an obstacle beyond an arena edge after its bounce"):
+    with pytest.raises(
+        ValueError, match="obstacle motion _Drift left an obstacle beyond an arena edge after its bounce"
+    ):
         for _ in range(20):
             env.step({a: np.zeros(2, np.float32) for a in env.agents})
 
