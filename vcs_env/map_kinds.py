@@ -37,6 +37,9 @@ class MapKind(ScenarioKind):
     :meth:`check_layout` requires starts, goals and obstacles clear of the walls and a route for
     every robot (:func:`check_walls`)."""
 
+    spacing_hint = "increase lane_spacing or layout_radius, or reduce jitter"
+    """What to change when robots would start in contact (:func:`~vcs_env.placement.check_spacing`)."""
+
     def default_radius(self, s: Scenario) -> float:
         return 3.0
 
@@ -59,7 +62,7 @@ class MapKind(ScenarioKind):
         seg = self.walls(s, start, goal)
         # Jitter moves starts by up to ``jitter``: the unjittered places keep that much more room.
         check_walls(s, finish(s, start, goal, np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0)), seg, s.jitter)
-        check_spacing(s, start, goal, "increase lane_spacing or layout_radius, or reduce jitter")
+        check_spacing(s, start, goal, self.spacing_hint)
         if s.n_obstacles:  # obstacles between the walls: a map too dense for them is refused here, not at reset
             check_trial_layouts(self, s, "reduce n_obstacles / obstacle_radius or increase arena_half_size")
 
@@ -154,6 +157,7 @@ class Doorway(MapKind):
 
 class Room(MapKind):
     name = "room"
+    spacing_hint = "increase layout_radius, or reduce jitter or n_robots"  # its robots sit on a circle
     summary = (
         "a square room of half size ``layout_radius`` with a door ``door_width`` wide in the middle of each "
         "side; robots start on a circle of radius layout_radius / 2 inside and leave for the antipodal point "
