@@ -96,6 +96,10 @@ def test_arena_half_size_is_a_flag_where_the_arena_sets_the_worlds():
     for name in ("circle", "crowd", "corridor"):
         with pytest.raises(ValueError, match=f"arena_half_size does not apply to {name} scenarios"):
             build_scenario(ScenarioConfig(scenario=name, arena_half_size=8.0))
+    # With obstacles a kind places in the arena (not the crowd's ring), the arena sizes where they are placed.
+    assert build_scenario(ScenarioConfig(scenario="circle", n_obstacles=3, arena_half_size=8.0)).arena_half_size == 8
+    with pytest.raises(ValueError, match="arena_half_size does not apply to crowd scenarios"):
+        build_scenario(ScenarioConfig(scenario="crowd", n_obstacles=3, arena_half_size=8.0))
     bouncing = build_scenario(ScenarioConfig(scenario="dynamic-fast-v0", arena_half_size=8.0))
     assert bouncing.bounce and bouncing.arena_half_size == 8.0
     square = build_scenario(ScenarioConfig(scenario="crowdnav-square-v0", arena_half_size=6.0))
@@ -277,6 +281,12 @@ def test_each_kind_reads_exactly_the_layout_fields_it_declares(name):
         moved = dataclasses.replace(base, **{field: value})
         changed = any(a.shape != b.shape or not np.allclose(a, b) for a, b in zip(worlds(base), worlds(moved)))
         assert changed == (field in KINDS[base.kind].reads), (name, field)
+    if base.kind != "custom":  # with obstacles, the arena also sizes where a kind places them (obstacles_in_arena)
+        some = dataclasses.replace(base, n_obstacles=2)
+        moved = dataclasses.replace(some, arena_half_size=some.arena_half_size + 1.0)
+        changed = any(a.shape != b.shape or not np.allclose(a, b) for a, b in zip(worlds(some), worlds(moved)))
+        kind = KINDS[base.kind]
+        assert changed == ("arena_half_size" in kind.reads or kind.obstacles_in_arena), name
 
 
 def test_suite_names_are_scenario_bases_with_their_conventions():

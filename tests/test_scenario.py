@@ -275,6 +275,35 @@ def test_a_new_kind_is_one_object(monkeypatch):
     assert "line       robots in a row" in layouts.kinds_help()
 
 
+def test_kinds_of_ones_own_are_held_to_their_registry(monkeypatch):
+    """A built-in kind is not replaced (its suites ran another layout under their names and fingerprints); a layout
+    given as lists of numbers works (it failed deep in the library); a scenario of a kind no longer registered names
+    it (a bare KeyError); a kind of one's own with walls has walls (the blind-policy warning never fired)."""
+    with pytest.raises(ValueError, match="KINDS\\['swap'\\] is the built-in swap kind"):
+        layouts.KINDS["swap"] = Line()
+    assert type(layouts.KINDS["swap"]).__name__ == "Swap"
+
+    class Listed(Line):
+        name = "listed"
+
+        def generate(self, s, rng):
+            start = [[float(k), 0.0] for k in range(s.n_robots)]
+            return layouts.finish(s, start, [[x, 2.0] for x, _ in start], [], [], [])
+
+        def n_segments(self, s):
+            return 1
+
+    monkeypatch.setitem(layouts.KINDS, "listed", Listed())
+    s = Scenario(kind="listed", n_robots=2, lane_spacing=1.0)
+    assert s.has_walls  # it says it has a wall segment (this one draws none)
+    env = vcs_env.parallel_env(scenario=s)
+    env.reset(seed=0)
+    np.testing.assert_array_equal(env.engine.world.pos[0], [[0.0, 0.0], [1.0, 0.0]])
+    del layouts.KINDS["listed"]
+    with pytest.raises(ValueError, match="no scenario kind 'listed' is registered: register it"):
+        generate(s, np.random.default_rng(0))
+
+
 def test_every_kind_documents_itself_and_unknown_kinds_list_them():
     text = layouts.kinds_help()
     assert [line.split()[0] for line in text.splitlines()] == list(layouts.KINDS)

@@ -14,15 +14,19 @@ MAP_FIELDS = {"corridor_width": ("corridor", "intersection"), "door_width": ("do
 def check_applies(scenario, given, own_motion: bool = False) -> None:
     """A ``ValueError`` if a field named in ``given`` (set by a flag, a mixture entry or an env's keyword) cannot
     change ``scenario``'s episodes: a layout field its kind does not read (:attr:`ScenarioKind.reads`; the arena's
-    size also where obstacles move in it, :func:`vcs_env.placement.arena_moves`), a map field of another kind, an
+    size also where obstacles are placed in it, :attr:`ScenarioKind.obstacles_in_arena`, or move in it,
+    :func:`vcs_env.placement.arena_moves`), a map field of another kind, an
     obstacle setting without obstacles, or one of a custom layout, whose obstacles follow their scripts, or a motion
     setting the named obstacle motion does not read (:func:`vcs_env.obstacles.check_motion_fields`; not with
     ``own_motion``, an ``ObstacleMotion`` object of one's own, which may read any field)."""
-    reads = layouts.KINDS[scenario.kind].reads  # looked up now: kinds of one's own may be registered late
-    moves = arena_moves(scenario)
+    kind = layouts.KINDS[scenario.kind]  # looked up now: kinds of one's own may be registered late
+    reads = kind.reads
+    moves = arena_moves(scenario) or (scenario.n_obstacles > 0 and kind.obstacles_in_arena)
     for name in ("jitter", "layout_radius", "arena_half_size"):
         if name in given and name not in reads and not (name == "arena_half_size" and moves):
             uses = f"it reads {', '.join(sorted(reads))} only" if reads else "its layout reads none of them"
+            if name == "arena_half_size" and kind.obstacles_in_arena:
+                uses += "; with obstacles (n_obstacles > 0) the arena is where they are placed"
             raise ValueError(
                 f"{name} does not apply to {scenario.kind} scenarios (of jitter, layout_radius and arena_half_size, "
                 f"{uses}); leave it out"

@@ -59,8 +59,11 @@ class ScenarioKind:
     reads: frozenset[str] = frozenset({"jitter", "layout_radius"})
     """The optional layout fields (of ``jitter``, ``layout_radius``, ``arena_half_size``) that change this kind's
     worlds; setting another one explicitly is an error in the command line and mixtures
-    (:func:`agents.config.build_scenario`; ``arena_half_size`` also applies where obstacles bounce off the arena's
-    edges or walk as pedestrians in it)."""
+    (:func:`agents.config.build_scenario`; ``arena_half_size`` also applies where obstacles are placed in the arena,
+    :attr:`obstacles_in_arena`, bounce off its edges or walk as pedestrians in it)."""
+    obstacles_in_arena: bool = True
+    """Whether its obstacles (``n_obstacles`` > 0) are placed at random in the arena (:func:`place_obstacles`, as the
+    kinds here but the crowd's ring and the custom scripts), so that ``arena_half_size`` shapes them."""
 
     def default_radius(self, s: Scenario) -> float:
         """``layout_radius`` when the scenario leaves it None [m]."""
@@ -229,128 +232,9 @@ class Dynamic(Random):
     summary = "random starts and goals among obstacles on arbitrary trajectories bouncing in the arena."
 
 
-class Crowd(ScenarioKind):
-    name = "crowd"
-    summary = (
-        "robots on a circle (robot_0 from (0, -R) to (0, R)) among ``n_obstacles`` passive obstacles "
-        "that cross the same circle and ignore the robots (CrowdNav style)."
-    )
-    reads = frozenset({"layout_radius"})
-
-    def check_layout(self, s: Scenario) -> None:
-        check_ring(s)
-        r, r_obs = s.robot.radius, s.obstacle_radius[1]
-        m = 0 if walks_square(s) else s.n_obstacles  # pedestrians crossing the square need no place on the ring
-        if m and s.bounce and s.circle_radius + RING_NOISE + r_obs > s.arena_half_size:
-            raise ValueError(
-                f"crowd obstacles start on the ring of radius {s.circle_radius:g} m (+-{RING_NOISE:g} m), and their "
-                f"discs (radius up to {r_obs:g} m) reach beyond the arena they bounce in (arena_half_size="
-                f"{s.arena_half_size:g} m); increase arena_half_size or reduce layout_radius"
-            )
-        used, ring = crowd_ring(s, m)
-        if used > ring:
-            raise ValueError(
-                f"cannot place {s.n_robots} robots and {s.n_obstacles} obstacles on a crowd circle of radius "
-                f"{s.circle_radius:g} m: their starts and goals need {used:.1f} m of its {ring:.1f} m; "
-                "increase layout_radius"
-            )
-        if m:  # the length of the ring is not the room between the robots: the first obstacle must fit
-            start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
-            bodies = [(p, r) for p in np.concatenate((start, -start))]
-            try:
-                Crowd._search(np.random.default_rng(0), s, bodies, r_obs, 0)
-            except ValueError:
-                raise ValueError(
-                    f"no crowd obstacle of radius {r_obs:g} m fits, start and antipodal goal, between {s.n_robots} "
-                    f"robots of radius {r:g} m on a circle of radius {s.circle_radius:g} m; increase layout_radius or "
-                    "reduce n_robots / robot radius / obstacle_radius / min_separation"
-                ) from None
-
-    def least_trip(self, s: Scenario) -> float:
-        return max(0.0, 2.0 * s.circle_radius - s.r_goal)  # start and goal are antipodes of the ring
-
-    def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
-        obs_radius = obstacle_radii(s, rng)
-        start = circle_points(s.n_robots, s.circle_radius, -np.pi / 2)
-        goal = -start
-        obs_pos, obs_target = np.zeros((2, s.n_obstacles, 2))  # square walkers without room on the ring: placed later
-        for attempt in range(CROWD_REDRAWS if on_ring(s) else 0):
-            try:
-                obs_pos, obs_target = self._obstacles(rng, s, start, goal, obs_radius)
-                break
-            except ValueError:  # the obstacles placed first left no room for one: place them all again
-                if attempt == CROWD_REDRAWS - 1 and not walks_square(s):
-                    raise
-        return finish(s, start, goal, obs_pos, obs_target, obs_radius)
-
-    @staticmethod
-    def _obstacles(
-        rng: np.random.Generator, s: Scenario, start: np.ndarray, goal: np.ndarray, radius: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """CrowdNav circle crossing: obstacles start on the circle (with +-0.5 m noise) and head for
-        the antipodal point; starts and goals keep clear of the robots' and of each other's."""
-        m, R = len(radius), s.circle_radius
-        if not np.array_equal(goal, -start):  # ring_crossers checks a start only: the goals of the bodies mirror it
-            raise ValueError("crowd layout: the robots' goals must be their starts mirrored through the centre")
-        pos = np.zeros((m, 2))
-        centre = np.zeros((2 * s.n_robots + 2 * m, 2))
-        centre[: 2 * s.n_robots] = np.concatenate((start, goal))
-        rad = np.full(len(centre), float(s.robot.radius))
-        k = tries = 0
-        chunk, sep = 8 * m, s.min_separation
-        while k < m:
-            # Each try draws an angle on the circle and a +-0.5 m noise per axis (rng.uniform(0, 2 pi), then
-            # rng.uniform(-0.5, 0.5, size=2)); drawn ahead in chunks, the loop compiled (ring_crossers).
-            ahead = Ahead(rng, 3 * chunk)
-            u = ahead.u.reshape(-1, 3)
-            ang = (2.0 * np.pi) * u[:, 0]
-            px = R * np.cos(ang) + (-RING_NOISE + 2.0 * RING_NOISE * u[:, 1])
-            py = R * np.sin(ang) + (-RING_NOISE + 2.0 * RING_NOISE * u[:, 2])
-            k, used, tries, status = ring_crossers(px, py, centre, rad, radius, k, tries, sep, MAX_TRIES, pos)
-            ahead.settle(3 * used)
-            if status == 2:  # the random draws found no room: search every place, in an order drawn from rng
-                bodies = [(centre[b], rad[b]) for b in range(2 * s.n_robots + 2 * k)]
-                p = Crowd._search(rng, s, bodies, radius[k], k)
-                pos[k] = p
-                j = 2 * s.n_robots + 2 * k
-                centre[j], centre[j + 1], rad[j : j + 2] = p, -p, radius[k]
-                k, tries = k + 1, 0
-            chunk *= 2
-        return pos, -pos
-
-    @staticmethod
-    def _search(rng: np.random.Generator, s: Scenario, bodies: list, r: float, k: int) -> np.ndarray:
-        """The first of :meth:`_spots`, in an order drawn from ``rng``, whose start and antipodal goal keep
-        clear of ``bodies`` (the random draws' test); ``ValueError`` if none does."""
-        spots = Crowd._spots(s)
-        spots = spots[rng.permutation(len(spots))]
-        centre = np.array([c for c, _ in bodies])
-        rad = np.array([rad for _, rad in bodies])
-        fits = np.ones(len(spots), dtype=bool)
-        for q in (spots, -spots):
-            fits &= (np.linalg.norm(q[:, None] - centre[None], axis=-1) - rad - r >= s.min_separation).all(axis=1)
-        if not fits.any():
-            raise ValueError(
-                f"could not place crowd obstacle {k} without overlap; "
-                "increase layout_radius or reduce n_obstacles / min_separation"
-            )
-        return spots[np.argmax(fits)]
-
-    @staticmethod
-    def _spots(s: Scenario) -> np.ndarray:
-        """Every start the random draw can give, on a grid ``(720 * 25, 2)`` [m]: 720 angles on the
-        circle, each with a 5 x 5 grid of the +-0.5 m noise."""
-        ang = np.linspace(0.0, 2.0 * np.pi, 720, endpoint=False)
-        ring = s.circle_radius * np.stack((np.cos(ang), np.sin(ang)), axis=-1)
-        off = np.stack(np.meshgrid(*2 * (np.linspace(-RING_NOISE, RING_NOISE, 5),)), axis=-1).reshape(-1, 2)
-        return (ring[:, None] + off[None]).reshape(-1, 2)
-
-    def view_extent(self, s: Scenario) -> float:
-        return crowd_view(s)
-
-
 class Custom(ScenarioKind):
     name = "custom"
+    obstacles_in_arena = False  # they follow their scripts
     summary = "explicit arrays (:class:`~vcs_env.scenario.CustomLayout`), e.g. to reproduce a layout from a paper."
     reads = frozenset()
 
@@ -427,7 +311,7 @@ def kinds_help(width: int = 10) -> str:
 def generate(s: Scenario, rng: np.random.Generator) -> Layout:
     """Draw one world's initial state for scenario ``s`` from ``rng``; a kind from outside this package is checked
     (:func:`check_generated`; the built-in ones are held to their layouts by the tests, and a reset pays no check)."""
-    kind = KINDS[s.kind]
+    kind = kind_of(s)
     lay = kind.generate(s, rng)
     return lay if type(kind).__module__.startswith("vcs_env.") else check_generated(s, lay)
 
@@ -447,6 +331,7 @@ def check_generated(s: Scenario, lay) -> Layout:
         value = np.asarray(getattr(lay, name))
         if value.shape != shape or value.dtype.kind not in "biuf" or not np.isfinite(value).all():
             raise ValueError(f"{said} {name} {value.shape} {value.dtype}: it must be finite numbers of shape {shape}")
+        setattr(lay, name, value.astype(np.float64))  # lists of numbers, or integers, as the simulator reads them
     if k > segment_capacity(s):
         raise ValueError(f"{said} {k} wall segments, more than its n_segments(s) = {segment_capacity(s)}")
     r = s.robot.radius
@@ -473,32 +358,50 @@ def check_kinds(kinds: dict[str, ScenarioKind]) -> dict[str, ScenarioKind]:
 
 def segment_capacity(s: Scenario) -> int:
     """Most wall segments a layout of scenario ``s`` has."""
-    return KINDS[s.kind].n_segments(s)
+    return kind_of(s).n_segments(s)
+
+
+def kind_of(s: Scenario) -> ScenarioKind:
+    """The registered kind of ``s``; a ``ValueError`` naming it if none is (a scenario of a kind of one's own, e.g.
+    unpickled where the kind was never registered)."""
+    try:
+        return KINDS[s.kind]
+    except KeyError:
+        raise ValueError(
+            f"no scenario kind {s.kind!r} is registered: register it (vcs_env.layouts.KINDS[{s.kind!r}] = ...) "
+            "before using its scenarios"
+        ) from None
 
 
 def check_layout(s: Scenario) -> None:
     """Raise ``ValueError`` if the layout of ``s`` cannot be placed without overlap."""
-    KINDS[s.kind].check_layout(s)
+    kind_of(s).check_layout(s)
 
 
-# Map kinds live in map_kinds.py, which builds on the blocks above (hence the import here).
+# The crowd and map kinds live in crowd_kind.py and map_kinds.py, which build on the blocks above (hence the
+# imports here).
+from .crowd_kind import Crowd  # noqa: E402
 from .map_kinds import Corridor, Doorway, Intersection, Room, Walls  # noqa: E402
 
-KINDS: dict[str, ScenarioKind] = {
+
+class KindRegistry(dict):
+    """The kinds by name: a dict that refuses to replace a built-in kind (its presets and suites would run another
+    layout under their names and fingerprints) and takes only :class:`ScenarioKind` instances."""
+
+    def __setitem__(self, name: str, kind: ScenarioKind) -> None:
+        if name in BUILT_IN and type(kind) is not BUILT_IN[name]:
+            raise ValueError(
+                f"KINDS[{name!r}] is the built-in {name} kind: its presets and suites would run your layout under "
+                "their names; register yours under another name"
+            )
+        check_kinds({name: kind})
+        super().__setitem__(name, kind)
+
+
+BUILT_IN: dict[str, type] = {
     k.name: k
-    for k in (
-        Circle(),
-        Swap(),
-        Crossing(),
-        Random(),
-        Crowd(),
-        Dynamic(),
-        Custom(),
-        Corridor(),
-        Doorway(),
-        Room(),
-        Intersection(),
-        Walls(),
-    )
+    for k in (Circle, Swap, Crossing, Random, Crowd, Dynamic, Custom, Corridor, Doorway, Room, Intersection, Walls)
 }
-"""Every scenario kind by name (the values ``Scenario.kind`` accepts)."""
+KINDS: dict[str, ScenarioKind] = KindRegistry({name: kind() for name, kind in BUILT_IN.items()})
+"""Every scenario kind by name (the values ``Scenario.kind`` accepts); a kind of one's own is registered with
+``KINDS["name"] = Kind()`` (docs/extending.md), a built-in one is not replaced."""

@@ -245,6 +245,12 @@ def place_obstacles(
     return obs_pos, obs_target, radius
 
 
+def _points(x) -> np.ndarray:
+    """Points ``(k, 2)`` [m] as float64; an empty list is ``(0, 2)``."""
+    x = np.asarray(x, dtype=np.float64)
+    return x.reshape(0, 2) if x.size == 0 else x
+
+
 def finish(
     s: Scenario,
     start: np.ndarray,
@@ -255,10 +261,12 @@ def finish(
     heading=None,
     speed=None,
 ) -> Layout:
-    """The :class:`Layout`; robots face their goal at ``initial_speed`` unless given."""
+    """The :class:`Layout`; robots face their goal at ``initial_speed`` unless given. Arrays or nested lists of
+    numbers (a kind of one's own is held to its sizes by ``layouts.check_generated``)."""
+    start, goal = np.asarray(start, dtype=np.float64), np.asarray(goal, dtype=np.float64)
     if heading is None:
-        d = goal - start
-        heading = np.arctan2(d[:, 1], d[:, 0])
+        d = goal - start if start.shape == goal.shape else np.zeros((len(start), 2))
+        heading = np.arctan2(d[..., 1], d[..., 0]) if d.ndim == 2 and d.shape[-1] == 2 else np.zeros(len(start))
     if speed is None:
         speed = np.full(s.n_robots, float(s.initial_speed))
     return Layout(
@@ -266,8 +274,8 @@ def finish(
         goal=np.ascontiguousarray(goal, dtype=np.float64),
         heading=np.asarray(heading, dtype=np.float64),
         speed=np.asarray(speed, dtype=np.float64),
-        obs_pos=obs_pos,
-        obs_target=obs_target,
+        obs_pos=_points(obs_pos),
+        obs_target=_points(obs_target),
         obs_radius=np.asarray(obs_radius, dtype=np.float64),
     )
 

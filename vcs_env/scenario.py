@@ -297,8 +297,9 @@ class Scenario:
     # Derived quantities are properties, never defaults computed from other fields.
     @property
     def has_walls(self) -> bool:
-        """Whether the worlds have static walls (a map kind, or a custom layout with walls)."""
-        return self.kind in MAPS or (self.custom is not None and len(self.custom.walls) > 0)
+        """Whether the worlds have static walls (a map kind, a custom layout with walls, or a kind of one's own that
+        places some: ``ScenarioKind.n_segments``)."""
+        return self.kind in MAPS or _kinds()[self.kind].n_segments(self) > 0
 
     @property
     def circle_radius(self) -> float:
