@@ -398,6 +398,45 @@ def test_an_obstacle_motion_of_ones_own_is_checked_by_name():
     env.step({a: np.zeros(2, np.float32) for a in env.agents})  # a nested list of numbers is taken
 
 
+class _Spin(ObstacleMotion):
+    """Turning at a per-world speed: ``init`` gives that speed as one number (documented: one value for all)."""
+
+    def __init__(self, init=None):
+        self.given = init
+
+    def init(self, rng, scenario, pos, target):
+        if self.given is not None:
+            return self.given(pos)
+        return {"speed": rng.uniform(0.2, 0.6), "phase": rng.uniform(-np.pi, np.pi, len(pos))}
+
+    def velocity(self, params, t, pos, dt):
+        a = params["phase"] + 0.5 * t[:, None]
+        return np.stack((np.cos(a), np.sin(a)), -1) * params["speed"][..., None]
+
+
+def test_obstacle_motion_parameters_are_one_row_per_obstacle():
+    """A number from ``init`` is one value for every obstacle: stored per world it broadcast against (B, m, 2) where
+    B = m, and 6 batched worlds moved their obstacles up to 0.18 m off the same worlds one by one. Parameters of
+    another leading size, or no dict, are refused by name (a TypeError or numpy's broadcast error)."""
+    s = vcs_env.make_scenario("dynamic", n_robots=1, n_obstacles=6)
+    sim = Simulator(s, 6, obstacle_motion=_Spin())
+    sim.reset(list(range(6)))
+    for _ in range(10):
+        sim.step(np.zeros((6, 1, 2)))
+    for b in range(6):
+        one = Simulator(s, 1, obstacle_motion=_Spin())
+        one.reset([b])
+        for _ in range(10):
+            one.step(np.zeros((1, 1, 2)))
+        np.testing.assert_allclose(one.world.obs_pos[0], sim.world.obs_pos[b], atol=1e-12)
+    for init, said in (
+        (lambda pos: None, "_Spin.init must return a dict of parameter arrays"),
+        (lambda pos: {"x": np.zeros(len(pos) + 1)}, r"_Spin.init gave 'x' of shape \(7,\): parameters have leading"),
+    ):
+        with pytest.raises(ValueError, match=f"obstacle motion {said}"):
+            Simulator(s, 1, obstacle_motion=_Spin(init)).reset([0])
+
+
 def test_reset_takes_distinct_world_indices_in_range():
     """An index past the batch was an IndexError; -1 reset the last world and 0.5 the first."""
     sim = Simulator(vcs_env.make_scenario("circle", n_robots=2), 2)

@@ -49,7 +49,8 @@ class ObstacleMotion:
             target: a second point per obstacle ``(m, 2)`` [m] (destination or initial direction).
 
         Returns:
-            Parameter arrays with leading shape ``(m,)``.
+            Parameter arrays with leading shape ``(m,)``, one row per obstacle, the same names and shapes in every
+            world (a number is one value for every obstacle: ``np.full(m, value)``).
         """
         return {}
 

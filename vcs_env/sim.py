@@ -189,7 +189,7 @@ class Simulator:
             lay = generate(self.scenario, rng)
             self.motion.place(rng, self.scenario, lay)
             lays.append(lay)
-            params.append(self.motion.init(rng, self.scenario, lay.obs_pos, lay.obs_target))
+            params.append(self._motion_params(rng, lay))
             keys.append(rng.integers(0, np.iinfo(np.uint64).max, dtype=np.uint64, endpoint=True))
             if self.start_prob > 0 and rng.random() < self.start_prob:
                 restored.append((b, int(rng.integers(len(self.start_pool)))))
@@ -216,8 +216,20 @@ class Simulator:
                     seg[i, : len(lay.segments)] = lay.segments
                     present[i, : len(lay.segments)] = True
                 w.seg_a[idx], w.seg_b[idx], w.seg_present[idx] = seg[:, :, 0], seg[:, :, 1], present
+            if any(p.keys() != params[0].keys() for p in params):
+                raise ValueError(
+                    f"obstacle motion {type(self.motion).__name__}.init gave different parameter names in the worlds "
+                    f"of one reset ({sorted(params[0])} and others): every world has the same parameters"
+                )
             for key in params[0]:
-                value = np.stack([np.asarray(p[key]) for p in params])
+                try:
+                    value = np.stack([p[key] for p in params])
+                except ValueError:
+                    shapes = sorted({p[key].shape for p in params})
+                    raise ValueError(
+                        f"obstacle motion {type(self.motion).__name__}.init gave {key!r} of shapes {shapes} in the "
+                        "worlds of one reset: a parameter has one shape in every world"
+                    ) from None
                 if key not in self.motion_params:
                     self.motion_params[key] = np.zeros((self.batch_size, *value.shape[1:]), dtype=value.dtype)
                 self.motion_params[key][idx] = value
@@ -231,6 +243,30 @@ class Simulator:
         self._preview_obstacle_velocity(fresh)  # restored worlds keep their saved obstacle velocities
         self._start_clock(fresh)
         return w
+
+    def _motion_params(self, rng: np.random.Generator, lay) -> dict[str, np.ndarray]:
+        """The obstacle motion's parameters of one world, checked: a dict of arrays with leading shape ``(m,)``, one
+        row per obstacle; a number is one value for every obstacle (``np.full(m, value)``). A ``ValueError`` naming
+        the model otherwise (a per-world number stored as ``(B,)`` broadcast against ``(B, m, 2)`` where B = m, and
+        batched runs silently differed from one-by-one runs)."""
+        name, m = type(self.motion).__name__, len(lay.obs_pos)
+        params = self.motion.init(rng, self.scenario, lay.obs_pos, lay.obs_target)
+        if not isinstance(params, dict):
+            raise ValueError(f"obstacle motion {name}.init must return a dict of parameter arrays, got {params!r}")
+        out = {}
+        for key, value in params.items():
+            arr = np.asarray(value)
+            if arr.dtype.kind not in "biuf":
+                raise ValueError(f"obstacle motion {name}.init gave {key!r} of dtype {arr.dtype}: it must be numbers")
+            if arr.ndim == 0:
+                arr = np.full(m, arr)
+            elif arr.shape[0] != m:
+                raise ValueError(
+                    f"obstacle motion {name}.init gave {key!r} of shape {arr.shape}: parameters have leading shape "
+                    f"(m,) = ({m},), one row per obstacle (or are one number for all)"
+                )
+            out[key] = arr
+        return out
 
     def _start_clock(self, idx: Sequence[int]) -> None:
         """A new stall clock in worlds ``idx``, run on their current state (:mod:`vcs_env.stall`)."""
