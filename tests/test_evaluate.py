@@ -196,6 +196,13 @@ def test_a_metric_that_gives_other_than_one_number_or_a_taken_name_is_named(monk
     monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS, per_robot))
     with pytest.raises(ValueError, match="metric 'speeds' gave array.*one number per episode"):
         metrics.episode_metrics(ep)
+    for name, said in (  # the seed column was overwritten, a plot replaced, or a file path failed after the run
+        ("seed", "a key the harness writes beside the metrics"),
+        ("ms_per_decision", "a key the harness writes"),
+        ("speed/final", "must be an identifier"),
+    ):
+        with pytest.raises(ValueError, match=f"metric name '{name}' .*{said}"):
+            metrics.Metric(name, name, lambda f: 0.0)
     monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS[:-1], metrics.Metric("success", "s", lambda f: 1.0)))
     with pytest.raises(ValueError, match="two metrics in METRICS are named 'success'"):
         metrics.episode_metrics(ep)

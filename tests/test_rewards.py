@@ -107,6 +107,16 @@ def test_a_term_that_gives_other_than_one_number_per_robot_is_named():
             eng.step(np.zeros((1, 2, 2)))
 
 
+def test_a_term_object_without_call_is_named():
+    class Half(RewardTerm):  # forgot __call__: NotImplementedError with no message
+        name = "half"
+
+    eng = NavEngine(vcs_env.make_scenario("swap", n_robots=2), reward_terms={"half": (1.0, Half())})
+    eng.reset([0])
+    with pytest.raises(NotImplementedError, match=r"reward term Half \('half'\) must define __call__"):
+        eng.step(np.zeros((1, 2, 2)))
+
+
 class Moved(RewardTerm):
     """Distance each robot moved in the step [m], from positions it keeps across steps (state, as in
     docs/extending.md)."""

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -228,6 +229,19 @@ class Metric:
     bounds: tuple[float, float] = (-math.inf, math.inf)
     """The range of an episode's value: the interval of the mean is kept within it (with few episodes it could
     leave it, e.g. a negative share)."""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.name):
+            raise ValueError(
+                f"metric name {self.name!r} must be an identifier (letters, digits, _): it is a key of the rows and "
+                "the JSON, and a plot's file name"
+            )
+        if self.name in RESERVED:
+            raise ValueError(f"metric name {self.name!r} is a key the harness writes beside the metrics: pick another")
+
+
+RESERVED = frozenset({"seed", "ms_per_decision"})
+"""Keys the evaluation harness writes beside the metrics (an episode's seed; the report's time per decision)."""
 
 
 UNIT, PLUS = (0.0, 1.0), (0.0, math.inf)

@@ -62,7 +62,10 @@ class RewardTerm:
 
     def __call__(self, x: StepInput) -> np.ndarray:
         """The term ``(B, n)`` of the step; zero for robots that did not act."""
-        raise NotImplementedError
+        raise NotImplementedError(
+            f"reward term {type(self).__name__} ({self.name!r}) must define __call__(self, x) -> (B, n) array "
+            "(docs/extending.md)"
+        )
 
 
 class Progress(RewardTerm):
