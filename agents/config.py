@@ -49,9 +49,10 @@ class ScenarioConfig:
     """Which scenario a run uses: a preset and a few overrides, plus optional VCS shaping."""
 
     scenario: str = "circle"
-    """Scenario preset name (circle, swap, crossing, random, crowd, dynamic, custom, or a map:
-    corridor, doorway, room, intersection, walls), or a suite name (e.g. crowd-20-v0: that
-    suite's scenario with its conventions; the other flags then change it)."""
+    """Scenario preset name (circle, swap, crossing, random, crowd, dynamic, or a map: corridor,
+    doorway, room, intersection, walls), or a suite name (e.g. crowd-20-v0: that suite's scenario
+    with its conventions; the other flags then change it). A custom layout is built in Python
+    (Scenario(kind="custom", ...))."""
     n_robots: int | None = None
     """Number of robots n (None: the preset's)."""
     n_obstacles: int | None = None

@@ -251,6 +251,25 @@ def test_a_custom_goal_no_robot_can_arrive_at_is_refused():
         vcs_env.make_scenario("custom", custom=inside)
     beside = vcs_env.CustomLayout(start=[(0, 0)], goal=[(3.7, 0)], obstacles=(rock,))  # 0.7 + r_goal > 0.75
     assert vcs_env.make_scenario("custom", custom=beside).n_robots == 1
+    # An obstacle that comes to rest on a goal blocks it as well (it holds its last waypoint for good).
+    park = ObstacleTrajectory(times=(0.0, 1.0), positions=((3.0, 3.0), (3.0, 0.0)), radius=0.4)
+    parked = vcs_env.CustomLayout(start=[(-3.0, 0.0)], goal=[(3.0, 0.0)], obstacles=(park,))
+    with pytest.raises(ValueError, match=r"inside obstacle 0 where it comes to rest \(its last waypoint, from 1 s\)"):
+        vcs_env.make_scenario("custom", custom=parked)
+    # Coordinates beyond COORD_LIMIT (a start at 1e155 m made the progress reward NaN), headings and speeds that are
+    # no numbers (numpy's messages named no field; True was a speed of 1), a heading of many turns (wrapped).
+    for kw, said in (
+        ({"start": [(1e155, 0.0)]}, r"CustomLayout.start\[0\] = .* is beyond \+-1e\+06 m"),
+        ({"heading": ["a"]}, "CustomLayout.heading must be numbers, one per robot, got \\['a'\\]"),
+        ({"heading": [1j]}, "CustomLayout.heading must be numbers"),
+        ({"speed": [True]}, "CustomLayout.speed must be numbers"),
+    ):
+        with pytest.raises(ValueError, match=said):
+            vcs_env.CustomLayout(**{"start": [(0.0, 0.0)], "goal": [(3.0, 0.0)], **kw})
+    turns = vcs_env.CustomLayout(start=[(0.0, 0.0)], goal=[(3.0, 0.0)], heading=[3.14159e12])
+    assert -np.pi <= turns.heading[0] < np.pi
+    kept = vcs_env.CustomLayout(start=[(0.0, 0.0)], goal=[(3.0, 0.0)], heading=[0.1])
+    assert kept.heading == (0.1,)  # a heading within a half turn is kept as given, bit for bit
 
 
 def test_a_crowd_whose_obstacles_cannot_fit_between_the_robots_is_refused_when_made():

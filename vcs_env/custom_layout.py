@@ -13,6 +13,10 @@ import numpy as np
 
 from .checks import R_REF, V_REF, check_range
 
+COORD_LIMIT = 1e6
+"""[m] Largest coordinate of a custom layout: beyond, squared distances lose all precision (a start at 1e155 m made
+the progress reward NaN) and a float resolves centimetres no more."""
+
 
 @dataclass(frozen=True)
 class ObstacleTrajectory:
@@ -52,6 +56,8 @@ class ObstacleTrajectory:
             raise ValueError(f"ObstacleTrajectory.times must start at 0 and increase strictly, got {times}")
         if not all(math.isfinite(c) for p in positions for c in p):
             raise ValueError("ObstacleTrajectory.positions must be finite")
+        if max(abs(c) for p in positions for c in p) > COORD_LIMIT:
+            raise ValueError(f"ObstacleTrajectory.positions must be within +-{COORD_LIMIT:g} m (COORD_LIMIT)")
         check_range("ObstacleTrajectory.radius", self.radius, 0.0, R_REF, lo_open=True)
         speeds = [math.dist(positions[i + 1], positions[i]) / (times[i + 1] - times[i]) for i in range(len(times) - 1)]
         if speeds and max(speeds) > V_REF:
@@ -87,6 +93,12 @@ class CustomLayout:
             bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
             if bad.size:
                 raise ValueError(f"CustomLayout.{name}[{bad[0]}] is not finite: {tuple(arr[bad[0]].tolist())}")
+            far = np.flatnonzero(np.any(np.abs(arr) > COORD_LIMIT, axis=1))
+            if far.size:
+                raise ValueError(
+                    f"CustomLayout.{name}[{far[0]}] = {tuple(arr[far[0]].tolist())} is beyond +-{COORD_LIMIT:g} m "
+                    "(COORD_LIMIT): shift the layout toward the origin"
+                )
             return tuple(map(tuple, arr.tolist()))
 
         object.__setattr__(self, "start", pts("start", self.start))
@@ -97,7 +109,15 @@ class CustomLayout:
         for name in ("heading", "speed"):
             value = getattr(self, name)
             if value is not None:
-                arr = np.asarray(value, dtype=np.float64)
+                try:
+                    flat = np.asarray(value)
+                    if flat.dtype.kind not in "iuf":  # bools, strings, complex numbers: no heading or speed
+                        raise TypeError
+                    arr = flat.astype(np.float64)
+                except (TypeError, ValueError):
+                    raise ValueError(f"CustomLayout.{name} must be numbers, one per robot, got {value!r}") from None
+                if name == "heading":  # far beyond a turn a float resolves no step's turn: wrapped (in range as given)
+                    arr = np.where(np.abs(arr) > math.pi, np.mod(arr + math.pi, 2.0 * math.pi) - math.pi, arr)
                 if arr.shape != (n,):
                     raise ValueError(f"CustomLayout.{name} must have shape ({n},) (one per robot), got {arr.shape}")
                 if not np.all(np.isfinite(arr)):
@@ -140,17 +160,19 @@ def check_scripted(s) -> None:
             )
 
 
-def check_goals(s, goal: np.ndarray, obs_pos: np.ndarray, obs_radius: np.ndarray) -> None:
+def check_goals(s, goal: np.ndarray, obs_radius: np.ndarray) -> None:
     """A ``ValueError`` for a goal of custom scenario ``s`` no robot can arrive at (come within ``r_goal`` of, clear of
-    the other bodies): inside a still obstacle (one waypoint; ``obs_pos`` ``(m, 2)`` [m], ``obs_radius`` ``(m,)``
-    [m]), or, with finished robots parked (``park_finished``), too close to another robot's goal for both to park.
-    ``goal`` ``(n, 2)`` [m]."""
+    the other bodies): inside an obstacle where it comes to rest (its last waypoint, which it holds for good;
+    ``obs_radius`` ``(m,)`` [m]), or, with finished robots parked (``park_finished``), too close to another robot's
+    goal for both to park. ``goal`` ``(n, 2)`` [m]."""
     r, reach = s.robot.radius, s.r_goal
-    for k, o in enumerate(s.custom.obstacles):
-        gap = np.linalg.norm(goal - obs_pos[k], axis=-1) + reach - r - obs_radius[k]
-        if len(o.times) == 1 and np.any(gap < 0):
+    for k, o in enumerate(s.custom.obstacles):  # an obstacle holds its last waypoint for good
+        gap = np.linalg.norm(goal - np.asarray(o.positions[-1]), axis=-1) + reach - r - obs_radius[k]
+        if np.any(gap < 0):
+            still = "still obstacle" if len(o.times) == 1 else "obstacle"
+            rest = "" if len(o.times) == 1 else f" where it comes to rest (its last waypoint, from {o.times[-1]:g} s)"
             raise ValueError(
-                f"custom layout: the goal of robot {int(np.argmin(gap))} lies inside still obstacle {k} (no robot can "
+                f"custom layout: the goal of robot {int(np.argmin(gap))} lies inside {still} {k}{rest} (no robot can "
                 f"come within r_goal={reach:g} m of it)"
             )
     if s.park_finished and len(goal) > 1:

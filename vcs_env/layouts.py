@@ -269,7 +269,7 @@ class Custom(ScenarioKind):
             raise ValueError(
                 f"custom layout overlaps at t=0: bodies {min(i, j)} and {max(i, j)} (robots first, then obstacles)"
             )
-        check_goals(s, lay.goal, lay.obs_pos, lay.obs_radius)
+        check_goals(s, lay.goal, lay.obs_radius)
 
     def generate(self, s: Scenario, rng: np.random.Generator) -> Layout:
         c, n, m = s.custom, s.n_robots, s.n_obstacles
