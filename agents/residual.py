@@ -106,14 +106,14 @@ class ResidualPolicy:
         return getattr(self.predictor, "observation_space", None)
 
 
-def refuse_residual_start(record: Any, src: str, what: str) -> None:
-    """A ``ValueError`` when the run record ``record`` of checkpoint ``src`` names a residual policy, for a run
-    (``what``: ``bc --init``, ``distil --init``) that trains a network whose actions are actions: a residual's network
-    corrects its planner's, and taken as a policy it drove no robot home (``train --init`` keeps the rule: its own
-    check)."""
+def refuse_residual(record: Any, src: str, what: str, why: str = "not a policy of its own to start from") -> None:
+    """A ``ValueError`` when the run record ``record`` of checkpoint ``src`` names a residual policy, for a use of it
+    (``what``: ``bc --init``, ``distil --init``, a shield) that reads its network as a policy's: a residual's network
+    corrects its planner's actions, and taken as a policy it drove no robot home; ``why`` says what the use needs
+    (``train --init`` keeps the rule: its own check)."""
     theirs = Residual.of(record.get("config") or {}) if isinstance(record, dict) else None
     if theirs is not None:
         raise ValueError(
-            f"{what} {src}: a residual policy over {theirs.planner} (its network corrects that planner's actions), "
-            "not a policy of its own to start from"
+            f"{what} {src}: it is a residual policy over {theirs.planner} (its network corrects that planner's "
+            f"actions), {why}"
         )

@@ -149,11 +149,11 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
         train(dataclasses.replace(cfg, out=str(tmp_path / "r2"), init="policies/circle8/model.zip"))
     # bc and distil from it trained the correction network as a policy (0.00); a shield was written into its record,
     # which evaluate then refused.
-    from agents.residual import refuse_residual_start
+    from agents.residual import refuse_residual
     from vcs_cli import main
 
     with pytest.raises(ValueError, match="bc --init .*a residual policy over vcs"):
-        refuse_residual_start(open_checkpoint(res["model"]).record, str(res["model"]), "bc --init")
+        refuse_residual(open_checkpoint(res["model"]).record, str(res["model"]), "bc --init")
     distil_args = ["distil", "--mixture", "circle-8-v0-smoke", "--teacher", "vcs", "--init", str(res["model"])]
     assert main([*distil_args, "--out", str(tmp_path / "d")]) == 2
     assert "distil --init" in capsys.readouterr().err

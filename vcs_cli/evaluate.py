@@ -34,7 +34,7 @@ from agents.evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate, select
 from agents.evaluate import probes as probe_table
 from agents.evaluate.report import describe_shield, fmt, provenance, table_lines, table_metrics, write_report
 from agents.policies import is_checkpoint_spec
-from agents.residual import Residual
+from agents.residual import refuse_residual
 from benchmarks.timing import machine_info
 from vcs_env.suites import Suite, get_suite, suite_names
 
@@ -52,8 +52,8 @@ def _print_summary(res: EvalResult) -> None:
         st = res.summary.get(metric.name)
         if st is None:
             continue
-        ci = "-" if st["n"] < 2 and not metric.rate else f"[{fmt(st['low'], '.3f')}, {fmt(st['high'], '.3f')}]"
-        ci = "-" if st["n"] == 0 else ci
+        none = st["n"] == 0 or (st["n"] == 1 and not metric.rate)  # a mean has no interval from one episode
+        ci = "-" if none else f"[{fmt(st['low'], '.3f')}, {fmt(st['high'], '.3f')}]"
         print(f"{metric.label:<20} {fmt(st['mean'], '.3f'):>9} {ci:>21} {st['n']:>5}")
 
 
@@ -270,13 +270,8 @@ def cmd_shield(args) -> int:
         )
     )
     if guard is not None:  # a shield filters a network's actions, a residual's network corrects a planner's
-        record = open_checkpoint(args.checkpoint).record
-        residual = Residual.of(record.get("config") or {}) if isinstance(record, dict) else None
-        if residual is not None:
-            raise ValueError(
-                f"{args.checkpoint} is a residual policy over {residual.planner} (its network corrects the planner's "
-                "actions); a shield filters a network's own actions, and evaluate would refuse the record: none written"
-            )
+        why = "and a shield filters a network's own actions (evaluate would refuse the record): none written"
+        refuse_residual(open_checkpoint(args.checkpoint).record, args.checkpoint, "a shield on", why)
     before = attach_shield(args.checkpoint, guard)
     if guard is None:
         said = "removed the shield from" if before is not None else "no shield to remove in"

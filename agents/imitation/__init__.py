@@ -48,7 +48,7 @@ from ..config import ScenarioConfig, check_out_file, config_command, config_from
 from ..evaluate import scalar_results, score_scenarios
 from ..mixture import scenarios_of
 from ..policies import predictor_controller
-from ..residual import refuse_residual_start
+from ..residual import refuse_residual
 from ..runs import PolicyConfig, check_fresh_out, policy_kwargs, scenario_family
 from .data import (
     DATASET_FORMAT,
@@ -317,7 +317,7 @@ def behaviour_clone(cfg: BCConfig) -> dict[str, Any]:
     model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", gamma=cfg.gamma, policy_kwargs=kwargs)
     policy = model.policy
     if cfg.init:
-        refuse_residual_start(open_checkpoint(cfg.init).record, cfg.init, "bc --init")
+        refuse_residual(open_checkpoint(cfg.init).record, cfg.init, "bc --init")
         init_meta = load_policy_weights(model, cfg.init, scenario)
         print(f"initialised the policy from {cfg.init} ({init_meta.get('kind', 'unknown')} checkpoint)")
     train_rows, val_rows = _split(data, cfg.val_fraction, cfg.seed)

@@ -48,7 +48,7 @@ from ..checkpoint import load_model, open_checkpoint, save_model
 from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
-from ..residual import refuse_residual_start
+from ..residual import refuse_residual
 from ..runs import check_fresh_out, scenario_family, start_states
 from ..shield import ShieldedPredictor
 from ..wall_segments import read_wall_segments
@@ -210,7 +210,7 @@ def load_student(cfg: DistilConfig, scenario):
     """The student's network (an SB3 model): --init (or --teacher), for ``scenario``; with --read-wall-segments, made to
     read ``scenario``'s wall segments (:func:`agents.wall_segments.read_wall_segments`)."""
     src = cfg.init or cfg.teacher
-    refuse_residual_start(open_checkpoint(src).record, src, "distil --init")
+    refuse_residual(open_checkpoint(src).record, src, "distil --init")
     if not cfg.read_wall_segments:
         model = load_model(src, scenario)
     else:
