@@ -249,7 +249,8 @@ def check_run(cfg: TrainConfig) -> None:
         raise ValueError(
             "--init-log-std sets the log std of the --init checkpoint's policy; a new policy's is --log-std-init"
         )
-    check_partners(cfg, {name for name, *_ in PARTNERS if getattr(cfg, name) != getattr(TrainConfig(), name)})
+    default = TrainConfig()
+    check_partners(cfg, {name for name, *_ in PARTNERS if getattr(cfg, name) != getattr(default, name)})
 
 
 PARTNERS = (

@@ -19,7 +19,7 @@ def check_applies(scenario, given, own_motion: bool = False) -> None:
     obstacle setting without obstacles, or one of a custom layout, whose obstacles follow their scripts, or a motion
     setting the named obstacle motion does not read (:func:`vcs_env.obstacles.check_motion_fields`; not with
     ``own_motion``, an ``ObstacleMotion`` object of one's own, which may read any field)."""
-    kind = layouts.KINDS[scenario.kind]  # looked up now: kinds of one's own may be registered late
+    kind = layouts.kind_of(scenario)  # looked up now: kinds of one's own may be registered late
     reads = kind.reads
     moves = arena_moves(scenario) or (scenario.n_obstacles > 0 and kind.obstacles_in_arena)
     for name in ("jitter", "layout_radius", "arena_half_size"):
