@@ -233,3 +233,42 @@ def test_an_output_the_report_would_overwrite_is_refused_before_the_runs(tmp_pat
     for out in (tmp_path / "R.json", tmp_path):
         with pytest.raises(ValueError, match="give the Markdown report's file name"):
             run(quick=True, out=out, sections=("env",))
+
+
+def test_install_bench_reports_every_step(tmp_path):
+    """The install benchmark's report names each README command with its time, and sizes count files once."""
+    from benchmarks import install_bench as ib
+
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "f").write_bytes(b"x" * 1000)
+    (tmp_path / "g").write_bytes(b"y" * 234)
+    (tmp_path / "link").symlink_to(tmp_path / "g")
+    assert ib.tree_size(tmp_path) == 1234
+
+    def step(cmd, seconds, last=""):
+        return {"command": " ".join(cmd), "seconds": seconds, "last_line": last}
+
+    res = {
+        "argv": "python -m benchmarks.install_bench --tests",
+        "date": "2026-12-07T00:00:00+00:00",
+        "info": {
+            "cpu": "cpu",
+            "logical_cores": 2,
+            "usable_cores": 2,
+            "platform": "p",
+            "python": "3.11",
+            "load_average": [1, 1, 1],
+        },
+        "load_average_end": [2, 2, 2],
+        "pip_sources": ["PyPI"],
+        "light": {"steps": [step(ib.LIGHT[0], 14.2)], "bytes": 629_000_000},
+        "run": {"first": step(ib.RUN, 71.0, "wrote circle.gif"), "second": step(ib.RUN, 5.0, "wrote circle.gif")},
+        "full": {"steps": [step(c, 30.0) for c in ib.FULL], "bytes": 2_500_000_000},
+        "tests": [step(ib.TESTS[0], 93.0, "400 passed"), step(ib.TESTS[1], 355.0, "1353 passed")],
+    }
+    text = ib.render(res)
+    for cmd in (*ib.LIGHT, *ib.FULL, *ib.TESTS):
+        assert f"`{' '.join(cmd)}`" in text
+    assert "| 14 s |" in text and "| 1 min 11 s |" in text and "| 5 min 55 s | 1353 passed |" in text
+    assert "629 MB" in text and "2,500 MB" in text
+    assert "python -m benchmarks.install_bench --tests" in text
