@@ -165,6 +165,27 @@ def test_a_step_before_the_first_reset_says_so():
         env.step({})
 
 
+def test_the_gymnasium_env_refuses_a_step_before_reset_and_after_the_end():
+    """As the PettingZoo env: it rendered a zeroed world before reset, and after the end stepped on with terminated
+    False again, no truncation ever, and the time cost paid to a robot past its episode."""
+    from vcs_env.gym_env import VcsNavEnv
+
+    env = VcsNavEnv(scenario="circle", n_robots=2, max_steps=5, render_mode="ansi")
+    for call, args in (("step", (np.zeros(2, np.float32),)), ("render", ())):
+        with pytest.raises(RuntimeError, match=rf"{call}\(\) called before the first reset\(\)"):
+            getattr(env, call)(*args)
+    for _ in range(2):  # the second episode ends as the first
+        env.reset(seed=0)
+        ended, steps = False, 0
+        while not ended:
+            _, _, terminated, truncated, _ = env.step(np.zeros(2, np.float32))
+            ended, steps = terminated or truncated, steps + 1
+        assert truncated and steps == 5
+        with pytest.raises(RuntimeError, match=r"step\(\) called on a finished episode; call reset\(\) first"):
+            env.step(np.zeros(2, np.float32))
+        assert "robot_0" in env.render()  # the ended episode still renders
+
+
 def test_a_refused_train_run_leaves_no_directory_and_conflicting_weights_are_named(tmp_path, capsys):
     base = ["train", "--n-robots", "2", "--timesteps", "64", "--n-worlds", "1", "--n-steps", "64", "--batch-size", "64"]
     base += ["--eval-freq", "0", "--eval-episodes", "1", "--no-progress-bar", "--out", str(tmp_path / "run")]

@@ -46,7 +46,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
     ## Episode End
     Terminated when ``robot_0`` reaches its goal or (``on_collision="terminate"``) touches
     anything (it stops where it first touched); truncated after ``scenario.max_steps`` steps
-    (or the ``max_episode_steps`` of ``gym.make``).
+    (or the ``max_episode_steps`` of ``gym.make``). A step after the end raises ``RuntimeError``: call ``reset()``.
 
     ## Arguments
     ``scenario`` (name or Scenario), ``others`` (planner for the other robots; a planner instance given as
@@ -95,6 +95,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         self.observation_space = observation_space(self.scenario)
         self.action_space = action_space()
         self._renderer: Renderer | None = None
+        self._started = self._running = False  # reset() called once; the episode has not ended
 
     @property
     def world(self):
@@ -107,6 +108,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         # continues one reproducible stream.
         world_seed = int(self.np_random.integers(0, 2**63 - 1))
         obs = self.engine.reset([world_seed])
+        self._started = self._running = True
         if self._renderer is not None:
             self._renderer.reset()
         info = {} if self.engine.expert_action is None else {"expert_action": self.engine.expert_action[0, 0].copy()}
@@ -115,6 +117,9 @@ class VcsNavEnv(RenderMixin, gym.Env):
         return obs[0, 0], info
 
     def step(self, action):
+        if not self._running:  # as the PettingZoo env: an ended episode would go on with stale flags
+            said = "on a finished episode" if self._started else "before the first reset()"
+            raise RuntimeError(f"step() called {said}; call reset() first")
         arr = check_actions(action, (2,), "action")
         if self.others is not None:
             actions = _others_actions(self.others, self.engine, self._others_mask)
@@ -123,9 +128,11 @@ class VcsNavEnv(RenderMixin, gym.Env):
         actions[0, 0] = arr
         res = self.engine.step(actions)
         info = res.info(0)
+        terminated, truncated = bool(res.terminated[0, 0]), bool(res.truncated[0, 0])
+        self._running = not (terminated or truncated)
         if self.render_mode == "human":
             self.render()
-        return res.obs[0, 0], float(res.reward[0, 0]), bool(res.terminated[0, 0]), bool(res.truncated[0, 0]), info
+        return res.obs[0, 0], float(res.reward[0, 0]), terminated, truncated, info
 
 
 class VcsNavVectorEnv(VectorEnv):
