@@ -47,6 +47,23 @@ def test_render_modes():
     env.close()
 
 
+def test_closing_one_human_window_leaves_the_others_drawing(monkeypatch):
+    """pygame has one display per process: closing one env quit it under another env's renderer, whose next
+    frame failed ("display Surface quit"); the display closes with the last human renderer."""
+    pygame = pytest.importorskip("pygame")
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    a = vcs_env.parallel_env(scenario="circle", n_robots=2, render_mode="human")
+    b = vcs_env.parallel_env(scenario="swap", render_mode="human")
+    a.reset(seed=0)
+    b.reset(seed=0)
+    a.close()
+    b.step({x: np.zeros(2, np.float32) for x in b.agents})
+    assert pygame.display.get_init()
+    b.close()
+    assert not pygame.display.get_init()
+    b.close()  # twice is harmless
+
+
 def test_spaces_are_identical_objects_and_unknown_agents_raise():
     env = vcs_env.parallel_env(scenario="circle", n_robots=3)
     assert env.observation_space("robot_0") is env.observation_space("robot_2")

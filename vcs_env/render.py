@@ -39,10 +39,12 @@ class Renderer:
         fps: frame rate of the human window [1/s] (the adapters pass 1 / dt: real time).
     """
 
+    windows = 0
+    """Human renderers open in this process: pygame has one display, closed when the last of them closes."""
+
     def __init__(self, extent: float, size: int = 600, mode: str = "rgb_array", fps: float = 10.0):
         self.extent, self.size, self.mode, self.fps = float(extent), int(size), mode, fps
         self._pg = None
-        self._screen = None
         self._clock = None
         self.trails: list[np.ndarray] = []
 
@@ -57,11 +59,18 @@ class Renderer:
             pygame.init()
             self._pg = pygame
             if self.mode == "human":
-                pygame.display.init()
-                self._screen = pygame.display.set_mode((self.size, self.size))
-                pygame.display.set_caption("vcs-env")
+                Renderer.windows += 1
                 self._clock = pygame.time.Clock()
         return self._pg
+
+    def _window(self, pg):
+        """The process's pygame window, opened again if it was closed (by code of one's own) or has another size."""
+        screen = pg.display.get_surface() if pg.display.get_init() else None
+        if screen is None or screen.get_size() != (self.size, self.size):
+            pg.display.init()
+            screen = pg.display.set_mode((self.size, self.size))
+            pg.display.set_caption("vcs-env")
+        return screen
 
     def _px(self, p: np.ndarray) -> np.ndarray:
         """Pixel coordinates of points ``p`` ``(..., 2)`` [m]; points far outside the view are clipped to
@@ -115,7 +124,7 @@ class Renderer:
             )
             pg.draw.line(surf, (20, 20, 20), (int(c[0]), int(c[1])), (int(tip[0]), int(tip[1])), 2)
         if self.mode == "human":
-            self._screen.blit(surf, (0, 0))
+            self._window(pg).blit(surf, (0, 0))
             pg.event.pump()
             pg.display.flip()
             self._clock.tick(self.fps)
@@ -124,9 +133,10 @@ class Renderer:
 
     def close(self) -> None:
         if self._pg is not None and self.mode == "human":
-            self._pg.display.quit()
+            Renderer.windows -= 1
+            if Renderer.windows == 0:  # another env's window stays open
+                self._pg.display.quit()
         self._pg = None
-        self._screen = None
 
 
 class RenderMixin:
