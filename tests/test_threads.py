@@ -21,7 +21,7 @@ TWO = pytest.mark.skipif(threads.max_threads() < 2, reason="NUMBA_NUM_THREADS < 
 
 @pytest.mark.parametrize("bad", [0, -1, 1.5, True, "2", 10**6])
 def test_set_threads_rejects_bad_values(bad):
-    with pytest.raises(ValueError, match="n_threads must be an integer in"):
+    with pytest.raises(ValueError, match=r"set_threads\(n\): n must be an integer in"):
         threads.set_threads(bad)
 
 

@@ -67,7 +67,7 @@ def set_threads(n: int | None = None) -> int:
     if n is None:
         n = max(1, min(available_cores(), limit))
     if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= limit:
-        raise ValueError(f"n_threads must be an integer in [1, {limit}] (NUMBA_NUM_THREADS={limit}), got {n!r}")
+        raise ValueError(f"set_threads(n): n must be an integer in [1, {limit}] (NUMBA_NUM_THREADS={limit}), got {n!r}")
     _threads[0] = n
     return n
 
