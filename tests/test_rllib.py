@@ -179,6 +179,21 @@ def test_bad_input_gets_one_line_errors(tmp_path, capsys):
     ):
         assert main(["train", "--backend", "rllib", *flags, "--out", str(tmp_path / "m")]) == 2
         assert name in capsys.readouterr().err
+    # PPO settings as the other backends check them, before Ray starts (they trained to the end, or failed inside
+    # RLlib: net_arch 0 an IndexError, n_epochs 0 an UnboundLocalError, gamma 1.5 after Ray had started).
+    for flags, said in (
+        (["--learning-rate", "-1"], "learning_rate must be"),
+        (["--n-steps", "0"], "n_steps must be"),
+        (["--n-epochs", "0"], "n_epochs must be"),
+        (["--net-arch", "0"], "net_arch must be"),
+        (["--gae-lambda", "2"], "gae_lambda must be"),
+        (["--gamma", "1.5"], "gamma must be"),
+        (["--eval-freq", "-1"], "eval_freq must be"),
+    ):
+        assert main(["train", "--backend", "rllib", *flags, "--out", str(tmp_path / "p")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and said in err[0], err
+    assert not (tmp_path / "p").exists()
     # Nothing listens on this port: an error before Ray is started, naming the address.
     port = free_port()
     res = _run("train", "--backend", "rllib", "--address", f"127.0.0.1:{port}", "--out", str(tmp_path / "y"))

@@ -101,7 +101,8 @@ LOG_STD_RANGE = (-20.0, 2.0)
 
 
 def check_ppo_settings(cfg: TrainConfig) -> None:
-    """Raise ``ValueError`` naming the field for PPO settings SB3 would crash on or silently misuse."""
+    """Raise ``ValueError`` naming the field for PPO settings a backend would crash on or silently misuse (every
+    backend runs it)."""
     for name in ("n_steps", "batch_size", "n_epochs"):
         check_int(name, getattr(cfg, name), 1, 10**9)
     if not cfg.net_arch or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in cfg.net_arch):
@@ -111,6 +112,7 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
     for name in ("ent_coef", "vf_coef"):
         check_positive(name, getattr(cfg, name), allow_zero=True)
     check_range("gae_lambda", cfg.gae_lambda, 0.0, 1.0)
+    check_range("gamma", cfg.gamma, 0.0, 1.0)  # the env checks it too, but RLlib's runners would meet it late
     check_range("log_std_init", cfg.log_std_init, *LOG_STD_RANGE)
     if cfg.init_log_std is not None:  # the log std set on an --init policy: the same bounds
         check_range("init_log_std", cfg.init_log_std, *LOG_STD_RANGE)

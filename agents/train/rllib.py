@@ -61,6 +61,7 @@ from ..runs import (
     run_command,
     run_record,
 )
+from . import check_ppo_settings
 from .periodic import PeriodicEval
 from .rllib_cluster import init_ray
 
@@ -205,6 +206,7 @@ def check_config(cfg: RLlibConfig) -> None:
         )
     if cfg.eval_suite:
         get_suite(cfg.eval_suite)
+    check_ppo_settings(cfg)  # after the SB3-only refusals: --target-kl is named as one of them
 
 
 def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str, Any]:
