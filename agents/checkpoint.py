@@ -383,6 +383,8 @@ def open_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint:
         )
     if path.suffix == ".npz" and path.is_file():
         raise CheckpointError(f"{str(path)!r} is a dataset (vcs-env collect's .npz), not a checkpoint ({ACCEPTED})")
+    if path.suffix == ".json" and path.is_file():  # an exported policy's layout, say: it exists, so not "not found"
+        raise CheckpointError(f"{str(path)!r} is a JSON file, not a checkpoint (expected {ACCEPTED})")
     raise CheckpointError(f"checkpoint not found: {str(path)!r} (expected {ACCEPTED})")
 
 

@@ -107,6 +107,9 @@ def sb3_actor(model):
             f"{type(policy.action_dist).__name__}"
         )
     space = policy.action_space
+    low, high = np.asarray(getattr(space, "low", np.nan)), np.asarray(getattr(space, "high", np.nan))
+    if getattr(space, "shape", None) != (2,) or not ((low == -1.0).all() and (high == 1.0).all()):
+        raise CheckpointError(f"the policy acts in {space}, not in vcs-env's Box(-1, 1, (2,)): a policy of another env")
 
     class SB3Actor(torch.nn.Module):
         def __init__(self):

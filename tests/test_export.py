@@ -182,6 +182,17 @@ def test_bad_input_gets_one_line_errors(tmp_path, capfd):
     (tmp_path / "empty").mkdir()
     assert main(["export", str(tmp_path / "empty"), "--onnx", str(tmp_path / "w.onnx")]) == 2
     assert "checkpoint not found" in one_error(capfd)
+    # A JSON file that exists (an export's layout) is no checkpoint; it was "not found".
+    (tmp_path / "layout.json").write_text("{}")
+    assert main(["export", str(tmp_path / "layout.json"), "--onnx", str(tmp_path / "w.onnx")]) == 2
+    assert "layout.json' is a JSON file, not a checkpoint" in one_error(capfd)
+    # An SB3 PPO of another env: its actions are not the env's (the ONNX file and its layout disagreed).
+    from stable_baselines3 import PPO
+
+    PPO("MlpPolicy", "Pendulum-v1", n_steps=16, batch_size=16).save(tmp_path / "pendulum.zip")
+    assert main(["export", str(tmp_path / "pendulum.zip"), "--onnx", str(tmp_path / "w.onnx")]) == 2
+    assert "not in vcs-env's Box(-1, 1, (2,)): a policy of another env" in one_error(capfd)
+    assert not (tmp_path / "w.onnx").exists()
     # An opset torch cannot write: one line (captured at the file descriptor: torch's exporter prints its graph there).
     low, high = opset_range()  # torch 2.13 (pinned by the install) says
     for opset in (low - 1, high + 1):
