@@ -3,6 +3,8 @@ by running the documented commands and the public API from outside: a gradient c
 scenario is asked for, TorchRL's standard Gym wrapper, a step without an action, bad collection sizes, files that
 are not datasets, labels without a policy, reset options no env reads, and the install hints of missing extras."""
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -313,8 +315,19 @@ def test_an_env_whose_time_limit_nobody_can_arrive_in_warns():
         warnings.simplefilter("error")
         vcs_env.parallel_env(scenario="circle", n_robots=256, max_steps=2000)
         vcs_env.parallel_env(scenario="circle", n_robots=256, max_cycles=2000)  # the env's own limit counts
-    with pytest.warns(UserWarning, match="max_steps=20 .*leaves no robot the time to arrive"):
+    # The limit named as given, with the least one that leaves the time (it said max_steps=20 for max_cycles=20).
+    with pytest.warns(
+        UserWarning, match=r"max_cycles=20 .*leaves no robot the time to arrive.*max_cycles >= (\d+)\)"
+    ) as w:
         vcs_env.parallel_env(scenario="circle", max_cycles=20)
+    least = int(re.search(r"max_cycles >= (\d+)\)", str(w[0].message)).group(1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vcs_env.parallel_env(scenario="circle", max_cycles=least)
+    with pytest.warns(UserWarning, match=rf"max_cycles={least - 1} "):
+        vcs_env.parallel_env(scenario="circle", max_cycles=least - 1)
+    with pytest.warns(UserWarning, match=r"max_steps=20 .*max_steps >= "):
+        vcs_env.parallel_env(scenario="circle", max_steps=20)
 
 
 SCRIPTED = vcs_env.CustomLayout(

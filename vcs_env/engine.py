@@ -96,7 +96,7 @@ def check_max_steps(value, name: str = "max_steps") -> int:
 
 
 def env_scenario(
-    scenario: str | Scenario, obstacle_motion: Any, overrides: dict, max_steps: int | None = None
+    scenario: str | Scenario, obstacle_motion: Any, overrides: dict, max_steps: int | None = None, limit="max_steps"
 ) -> tuple[Scenario, Any]:
     """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
     given as a model's name is the Scenario field, set together with ``overrides`` (so that
@@ -105,7 +105,8 @@ def env_scenario(
     layout field the kind does not read, an obstacle setting without obstacles: :func:`vcs_env.applies.check_applies`,
     as on the command line) is a ``ValueError``; a ``UserWarning`` when the time limit leaves no robot the time to
     arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it) in ``max_steps``, the
-    env's own limit where it has one (PettingZoo's ``max_cycles``, TorchRL's ``max_steps``), else the scenario's."""
+    env's own limit where it has one (PettingZoo's ``max_cycles``, TorchRL's ``max_steps``; ``limit`` names it), else
+    the scenario's."""
     version = overrides.get("observation")
     if isinstance(scenario, Scenario) and version is not None and version != scenario.observation:
         raise ValueError(  # the registered ids give observation=2 (-v2) or 1 (-v1); it replaced the scenario's own
@@ -120,11 +121,10 @@ def env_scenario(
         out = make_scenario(scenario, **overrides), obstacle_motion
     named = ["obstacle_motion"] if isinstance(obstacle_motion, str) else []
     check_applies(out[0], {*overrides, *named}, own_motion=out[1] is not None)
-    note = short_time_limit(out[0] if max_steps is None else dataclasses.replace(out[0], max_steps=max_steps))
+    limited = out[0] if max_steps is None else dataclasses.replace(out[0], max_steps=max_steps)
+    note = short_time_limit(limited, "max_steps" if max_steps is None else limit)
     if note:
-        warnings.warn(
-            f"{note}: every episode will be truncated (give max_steps)", UserWarning, stacklevel=user_stacklevel()
-        )
+        warnings.warn(f"{note}: every episode will be truncated", UserWarning, stacklevel=user_stacklevel())
     return out
 
 

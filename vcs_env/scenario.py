@@ -447,15 +447,16 @@ TIME_MARGIN = 2.0
 that must also avoid each other (:func:`fit_time_limit`)."""
 
 
-def short_time_limit(scenario: Scenario) -> str | None:
-    """A note when ``scenario.max_steps`` leaves no robot the time to reach its goal even on a straight
-    run at top speed (:attr:`Scenario.least_time_to_goal`), else None."""
+def short_time_limit(scenario: Scenario, name: str = "max_steps") -> str | None:
+    """A note when ``scenario.max_steps`` (given as ``name``) leaves no robot the time to reach its goal even on a
+    straight run at top speed (:attr:`Scenario.least_time_to_goal`), with the least limit that would, else None."""
     need = scenario.least_time_to_goal
     if need <= scenario.max_time:
         return None
     return (
-        f"max_steps={scenario.max_steps} ({scenario.max_time:g} s at dt={scenario.dt:g} s) leaves no robot the time "
-        f"to arrive: each must travel at least {need * scenario.robot.v_max:.1f} m ({need:.1f} s at v_max)"
+        f"{name}={scenario.max_steps} ({scenario.max_time:g} s at dt={scenario.dt:g} s) leaves no robot the time "
+        f"to arrive: each must travel at least {need * scenario.robot.v_max:.1f} m ({need:.1f} s at v_max, "
+        f"{name} >= {math.ceil(need / scenario.dt - 1e-9)})"
     )
 
 
