@@ -47,6 +47,21 @@ def test_render_modes():
     env.close()
 
 
+def test_off_screen_frames_print_nothing_on_a_machine_without_display_or_audio():
+    """rgb_array frames need no pygame.init(), whose audio and video probes printed "XDG_RUNTIME_DIR is invalid or not
+    set" on a headless machine (the README's first command, Gymnasium's check_env)."""
+    import os
+    import subprocess
+    import sys
+
+    pytest.importorskip("pygame")
+    env = {k: v for k, v in os.environ.items() if k not in ("SDL_VIDEODRIVER", "SDL_AUDIODRIVER", "XDG_RUNTIME_DIR")}
+    code = "import vcs_env; e = vcs_env.parallel_env(render_mode='rgb_array'); e.reset(seed=0); print(e.render().shape)"
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0 and proc.stdout.strip() == "(600, 600, 3)", proc.stderr
+    assert "error" not in proc.stderr.lower(), proc.stderr
+
+
 def test_closing_one_human_window_leaves_the_others_drawing(monkeypatch):
     """pygame has one display per process: closing one env quit it under another env's renderer, whose next
     frame failed ("display Surface quit"); the display closes with the last human renderer."""

@@ -56,8 +56,8 @@ class Renderer:
                 import pygame.gfxdraw  # noqa: F401
             except ImportError as e:
                 raise _missing("pygame", e) from None
-            pygame.init()
-            self._pg = pygame
+            self._pg = pygame  # no pygame.init(): off-screen drawing needs none, and its audio and video probes print
+            # errors on a machine without them (the window's display is opened in _window)
             if self.mode == "human":
                 Renderer.windows += 1
                 self._clock = pygame.time.Clock()
