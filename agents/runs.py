@@ -124,7 +124,8 @@ class TrainConfig(PolicyConfig, ScenarioConfig):
     their values at step 0 to 0 at this many timesteps and stay 0 after (set before each rollout); 0
     keeps them constant."""
     out: str = "runs/ppo"
-    """Run directory (model.zip, model.json, checkpoints/, eval.jsonl, tb/)."""
+    """Run directory (model.zip, model.json, checkpoints/, eval.jsonl, tb/; runs/rllib with --backend rllib,
+    runs/benchmarl with --backend benchmarl)."""
     eval_freq: int = 100_000
     """Evaluate every this many timesteps (0: only at the end)."""
     eval_episodes: int = 20

@@ -160,8 +160,8 @@ def test_compare_loads_a_benchmarl_run(tmp_path):
         (["--backend", "benchmarl", "--algorithm", "masac", "--clip-range", "0.1"], "--clip-range not available with"),
         (["--backend", "benchmarl", "--n-steps", "0"], "n_steps"),
         (["--backend", "benchmarl", "--eval-suite", "no-such-suite"], "unknown suite 'no-such-suite'"),
-        (["--algorithm", "mappo"], "--algorithm only apply to --backend benchmarl"),
-        (["--backend", "benchmarl", "--num-env-runners", "2"], "--num-env-runners only apply to --backend rllib"),
+        (["--algorithm", "mappo"], "--algorithm applies only to --backend benchmarl"),
+        (["--backend", "benchmarl", "--num-env-runners", "2"], "--num-env-runners applies only to --backend rllib"),
         (["--backend", "benchmarl", "--resume", "runs/x"], "--resume is not available with --backend benchmarl"),
         (["--backend", "benchmarl", "--guide-anneal", "1000"], "--guide-anneal not available with --backend benchmarl"),
         (

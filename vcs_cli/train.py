@@ -88,7 +88,7 @@ def check_backend_flags(args: argparse.Namespace, backend: str, names: tuple[str
     """``ValueError`` naming the flags of ``names`` given while the backend is not ``backend``."""
     given = [f"--{name.replace('_', '-')}" for name in names if getattr(args, name, None) is not None]
     if given:
-        raise ValueError(f"{', '.join(given)} only apply to --backend {backend}")
+        raise ValueError(f"{', '.join(given)} {'applies' if len(given) == 1 else 'apply'} only to --backend {backend}")
 
 
 def check_display_flags(args: argparse.Namespace, backend: str) -> None:
