@@ -136,6 +136,13 @@ def test_partial_reset_resets_only_the_masked_worlds():
     per_robot[3, 0] = True
     env.reset(TensorDict({"agents": TensorDict({"_reset": per_robot}, (B, env.n_robots))}, (B,)))
     assert env.engine.world.steps.tolist() == [0, 0, 0, 3]
+    # A mask of another shape is named (a per-robot mask at the root failed in a reshape: "shape '[4]' is invalid").
+    n = env.n_robots
+    with pytest.raises(ValueError, match=rf'reset mask "_reset" must have shape \(4,\) or \(4, 1\), got \(4, {n}\)'):
+        env.reset(TensorDict({"_reset": per_robot[..., 0]}, (B,)))
+    with pytest.raises(ValueError, match=rf'reset mask \("agents", "_reset"\) must have shape \(4, {n}\)'):
+        env.reset(TensorDict({"agents": TensorDict({"_reset": per_robot[:, :2]}, (B, 2))}, (B,)))
+    assert env.engine.world.steps.tolist() == [0, 0, 0, 3]
 
 
 def test_robots_finishing_at_different_times_keep_their_world_running():
@@ -340,7 +347,7 @@ def test_a_collector_with_a_multi_agent_policy_collects_frames_for_gae():
 def test_the_docs_examples_run():
     text = (ROOT / "docs" / "torchrl.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, re.DOTALL)
-    assert len(blocks) == 2  # the quick start and the proposed README section
+    assert len(blocks) == 1  # the quick start (README's example runs in tests/test_readme.py)
     for code in blocks:
         exec(compile(code, "docs/torchrl.md", "exec"), {})
 

@@ -34,6 +34,13 @@ def _check_seed(seed) -> int | None:
     return int(seed)
 
 
+def _mask(value: torch.Tensor, shape: tuple[int, ...], key: str) -> torch.Tensor:
+    """A reset mask of ``shape`` (or with TorchRL's trailing 1), or a ``ValueError`` naming its key."""
+    if tuple(value.shape) not in (shape, (*shape, 1)):
+        raise ValueError(f"the reset mask {key} must have shape {shape} or {(*shape, 1)}, got {tuple(value.shape)}")
+    return value.reshape(shape)
+
+
 def _replaced(a: np.ndarray, rows: np.ndarray, value) -> np.ndarray:
     """A copy of ``a`` with ``a[rows] = value`` (``a`` itself untouched)."""
     out = a.copy()
@@ -211,14 +218,14 @@ class VcsNavEnv(EnvBase):
     def _reset_worlds(self, tensordict: TensorDictBase | None) -> np.ndarray:
         """``(B,)`` bool: the worlds a reset call resets. The env-level ``"_reset"`` decides; given only the
         per-robot ``("agents", "_reset")``, a world resets when all its robots ask; without either, all do."""
-        B = self.num_envs
+        B, n = self.num_envs, self.n_robots
         if tensordict is not None:
             root = tensordict.get("_reset", None)
             if root is not None:
-                return root.reshape(B).cpu().numpy().astype(bool)
+                return _mask(root, (B,), '"_reset"').cpu().numpy().astype(bool)
             per_robot = tensordict.get((GROUP, "_reset"), None)
             if per_robot is not None:
-                return per_robot.reshape(B, self.n_robots).all(dim=1).cpu().numpy()
+                return _mask(per_robot, (B, n), f'("{GROUP}", "_reset")').all(dim=1).cpu().numpy()
         return np.ones(B, dtype=bool)
 
     def _reset(self, tensordict: TensorDictBase | None = None, seed=None, **kwargs) -> TensorDictBase:
