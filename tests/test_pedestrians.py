@@ -177,6 +177,25 @@ def test_bad_input_names_the_field():
         Pedestrians().place(np.random.default_rng(0), crowd(), lay)
 
 
+def test_a_pedestrians_object_given_to_an_env_is_its_scenario_fields():
+    """A Pedestrians(spec) object is the scenario's obstacle_motion and pedestrians, checked as such: given as an
+    object the env's scenario said "constant" (its square-crossing room check skipped), and pedestrians= beside it
+    was refused as if the motion were "constant"."""
+    spec = PedestrianSpec(goal_policy="square", v_pref=0.8)
+    env = vcs_env.parallel_env(scenario="crowd", obstacle_motion=Pedestrians(spec))
+    named = vcs_env.parallel_env(scenario="crowd", obstacle_motion="pedestrians", pedestrians=spec)
+    assert env.scenario == named.scenario and env.scenario.pedestrians == spec
+    env.reset(seed=3)
+    named.reset(seed=3)
+    assert np.array_equal(env.engine.world.obs_pos, named.engine.world.obs_pos)
+    both = vcs_env.parallel_env(scenario="crowd", obstacle_motion=Pedestrians(spec), pedestrians=spec)
+    assert both.scenario == named.scenario
+    with pytest.raises(ValueError, match="pedestrians= and the Pedestrians object given as obstacle_motion differ"):
+        vcs_env.parallel_env(scenario="crowd", obstacle_motion=Pedestrians(spec), pedestrians=PedestrianSpec())
+    with pytest.raises(ValueError, match="found no place for them"):  # the scenario's room check, now applied
+        vcs_env.parallel_env(scenario="crowd", n_obstacles=200, obstacle_motion=Pedestrians(spec))
+
+
 def test_no_pedestrian_is_faster_than_any_obstacle_may_be():
     """Social force pedestrians walk up to SF_MAX_SPEED times their preferred speed: the fastest spec allowed
     stays within the obstacles' speed limit V_REF (the observation's velocity scale)."""
