@@ -22,8 +22,8 @@ import numpy as np
 
 from .applies import check_applies
 from .checks import user_stacklevel
-from .obstacles import MOTION_MODELS, Pedestrians
 from .observations import observe
+from .obstacles import Pedestrians
 from .planning import Planner, own_planner
 from .rewards import (
     TERMS,
@@ -101,14 +101,13 @@ def env_scenario(
 ) -> tuple[Scenario, Any]:
     """The scenario an env runs, and the obstacle motion left for its engine: an env's ``obstacle_motion``
     given as a model's name is the Scenario field, set together with ``overrides`` (so that
-    ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario), and so is an
-    object of a built-in model (a ``Pedestrians(spec)`` its name and spec); an ``ObstacleMotion`` object of one's own
-    (or None) goes to the engine as it is. A keyword that cannot change the episodes (a
-    layout field the kind does not read, an obstacle setting without obstacles: :func:`vcs_env.applies.check_applies`,
-    as on the command line) is a ``ValueError``; a ``UserWarning`` when the time limit leaves no robot the time to
-    arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows or notes it) in ``max_steps``, the
-    env's own limit where it has one (PettingZoo's ``max_cycles``, TorchRL's ``max_steps``; ``limit`` names it), else
-    the scenario's."""
+    ``obstacle_motion="pedestrians", pedestrians=PedestrianSpec(...)`` is checked as one scenario), and so is a
+    ``Pedestrians(spec)`` object; another ``ObstacleMotion`` object (or None) goes to the engine as it is. A keyword
+    that cannot change the episodes (a layout field the kind does not read, an obstacle setting without obstacles:
+    :func:`vcs_env.applies.check_applies`, as on the command line) is a ``ValueError``; a ``UserWarning`` when the
+    time limit leaves no robot the time to arrive (:func:`~vcs_env.scenario.short_time_limit`; the command line grows
+    or notes it) in ``max_steps``, the env's own limit where it has one (PettingZoo's ``max_cycles``, TorchRL's
+    ``max_steps``; ``limit`` names it), else the scenario's."""
     version = overrides.get("observation")
     if isinstance(scenario, Scenario) and version is not None and version != scenario.observation:
         raise ValueError(  # the registered ids give observation=2 (-v2) or 1 (-v1); it replaced the scenario's own
@@ -117,13 +116,11 @@ def env_scenario(
             f"vcs_env/Navigation-v{scenario.observation}, vcs_env/VcsNav-v{scenario.observation}), or give one of "
             "the two only"
         )
-    if type(obstacle_motion) in MOTION_MODELS.values():  # a built-in model object is its Scenario field
-        if type(obstacle_motion) is Pedestrians:  # (with its spec) so that the scenario's checks apply
-            given = overrides.get("pedestrians")
-            if given is not None and given != obstacle_motion.spec:
-                raise ValueError("pedestrians= and the Pedestrians object given as obstacle_motion differ: give one")
-            overrides = {**overrides, "pedestrians": obstacle_motion.spec}
-        obstacle_motion = obstacle_motion.name
+    if type(obstacle_motion) is Pedestrians:  # the Scenario's fields, so that the scenario says so and its checks apply
+        given = overrides.get("pedestrians")
+        if given is not None and given != obstacle_motion.spec:
+            raise ValueError("pedestrians= and the Pedestrians object given as obstacle_motion differ: give one")
+        obstacle_motion, overrides = obstacle_motion.name, {**overrides, "pedestrians": obstacle_motion.spec}
     if isinstance(obstacle_motion, str):
         out = make_scenario(scenario, **overrides, obstacle_motion=obstacle_motion), None
     else:
