@@ -12,8 +12,10 @@ import vcs_env
 from baselines import PLANNERS, make_planner
 from baselines.common import preferred_velocity
 from vcs_env.checks import install_hint
+from vcs_env.dynamics import target_to_action
 from vcs_env.engine import NavEngine
 from vcs_env.rollout import planner_controller, run_episodes
+from vcs_env.scenario import make_scenario
 
 SAMPLING = ("vo", "rvo", "hrvo")
 COMPARISON = (*SAMPLING, "orca")
@@ -49,6 +51,33 @@ def test_invalid_arguments():
         make_planner("orca", time_horizon=0.0)
     with pytest.raises(ValueError, match="planner 'hrvo' does not take the options \\['horizon'\\]"):
         make_planner("hrvo", horizon=3.0)
+    from baselines.vcs import VCSPlanner
+
+    with pytest.raises(ValueError, match=r"VCSPlanner: \['horizn'\] are not VCSParams fields"):
+        VCSPlanner(horizn=3.0)  # a bare TypeError of the dataclass before
+    with pytest.raises(ValueError, match="params must be a VCSParams"):
+        VCSPlanner().params = {"horizon": 3.0}
+
+
+def test_new_params_set_on_a_planner_take_effect():
+    """The compiled settings followed only the constructor's: params set afterwards were read by the Python parts
+    and ignored by the kernels, so the planner planned with a mixture of the two."""
+    import dataclasses
+
+    from baselines.vcs import VCSPlanner
+
+    engine = NavEngine(make_scenario("circle", n_robots=6), 1)
+    engine.reset([0])
+    changed, wanted, default = VCSPlanner(), VCSPlanner(horizon="infinite", cost="goal_only"), VCSPlanner()
+    changed.params = dataclasses.replace(changed.params, horizon="infinite", cost="goal_only")
+    differs = False
+    for _ in range(40):
+        world = engine.world
+        target = changed.plan(world)
+        assert np.array_equal(target, wanted.plan(world))
+        differs |= not np.array_equal(target, default.plan(world))
+        engine.step(target_to_action(world, target))
+    assert differs  # the settings matter here
 
 
 # ------------------------------------------------------------------ scalar twin of the penalty

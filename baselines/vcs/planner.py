@@ -91,13 +91,27 @@ class VCSPlanner(Planner):
         base = params if params is not None else VCSParams()
         if not isinstance(base, VCSParams):
             raise ValueError(f"params must be a VCSParams, got {type(base).__name__}")
+        unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(VCSParams)})
+        if unknown:
+            raise ValueError(f"VCSPlanner: {unknown} are not VCSParams fields")
         self.params = dataclasses.replace(base, **overrides) if overrides else base
-        self._prm = kernel.params_record(self.params)
         self._mem: _Memory | None = None
         self._movers: _MoverMemory | None = None
         self._cache_key: tuple | None = None
         self._cache_target: np.ndarray | None = None
         self.last: dict[str, np.ndarray] = {}
+
+    @property
+    def params(self) -> VCSParams:
+        """The settings; a new ``VCSParams`` may be set (the compiled record follows it, the memory stays)."""
+        return self._params
+
+    @params.setter
+    def params(self, value: VCSParams) -> None:
+        if not isinstance(value, VCSParams):
+            raise ValueError(f"params must be a VCSParams, got {type(value).__name__}")
+        self._params, self._prm = value, kernel.params_record(value)  # the kernels read the record
+        self._cache_key = self._cache_target = None  # a plan of the old settings is not this one's
 
     # ------------------------------------------------------------------ inputs
     def _inputs(self, world: WorldState, kworld: kernel.World):
