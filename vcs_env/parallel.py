@@ -137,7 +137,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         if max_cycles is not None:
             max_cycles = check_max_steps(max_cycles, "max_cycles")
-        self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, scenario_overrides, max_cycles, "max_cycles")
+        overrides = scenario_overrides
+        self.scenario, obstacle_motion = env_scenario(scenario, obstacle_motion, overrides, max_cycles, "max_cycles")
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma, max_cycles)
         self.metadata = {**self.metadata, "render_fps": 1.0 / self.scenario.dt}  # one step per frame: real time
         self.render_mode = render_mode
