@@ -91,9 +91,6 @@ class VCSPlanner(Planner):
         base = params if params is not None else VCSParams()
         if not isinstance(base, VCSParams):
             raise ValueError(f"params must be a VCSParams, got {type(base).__name__}")
-        unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(VCSParams)})
-        if unknown:
-            raise ValueError(f"VCSPlanner: {unknown} are not VCSParams fields")
         self.params = dataclasses.replace(base, **overrides) if overrides else base
         self._mem: _Memory | None = None
         self._movers: _MoverMemory | None = None
