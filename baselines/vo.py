@@ -29,6 +29,11 @@ apex ``(v_R + v_j) / 2`` (``rvo`` and ``hrvo``), has ``t_c = 0``; one that does 
 neighbour again (``t_c = inf``). ``t_c`` is floored at :data:`T_FLOOR` so that when every
 candidate has ``t_c = 0`` the least ``|v - v_pref|`` still decides.
 
+Like ORCA (:mod:`baselines.orca`), these methods choose a velocity, not a motion the robot can make: a unicycle
+tracks the choice at its limits (:func:`~vcs_env.dynamics.target_to_action`), so a choice to step aside from a body
+a few centimetres ahead, whose side can flip from one step to the next, turns the robot little while it speeds up
+along its heading, into that body (an outside review, 2026-12-07: contacts within 1-5 steps from a 5 cm gap).
+
 Random samples come from :mod:`vcs_env.noise`, keyed by ``world.key``, ``world.steps`` and the
 robot index, so a plan depends only on the world state (no generator is kept). The robot-pair
 apexes are computed with numpy (:func:`pair_apexes`, HRVO apex from
