@@ -10,6 +10,7 @@ printed line, and it tells whether it is the best so far (:data:`BEST_KEY`).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -17,7 +18,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from vcs_env.observations import SENSOR_FIELDS
 from vcs_env.scenario import Scenario
+from vcs_env.suites import get_suite
 
 from ..evaluate import evaluate, scalar_results, score_scenarios
 from ..policies import predictor_controller
@@ -53,6 +56,12 @@ class PeriodicEval:
         """The planner a residual policy corrects (``--residual``), evaluated together with it."""
         self.improved = False
         """Whether the last evaluation was the best so far."""
+        self.suite = None
+        """``cfg.eval_suite`` observed as the run observes (its sensing fields, which never change an episode; the
+        suite's own could give the network observations of another size, found only at the first evaluation)."""
+        if cfg.eval_suite:
+            suite, sensing = get_suite(cfg.eval_suite), {f: getattr(self.scenarios[0], f) for f in SENSOR_FIELDS}
+            self.suite = dataclasses.replace(suite, scenario=dataclasses.replace(suite.scenario, **sensing))
 
     def restore(self, timesteps: int) -> None:
         """Resuming at ``timesteps`` in ``out``: the run's evaluations up to there stay its history
@@ -77,8 +86,8 @@ class PeriodicEval:
             predictor = ResidualPolicy(predictor, self.residual)
         res = scalar_results(score_scenarios(controller, self.scenarios, self.seeds))
         suite = ""
-        if cfg.eval_suite:
-            summary = evaluate(predictor, cfg.eval_suite, progress=False).summary
+        if self.suite is not None:
+            summary = evaluate(predictor, self.suite, progress=False).summary
             s = res["suite"] = {k: summary[k]["mean"] for k in ("success", "collision", "time_to_goal")}
             suite = f"; {cfg.eval_suite}: success {s['success']:.2f} collision {s['collision']:.2f}"
         res.update(
