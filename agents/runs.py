@@ -46,6 +46,12 @@ class PolicyConfig:
     agents.features. SB3 only."""
 
 
+def check_net_arch(net_arch) -> None:
+    """``ValueError`` unless ``net_arch`` is one or more layer sizes >= 1 (``train`` and ``bc`` alike)."""
+    if not net_arch or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in net_arch):
+        raise ValueError(f"net_arch must be one or more layer sizes >= 1, got {net_arch!r}")
+
+
 def policy_kwargs(cfg: PolicyConfig, scenario: Scenario) -> dict[str, Any]:
     """Keyword arguments of SB3's ``MlpPolicy`` for ``cfg``, on the observations of ``scenario``."""
     from .features import extractor_kwargs  # torch

@@ -426,5 +426,8 @@ def test_imitation_flags_without_their_partner_are_refused():
         BCConfig(**kw, dagger_iters=1)
     with pytest.raises(ValueError, match="--init keeps the checkpoint's"):
         BCConfig(init="policies/circle8/model.zip", log_std_init=-1.0)
+    for arch in ((0,), (64, -3), ()):  # as train checks it: (0,) saved a policy of one constant action
+        with pytest.raises(ValueError, match="net_arch must be one or more layer sizes >= 1"):
+            BCConfig(net_arch=arch)
     with pytest.raises(ValueError, match="--start-prob is the share of episodes begun from --start-states"):
         DistilConfig(start_prob=0.3)

@@ -49,7 +49,7 @@ from ..evaluate import scalar_results, score_scenarios
 from ..mixture import scenarios_of
 from ..policies import predictor_controller
 from ..residual import refuse_residual
-from ..runs import PolicyConfig, check_fresh_out, policy_kwargs, scenario_family
+from ..runs import PolicyConfig, check_fresh_out, check_net_arch, policy_kwargs, scenario_family
 from .data import (
     DATASET_FORMAT,
     check_rows,
@@ -255,6 +255,7 @@ class BCConfig:
         for name in ("epochs", "batch_size", "dagger_iters", "dagger_episodes", "dagger_epochs", "eval_episodes"):
             lo = 1 if name in ("batch_size", "dagger_episodes") else 0
             check_int(f"BCConfig.{name}", getattr(self, name), lo, 10**7)
+        check_net_arch(self.net_arch)  # 0 made a network of one constant action, -3 a torch traceback
         check_range("BCConfig.learning_rate", self.learning_rate, 0.0, 1.0, lo_open=True)
         check_range("BCConfig.value_coef", self.value_coef, 0.0, 1e3)
         check_range("BCConfig.gamma", self.gamma, 0.0, 1.0)

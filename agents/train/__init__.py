@@ -49,6 +49,7 @@ from ..residual import Residual
 from ..runs import (
     TrainConfig,
     check_fresh_out,
+    check_net_arch,
     check_run,
     jsonable,
     kept_start,
@@ -105,8 +106,7 @@ def check_ppo_settings(cfg: TrainConfig) -> None:
     backend runs it)."""
     for name in ("n_steps", "batch_size", "n_epochs"):
         check_int(name, getattr(cfg, name), 1, 10**9)
-    if not cfg.net_arch or any(isinstance(h, bool) or not isinstance(h, int) or h < 1 for h in cfg.net_arch):
-        raise ValueError(f"net_arch must be one or more layer sizes >= 1, got {cfg.net_arch!r}")
+    check_net_arch(cfg.net_arch)
     for name in ("learning_rate", "clip_range"):
         check_positive(name, getattr(cfg, name))
     for name in ("ent_coef", "vf_coef"):
