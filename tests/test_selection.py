@@ -77,6 +77,17 @@ def test_run_directory_expands_by_step_and_from_step_leaves_out_early_checkpoint
         select_checkpoint(twice, [validation_suite("crowd-5-v0:7000:7001")], run)
 
 
+def test_a_checkpoint_of_another_format_is_refused(tmp_path):
+    """A BenchMARL actor.pt was copied to <out>/model.zip, a run nothing could load."""
+    actor = tmp_path / "bm" / "actor.pt"
+    actor.parent.mkdir()
+    actor.write_bytes(b"not loaded: the format is told by the name")
+    with pytest.raises(ValueError, match="is a benchmarl checkpoint: select keeps an SB3 policy"):
+        candidates_of([actor])
+    with pytest.raises(ValueError, match="RLlib and BenchMARL runs are compared with vcs-env compare"):
+        candidates_of([actor.parent])
+
+
 def test_bad_validation_sets_are_named():
     with pytest.raises(ValueError, match="SCENARIO:START:STOP"):
         validation_suite("dynamic-v0")

@@ -64,9 +64,18 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
         if p.is_dir():
             found = [c.path for c in SB3Checkpoint.in_run(p)]
             if not found:
-                raise ValueError(f"run directory {str(p)!r} holds no model.zip and no checkpoints/model_<steps>.zip")
+                raise ValueError(
+                    f"run directory {str(p)!r} holds no model.zip and no checkpoints/model_<steps>.zip (select keeps "
+                    "an SB3 policy as <out>/model.zip; RLlib and BenchMARL runs are compared with vcs-env compare)"
+                )
         else:
-            found = [open_checkpoint(p).path]
+            ckpt = open_checkpoint(p)
+            if not isinstance(ckpt, SB3Checkpoint):  # it was copied to <out>/model.zip, which nothing could load
+                raise ValueError(
+                    f"{str(p)!r} is a {ckpt.format} checkpoint: select keeps an SB3 policy as <out>/model.zip "
+                    "(compare the others with vcs-env compare)"
+                )
+            found = [ckpt.path]
         out += [c for c in found if not (m := _STEP.fullmatch(c.name)) or int(m[1]) >= from_step]
     if not out:
         raise ValueError(f"no candidate checkpoint from step {from_step} on in {', '.join(map(str, paths))}")
