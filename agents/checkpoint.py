@@ -490,10 +490,14 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
         def shape(d, k):
             return tuple(d[k].shape) if k in d else "missing"
 
+        from .features import network_of
+
         detail = ", ".join(f"{k}: {shape(theirs, k)} vs {shape(ours, k)}" for k in diff[:4])
+        net = network_of(src)
         raise CheckpointError(
             f"checkpoint {str(checkpoint)!r} has another policy architecture than this run "
-            f"(checkpoint vs run: {detail}); use the same --net-arch and --features"
+            f"(checkpoint vs run: {detail}); use the same --net-arch and --features (the checkpoint's: "
+            f"--features {net['features']} --net-arch {' '.join(map(str, net['net_arch']))})"
         )
     model.policy.load_state_dict(theirs)
     return ckpt.record

@@ -1,6 +1,7 @@
 """vcs-env distil: network teachers label their own mixture entries, and the student learns each teacher's actions
 where that teacher teaches (agents/imitation/distil.py)."""
 
+import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -194,6 +195,14 @@ def test_widen_fine_gives_the_student_the_fine_inputs_and_it_learns_its_teacher(
     out = distil(cfg)["model"]
     student = load_model(out, scenario).policy
     assert student.pi_features_extractor.fine and student.vf_features_extractor.fine
+    # The record says what the student is (its --init's record says slots), and so does a refused --init.
+    record = json.loads(Path(out).with_suffix(".json").read_text())
+    assert record["report"]["student"] == {"features": "slots-fine", "net_arch": [32]}
+    from agents.checkpoint import CheckpointError, load_policy_weights
+
+    plain = PPO("MlpPolicy", NavVecEnv(scenario, 1), device="cpu", policy_kwargs=kwargs, seed=3)
+    with pytest.raises(CheckpointError, match="the checkpoint's: --features slots-fine --net-arch 32"):
+        load_policy_weights(plain, out, scenario)
     obs = play(scenario, range(500, 504), teacher=lambda o: np.zeros((len(o), 2)))["observations"]
 
     def error(path):

@@ -271,7 +271,10 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     student = actor_of(model)
     rng = np.random.default_rng(cfg.seed)
     data: dict[str, np.ndarray] | None = None
-    report: dict[str, Any] = {"teachers": teacher_of, "rounds": []}
+    from ..features import network_of
+
+    # The student's network as trained (--init's, widened or not): what a later --init must give.
+    report: dict[str, Any] = {"teachers": teacher_of, "student": network_of(model), "rounds": []}
     for k in range(cfg.rounds):
         beta = 0.0 if k == cfg.rounds - 1 else cfg.beta * 0.5**k
         t0, next_seed, parts = time.time(), FIRST_SEED + ROUND_SEEDS * k, [] if data is None else [data]
