@@ -117,6 +117,8 @@ def test_a_file_that_is_not_a_dataset_is_named_without_numpys_pickle_advice(tmp_
     with pytest.raises(ValueError, match="is not a .npz file") as e:
         load_dataset(bad)
     assert "pickle" not in str(e.value)
+    with pytest.raises(ValueError, match="is a directory; give the .npz file"):  # it said "dataset not found"
+        load_dataset(tmp_path)
 
 
 def test_install_hints_name_the_checkout_install_the_readme_uses():

@@ -184,6 +184,8 @@ def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any
     path = Path(path)
     if not path.is_file() and path.suffix != ".npz" and path.with_name(path.name + ".npz").is_file():
         path = path.with_name(path.name + ".npz")
+    if path.is_dir():
+        raise ValueError(f"dataset {str(path)!r} is a directory; give the .npz file vcs-env collect wrote")
     if not path.is_file():
         raise ValueError(f"dataset not found: {str(path)!r} (make one with vcs-env collect)")
     if not zipfile.is_zipfile(path):  # numpy would try it as a pickle and say so
