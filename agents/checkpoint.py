@@ -50,7 +50,7 @@ from .fits import check_checkpoint_fits as check_checkpoint_fits
 from .fits import check_observation_space as check_observation_space
 from .predictors import BenchMARLPolicy as BenchMARLPolicy
 from .predictors import RLlibPolicy as RLlibPolicy
-from .runs import run_record
+from .runs import network_of, run_record
 
 RAY_HINT = f"{install_hint('rllib')} (after torch, see the README)"
 """How to install Ray RLlib, for error messages."""
@@ -490,10 +490,7 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
         def shape(d, k):
             return tuple(d[k].shape) if k in d else "missing"
 
-        from .features import network_of
-
-        detail = ", ".join(f"{k}: {shape(theirs, k)} vs {shape(ours, k)}" for k in diff[:4])
-        net = network_of(src)
+        detail, net = ", ".join(f"{k}: {shape(theirs, k)} vs {shape(ours, k)}" for k in diff[:4]), network_of(src)
         raise CheckpointError(
             f"checkpoint {str(checkpoint)!r} has another policy architecture than this run "
             f"(checkpoint vs run: {detail}); use the same --net-arch and --features (the checkpoint's: "

@@ -293,18 +293,6 @@ def extractor_kwargs(features: str, layout: Layout) -> dict[str, Any]:
     return kwargs
 
 
-def network_of(model) -> dict[str, Any]:
-    """The ``--features`` and ``--net-arch`` of an SB3 ``model``'s policy (its actor's layers), read from the policy
-    itself: a checkpoint's run record may not say them (a distil student's, widened to ``slots-fine`` or not)."""
-    policy = model.policy
-    cls, kwargs = policy.features_extractor_class, policy.features_extractor_kwargs or {}
-    features = "contact" if cls is ContactFeatures else "flat"
-    if cls is SlotEncoder:
-        features = "slots-fine" if kwargs.get("fine") else "slots"
-    arch = policy.net_arch
-    return {"features": features, "net_arch": list(arch["pi"] if isinstance(arch, dict) else arch)}
-
-
 def widen_fine(model) -> None:
     """Turn the ``slots`` encoders of an SB3 ``model`` (actor's and critic's) into ``slots-fine`` ones in place: the
     first layer gains ``FINE_DIM`` input columns of zero weights, so the model acts and values as before to the last

@@ -52,6 +52,17 @@ def check_net_arch(net_arch) -> None:
         raise ValueError(f"net_arch must be one or more layer sizes >= 1, got {net_arch!r}")
 
 
+def network_of(model) -> dict[str, Any]:
+    """The ``--features`` and ``--net-arch`` of an SB3 ``model``'s policy (its actor's layers), read from the policy
+    itself: a checkpoint's run record may not say them (a distil student's, widened to ``slots-fine`` or not). The
+    inverse of :func:`policy_kwargs` (extractors by class name: :mod:`agents.features` needs torch)."""
+    policy = model.policy
+    cls, kwargs = policy.features_extractor_class.__name__, policy.features_extractor_kwargs or {}
+    features = {"ContactFeatures": "contact", "SlotEncoder": "slots-fine" if kwargs.get("fine") else "slots"}
+    arch = policy.net_arch
+    return {"features": features.get(cls, "flat"), "net_arch": list(arch["pi"] if isinstance(arch, dict) else arch)}
+
+
 def policy_kwargs(cfg: PolicyConfig, scenario: Scenario) -> dict[str, Any]:
     """Keyword arguments of SB3's ``MlpPolicy`` for ``cfg``, on the observations of ``scenario``."""
     from .features import extractor_kwargs  # torch

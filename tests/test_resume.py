@@ -192,3 +192,17 @@ def test_init_log_std_sets_the_loaded_policys_std_and_is_refused_where_it_cannot
     ):
         assert cli.main([*argv, "--out", str(tmp_path / "x")]) == 2
         assert message in capsys.readouterr().err
+
+
+def test_an_eval_suite_is_observed_as_the_run_observes(tmp_path, capsys):
+    """A suite without wall points beside a run that senses them: the run trained to its end, then its first suite
+    evaluation failed on the observation size, and no model.zip was saved (its config.json then blocked the out dir)."""
+    from agents.evaluate import evaluate
+    from vcs_cli import main
+
+    out = tmp_path / "run"
+    args = "train --scenario room --n-wall-points 4 --eval-suite circle-8-v0-smoke --timesteps 64 --n-worlds 1"
+    args += " --n-steps 64 --batch-size 64 --n-epochs 1 --eval-freq 0 --eval-episodes 1 --no-progress-bar"
+    assert main([*args.split(), "--out", str(out)]) == 0, capsys.readouterr().err
+    logged = json.loads((out / "model.json").read_text())["history"][-1]["suite"]
+    assert logged["success"] == evaluate(str(out / "model.zip"), "circle-8-v0-smoke").summary["success"]["mean"]

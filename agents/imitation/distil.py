@@ -49,7 +49,7 @@ from ..config import ScenarioConfig, config_command
 from ..mixture import mixture_scenarios
 from ..policies import load_checkpoint
 from ..residual import refuse_residual
-from ..runs import check_fresh_out, scenario_family, start_states
+from ..runs import check_fresh_out, network_of, scenario_family, start_states
 from ..shield import ShieldedPredictor
 from ..wall_segments import read_wall_segments
 from . import bc_fit
@@ -271,8 +271,6 @@ def distil(cfg: DistilConfig) -> dict[str, Any]:
     student = actor_of(model)
     rng = np.random.default_rng(cfg.seed)
     data: dict[str, np.ndarray] | None = None
-    from ..features import network_of
-
     # The student's network as trained (--init's, widened or not): what a later --init must give.
     report: dict[str, Any] = {"teachers": teacher_of, "student": network_of(model), "rounds": []}
     for k in range(cfg.rounds):
