@@ -300,6 +300,9 @@ def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False, resume=No
     that holds a run."""
     if Path(out).exists() and not Path(out).is_dir():
         raise ValueError(f"--out {str(out)!r} is a file: give a directory for the run")
+    blocked = next((p for p in Path(out).parents if p.exists() and not p.is_dir()), None)
+    if blocked is not None:  # found only when the model was saved, after the training
+        raise ValueError(f"--out {str(out)!r} lies under {str(blocked)!r}, a file: give a directory for the run")
     if resume is not None and Path(out).resolve() == resume.run_dir.resolve():
         return
     held = [f for f in RUN_FILES if (Path(out) / f).exists()]

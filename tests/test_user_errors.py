@@ -241,6 +241,9 @@ def test_outputs_never_overwrite_a_checkpoint_its_record_or_a_file_given_as_a_ru
     select = ["select", str(run), "--validation", "circle:0:2", "--out", str(tmp_path / "afile")]
     assert vcs_cli.main(select) == 2
     assert f"--out {str(tmp_path / 'afile')!r} is a file: give a directory for the run" in capsys.readouterr().err
+    under = ["select", str(run), "--validation", "circle:0:2", "--out", str(tmp_path / "afile" / "x")]
+    assert vcs_cli.main(under) == 2  # bc failed so only after its training, when the model was saved
+    assert f"lies under {str(tmp_path / 'afile')!r}, a file: give a directory" in capsys.readouterr().err
 
 
 def test_wrong_types_are_named_before_they_are_used():
