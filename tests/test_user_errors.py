@@ -119,6 +119,16 @@ def test_a_file_that_is_not_a_dataset_is_named_without_numpys_pickle_advice(tmp_
     assert "pickle" not in str(e.value)
     with pytest.raises(ValueError, match="is a directory; give the .npz file"):  # it said "dataset not found"
         load_dataset(tmp_path)
+    # Hand-edited metadata: named with the dataset (a bare JSON error, and a KeyError in bc, before).
+    rows = {"observations": np.zeros((2, 3)), "actions": np.zeros((2, 2)), "rewards": np.zeros(2)}
+    rows |= {"traj_start": np.array([0, 2]), "traj_seed": np.array([0])}
+    for meta, said in (
+        ("{not json", "its meta entry is not JSON"),
+        ('{"format": "vcs-env-expert-v1"}', "holds no config"),
+    ):
+        np.savez(tmp_path / "edited.npz", meta=np.array(meta), **rows)
+        with pytest.raises(ValueError, match=f"edited.npz'.*{said}"):
+            load_dataset(tmp_path / "edited.npz")
 
 
 def test_install_hints_name_the_checkout_install_the_readme_uses():

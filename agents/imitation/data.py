@@ -198,9 +198,15 @@ def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any
     missing = {"observations", "actions", "rewards", "traj_start", "traj_seed", "meta"} - set(data)
     if missing:
         raise ValueError(f"dataset {str(path)!r} lacks {sorted(missing)} (not a vcs-env collect dataset)")
-    meta = json.loads(str(data.pop("meta")))
-    if meta.get("format") != DATASET_FORMAT:
-        raise ValueError(f"dataset {str(path)!r} has format {meta.get('format')!r}, expected {DATASET_FORMAT!r}")
+    try:
+        meta = json.loads(str(data.pop("meta")))
+    except ValueError as e:
+        raise ValueError(f"dataset {str(path)!r}: its meta entry is not JSON ({e})") from None
+    if not isinstance(meta, dict) or meta.get("format") != DATASET_FORMAT:
+        found = meta.get("format") if isinstance(meta, dict) else meta
+        raise ValueError(f"dataset {str(path)!r} has format {found!r}, expected {DATASET_FORMAT!r}")
+    if not isinstance(meta.get("config"), dict):  # the scenario the rows were collected on (a KeyError in bc before)
+        raise ValueError(f"dataset {str(path)!r}: its meta entry holds no config (not a vcs-env collect dataset)")
     check_rows(data, f"dataset {str(path)!r}")
     return data, meta
 
