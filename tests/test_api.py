@@ -340,6 +340,28 @@ def test_aec_env_via_parallel_to_aec_matches_the_parallel_env():
             assert aec.rewards[agent] == rew[agent] != 0.0
 
 
+def test_registered_ids_fix_their_observation_version():
+    """An id's observation version holds: the keyword asking for the other one is refused by name (the registries
+    merge a user's keywords into the registered ones, so it replaced the version and built a -v2 env under a -v1
+    id); the same version given again is accepted."""
+    import pettingzoo
+
+    assert gym.make("vcs_env/Navigation-v1", observation=1).unwrapped.scenario.observation == 1
+    assert gym.make("vcs_env/Crowd-v2", observation=2).observation_space.shape == (11 + 9 * 8,)
+    for make in (
+        lambda: gym.make("vcs_env/Navigation-v1", observation=2),
+        lambda: gym.make("vcs_env/Swap-v2", observation=1),
+        lambda: gym.make_vec("vcs_env/Crowd-v1", 2, vectorization_mode="vector_entry_point", observation=2),
+        lambda: gym.make_vec("vcs_env/Crowd-v1", 2, vectorization_mode="sync", observation=2),
+        lambda: pettingzoo.make("parallel", "vcs_env/VcsNav-v1", observation=2),
+        lambda: pettingzoo.make("aec", vcs_env.PZ_ID, observation=1),
+    ):
+        with pytest.raises(ValueError, match="the id fixes the version"):
+            make()
+    # gym.make still reads the entry point's render modes (the rgb_array_list collection wrapper)
+    assert type(gym.make("vcs_env/Navigation-v2", render_mode="rgb_array_list")).__name__ == "RenderCollection"
+
+
 def test_pettingzoo_registry():
     import pettingzoo
 

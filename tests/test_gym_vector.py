@@ -118,7 +118,12 @@ def test_bad_input_raises_clear_errors():
 
 def test_every_registered_id_has_the_vector_entry_point():
     for env_id in vcs_env.GYM_IDS:
-        assert gym.spec(env_id).vector_entry_point == "vcs_env.gym_env:VcsNavVectorEnv"
+        for v in (1, 2):
+            vid = env_id.replace("-v2", f"-v{v}")
+            assert gym.spec(vid).vector_entry_point == f"vcs_env.registry:vector_v{v}"
+            env = gym.make_vec(vid, 2, vectorization_mode="vector_entry_point")
+            assert isinstance(env, VcsNavVectorEnv) and env.scenario.observation == v
+            env.close()
 
 
 def test_sb3_adapter_equals_dummy_vec_env():

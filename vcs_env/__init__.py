@@ -6,13 +6,11 @@ Gymnasium env with ``gym.make("vcs_env/Navigation-v2")`` (registered on import).
 
 from __future__ import annotations
 
-import gymnasium
-import pettingzoo
-
 from . import kernel_cache  # noqa: F401  (first: marks kernels stale when a kernel source changed)
 from .engine import NavEngine, StepResult
 from .parallel import VcsNavParallelEnv, env, parallel_env, raw_env
 from .planning import PLANNERS, Planner, make_planner, register_planner
+from .registry import register as _register
 from .scenario import (
     MAPS,
     SCENARIOS,
@@ -42,26 +40,13 @@ GYM_IDS = {
 """Registered Gymnasium ids and the preset each starts from (override with ``scenario=``). Each id has a
 ``vector_entry_point`` (:class:`~vcs_env.gym_env.VcsNavVectorEnv`): ``gym.make_vec(id, num_envs,
 vectorization_mode="vector_entry_point")`` steps all worlds in one engine call. The ``-v1`` ids stay
-registered: the same envs with observation version 1 (``observation=1``, :mod:`vcs_env.observations`)."""
-
-for _id, _preset in GYM_IDS.items():
-    for _ver, _obs in (("-v2", 2), ("-v1", 1)):
-        _vid = _id.replace("-v2", _ver)
-        if _vid not in gymnasium.registry:
-            gymnasium.register(
-                id=_vid,
-                entry_point="vcs_env.gym_env:VcsNavEnv",
-                vector_entry_point="vcs_env.gym_env:VcsNavVectorEnv",
-                kwargs={"scenario": _preset, "observation": _obs},
-            )
+registered: the same envs with observation version 1 (:mod:`vcs_env.observations`); an id's version is
+fixed, and ``observation=`` asking for the other one is refused (:mod:`vcs_env.registry`)."""
 
 PZ_ID = "vcs_env/VcsNav-v2"
 """PettingZoo registry id: ``pettingzoo.make("parallel", PZ_ID, scenario="circle")`` (or "aec");
 ``vcs_env/VcsNav-v1`` is the same env with observation version 1."""
-for _type, _entry in (("parallel", "vcs_env.parallel:parallel_env"), ("aec", "vcs_env.parallel:raw_env")):
-    for _vid, _obs in ((PZ_ID, 2), ("vcs_env/VcsNav-v1", 1)):
-        if _vid not in getattr(pettingzoo, f"{_type}_registry"):
-            pettingzoo.register(_type, _vid, entry_point=_entry, kwargs={"observation": _obs})
+_register(GYM_IDS, PZ_ID)  # each id's entry point fixes its observation version (vcs_env.registry)
 
 __all__ = [
     "PLANNERS",
