@@ -31,6 +31,7 @@ from typing import Any
 from vcs_env.applies import check_applies
 from vcs_env.lidar import LidarSpec
 from vcs_env.scenario import RewardWeights, fit_time_limit, make_scenario, short_time_limit
+from vcs_env.start_states import npz_path
 from vcs_env.suites import SUITES
 
 SHAPING = ("none", "vcs_imitation", "vcs_potential")
@@ -274,8 +275,11 @@ def check_out_file(
     p = Path(path)
     if p.is_dir():
         raise ValueError(f"{flag} {path!r} is a directory; give a file name")
-    if new and (p.exists() or p.with_name(p.name + ".npz").exists()):
-        raise ValueError(f"{flag} {path!r} exists: the new data would replace it; give another name or remove it first")
+    if new and (p.exists() or npz_path(p).exists()):
+        there = "" if p.exists() else f" (as {str(npz_path(p))!r}, the file it names)"
+        raise ValueError(
+            f"{flag} {path!r} exists{there}: the new data would replace it; give another name or remove it first"
+        )
     if p.is_file() and p.suffix.lower() in (".zip", ".pt", ".npz", ".onnx"):
         raise ValueError(f"{flag} {path!r} is a {p.suffix} file (a checkpoint or data) that this would overwrite")
     if p.is_file() and _is_run_record(p):

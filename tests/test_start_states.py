@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import vcs_env
+from agents.config import check_out_file
 from vcs_env.sim import Simulator
 from vcs_env.start_states import StartStates, StatePool, scenario_key
 
@@ -117,6 +118,12 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
             for f, v in getattr(pool, part).items():
                 np.testing.assert_array_equal(getattr(back.pools[key], part)[f], v)
     assert back.matching([sc, small, dynamic(n_robots=4)]) == [sc, small]
+    # A name without .npz: the file written has it, as a dataset's (numpy adds it), is read by either name, and a
+    # second run asked for the same name is refused naming the file there (it wrote "plain" and refused "plain")
+    assert starts.save(tmp_path / "plain") == tmp_path / "plain.npz" and not (tmp_path / "plain").exists()
+    assert list(StartStates.load(tmp_path / "plain").pools) == list(StartStates.load(tmp_path / "plain.npz").pools)
+    with pytest.raises(ValueError, match=r"exists \(as '.*plain\.npz', the file it names\)"):
+        check_out_file(str(tmp_path / "plain"), "--out", new=True)
     # Files keyed by the whole repr, reward weights included (before reward terms could be added), still fit.
     old_key = repr(dataclasses.replace(sc, rewards=type(sc.rewards)()))
     assert "rewards=RewardWeights(" in old_key and old_key != scenario_key(sc)

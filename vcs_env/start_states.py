@@ -118,6 +118,12 @@ class StatePool:
                 )
 
 
+def npz_path(path: str | Path) -> Path:
+    """``path`` with ``.npz`` added unless it ends so: the file numpy's ``savez`` writes for it."""
+    path = Path(path)
+    return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+
+
 @dataclass
 class StartStates:
     """Pools per scenario and the probability that a reset world starts from one.
@@ -145,13 +151,14 @@ class StartStates:
         return [s for s in scenarios if self.pool(s) is not None and len(self.pool(s)) > 0]
 
     def save(self, path: str | Path) -> Path:
-        """Write the pools as ``.npz`` (module docstring); returns the path."""
+        """Write the pools as ``.npz`` (module docstring); returns the path written: ``.npz`` is added to a name
+        without it, as numpy and the datasets of ``vcs-env collect`` do (:meth:`load` finds it either way)."""
         keys = list(self.pools)
         arrays = {"scenarios": np.array(keys, dtype=str)}
         for s, k in enumerate(keys):
             arrays |= {f"{s}/world/{f}": v for f, v in self.pools[k].world.items()}
             arrays |= {f"{s}/motion/{f}": v for f, v in self.pools[k].motion.items()}
-        path = Path(path)
+        path = npz_path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(path, "wb") as f:
             np.savez_compressed(f, **arrays)
@@ -159,13 +166,16 @@ class StartStates:
 
     @classmethod
     def load(cls, path: str | Path, prob: float = 0.5) -> StartStates:
-        """Read pools written by :meth:`save`.
+        """Read pools written by :meth:`save` (``path``, or ``path`` with ``.npz`` added, as :meth:`save` writes a name
+        without it).
 
         Raises:
             ValueError: no such file, or a file that is not a readable start-state ``.npz``
                 (both named).
         """
         path = Path(path)
+        if not path.is_file() and npz_path(path).is_file():
+            path = npz_path(path)
         if not path.is_file():
             raise ValueError(f"no start-state file {str(path)!r} (make one with vcs-env collect-states)")
         try:

@@ -39,7 +39,7 @@ import numpy as np
 
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
-from vcs_env.start_states import StartStates
+from vcs_env.start_states import StartStates, npz_path
 
 from ..config import check_out_file
 from ..mixture import mixture_split
@@ -172,8 +172,7 @@ def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, 
     """Write ``data`` and ``meta`` to ``path`` and return the file written: numpy adds ``.npz`` to a
     name without it, so the returned path has it; an existing directory is refused."""
     check_out_file(str(path), "--out")  # not a directory; its parent is made
-    given = Path(path)
-    path = given if given.suffix == ".npz" else given.with_name(given.name + ".npz")
+    path = npz_path(path)
     np.savez_compressed(path, **data, meta=np.array(json.dumps(meta)))
     return path
 
@@ -182,8 +181,8 @@ def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any
     """``(arrays, meta)`` of a dataset (``path``, or ``path`` with ``.npz`` added, as :func:`save_dataset` and numpy
     write a name without it); ``ValueError`` naming the problem if it is not one."""
     path = Path(path)
-    if not path.is_file() and path.suffix != ".npz" and path.with_name(path.name + ".npz").is_file():
-        path = path.with_name(path.name + ".npz")
+    if not path.is_file() and npz_path(path).is_file():
+        path = npz_path(path)
     if path.is_dir():
         raise ValueError(f"dataset {str(path)!r} is a directory; give the .npz file vcs-env collect wrote")
     if not path.is_file():
