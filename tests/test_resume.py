@@ -6,6 +6,8 @@ import math
 import pytest
 
 import vcs_cli as cli
+from agents.checkpoint import attach_shield
+from agents.shield import Shield
 
 pytest.importorskip("stable_baselines3")
 
@@ -81,12 +83,15 @@ def test_a_run_killed_before_its_end_resumes_from_its_newest_checkpoint(tmp_path
     assert cli.main([*args, "--out", str(run)]) == 0
     for name in ("model.zip", "model.json", "best_model.zip", "best_model.json"):
         (run / name).unlink()
+    newest = run / "checkpoints" / "model_2048.zip"
+    attach_shield(newest, Shield())  # vcs-env shield on the checkpoint: the resumed run's records go without it
     capsys.readouterr()
     assert cli.main(["train", "--resume", str(run), "--timesteps", "6144", "--no-progress-bar"]) == 0
     out = capsys.readouterr().out
-    newest = run / "checkpoints" / "model_2048.zip"
     assert f"its newest checkpoint is {newest} (2048 timesteps)" in out and f"resumed {newest} at 2048" in out
-    assert json.loads((run / "model.json").read_text())["num_timesteps"] == 6144
+    assert f"note: {newest} carries a shield in its run record" in out
+    record = json.loads((run / "model.json").read_text())
+    assert record["num_timesteps"] == 6144 and "shield" not in record
 
 
 def test_a_new_run_into_another_runs_directory_is_refused(tmp_path, capsys):

@@ -316,6 +316,11 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
             model.tensorboard_log = tb
             model.set_random_seed(cfg.seed + model.num_timesteps)  # fresh, reproducible worlds after resuming
             print(f"resumed {resume} at {model.num_timesteps} timesteps")
+            if resume.record.get("shield"):  # attached after that run by vcs-env shield; PPO trains the network
+                print(
+                    f"note: {resume.path} carries a shield in its run record (vcs-env shield); this run's checkpoints "
+                    f"are saved without it: vcs-env shield {out / 'model.zip'} adds it again"
+                )
         else:
             kwargs = ppo_kwargs(cfg, scenario)
             model = PPO("MlpPolicy", venv, seed=cfg.seed, device="cpu", tensorboard_log=tb, verbose=0, **kwargs)
