@@ -2,6 +2,7 @@
 ``vcs-env evaluate`` scores them; run directories expand to their checkpoints; bad input is named."""
 
 import json
+import shlex
 import shutil
 import zipfile
 from pathlib import Path
@@ -126,7 +127,9 @@ def test_cli_select(tmp_path, capsys):
     argv = ["select", str(run), "--from-step", "150", "--validation", "crowd-5-v0:7000:7010", "--out", str(out)]
     assert main(argv) == 0
     assert f"kept {run / 'checkpoints' / 'model_200.zip'}" in capsys.readouterr().out
-    assert json.loads((out / "selection.json").read_text())["chosen"].endswith("model_200.zip")
+    kept = json.loads((out / "selection.json").read_text())
+    assert kept["chosen"].endswith("model_200.zip")
+    assert sorted(shlex.split(kept["command"])) == sorted(["vcs-env", *argv])  # it says how it was made
     # The same --out again: refused (the kept model.zip and its record would be replaced, another run's files kept).
     assert main(argv) == 2
     assert "already holds a run (model.zip, model.json)" in capsys.readouterr().err

@@ -111,7 +111,9 @@ def test_files_round_trip_and_bad_pools_or_files_give_clear_errors(tmp_path):
     sc, small = dynamic(), dynamic(n_robots=2)
     starts = StartStates({scenario_key(sc): pool_of(sc), scenario_key(small): pool_of(small, steps=(3,))}, prob=0.25)
     back = StartStates.load(starts.save(tmp_path / "s.npz"), prob=0.25)
-    assert list(back.pools) == list(starts.pools) and back.prob == 0.25
+    assert list(back.pools) == list(starts.pools) and back.prob == 0.25 and back.command is None
+    said = dataclasses.replace(starts, command="vcs-env collect-states --out s2.npz")
+    assert StartStates.load(said.save(tmp_path / "s2.npz")).command == said.command
     for key, pool in starts.pools.items():
         for part in ("world", "motion"):
             assert set(getattr(back.pools[key], part)) == set(getattr(pool, part))
@@ -173,6 +175,8 @@ def test_collected_states_precede_the_policys_contacts_and_feed_training(tmp_pat
     assert main(["collect-states", *args, "--before", "0.5", "1.0", "--danger-time", "0", "--out", str(only)]) == 0
     assert main(["collect-states", *args, "--before", "0.5", "1.0", "--out", str(out)]) == 0
     assert "pre-contact" in capsys.readouterr().out
+    made = StartStates.load(out).command  # the file says how it was made, as its reproduce line
+    assert made.startswith("vcs-env collect-states ") and f"--out {out}" in made
     kept = out.read_bytes()
     assert main(["collect-states", *args, "--episodes", "1", "--out", str(out)]) == 2  # not written over
     assert "exists: the new data would replace it" in capsys.readouterr().err and out.read_bytes() == kept

@@ -153,6 +153,7 @@ def cmd_distil(args: argparse.Namespace) -> int:
 def cmd_collect_states(args: argparse.Namespace) -> int:
     cfg = config_from_args(collect_states.StatesConfig, args)
     states = collect_states.collect_states(cfg)
+    states.command = config_command("collect-states", cfg)
     path = states.save(cfg.out)
     total = sum(len(p) for p in states.pools.values())
     print(f"saved {total} states of {len(states.pools)} scenarios -> {path}")
@@ -162,7 +163,7 @@ def cmd_collect_states(args: argparse.Namespace) -> int:
             "(more --episodes, or a harder mixture); vcs-env train refuses a file without states",
             file=sys.stderr,
         )
-    print(f"reproduce: {config_command('collect-states', cfg)}")
+    print(f"reproduce: {states.command}")
     return 0
 
 

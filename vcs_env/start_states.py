@@ -21,7 +21,7 @@ serve a whole training mixture; scenarios without a pool start fresh every time.
 
 File format (``.npz``, loadable without pickle): ``scenarios`` ``(S,)`` str, the keys; for pool
 ``s``, ``{s}/world/{field}`` ``(K, ...)`` the world arrays and ``{s}/motion/{name}`` ``(K, ...)``
-the motion state.
+the motion state; ``command`` (a str, optional) the command that made it (:attr:`StartStates.command`).
 """
 
 from __future__ import annotations
@@ -132,10 +132,13 @@ class StartStates:
         pools: ``{scenario_key(scenario): pool}``.
         prob: probability in [0, 1] that a reset world of a scenario with a pool starts from a
             state of it.
+        command: the command that made the pools (``vcs-env collect-states ...``), kept in the file; None: not
+            known.
     """
 
     pools: dict[str, StatePool]
     prob: float = 0.5
+    command: str | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 <= float(self.prob) <= 1.0:
@@ -155,6 +158,8 @@ class StartStates:
         without it, as numpy and the datasets of ``vcs-env collect`` do (:meth:`load` finds it either way)."""
         keys = list(self.pools)
         arrays = {"scenarios": np.array(keys, dtype=str)}
+        if self.command is not None:
+            arrays["command"] = np.array(self.command, dtype=str)
         for s, k in enumerate(keys):
             arrays |= {f"{s}/world/{f}": v for f, v in self.pools[k].world.items()}
             arrays |= {f"{s}/motion/{f}": v for f, v in self.pools[k].motion.items()}
@@ -196,4 +201,4 @@ class StartStates:
                     kind, _, field = rest.partition("/")
                     parts[kind][field] = value
             pools[key] = StatePool(parts["world"], parts["motion"])
-        return cls(pools, prob)
+        return cls(pools, prob, str(arrays["command"]) if "command" in arrays else None)

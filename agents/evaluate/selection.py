@@ -107,15 +107,16 @@ def select_checkpoint(
     batch_size: int = DEFAULT_BATCH,
     progress: bool | None = False,
     shield: bool = True,
+    command: str | None = None,
 ) -> dict[str, Any]:
     """Score every candidate on every validation suite, copy the best (module docstring) to ``out``, a directory that
     holds no run (nor an earlier selection). ``shield=False`` scores the networks without the shields their records
-    name (the copy keeps its record as it is).
+    name (the copy keeps its record as it is). ``command``: the command line that asked, kept in the result.
 
     Returns:
         ``{"chosen": path, "candidates": [{"checkpoint", "shield", "success", "collision", "sets": {suite name:
-        {"success", "collision"}}}, ...]}`` (``shield``: what it was scored with, or None), also written to
-        ``out/selection.json``.
+        {"success", "collision"}}}, ...], "command"}`` (``shield``: what it was scored with, or None; ``command``
+        only when given), also written to ``out/selection.json``.
     """
     if not validation:
         raise ValueError("give at least one validation set")
@@ -155,7 +156,7 @@ def select_checkpoint(
     shutil.copy(chosen, out / "model.zip")
     if record.exists():
         shutil.copy(record, out / "model.json")
-    result = {"chosen": str(chosen), "candidates": scores}
+    result = {"chosen": str(chosen), "candidates": scores} | ({"command": command} if command else {})
     (out / "selection.json").write_text(json.dumps(result, indent=1))
     print(f"kept {chosen} as {out / 'model.zip'}")
     return result
