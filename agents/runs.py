@@ -307,7 +307,10 @@ def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False, resume=No
         return
     held = [f for f in RUN_FILES if (Path(out) / f).exists()]
     if held:
-        other = f", or --resume {str(out)!r} to continue that run" if resume_hint else ""
+        ckpts = Path(out) / "checkpoints"
+        resumable = (Path(out) / "model.zip").exists() or (ckpts.is_dir() and any(ckpts.iterdir()))
+        other = f", or --resume {str(out)!r} to continue that run" if resume_hint and resumable else ""
+        other += " (it stopped before its first checkpoint: nothing to resume)" if resume_hint and not resumable else ""
         raise ValueError(
             f"--out {str(out)!r} already holds a run ({', '.join(held)}): a new run there would replace its model and "
             f"mix its logs with this one's; give another --out, or remove that one first{other}"

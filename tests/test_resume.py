@@ -114,6 +114,13 @@ def test_a_new_run_into_another_runs_directory_is_refused(tmp_path, capsys):
         assert "\n" not in err and f"--out {str(run)!r} already holds a run (model.zip, model.json" in err, err
         assert hint in err
     assert {p.name: p.stat().st_mtime_ns for p in run.iterdir()} == before
+    # A run stopped (Ctrl-C) before its first checkpoint left its config.json only: no --resume to suggest
+    stopped = tmp_path / "stopped"
+    stopped.mkdir()
+    (stopped / "config.json").write_text((run / "config.json").read_text())
+    assert cli.main([*args, "--out", str(stopped)]) == 2
+    err = capsys.readouterr().err
+    assert "already holds a run (config.json)" in err and "nothing to resume" in err and "--resume" not in err
 
 
 def test_training_among_walls_it_cannot_see_warns(tmp_path, recwarn):
