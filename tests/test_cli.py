@@ -86,3 +86,21 @@ def test_a_list_flag_given_twice_adds_to_the_first():
     assert config_from_args(CollectConfig, args).mixture == ("circle:n_robots=4", "crowd")
     sets = ["--validation", "circle:0:2", "--validation", "crowd:0:2"]
     assert build_parser().parse_args(["select", "c", *sets, "--out", "o"]).validation == ["circle:0:2", "crowd:0:2"]
+
+
+def test_a_commands_warnings_are_one_line_each_naming_the_command():
+    """A warning on the command line reads as the command's (``vcs-env evaluate: warning: ... (BlindWarning)``), not
+    as Python's file, line and source line (which looked like a trace); the Python API keeps Python's format."""
+    import subprocess
+    import sys
+
+    cmd = ["evaluate", "--policy", "policies/generalist/model.zip", "--scenario", "doorway", "--seeds", "0:1"]
+    done = subprocess.run([sys.executable, "-m", "vcs_cli", *cmd], capture_output=True, text=True, check=True)
+    said = [line for line in done.stderr.splitlines() if "Warning" in line]
+    assert len(said) == 2 and all(line.startswith("vcs-env evaluate: warning: ") for line in said), done.stderr
+    assert "BlindWarning)" in said[0] + said[1] and "resolve_policy(" not in done.stderr  # no source line
+    import warnings
+
+    shown = warnings.formatwarning
+    assert vcs_cli.main(["rollout", "--scenario", "swap", "--n-robots", "2", "--max-steps", "5"]) == 0
+    assert warnings.formatwarning is shown  # put back for the rest of the process

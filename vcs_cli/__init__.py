@@ -13,6 +13,7 @@ import argparse
 import importlib
 import re
 import sys
+import warnings
 
 COMMAND_MODULES = (
     "vcs_cli.rollout",
@@ -100,6 +101,12 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     if args.command in COMPILING:
         compile_note()
+    shown = warnings.formatwarning  # a warning is one line of the command's, not a file, line and source line
+
+    def one_line(message, category, filename, lineno, line=None):
+        return f"vcs-env {args.command}: warning: {message} ({category.__name__})\n"
+
+    warnings.formatwarning = one_line
     try:
         return int(args.func(args) or 0)
     except BrokenPipeError:  # output piped into e.g. `head`, which has closed: stop quietly
@@ -114,3 +121,5 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+    finally:
+        warnings.formatwarning = shown

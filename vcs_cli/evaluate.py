@@ -199,10 +199,6 @@ def _shield_arg(p) -> None:
 
 def cmd_select(args) -> int:
     validation = [selection.validation_suite(v) for v in args.validation]
-    command = ["vcs-env", "select", *args.candidates, "--validation", *args.validation]
-    command += ["--from-step", str(args.from_step)] if args.from_step else []
-    command += ["--no-shield"] if args.no_shield else []
-    command += ["--batch-size", str(args.batch_size)] if args.batch_size != DEFAULT_BATCH else []
     selection.select_checkpoint(
         selection.candidates_of(args.candidates, args.from_step),
         validation,
@@ -210,7 +206,7 @@ def cmd_select(args) -> int:
         batch_size=args.batch_size,
         progress=False if args.no_progress else None,
         shield=not args.no_shield,
-        command=shlex.join([*command, "--out", args.out]),
+        command=shlex.join(["vcs-env", *args.argv]),
     )
     return 0
 
