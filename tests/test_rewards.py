@@ -156,6 +156,20 @@ def test_one_term_object_given_to_several_envs_keeps_a_state_per_env():
     shared = Moved()
     assert run([shared, shared]) == run([Moved(), Moved()])
 
+    class MovedFn:  # the function form as a callable object with state: copied per env too
+        def __init__(self):
+            self.prev = None
+
+        def __call__(self, world, events, actions):
+            d = np.zeros(world.pos.shape[:2]) if self.prev is None else np.linalg.norm(world.pos - self.prev, axis=-1)
+            self.prev = world.pos.copy()
+            return d
+
+    shared = MovedFn()
+    assert run([shared, shared]) == run([MovedFn(), MovedFn()])
+    calls = []  # a plain function is used as it is: its closure is the caller's
+    assert run([lambda w, e, a: calls.append(1) or np.zeros(w.pos.shape[:2])] * 2) and len(calls) == 40
+
 
 def test_potential_shaping_needs_a_planner_with_a_potential():
     with pytest.raises(ValueError, match="'straight' has none"):

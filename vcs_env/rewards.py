@@ -9,6 +9,8 @@ there); a term of your own is passed to the env as ``reward_terms={name: (weight
 
 from __future__ import annotations
 
+import functools
+import types
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -330,8 +332,15 @@ def build_terms(
                 raise ValueError
         except (TypeError, ValueError):
             raise ValueError(f"reward_terms[{name!r}]: the weight must be a finite number, got {w!r}") from None
-        terms[name] = env_copy(fn, f"reward term {name!r}") if isinstance(fn, RewardTerm) else FunctionTerm(name, fn)
+        own = env_copy(fn, f"reward term {name!r}") if not isinstance(fn, PLAIN_FUNCTIONS) else fn
+        terms[name] = own if isinstance(fn, RewardTerm) else FunctionTerm(name, own)
     return terms, weights
+
+
+PLAIN_FUNCTIONS = (types.FunctionType, types.BuiltinFunctionType, types.MethodType, functools.partial)
+"""Reward callables an env uses as given: functions (a closure's state is the caller's), bound methods (their object
+is the caller's) and partials. Any other callable object is copied per env, as a :class:`RewardTerm` is, so two envs
+given one object do not mix its state."""
 
 
 def checked_term(name: str, value, shape: tuple[int, int]) -> np.ndarray:
