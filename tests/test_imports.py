@@ -14,7 +14,7 @@ UPPER = {"baselines", "agents", "benchmarks"}
 PENDING_MOVE: set[str] = set()
 """Modules being moved out of ``vcs_env`` on another branch (the CLI, which drives training and
 benchmarks); the lead empties this set when that move is merged."""
-ADAPTERS = {"__init__.py", "parallel.py", "gym_env.py", "spaces.py", "render.py"}
+ADAPTERS = {"__init__.py", "parallel.py", "gym_env.py", "spaces.py", "render.py", "registry.py"}
 """API adapters of ``vcs_env`` that may use Gymnasium and PettingZoo types."""
 TORCH = {"torch", "torchrl", "tensordict", "benchmarl"}
 TORCH_ADAPTERS = {"torchrl.py", "benchmarl.py"}
