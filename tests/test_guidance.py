@@ -349,6 +349,26 @@ def test_the_imitation_loss_holds_through_ppos_update_on_the_rollout(tmp_path):
     assert errors["summed"] < 0.8 * min(errors["none"], errors["separate"]), errors
 
 
+def test_the_imitation_loss_weighs_a_rollout_at_its_first_step(tmp_path):
+    """The loss of a rollout has the weight annealed to the rollout's first step: with --guide-anneal one rollout
+    long, the first update has the full weight (it had the weight at the rollout's end, 0, so the run was plain PPO
+    bit for bit while its record said imitation_loss)."""
+    import torch
+
+    from agents.checkpoint import load_model
+
+    common = dict(
+        scenario="circle", n_robots=4, n_worlds=2, n_steps=32, batch_size=64, n_epochs=1, timesteps=256,
+        eval_freq=0, eval_episodes=1, checkpoint_freq=0, progress_bar=False, tensorboard=False,
+    )  # fmt: skip  # one rollout: 32 steps x 8 robot slots
+    scenario = make_scenario("circle", n_robots=4)
+    weights = {}
+    for name, guide in (("plain", {}), ("guided", {"guide": "imitation_loss", "guide_anneal": 256})):
+        res = train(TrainConfig(**common, **guide, out=str(tmp_path / name)))
+        weights[name] = load_model(res["model"], scenario).policy.state_dict()
+    assert any(not torch.equal(weights["plain"][k], weights["guided"][k]) for k in weights["plain"])
+
+
 @pytest.mark.slow
 def test_the_imitation_loss_pulls_the_policy_to_the_expert_until_its_weight_is_zero(tmp_path):
     from agents.checkpoint import load_model

@@ -135,6 +135,7 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
         def __init__(self):
             super().__init__()
             self.last_eval = self.last_ckpt = None
+            self.rollout_began = 0  # the step count at the current rollout's start
 
         def _on_training_start(self) -> None:
             self.last_eval = self.last_ckpt = self.num_timesteps
@@ -144,8 +145,8 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
                 guide.finish()
 
         def _on_rollout_end(self) -> None:
-            if guide is not None:
-                for k, v in guide.update(self.model, self.model.num_timesteps).items():
+            if guide is not None:  # the guide's weight of the rollout's first step: annealed from there
+                for k, v in guide.update(self.model, self.rollout_began).items():
                     self.logger.record(f"guide/{k}", v)
             buf = [e for e in self.model.ep_info_buffer if "success" in e]
             if buf:
@@ -161,7 +162,7 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
 
         def _on_rollout_start(self) -> None:
             # Called after the previous update, so the evaluated policy includes it.
-            self.num_timesteps = self.model.num_timesteps
+            self.num_timesteps = self.rollout_began = self.model.num_timesteps
             if anneal is not None:
                 self.logger.record("train/shaping_weight", anneal(self.training_env, self.num_timesteps))
             if guide is not None:

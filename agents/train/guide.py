@@ -76,7 +76,9 @@ class ImitationLoss:
 
     def update(self, model, timesteps: int) -> dict[str, Any]:
         """At a rollout's end, before PPO's update on it: every step of ``model``'s optimiser until
-        :meth:`finish` also descends the weighted loss on a minibatch of the rollout's live states.
+        :meth:`finish` also descends the weighted loss on a minibatch of the rollout's live states, at the weight
+        annealed to ``timesteps``, the step count at the rollout's start (the first rollout has the full weight;
+        with the count at its end, an anneal within one rollout never applied the loss).
         Returns the weight and the mean loss over the previous update's steps."""
         import torch
 
