@@ -226,6 +226,12 @@ def test_bad_residual_input_gets_one_line_errors():
     with pytest.raises(ValueError, match="--shaping vcs_imitation needs the VCS expert.*--residual orca"):
         residual_of(TrainConfig(residual="orca", shaping="vcs_imitation"))
     assert residual_of(TrainConfig(residual="orca")) == Residual("orca", 0.5)
+    # The same term weighted through --rewards (it trained, imitating orca under the name vcs_imitation)
+    given = TrainConfig(scenario="circle", n_robots=2, residual="orca", rewards="vcs_imitation=0.1")
+    with pytest.raises(ValueError, match=r"the reward term vcs_imitation \(--rewards\) needs the VCS expert"):
+        residual_of(given, [build_scenario(given)])
+    with pytest.raises(ValueError, match="--guide jump_start lets the expert drive the episodes' starts; a residual"):
+        residual_of(TrainConfig(residual="vcs", guide="jump_start", guide_anneal=1000))
     with pytest.raises(ValueError, match="the expert of a residual policy is its planner 'vcs', not 'orca'"):
         NavVecEnv(make_scenario("circle", n_robots=2), 1, expert="orca", residual=Residual("vcs"))
     with pytest.raises(ValueError, match="corrects delta-mode actions"):
@@ -261,8 +267,13 @@ def test_an_annealed_shaping_weight_reaches_zero_at_its_step():
             rewards.append(env.step_wait()[1])
         assert np.array_equal(*rewards) == equal
     assert shaping_schedule(TrainConfig(shaping="vcs_imitation"), scenario) is None
-    with pytest.raises(ValueError, match="--guide-anneal anneals the expert.s guidance; give --shaping or --guide"):
-        shaping_schedule(TrainConfig(guide_anneal=1000), scenario)
+    plain = build_scenario(TrainConfig(scenario="circle", n_robots=4))
+    with pytest.raises(ValueError, match="--guide-anneal anneals the expert.s guidance; give --shaping .* or --guide"):
+        shaping_schedule(TrainConfig(guide_anneal=1000), plain)
+    # The weight given in --rewards is the same shaping: annealed too (it stayed, under a record saying annealed)
+    cfg = TrainConfig(scenario="circle", n_robots=4, rewards="vcs_imitation=0.1", guide_anneal=1000)
+    env = NavVecEnv(build_scenario(cfg), 2)
+    assert shaping_schedule(cfg, build_scenario(cfg))(env, 500) == 0.05 == env.groups[0].engine.weights["vcs_imitation"]
 
 
 def _action_error(model, scenario) -> float:

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from vcs_env.checks import check_int, check_positive, check_range
+from vcs_env.rewards import TERMS
 from vcs_env.scenario import Scenario
 from vcs_env.suites import get_suite
 
@@ -190,21 +191,37 @@ def _callback(cfg: TrainConfig, scenarios, out: Path, t_start: float, periodic: 
     return RunCallback()
 
 
-def residual_of(cfg: TrainConfig) -> Residual | None:
+def expert_terms(scenarios) -> list[str]:
+    """The reward terms weighted in some of ``scenarios`` that need the VCS expert (``vcs_imitation``,
+    ``vcs_potential``: from ``--shaping`` or from their weights in ``--rewards``, the same thing given two ways)."""
+    needs = {t.name for t in TERMS if t.needs_expert}
+    return sorted({k for s in scenarios for k, w in s.rewards.as_dict().items() if w and k in needs})
+
+
+def residual_of(cfg: TrainConfig, scenarios=()) -> Residual | None:
     """The residual a run trains (``--residual``), or None; a one-line ``ValueError`` when its
-    planner cannot give what the run's shaping needs (the VCS expert), or with a ``--guide`` loss
-    (which pulls the network's action, here a correction, towards the expert's action), or with
-    ``--residual-gate`` and no residual to gate."""
+    planner cannot give what the run's shaping needs (the VCS expert: ``--shaping``, or such a term weighted in
+    ``--rewards`` of the run's ``scenarios``), or with a ``--guide`` (the imitation loss pulls the network's action,
+    here a correction, towards the expert's action; jump-start lets the expert drive, where the planner already
+    does), or with ``--residual-gate`` and no residual to gate."""
     residual = Residual.of(cfg)
     if residual is None and cfg.residual_gate:
         raise ValueError("--residual-gate holds a residual policy's correction; it needs --residual vcs")
-    if residual is not None and cfg.shaping != "none" and residual.planner != "vcs":
+    shaping = [cfg.shaping] if cfg.shaping != "none" else expert_terms(scenarios)
+    if residual is not None and shaping and residual.planner != "vcs":
+        given = f"--shaping {cfg.shaping}" if cfg.shaping != "none" else f"the reward term {shaping[0]} (--rewards)"
         raise ValueError(
-            f"--shaping {cfg.shaping} needs the VCS expert, and a residual's expert is its planner: "
+            f"{given} needs the VCS expert, and a residual's expert is its planner: "
             f"--residual {residual.planner} would attach {residual.planner}"
         )
+    if residual is not None and cfg.guide == "imitation_loss":
+        raise ValueError(
+            "--guide imitation_loss pulls the policy to the expert's actions; a residual already adds them"
+        )
     if residual is not None and cfg.guide != "none":
-        raise ValueError(f"--guide {cfg.guide} pulls the policy to the expert's actions; a residual already adds them")
+        raise ValueError(
+            f"--guide {cfg.guide} lets the expert drive the episodes' starts; a residual's planner always drives"
+        )
     return residual
 
 
@@ -223,16 +240,21 @@ def shaping_schedule(cfg: TrainConfig, scenario):
     engine of ``venv``, or None when the run anneals no shaping term; a one-line ``ValueError`` for an
     anneal with nothing to anneal."""
     check_int("guide_anneal", cfg.guide_anneal, 0, 10**12)
-    if cfg.guide_anneal == 0 or cfg.shaping == "none":
+    names = [cfg.shaping] if cfg.shaping != "none" else expert_terms([scenario])  # --shaping, or --rewards' weight
+    if cfg.guide_anneal == 0 or not names:
         if cfg.guide_anneal and cfg.guide == "none":
-            raise ValueError("--guide-anneal anneals the expert's guidance; give --shaping or --guide")
+            raise ValueError(
+                "--guide-anneal anneals the expert's guidance; give --shaping (or an expert term's weight in "
+                "--rewards) or --guide"
+            )
         return None
-    name, weight = cfg.shaping, scenario.rewards.as_dict()[cfg.shaping]
+    weights = {name: scenario.rewards.as_dict()[name] for name in names}
 
     def set_weight(venv, timesteps: int) -> float:
-        w = annealed(weight, cfg.guide_anneal, timesteps)
-        for group in venv.groups:
-            group.engine.weights[name] = w
+        for name, weight in weights.items():
+            w = annealed(weight, cfg.guide_anneal, timesteps)
+            for group in venv.groups:
+                group.engine.weights[name] = w
         return w
 
     return set_weight
@@ -279,7 +301,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     print_suite_differences(scenarios)
     warn_blind_training(scenarios)
     check_ppo_settings(cfg)
-    residual, anneal, guide = residual_of(cfg), shaping_schedule(cfg, scenario), guide_of(cfg)
+    residual, anneal, guide = residual_of(cfg, scenarios), shaping_schedule(cfg, scenario), guide_of(cfg)
     expert = "vcs" if guide is not None else None
     if cfg.mixture_balance not in ("worlds", "robots"):
         raise ValueError(f"mixture_balance must be worlds or robots, got {cfg.mixture_balance!r}")
