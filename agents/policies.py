@@ -282,6 +282,13 @@ def resolve_policy(
         return ResolvedPolicy(name or policy.name, planner_controller(policy, action_mode), "planner")
     if isinstance(policy, ResidualPolicy):
         inner = resolve_policy(policy.predictor, scenario, action_mode, deterministic, name, shield)
+        if inner.kind == "planner" or inner.residual is not None:  # a planner's actions, or a correction applied twice
+            what = "a planner" if inner.kind == "planner" else f"a residual policy over {inner.residual.planner}"
+            raise ValueError(
+                f"ResidualPolicy corrects {policy.residual.planner} with a network's actions; its network "
+                f"{inner.name!r} is {what}: give the network (a predictor or a plain checkpoint), or the residual "
+                "checkpoint by itself"
+            )
         return _residual(inner, policy.residual, action_mode)
     if is_checkpoint_spec(policy):
         ckpt = open_checkpoint(policy)

@@ -108,6 +108,11 @@ def test_an_untrained_residual_is_its_planner_bit_for_bit(tmp_path):
     # A ResidualPolicy object runs the same pair.
     model = _model(scenario, Residual("vcs"), zero=True)
     assert same(evaluate(ResidualPolicy(model, Residual("vcs")), SUITE, progress=False).rows, expert.rows)
+    # The network must be a network: a planner, or a residual checkpoint (its correction applied twice), is refused
+    with pytest.raises(ValueError, match="its network 'orca' is a planner"):
+        evaluate(ResidualPolicy("orca", Residual("vcs")), SUITE, progress=False)
+    with pytest.raises(ValueError, match="is a residual policy over vcs: give the network"):
+        evaluate(ResidualPolicy(str(path), Residual("vcs")), SUITE, progress=False, shield=False)
 
 
 def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, capsys):
