@@ -198,6 +198,18 @@ def _shield(record: dict[str, Any]) -> dict[str, Any] | None:
     return None if shield is None else asdict(shield)
 
 
+ACTION_MEANING = (
+    "the deterministic action of each row's robot, in the env's action units (action_mode 'delta': acceleration and "
+    "turn rate as fractions of a_max and omega_max)"
+)
+"""The output of an exported policy."""
+CORRECTION_MEANING = (
+    "the deterministic correction of each row's robot to {planner}'s action (not the action itself: the robot's action "
+    "is residual.action), in the env's action units (action_mode 'delta')"
+)
+"""The output of an exported residual policy's network."""
+
+
 def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residual | None = None) -> dict[str, Any]:
     """The JSON written beside the ONNX file: what goes in and out, and the run record it came from.
 
@@ -222,8 +234,7 @@ def layout(checkpoint, dim: int, opset: int, note: str | None, residual: Residua
             "shape": ["batch", 2],
             "dtype": "float32",
             "range": [-1.0, 1.0],
-            "meaning": "the deterministic action of each row's robot, in the env's action units (action_mode "
-            "'delta': acceleration and turn rate as fractions of a_max and omega_max)",
+            "meaning": ACTION_MEANING if residual is None else CORRECTION_MEANING.format(planner=residual.planner),
         },
         "observation": record.get("observation"),
         "observation_dim": dim,

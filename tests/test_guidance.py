@@ -170,8 +170,10 @@ def test_a_residual_run_keeps_its_rule_through_evaluation_and_export(tmp_path, c
     assert net.predict(np.zeros(net.observation_space.shape, dtype=np.float32), deterministic=True)[0].shape == (2,)
     pytest.importorskip("onnxruntime", reason="the export extra")
     _, side = open_checkpoint(res["model"]).export_onnx(tmp_path / "res.onnx")
-    rule = json.loads(side.read_text())["residual"]
+    said = json.loads(side.read_text())
+    rule = said["residual"]
     assert rule["planner"] == "vcs" and rule["scale"] == 0.25 and "planner_action" in rule["action"]
+    assert said["output"]["meaning"].startswith("the deterministic correction of each row's robot to vcs's action")
     assert rule["gate"] is None  # no gate: the rule alone
     assert "a residual policy" in capsys.readouterr().err
 
