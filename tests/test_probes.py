@@ -123,7 +123,7 @@ def test_the_v2_recipe_trains_on_every_family_and_on_no_probe():
 
 def test_cli_probe_matches_evaluate_on_the_same_episodes(tmp_path, capsys):
     out = tmp_path / "probe"
-    args = ["probe", "--policies", "vcs,straight", "--families", "swap", "--episodes", "2", "--out", str(out)]
+    args = ["probe", "--policies", "vcs,straight", "--families", "swap, swap", "--episodes", "2", "--out", str(out)]
     assert cli.main([*args, "--no-progress"]) == 0
     table = json.loads((out / "probes.json").read_text())
     swap = [p for p in PROBES if p.scenario == "swap"]
@@ -135,6 +135,7 @@ def test_cli_probe_matches_evaluate_on_the_same_episodes(tmp_path, capsys):
             assert row["policies"][name]["collision"] == res.summary["collision"]["mean"]
     md = (out / "probes.md").read_text()
     assert "vcs-env probe --policies vcs,straight" in md and f"seeds from {PROBE_SEED_BASE}" in md
+    assert "--families 'swap, swap'" in md  # the recorded command runs as written
     assert cli.main(["probe", "--policies", "vcs", "--families", "nope", "--out", str(out)]) == 2
     assert "unknown probe families" in capsys.readouterr().err
     assert isinstance(Probe("circle", "jitter", {"jitter": 0.2}).name, str)

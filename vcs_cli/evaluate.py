@@ -151,7 +151,7 @@ def cmd_probe(args) -> int:
     )
     planners = {label for label, spec in policies.items() if not is_checkpoint_spec(spec)}
     command = f"vcs-env probe --policies {shlex.quote(args.policies)} --out {shlex.quote(str(args.out))}"
-    command += f" --episodes {args.episodes}" + (f" --families {args.families}" if args.families else "")
+    command += f" --episodes {args.episodes}" + (f" --families {shlex.quote(args.families)}" if args.families else "")
     if args.action_mode != "delta":
         command += f" --action-mode {args.action_mode}"
     if args.batch_size != DEFAULT_BATCH:  # changes nothing but speed; said so the run can be repeated as made
