@@ -84,8 +84,18 @@ def test_probes_inside_a_policys_training_ranges_are_named_and_left_out_of_its_g
     inside = {p.name: inside_training(p, boxes) for p in PROBES}
     # Points of the generalist's mixture, or inside one entry's ranges:
     assert inside["circle[n_robots=10]"] == "circle-8-v0:n_robots=4-12/4,jitter=0.1-0.5/0.2"
-    assert inside["crowd[obstacle_speed=1.0-1.5]"] == "crowd-5-v0:obstacle_speed=1.0-1.5"
-    assert inside["dynamic[obstacle_speed=0.8-1.2]"] == "dynamic-v0:obstacle_speed=0.6-1.2"
+    assert inside["dynamic[obstacle_speed=1.0-1.3]"] == "dynamic-v0:obstacle_speed=0.6-1.2"  # 1.0-1.2 of it
+    assert inside["crowd[obstacle_speed=0.2-0.5]"] is None  # slower than every crowd it trained among
+    # A probe's interval counts as in training once it overlaps a range, not only when it lies within one
+    speeds = [
+        (
+            "crowd-5-v0:obstacle_speed=1.1-1.4",
+            "crowd",
+            {"n_robots": (1, 1), "n_obstacles": (5, 5), "jitter": (0, 0), "obstacle_speed": (1.1, 1.4)},
+        )
+    ]
+    assert inside_training(Probe("crowd", "obstacle speed", {"obstacle_speed": (1.0, 1.5)}), speeds) == speeds[0][0]
+    assert inside_training(Probe("crowd", "obstacle speed", {"obstacle_speed": (1.4, 1.6)}), speeds) is None
     # ... and every family it trained on keeps probes beyond all its ranges.
     held = {p.scenario for p in PROBES if inside[p.name] is None}
     assert held >= {"circle", "swap", "crossing", "crowd", "dynamic"}
