@@ -4,6 +4,7 @@ scenario is asked for, TorchRL's standard Gym wrapper, a step without an action,
 are not datasets, labels without a policy, reset options no env reads, and the install hints of missing extras."""
 
 import re
+import warnings
 
 import gymnasium as gym
 import numpy as np
@@ -282,7 +283,12 @@ def test_a_custom_goal_no_robot_can_arrive_at_is_refused():
         vcs_env.make_scenario("custom", custom=twins)
     assert vcs_env.make_scenario("custom", custom=twins, park_finished=False).n_robots == 2
     apart = vcs_env.CustomLayout(start=[(0, 0), (0, 2)], goal=[(3, 1), (3, 1.35)])  # 0.35 + 2 r_goal >= 2 radii
-    assert vcs_env.make_scenario("custom", custom=apart).n_robots == 2
+    # ... possible, but only if neither parks toward the other (it parks where it first comes within r_goal): said
+    with pytest.warns(UserWarning, match=r"goals of robots 0 and 1 are 0.35 m apart, less than two radii and twice"):
+        assert vcs_env.make_scenario("custom", custom=apart).n_robots == 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # two radii and twice r_goal apart: nothing to say
+        vcs_env.make_scenario("custom", custom=vcs_env.CustomLayout(start=[(0, 0), (0, 2)], goal=[(3, 1), (3, 1.7)]))
     rock = ObstacleTrajectory(times=(0,), positions=((3, 0),), radius=0.5)
     inside = vcs_env.CustomLayout(start=[(0, 0)], goal=[(3.5, 0)], obstacles=(rock,))
     with pytest.raises(ValueError, match="the goal of robot 0 lies inside still obstacle 0"):

@@ -7,11 +7,12 @@ re-exported by :mod:`vcs_env.scenario`, where they belong to :class:`~vcs_env.sc
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import MISSING, dataclass, fields
 
 import numpy as np
 
-from .checks import R_REF, V_REF, check_range
+from .checks import R_REF, V_REF, check_range, user_stacklevel
 
 COORD_LIMIT = 1e6
 """[m] Largest coordinate of a custom layout: beyond, squared distances lose all precision (a start at 1e155 m made
@@ -183,4 +184,14 @@ def check_goals(s, goal: np.ndarray, obs_radius: np.ndarray) -> None:
             raise ValueError(
                 f"custom layout: the goals of robots {min(i, j)} and {max(i, j)} are too close for both to park there "
                 f"(finished robots stay; their centres {2 * r:g} m apart, each within r_goal={reach:g} m of its goal)"
+            )
+        if np.any(gap < 4 * reach - 1e-9):  # both fit only if neither parks toward the other within its r_goal
+            i, j = np.unravel_index(np.argmin(gap), gap.shape)
+            d = float(np.linalg.norm(goal[i] - goal[j]))
+            warnings.warn(
+                f"custom layout: the goals of robots {min(i, j)} and {max(i, j)} are {d:.3g} m apart, less than two "
+                f"radii and twice r_goal ({2 * r + 2 * reach:g} m): a robot parks where it first comes within "
+                f"r_goal={reach:g} m of its goal, and one parked toward the other's goal may leave no room there",
+                UserWarning,
+                stacklevel=user_stacklevel(),
             )
