@@ -74,7 +74,8 @@ def render(data: dict) -> str:
         f"| OS | {m['platform']} |",
         f"| Python | {m['python']} |",
         "| packages | " + ", ".join(f"{k} {v}" for k, v in m["packages"].items()) + " |",
-        f"| torch threads | {meta['torch_threads']} (VMAS and PPO; our env is single-threaded numpy/numba) |",
+        f"| torch threads | {meta['torch_threads']} (VMAS and PPO); our numba kernels: {meta.get('numba_threads', 1)} "
+        "thread |",
         f"| repeats | median of {meta['repeats']} side-by-side repeats per number (ours and the peers measured in "
         "turn, so load changes on the shared machine hit all alike) |",
         f"| clock | rates per CPU second of the benchmark process (`time.process_time`); it got {_cpu_share(data)} "

@@ -359,14 +359,33 @@ def run(
     quick: bool = False, out: Path | str | None = None, sections=SECTIONS, command: str = "", merge: bool = False
 ) -> dict:
     """Run the benchmarks and write ``out`` (Markdown; default :func:`default_out`) and ``out`` with
-    ``.json``; returns the data.
+    ``.json``; returns the data. Our kernels run on one numba thread meanwhile (``vcs_env.set_threads(1)``, then the
+    count before), as every peer gets one thread: ``python -m benchmarks`` also sets ``NUMBA_NUM_THREADS=1``, but
+    ``vcs-env bench`` starts with the process's default (all usable cores).
 
     With ``merge``, the sections not run are kept from the existing JSON next to ``out`` (their
     numbers are from that earlier run)."""
+    from vcs_env import get_threads, set_threads
+
     out = Path(out) if out is not None else default_out(quick)
     if out.suffix.lower() == ".json" or out.is_dir():  # before the runs, not after them
         what = "a directory" if out.is_dir() else "the raw numbers' own name (the .json beside the report)"
         raise ValueError(f"--out {str(out)!r} is {what}: give the Markdown report's file name, e.g. RESULTS.md")
+    blocked = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
+    if blocked is not None:  # found only when the report was written, after every section had run
+        raise ValueError(f"--out {str(out)!r} lies under {str(blocked)!r}, a file: give a path in a directory")
+    before = get_threads()
+    set_threads(1)
+    try:
+        return _run(quick, out, sections, command, merge)
+    finally:
+        set_threads(before)
+
+
+def _run(quick: bool, out: Path, sections, command: str, merge: bool) -> dict:
+    """:func:`run` on one numba thread."""
+    from vcs_env import get_threads
+
     sz = quick_sizes() if quick else Sizes()
     t0 = time.perf_counter()
     machine = machine_info()
@@ -411,6 +430,7 @@ def run(
         "machine": machine,
         "load_average_end": machine_info()["load_average"],
         "torch_threads": threads,
+        "numba_threads": get_threads(),
         "repeats": sorted({sz.env_budget.repeats, sz.planner_budget.repeats, sz.train.repeats}),
         "budgets": {
             "env": asdict(sz.env_budget),

@@ -233,6 +233,25 @@ def test_an_output_the_report_would_overwrite_is_refused_before_the_runs(tmp_pat
     for out in (tmp_path / "R.json", tmp_path):
         with pytest.raises(ValueError, match="give the Markdown report's file name"):
             run(quick=True, out=out, sections=("env",))
+    (tmp_path / "afile").write_text("")  # a report under a file failed only after every section had run
+    with pytest.raises(ValueError, match="lies under .*afile.*, a file"):
+        run(quick=True, out=tmp_path / "afile" / "R.md", sections=("env",))
+
+
+def test_the_benchmarks_run_our_kernels_on_one_thread_whatever_the_process_has(tmp_path, monkeypatch):
+    """``vcs-env bench`` runs in a process with numba's default thread count (all usable cores), unlike ``python -m
+    benchmarks``, which sets NUMBA_NUM_THREADS=1: the run itself sets one thread (every peer gets one), says so in
+    its report, and gives the process its count back."""
+    import benchmarks.run as bench_run
+    import vcs_env
+
+    seen = []
+    measure = bench_run._run
+    monkeypatch.setattr(bench_run, "_run", lambda *a: (seen.append(vcs_env.get_threads()), measure(*a))[1])
+    before = vcs_env.get_threads()
+    data = bench_run.run(quick=True, out=tmp_path / "R.md", sections=("scaling",))
+    assert seen == [1] and data["meta"]["numba_threads"] == 1 and vcs_env.get_threads() == before
+    assert "our numba kernels: 1 thread" in (tmp_path / "R.md").read_text()
 
 
 def test_install_bench_reports_every_step(tmp_path):
