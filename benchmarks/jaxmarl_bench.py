@@ -407,10 +407,13 @@ def render(res: dict) -> str:
         "one step per episode that resets all B worlds), the steady step without the resets' cost. Target "
         "(issue 45): ours >= 2x JaxMARL's jax-CPU MPE at B = 4096 (at the same n; ours, open, holds the same "
         "bodies as simple_spread, ours 10 obstacles more).",
-        "",
-        "JaxMARL installed beside torch in the project's environment: `pip install jaxmarl==0.2.0` added jax, "
-        "jaxlib, flax, chex, gymnax and their dependencies and changed no installed package.",
     ]
+    if p.get("jaxmarl", "not installed") != "not installed":  # what this project found when it installed it
+        out += [
+            "",
+            "JaxMARL installed beside torch in the project's environment: `pip install jaxmarl==0.2.0` added jax, "
+            "jaxlib, flax, chex, gymnax and their dependencies and changed no installed package.",
+        ]
     return "\n".join(out) + "\n"
 
 
@@ -424,6 +427,8 @@ def main(argv=None) -> int:
     p.add_argument("--phase", choices=tuple(PHASES), help=argparse.SUPPRESS)
     p.add_argument("--phase-out", type=Path, help=argparse.SUPPRESS)
     a = p.parse_args(argv)
+    if any(b < 1 for b in a.batches) or a.repeats < 1:  # a run of zero worlds or rounds is a report of nan rows
+        p.error(f"--batches and --repeats must be >= 1, got --batches {a.batches} --repeats {a.repeats}")
     if a.quick:
         a.batches, a.repeats = [32], 1
     if a.phase:  # a child process of run(): one table

@@ -224,6 +224,10 @@ def test_jaxmarl_bench_quick_writes_its_tables_with_or_without_jaxmarl(tmp_path)
     for row in rows:
         for name in ("jaxmarl_step", "jaxmarl_scan"):
             assert row[name]["status"] == "ok" or "pip install jaxmarl" in row[name]["status"]
+    installed = importlib.util.find_spec("jaxmarl") is not None  # the report said it was installed either way
+    assert ("JaxMARL installed beside torch" in text) == installed
+    bad = subprocess.run([*cmd[:3], "--batches", "0", "--out", str(out)], capture_output=True, text=True)
+    assert bad.returncode == 2 and "--batches and --repeats must be >= 1" in bad.stderr  # it wrote a table of nan
 
 
 def test_an_output_the_report_would_overwrite_is_refused_before_the_runs(tmp_path):
