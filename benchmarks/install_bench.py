@@ -147,7 +147,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.install_bench", description=__doc__.split("\n")[0])
     parser.add_argument("--full", action="store_true", help="also the full install (torch, every extra)")
     parser.add_argument("--tests", action="store_true", help="also the quick subset and the full test suite")
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="Markdown report (JSON beside it)")
+    parser.add_argument(
+        "--out", type=Path, default=DEFAULT_OUT, help=f"Markdown report, the JSON beside it (default {DEFAULT_OUT})"
+    )
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)
     from .timing import write_report
