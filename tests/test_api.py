@@ -223,6 +223,8 @@ def test_bad_seeds_and_limits_are_named(tmp_path, capsys):
             env.reset(seed=seed)
     with pytest.raises(ValueError, match="max_cycles must be"):
         env.max_cycles = 0
+    with pytest.raises(ValueError, match=r"max_cycles must be an integer in \[1, 10000000\], got 100000000"):
+        vcs_env.parallel_env(max_cycles=10**8)  # named max_steps, the scenario's field it sets, not the one given
     with pytest.raises(ValueError, match=r"obstacle_speed must be a \(low, high\) pair"):
         vcs_env.make_scenario("crowd", obstacle_speed=1.0)
     vec = gym.make_vec("vcs_env/Circle-v2", num_envs=2)

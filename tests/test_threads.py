@@ -30,6 +30,7 @@ def test_set_threads_default_is_the_usable_cores():
     try:
         assert threads.set_threads() == max(1, min(threads.available_cores(), threads.max_threads()))
         assert threads.set_threads(1) == threads.get_threads() == 1
+        assert threads.set_threads(np.int64(1)) == 1 and type(threads.get_threads()) is int  # numpy integers too
     finally:
         threads.set_threads(old)
 

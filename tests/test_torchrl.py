@@ -250,7 +250,7 @@ def test_expert_action_is_the_engine_expert_for_the_observation(scenario, expert
         ({"n_robots": 0}, "n_robots"),
         ({"action_mode": "fast"}, "action_mode must be one of"),
         ({"expert": "nope"}, "unknown planner 'nope'"),
-        ({"max_steps": 0}, "max_steps must be an integer >= 1"),
+        ({"max_steps": 0}, r"max_steps must be an integer in \[1, 10000000\]"),
         ({"device": "warp-drive"}, "device must be a torch device"),
         ({"device": "meta"}, "the meta device holds no data"),
     ],

@@ -35,7 +35,7 @@ from .rewards import (
     checked_term,
     weighted_sum,
 )
-from .scenario import Scenario, make_scenario, short_time_limit
+from .scenario import MAX_STEPS, Scenario, make_scenario, short_time_limit
 from .sim import Simulator, StepEvents
 from .start_states import StartStates
 from .state import WorldState
@@ -90,9 +90,10 @@ class StepResult:
 
 
 def check_max_steps(value, name: str = "max_steps") -> int:
-    """``value`` as an int if it is an integer >= 1; ``ValueError`` naming ``name`` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+    """``value`` as an int if it is an integer in [1, :data:`~vcs_env.scenario.MAX_STEPS`]; ``ValueError`` naming
+    ``name`` otherwise (the scenario's own check named ``max_steps`` for an env's ``max_cycles``)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_STEPS:
+        raise ValueError(f"{name} must be an integer in [1, {MAX_STEPS}], got {value!r}")
     return int(value)
 
 

@@ -54,6 +54,10 @@ LEAST_LIMIT = 1e-3
 """Least ``RobotSpec.a_max`` [m/s^2] and ``omega_max`` [rad/s]."""
 
 
+MAX_STEPS = 10**7
+"""The longest step limit of an episode (``Scenario.max_steps``, and the envs' own limits)."""
+
+
 @dataclass(frozen=True)
 class RobotSpec:
     """Body and motion limits of every robot of a scenario."""
@@ -239,7 +243,7 @@ class Scenario:
         check_range("r_goal", self.r_goal, 0.0, 1e3, lo_open=True)
         check_range("r_ca", self.r_ca, 0.0, 1e4, lo_open=True)
         check_int("n_neighbors", self.n_neighbors, 1, 64)
-        check_int("max_steps", self.max_steps, 1, 10**7)
+        check_int("max_steps", self.max_steps, 1, MAX_STEPS)
         check_choice("on_collision", self.on_collision, COLLISION_MODES)
         check_range("corridor_width", self.corridor_width, 0.0, 1e3, lo_open=True)
         check_range("door_width", self.door_width, 0.0, 1e3, lo_open=True)

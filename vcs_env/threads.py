@@ -33,6 +33,7 @@ import os
 import types
 
 import numba
+import numpy as np
 from numba import njit
 
 MIN_PARALLEL_BATCH = int(os.environ.get("VCS_ENV_MIN_PARALLEL_BATCH", "128"))
@@ -66,10 +67,10 @@ def set_threads(n: int | None = None) -> int:
     limit = max_threads()
     if n is None:
         n = max(1, min(available_cores(), limit))
-    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= limit:
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= limit:
         raise ValueError(f"set_threads(n): n must be an integer in [1, {limit}] (NUMBA_NUM_THREADS={limit}), got {n!r}")
-    _threads[0] = n
-    return n
+    _threads[0] = int(n)  # numpy integers too, as seeds and step limits
+    return int(n)
 
 
 def get_threads() -> int:
