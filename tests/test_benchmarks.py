@@ -15,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from benchmarks import peers
-from benchmarks.run import SECTIONS, _target
+from benchmarks.run import SECTIONS
+from benchmarks.targets import _target
 from benchmarks.timing import Budget, Missing, fit_exponent, side_by_side
 
 ROOT = Path(__file__).resolve().parents[1]
