@@ -120,13 +120,23 @@ class Checkpoint:
 
     @cached_property
     def record(self) -> dict[str, Any]:
-        """The run record; ``{}`` if there is none (a plain SB3 zip is still loadable)."""
+        """The run record; ``{}`` if there is none (a plain SB3 zip is still loadable).
+
+        Raises:
+            CheckpointError: the record is not valid JSON, or not a JSON object (every door read it as one).
+        """
         if not self.record_path.is_file():
             return {}
         try:
-            return json.loads(self.record_path.read_text())
+            record = json.loads(self.record_path.read_text())
         except (OSError, json.JSONDecodeError) as e:
             raise CheckpointError(f"checkpoint metadata {self.record_path} is not valid JSON: {e}") from None
+        if not isinstance(record, dict):
+            raise CheckpointError(
+                f"checkpoint metadata {self.record_path} is a JSON {type(record).__name__}, not the object of a run "
+                "record: remove it (a plain SB3 zip loads without one) or put the run's model.json there"
+            )
+        return record
 
     @property
     def run_dir(self) -> Path:

@@ -136,8 +136,9 @@ def load_checkpoint(
     except CheckpointError as e:
         if ckpt.record or "observation space" not in str(e):
             raise
+        state = "holds no fields" if ckpt.record_path.is_file() else "is missing"
         raise CheckpointError(
-            f"{e} (no run record beside it: {str(ckpt.record_path)!r} is missing, and a vcs-env run keeps there the "
+            f"{e} (no run record beside it: {str(ckpt.record_path)!r} {state}, and a vcs-env run keeps there the "
             "sensing it was trained with, which would be used instead of the scenario's; copy it beside the checkpoint)"
         ) from None
     except ModuleNotFoundError as e:

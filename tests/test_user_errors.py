@@ -452,3 +452,25 @@ def test_imitation_flags_without_their_partner_are_refused():
             BCConfig(net_arch=arch)
     with pytest.raises(ValueError, match="--start-prob is the share of episodes begun from --start-states"):
         DistilConfig(start_prob=0.3)
+
+
+def test_a_run_record_that_is_not_a_json_object_is_named(tmp_path, capsys):
+    """model.json holding a list or a string crashed every loading door (AttributeError: 'list' object has no
+    attribute 'get'); an empty object was called missing."""
+    import shutil
+
+    from agents.checkpoint import CheckpointError
+
+    run = tmp_path / "run"
+    run.mkdir()
+    shutil.copy("policies/generalist-v2/model.zip", run / "model.zip")
+    for text, kind in (("[1, 2]", "list"), ('"just a string"', "str")):
+        (run / "model.json").write_text(text)
+        with pytest.raises(CheckpointError, match=f"is a JSON {kind}, not the object of a run record"):
+            load_checkpoint(run, "doorway-v0")
+        assert vcs_cli.main(["evaluate", "--suite", "doorway-v0-smoke", "--policy", str(run), "--no-progress"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "\n" not in err and f"is a JSON {kind}" in err
+    (run / "model.json").write_text("{}")
+    with pytest.raises(CheckpointError, match=r"model.json' holds no fields"):
+        load_checkpoint(run, "doorway-v0")  # the scenario's sensing does not fit, and nothing says the trained one
