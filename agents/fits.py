@@ -156,7 +156,10 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
                 diff = f"{json.dumps(saved)} (scenario: {json.dumps(expected, sort_keys=True)})"
             raise CheckpointError(
                 f"{what} was trained with another observation config than scenario kind={scenario.kind!r} gives: "
-                f"{diff} (use a policy trained with this observation config)"
+                f"{diff}: observe as it was trained (its run record's observation: "
+                "vcs_env.observations.with_sensors(scenario, record['observation']), or the scenario's sensing fields "
+                "such as n_wall_points, wall_segments, stall_clock, lidar, n_neighbors; vcs-env evaluate / compare / "
+                "probe do this themselves), or use a policy trained with this observation config"
             )
     check_observation_space(space, scenario, what)
     if saved is None:

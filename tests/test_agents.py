@@ -445,8 +445,9 @@ def test_checkpoint_carries_observation_config_and_scenario_family(tmp_path):
     meta["observation"]["scales"]["goal_ref"] = 20.0
     meta["observation"]["blocks"].append({"name": "wall_points", "items": 4, "fields": ["valid", "x", "y"]})
     (tmp_path / "m.json").write_text(json.dumps(meta))
-    with pytest.raises(CheckpointError, match=r"block 'wall_points': 4 x 3 floats .* \(scenario: absent\)"):
+    with pytest.raises(CheckpointError, match=r"block 'wall_points': 4 x 3 floats .* \(scenario: absent\)") as e:
         load_model(path, circle)
+    assert "observe as it was trained" in str(e.value) and "with_sensors(scenario" in str(e.value)  # the fix, named
     # Observation v1 on a v2 scenario: says how to run it.
     meta["observation"] = observation_config(dataclasses.replace(circle, observation=1))
     (tmp_path / "m.json").write_text(json.dumps(meta))
