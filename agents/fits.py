@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.checks import user_stacklevel
 from vcs_env.observations import (
     EGO_DIM,
     NEIGHBOR_DIM,
@@ -167,7 +168,7 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
             f"{what} has no observation config in its run record (no model.json beside it?): only its "
             "observation size was checked, not what the numbers mean",
             UncheckedWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
     family = meta.get("scenario_family")
     if family and scenario.kind not in family:
@@ -175,7 +176,7 @@ def check_checkpoint_fits(meta: dict[str, Any], space: Any, scenario: Scenario, 
             f"{what} was trained on scenario family {family}, but runs on kind={scenario.kind!r}: "
             "expect it to do worse than on its own family",
             FamilyWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from vcs_env.checks import install_hint
+from vcs_env.checks import install_hint, user_stacklevel
 from vcs_env.observations import sees_walls, with_sensors
 from vcs_env.planning import PLANNERS, Planner, make_planner
 from vcs_env.rollout import Controller, planner_controller
@@ -93,7 +93,11 @@ def _check_action_space(space: Any, what: str) -> None:
 
 
 def load_checkpoint(
-    path: str | os.PathLike | Checkpoint, scenario: Scenario, shield: bool = True, network_only: bool = False
+    path: str | os.PathLike | Checkpoint,
+    scenario: Scenario,
+    shield: bool = True,
+    network_only: bool = False,
+    warn: bool = True,
 ):
     """Load a checkpoint of any format on the CPU and check it fits ``scenario``.
 
@@ -105,6 +109,8 @@ def load_checkpoint(
         network_only: load the network of a residual policy (``vcs-env train --residual``), whose actions are
             corrections of a planner's (:mod:`agents.residual`); without it such a checkpoint is refused, since
             an observation alone does not give the policy's action (:func:`resolve_policy` runs it whole).
+        warn: warn as :func:`warn_misfits` where the policy runs robots of the other kind, or cannot see the
+            scenario's walls (:func:`resolve_policy` has warned already, and passes False).
 
     Returns:
         The loaded model (a ``PolicyPredictor``: ``stable_baselines3.PPO`` or
@@ -146,6 +152,8 @@ def load_checkpoint(
             f"loading the {ckpt.describe()} needs {e.name}; install it with: {install_hint('train')} ({e})"
         ) from None
     _check_action_space(model.action_space, ckpt.describe())
+    if warn:
+        warn_misfits(ckpt, scenario, policy_label(str(ckpt.path)))
     guard = shield_from_record(ckpt.record, str(ckpt.record_path)) if shield else None
     return model if guard is None else ShieldedPredictor(model, guard, scenario)
 
@@ -226,10 +234,23 @@ class RobotKindWarning(UserWarning):
 def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scenario:
     """``scenario``'s worlds observed with the sensing ``ckpt`` was trained with (its run record's
     observation config, :func:`vcs_env.observations.with_sensors`); ``scenario`` itself for a checkpoint
-    without one. Warns (:class:`BlindWarning`) when the worlds have walls the policy cannot see, and
-    (:class:`RobotKindWarning`) when its record names the other robot kind: an action's second number is a
-    turn for unicycles and a sideways change of velocity for holonomic robots."""
-    trained = ckpt.record.get("scenario") if isinstance(ckpt.record, dict) else None
+    without one. Warns as :func:`warn_misfits` (not when the record's sensing cannot be applied: the fit check
+    then refuses the checkpoint, naming what differs)."""
+    config = ckpt.record.get("observation")
+    if isinstance(config, dict):
+        try:
+            scenario = with_sensors(scenario, config)
+        except (ValueError, KeyError, TypeError):
+            return scenario  # left to the fit check, which names what differs
+    warn_misfits(ckpt, scenario, label)
+    return scenario
+
+
+def warn_misfits(ckpt: Checkpoint, scenario: Scenario, label: str) -> None:
+    """Warn (:class:`RobotKindWarning`) when ``ckpt``'s record names the other robot kind than ``scenario``'s (an
+    action's second number is a turn for unicycles and a sideways change of velocity for holonomic robots), and
+    (:class:`BlindWarning`) when ``scenario`` (as the policy observes it) has walls the policy cannot see."""
+    trained = ckpt.record.get("scenario")
     trained = trained.get("robot") if isinstance(trained, dict) else None
     trained = trained.get("holonomic") if isinstance(trained, dict) else None
     if isinstance(trained, bool) and trained != scenario.robot.holonomic:
@@ -239,27 +260,20 @@ def sensed_as_trained(ckpt: Checkpoint, scenario: Scenario, label: str) -> Scena
             f"{kinds[scenario.robot.holonomic]} ones here: its second action means {second[trained]} to it and "
             f"{second[scenario.robot.holonomic]} to these robots",
             RobotKindWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
-    config = ckpt.record.get("observation") if isinstance(ckpt.record, dict) else None
-    if isinstance(config, dict):
-        try:
-            scenario = with_sensors(scenario, config)
-        except (ValueError, KeyError, TypeError):
-            pass  # left to the fit check, which names what differs
     if blind(scenario):
         seen = (
             "its observation has no lidar or wall-point block"
-            if isinstance(config, dict)
+            if isinstance(ckpt.record.get("observation"), dict)
             else "no run record names its sensing, so it runs with this scenario's, which has no lidar or wall points"
         )
         warnings.warn(
             f"policy {label!r} cannot see walls ({seen}), but kind={scenario.kind!r} has walls: expect it to drive "
             "into them",
             BlindWarning,
-            stacklevel=3,
+            stacklevel=user_stacklevel(),
         )
-    return scenario
 
 
 def resolve_policy(
@@ -306,7 +320,7 @@ def resolve_policy(
             )
         label = name or policy_label(str(policy))
         scenario = sensed_as_trained(ckpt, scenario, label)
-        model = load_checkpoint(ckpt, scenario, shield, network_only=True)
+        model = load_checkpoint(ckpt, scenario, shield, network_only=True, warn=False)
         guard = dataclasses.asdict(model.shield) if isinstance(model, ShieldedPredictor) else None
         controller = predictor_controller(model, deterministic, label)
         resolved = ResolvedPolicy(label, controller, "checkpoint", guard, scenario=scenario)

@@ -6,6 +6,7 @@ import dataclasses
 import json
 import shutil
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -35,8 +36,9 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
         return json.dumps([{k: v for k, v in row.items() if "decision" not in k} for row in res.rows])
 
     assert episodes(evaluate("vcs", other)) == episodes(evaluate("vcs", suite))
+    doorway = get_suite("doorway-v0-smoke").scenario
     with pytest.warns(BlindWarning, match="'circle8' cannot see walls .* kind='doorway' has walls"):
-        resolve_policy("policies/circle8/model.zip", get_suite("doorway-v0-smoke").scenario)
+        resolve_policy("policies/circle8/model.zip", doorway)
     # Without its run record the sensing is the scenario's, and the warning says so (the size check then refuses it).
     bare = tmp_path / "bare" / "model.zip"
     bare.parent.mkdir()
@@ -50,6 +52,21 @@ def test_a_checkpoint_runs_with_the_sensing_it_was_trained_with_and_warns_among_
     with warnings.catch_warnings():
         warnings.simplefilter("error", RobotKindWarning)
         resolve_policy("policies/circle8/model.zip", suite.scenario)
+    # load_checkpoint, the door of one's own loop, warns the same (it said nothing of the robot kind or the walls)
+    from agents.policies import load_checkpoint
+
+    with pytest.warns(RobotKindWarning, match="trained on unicycle robots"):
+        load_checkpoint("policies/circle8/model.zip", dataclasses.replace(holonomic, observation=1))
+    with pytest.warns(BlindWarning, match="'circle8' cannot see walls"):
+        load_checkpoint("policies/circle8/model.zip", dataclasses.replace(doorway, observation=1))
+    # A record whose sensing cannot be applied is refused by the fit check, with no blind warning before it
+    record = json.loads(Path("policies/circle8/model.json").read_text())
+    record["observation"]["version"] = 9
+    (bare.parent / "model.json").write_text(json.dumps(record))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BlindWarning)
+        with pytest.raises(ValueError, match="reads observation v9"):
+            resolve_policy(str(bare), doorway)
 
 
 def test_among_walls_the_v2_goal_features_follow_the_route_and_v1_reads_the_straight_goal():

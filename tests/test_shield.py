@@ -488,9 +488,9 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert not shield_from_record({"shield": {**record_before, "brake_backup": True}}).robots_stand
     plain = Shield(still_margin=0.02, driving_guard=False, keep_turn=False, brake_backup=False, robots_stand=False)
     assert describe_shield(dataclasses.asdict(plain)).endswith("still bodies 0.02 m")
-    for bad in ("[1, 2]", "{}"):
+    for bad, said in (("[1, 2]", "is a JSON list, not the object of a run"), ("{}", "has no run record to keep")):
         model.with_suffix(".json").write_text(bad)
-        with pytest.raises(ValueError, match="has no run record to keep the shield in"):
+        with pytest.raises(ValueError, match=said):
             attach_shield(model, Shield())
     model.with_suffix(".json").unlink()
     with pytest.raises(ValueError, match="has no run record"):
