@@ -104,3 +104,22 @@ def test_a_commands_warnings_are_one_line_each_naming_the_command():
     shown = warnings.formatwarning
     assert vcs_cli.main(["rollout", "--scenario", "swap", "--n-robots", "2", "--max-steps", "5"]) == 0
     assert warnings.formatwarning is shown  # put back for the rest of the process
+
+
+def test_evaluate_writes_its_json_even_when_the_reader_of_its_table_has_gone(tmp_path, monkeypatch):
+    """``vcs-env evaluate ... --json F | head -1``: the table's printing meets a closed pipe (the command stops quietly,
+    as command-line tools do), and F was not written though the command exited 0."""
+    import json
+    import sys
+
+    import vcs_cli.evaluate as cli_evaluate
+
+    def closed(res):
+        raise BrokenPipeError
+
+    monkeypatch.setattr(cli_evaluate, "_print_summary", closed)
+    monkeypatch.setattr(sys, "stdout", sys.stdout)  # main() drops stdout after a closed pipe: restored after the test
+    out = tmp_path / "res.json"
+    argv = ["evaluate", "--scenario", "circle", "--seeds", "1000:1002", "--policy", "vcs", "--no-progress"]
+    assert vcs_cli.main([*argv, "--json", str(out)]) == 0
+    assert out.is_file() and len(json.loads(out.read_text())["episodes"]) == 2

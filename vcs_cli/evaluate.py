@@ -96,10 +96,11 @@ def cmd_evaluate(args) -> int:
         progress=False if args.no_progress else None,
         shield=not args.no_shield,
     )
-    _print_summary(res)
-    if args.json:
+    if args.json:  # before the table: output piped into a reader that closes early (head) stops the printing
         with open(args.json, "w") as f:
             json.dump(res.to_dict(), f, indent=1, allow_nan=False)
+    _print_summary(res)
+    if args.json:
         print(f"wrote {args.json}")
     return 0
 
