@@ -326,6 +326,8 @@ class Shield:
                 f"{np.shape(obs)} and {np.shape(actions)}"
             )
         act = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
+        if not len(act):  # no row (no active robot): nothing to filter (a reshape of zero rows cannot infer D)
+            return act.reshape(*lead, 2), np.zeros(lead, dtype=bool)
         o = np.asarray(obs).reshape(act.shape[0], -1)
         if o.shape[1] != layout.dim:
             raise ValueError(f"the shield reads observations of length {layout.dim} (its layout), got {o.shape[1]}")

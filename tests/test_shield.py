@@ -420,6 +420,9 @@ def test_counters_count_the_active_robots_only():
     assert (guard.replaced, guard.decisions) == (6, 6)
     with pytest.raises(ValueError, match="leading shape"):
         guard.predict(obs, active=np.ones(3, dtype=bool))
+    # No row drives (every robot finished): the network's actions, nothing counted (a reshape of zero rows raised)
+    actions, _ = guard.predict(obs, active=np.zeros(4, dtype=bool))
+    assert np.array_equal(actions, [[1.0, 0.0]] * 4) and (guard.replaced, guard.decisions) == (6, 6)
 
 
 def test_record_round_trip_and_cli(tmp_path, capsys):
