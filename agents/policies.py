@@ -332,6 +332,11 @@ def resolve_policy(
         return ResolvedPolicy(name or policy, planner_controller(planner, action_mode), "planner")
     if callable(getattr(policy, "predict", None)):
         label = name or getattr(policy, "name", None) or type(policy).__name__
+        if isinstance(policy, ShieldedPredictor) and action_mode != "delta":  # as a checkpoint path is refused
+            raise ValueError(
+                f"{label!r} is a shielded policy, whose shield reads its actions in delta mode; --action-mode "
+                f"{action_mode} would read them in other units"
+            )
         if getattr(policy, "observation_space", None) is not None:
             check_observation_space(policy.observation_space, scenario, f"policy {label!r}")
         guard = dataclasses.asdict(policy.shield) if isinstance(policy, ShieldedPredictor) else None  # as for a path

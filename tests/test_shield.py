@@ -13,7 +13,7 @@ import pytest
 from agents.checkpoint import attach_shield
 from agents.evaluate import evaluate
 from agents.evaluate.report import describe_shield
-from agents.policies import load_checkpoint
+from agents.policies import load_checkpoint, resolve_policy
 from agents.shield import GRID, LEVELS, SAMPLE, Shield, ShieldedPredictor, shield_from_record
 from vcs_cli import main
 from vcs_env.observations import EGO_DIM, observation_dim, observation_layout, observe
@@ -420,6 +420,9 @@ def test_counters_count_the_active_robots_only():
     assert (guard.replaced, guard.decisions) == (6, 6)
     with pytest.raises(ValueError, match="leading shape"):
         guard.predict(obs, active=np.ones(3, dtype=bool))
+    # A shielded object in absolute mode is refused, as the checkpoint by path is (its shield reads delta units)
+    with pytest.raises(ValueError, match="shielded policy, whose shield reads its actions in delta mode"):
+        resolve_policy(guard, SCENARIOS["dynamic"], action_mode="absolute")
     # No row drives (every robot finished): the network's actions, nothing counted (a reshape of zero rows raised)
     actions, _ = guard.predict(obs, active=np.zeros(4, dtype=bool))
     assert np.array_equal(actions, [[1.0, 0.0]] * 4) and (guard.replaced, guard.decisions) == (6, 6)
@@ -449,8 +452,6 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert action.shape == (2,) and action.dtype == np.float32 and shielded.replaced == shielded.decisions == 1
     np.testing.assert_array_equal(action, Shield(horizon=1.0, margin=0.2).filter(obs, network, V1)[0])
     # Given as the loaded object, the evaluation records its shield as it does for the path.
-    from agents.policies import resolve_policy
-
     for given in (shielded, model):
         guard = resolve_policy(given, scenario, "delta", True, "g", True).shield
         assert guard == dataclasses.asdict(Shield(horizon=1.0, margin=0.2))
