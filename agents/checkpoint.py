@@ -120,11 +120,8 @@ class Checkpoint:
 
     @cached_property
     def record(self) -> dict[str, Any]:
-        """The run record; ``{}`` if there is none (a plain SB3 zip is still loadable).
-
-        Raises:
-            CheckpointError: the record is not valid JSON, or not a JSON object (every door read it as one).
-        """
+        """The run record; ``{}`` if there is none (a plain SB3 zip is still loadable); a ``CheckpointError`` if it
+        is not valid JSON, or not a JSON object (every door reads it as one)."""
         if not self.record_path.is_file():
             return {}
         try:
@@ -132,10 +129,8 @@ class Checkpoint:
         except (OSError, json.JSONDecodeError) as e:
             raise CheckpointError(f"checkpoint metadata {self.record_path} is not valid JSON: {e}") from None
         if not isinstance(record, dict):
-            raise CheckpointError(
-                f"checkpoint metadata {self.record_path} is a JSON {type(record).__name__}, not the object of a run "
-                "record: remove it (a plain SB3 zip loads without one) or put the run's model.json there"
-            )
+            what = f"checkpoint metadata {self.record_path} is a JSON {type(record).__name__}"
+            raise CheckpointError(f"{what}, not a run record (an object): remove it, or put the run's model.json there")
         return record
 
     @property
@@ -471,22 +466,17 @@ def load_model(checkpoint: str | os.PathLike | Checkpoint, scenario: Scenario | 
         scenario: if given, the policy must fit this scenario (:func:`check_checkpoint_fits`:
             same observation config, else :class:`CheckpointError`; another scenario family
             gives a :class:`FamilyWarning`).
-        env: optional VecEnv to attach (for continuing SB3 training).
-        device: torch device.
+        env, device: a VecEnv to attach (to continue SB3 training), the torch device.
 
     Raises:
-        CheckpointError: missing, corrupt, saved by another SB3 algorithm than PPO, made for
-            observation v0, or for another observation config.
+        CheckpointError: missing, corrupt, not PPO, made for observation v0 or another observation config.
     """
     return open_checkpoint(checkpoint).load(scenario, env, device)
 
 
 def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario) -> dict[str, Any]:
-    """Copy the policy weights of ``checkpoint`` into ``model.policy`` (``train --init``).
-
-    The architecture must match (same ``net_arch``); a mismatch raises :class:`CheckpointError`
-    naming the differing tensors. Returns the checkpoint's run record.
-    """
+    """Copy the policy weights of ``checkpoint`` into ``model.policy`` (``train --init``) and return its run record;
+    the architecture must match (a :class:`CheckpointError` names the differing tensors and the checkpoint's flags)."""
     ckpt = open_checkpoint(checkpoint)
     src = ckpt.load(scenario)
     if not hasattr(src, "policy"):
@@ -496,11 +486,8 @@ def load_policy_weights(model, checkpoint: str | os.PathLike, scenario: Scenario
         k for k in set(theirs) | set(ours) if k not in theirs or k not in ours or theirs[k].shape != ours[k].shape
     )
     if diff:
-
-        def shape(d, k):
-            return tuple(d[k].shape) if k in d else "missing"
-
-        detail, net = ", ".join(f"{k}: {shape(theirs, k)} vs {shape(ours, k)}" for k in diff[:4]), network_of(src)
+        shapes = [tuple(d[k].shape) if k in d else "missing" for k in diff[:4] for d in (theirs, ours)]
+        detail, net = ", ".join(f"{k}: {a} vs {b}" for k, a, b in zip(diff, shapes[::2], shapes[1::2])), network_of(src)
         raise CheckpointError(
             f"checkpoint {str(checkpoint)!r} has another policy architecture than this run "
             f"(checkpoint vs run: {detail}); use the same --net-arch and --features (the checkpoint's: "

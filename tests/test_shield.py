@@ -404,8 +404,7 @@ def test_a_wall_point_ahead_counts_like_a_still_point():
 
 
 def test_counters_count_the_active_robots_only():
-    """Told which rows drive (as the harness does), the shield judges and counts only those; rows of
-    finished robots keep the network's action."""
+    """Told which rows drive (as the harness does), the shield judges and counts only those; others keep the action."""
 
     class Ahead:  # full speed ahead, whatever it sees
         def predict(self, observation, state=None, episode_start=None, deterministic=False):
@@ -414,18 +413,16 @@ def test_counters_count_the_active_robots_only():
     guard = ShieldedPredictor(Ahead(), Shield(), SCENARIOS["dynamic"])
     obs = np.stack([_obs(1.0, [(1.2, 0.0, 0.0, 0.0, 0.25, 0.0)])] * 4)  # each unsafe at full speed
     actions, _ = guard.predict(obs, active=np.array([True, False, True, False]))
-    assert (guard.replaced, guard.decisions) == (2, 2)
-    assert np.array_equal(actions[[1, 3]], [[1.0, 0.0]] * 2) and not np.array_equal(actions[0], [1.0, 0.0])
-    guard.predict(obs)  # not told: every row counts
+    assert (guard.replaced, guard.decisions) == (2, 2) and np.array_equal(actions[[1, 3]], [[1.0, 0.0]] * 2)
+    assert not np.array_equal(actions[0], [1.0, 0.0])
+    guard.predict(obs)  # not told: every row counts; none drives: the network's actions (a zero-row reshape raised)
     assert (guard.replaced, guard.decisions) == (6, 6)
+    assert np.array_equal(guard.predict(obs, active=np.zeros(4, dtype=bool))[0], [[1.0, 0.0]] * 4)
     with pytest.raises(ValueError, match="leading shape"):
         guard.predict(obs, active=np.ones(3, dtype=bool))
-    # A shielded object in absolute mode is refused, as the checkpoint by path is (its shield reads delta units)
     with pytest.raises(ValueError, match="shielded policy, whose shield reads its actions in delta mode"):
-        resolve_policy(guard, SCENARIOS["dynamic"], action_mode="absolute")
-    # No row drives (every robot finished): the network's actions, nothing counted (a reshape of zero rows raised)
-    actions, _ = guard.predict(obs, active=np.zeros(4, dtype=bool))
-    assert np.array_equal(actions, [[1.0, 0.0]] * 4) and (guard.replaced, guard.decisions) == (6, 6)
+        resolve_policy(guard, SCENARIOS["dynamic"], action_mode="absolute")  # refused as its checkpoint by path is
+    assert (guard.replaced, guard.decisions) == (6, 6)
 
 
 def test_record_round_trip_and_cli(tmp_path, capsys):
@@ -492,13 +489,10 @@ def test_record_round_trip_and_cli(tmp_path, capsys):
     assert not shield_from_record({"shield": {**record_before, "brake_backup": True}}).robots_stand
     plain = Shield(still_margin=0.02, driving_guard=False, keep_turn=False, brake_backup=False, robots_stand=False)
     assert describe_shield(dataclasses.asdict(plain)).endswith("still bodies 0.02 m")
-    for bad, said in (("[1, 2]", "is a JSON list, not the object of a run"), ("{}", "has no run record to keep")):
-        model.with_suffix(".json").write_text(bad)
+    for bad, said in (("[1, 2]", "is a JSON list, not a run record"), ("{}", "no run record"), (None, "no run record")):
+        model.with_suffix(".json").write_text(bad) if bad else model.with_suffix(".json").unlink()
         with pytest.raises(ValueError, match=said):
             attach_shield(model, Shield())
-    model.with_suffix(".json").unlink()
-    with pytest.raises(ValueError, match="has no run record"):
-        attach_shield(model, Shield())
     holonomic = dataclasses.replace(scenario, robot=dataclasses.replace(scenario.robot, holonomic=True))
     with pytest.raises(ValueError, match="holonomic"):
         ShieldedPredictor(None, Shield(), holonomic)

@@ -466,7 +466,7 @@ def test_a_run_record_that_is_not_a_json_object_is_named(tmp_path, capsys):
     shutil.copy("policies/generalist-v2/model.zip", run / "model.zip")
     for text, kind in (("[1, 2]", "list"), ('"just a string"', "str")):
         (run / "model.json").write_text(text)
-        with pytest.raises(CheckpointError, match=f"is a JSON {kind}, not the object of a run record"):
+        with pytest.raises(CheckpointError, match=f"is a JSON {kind}, not a run record"):
             load_checkpoint(run, "doorway-v0")
         assert vcs_cli.main(["evaluate", "--suite", "doorway-v0-smoke", "--policy", str(run), "--no-progress"]) == 2
         err = capsys.readouterr().err.strip()
