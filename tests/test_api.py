@@ -358,8 +358,13 @@ def test_registered_ids_fix_their_observation_version():
         lambda: pettingzoo.make("parallel", "vcs_env/VcsNav-v1", observation=2),
         lambda: pettingzoo.make("aec", vcs_env.PZ_ID, observation=1),
     ):
-        with pytest.raises(ValueError, match="the id fixes the version"):
+        with pytest.raises(ValueError, match=r"was given to a -v\d id, which fixes observation version \d: use the"):
             make()
+    with pytest.raises(ValueError, match=r"use the -v2 id of the same name \(vcs_env/<Name>-v2"):
+        gym.make("vcs_env/Swap-v1", observation=2)  # the twin of the id used, not Navigation (another preset)
+    for bad in (3, 0, None, "2", 2.0, True):  # no version at all: the scenario's own check names it, as before
+        with pytest.raises(ValueError, match=r"observation must be an integer in \[1, 2\]"):
+            gym.make("vcs_env/Navigation-v2", observation=bad)
     # gym.make still reads the entry point's render modes (the rgb_array_list collection wrapper)
     assert type(gym.make("vcs_env/Navigation-v2", render_mode="rgb_array_list")).__name__ == "RenderCollection"
 

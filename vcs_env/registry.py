@@ -12,6 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 import gymnasium
+import numpy as np
 import pettingzoo
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -23,17 +24,20 @@ VERSIONS = (2, 1)
 
 
 def pin_observation(kwargs: dict, version: int) -> dict:
-    """``kwargs`` of an env made from a ``-v{version}`` id, with ``observation = version``.
+    """``kwargs`` of an env made from a ``-v{version}`` id, with ``observation = version``; a value that is no
+    observation version is left for the env's own check to name.
 
     Raises:
-        ValueError: ``kwargs`` ask for another observation version.
+        ValueError: ``kwargs`` ask for the other observation version.
     """
     given = kwargs.get("observation", version)
-    if isinstance(given, bool) or given != version:
+    if isinstance(given, bool) or not isinstance(given, (int, np.integer)) or given not in VERSIONS:
+        return kwargs  # not a version at all: the scenario's check says what it must be
+    if given != version:
         raise ValueError(
-            f"observation={given!r} was given to an id of observation version {version} (-v{version}): the id fixes "
-            "the version; use the id of the version you want (vcs_env/Navigation-v1 or -v2, vcs_env/VcsNav-v1 or "
-            "-v2) and leave observation= out"
+            f"observation={given} was given to a -v{version} id, which fixes observation version {version}: use the "
+            f"-v{given} id of the same name (vcs_env/<Name>-v{given}, vcs_env/VcsNav-v{given}) and leave "
+            "observation= out"
         )
     return {**kwargs, "observation": version}
 
