@@ -422,11 +422,10 @@ def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str
         raise ValueError(
             f"{str(checkpoint)!r} is a {ckpt.format} checkpoint; shields are kept in the run records of SB3 ones"
         )
-    record = ckpt.record
-    if not isinstance(record, dict) or not record:
+    record = ckpt.record  # an object (Checkpoint.record refuses any other JSON)
+    if not record:
         raise ValueError(
-            f"{str(ckpt.path)!r} has no run record to keep the shield in ({ckpt.record_path.name} is missing, empty "
-            "or not a JSON object)"
+            f"{str(ckpt.path)!r} has no run record to keep the shield in ({ckpt.record_path.name} is missing or empty)"
         )
     before = record.pop("shield", None)
     if shield is not None:

@@ -14,10 +14,9 @@ from typing import Any
 import gymnasium
 import numpy as np
 import pettingzoo
-from pettingzoo.utils.conversions import parallel_to_aec
 
 from .gym_env import VcsNavEnv, VcsNavVectorEnv
-from .parallel import VcsNavParallelEnv
+from .parallel import VcsNavParallelEnv, raw_env
 
 VERSIONS = (2, 1)
 """Observation versions with registered ids (``-v2``, ``-v1``)."""
@@ -51,18 +50,14 @@ def _pinned(factory: Callable[..., Any], version: int, metadata: dict) -> Callab
     return make
 
 
-def _aec(**kwargs):
-    return parallel_to_aec(VcsNavParallelEnv(**kwargs))
-
-
 gym_v2 = _pinned(VcsNavEnv, 2, VcsNavEnv.metadata)
 gym_v1 = _pinned(VcsNavEnv, 1, VcsNavEnv.metadata)
 vector_v2 = _pinned(VcsNavVectorEnv, 2, VcsNavVectorEnv.metadata)
 vector_v1 = _pinned(VcsNavVectorEnv, 1, VcsNavVectorEnv.metadata)
 parallel_v2 = _pinned(VcsNavParallelEnv, 2, VcsNavParallelEnv.metadata)
 parallel_v1 = _pinned(VcsNavParallelEnv, 1, VcsNavParallelEnv.metadata)
-aec_v2 = _pinned(_aec, 2, VcsNavParallelEnv.metadata)
-aec_v1 = _pinned(_aec, 1, VcsNavParallelEnv.metadata)
+aec_v2 = _pinned(raw_env, 2, VcsNavParallelEnv.metadata)
+aec_v1 = _pinned(raw_env, 1, VcsNavParallelEnv.metadata)
 
 
 def register(gym_ids: dict[str, str], pz_id: str) -> None:

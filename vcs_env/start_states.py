@@ -124,6 +124,13 @@ def npz_path(path: str | Path) -> Path:
     return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
 
 
+def saved_npz(path: str | Path) -> Path:
+    """The file a ``.npz`` written as ``path`` is in: ``path`` itself if it is a file, else :func:`npz_path` of it if
+    that one is (a name given without ``.npz``), else ``path`` (for the caller's missing-file message)."""
+    path = Path(path)
+    return npz_path(path) if not path.is_file() and npz_path(path).is_file() else path
+
+
 @dataclass
 class StartStates:
     """Pools per scenario and the probability that a reset world starts from one.
@@ -178,9 +185,7 @@ class StartStates:
             ValueError: no such file, or a file that is not a readable start-state ``.npz``
                 (both named).
         """
-        path = Path(path)
-        if not path.is_file() and npz_path(path).is_file():
-            path = npz_path(path)
+        path = saved_npz(path)
         if not path.is_file():
             raise ValueError(f"no start-state file {str(path)!r} (make one with vcs-env collect-states)")
         try:

@@ -39,7 +39,7 @@ import numpy as np
 
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
-from vcs_env.start_states import StartStates, npz_path
+from vcs_env.start_states import StartStates, npz_path, saved_npz
 
 from ..config import check_out_file
 from ..mixture import mixture_split
@@ -180,9 +180,7 @@ def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, 
 def load_dataset(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """``(arrays, meta)`` of a dataset (``path``, or ``path`` with ``.npz`` added, as :func:`save_dataset` and numpy
     write a name without it); ``ValueError`` naming the problem if it is not one."""
-    path = Path(path)
-    if not path.is_file() and npz_path(path).is_file():
-        path = npz_path(path)
+    path = saved_npz(path)
     if path.is_dir():
         raise ValueError(f"dataset {str(path)!r} is a directory; give the .npz file vcs-env collect wrote")
     if not path.is_file():
