@@ -28,9 +28,12 @@ from .state import WorldState
 ACTION_MODES = ("delta", "absolute")
 
 
-def check_actions(actions, shape: tuple[int, ...], what: str = "actions") -> np.ndarray:
+def check_actions(
+    actions, shape: tuple[int, ...], what: str = "actions", ignored: np.ndarray | None = None
+) -> np.ndarray:
     """Return ``actions`` as float64 of ``shape``; raise ``ValueError`` naming ``what`` on anything
-    but real numbers (complex, strings), on a wrong shape, NaN or inf."""
+    but real numbers (complex, strings), on a wrong shape, NaN or inf. ``ignored`` ``(shape[0],)``
+    bool: rows no one steps with (a vector env's worlds that auto-reset), set to 0 instead of checked."""
     try:
         raw = np.asarray(actions)
         if actions is None or raw.dtype.kind not in "biufO":
@@ -40,6 +43,8 @@ def check_actions(actions, shape: tuple[int, ...], what: str = "actions") -> np.
         raise ValueError(f"{what} must be real numbers of shape {shape}, got {actions!r} ({e})") from None
     if arr.shape != shape:
         raise ValueError(f"{what} must have shape {shape}, got {arr.shape}")
+    if ignored is not None:
+        arr[ignored] = 0.0
     if not np.isfinite(arr).all():
         raise ValueError(f"{what} must be finite, got {arr[~np.isfinite(arr)][:4]} (NaN or inf)")
     return arr

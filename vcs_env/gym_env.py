@@ -151,7 +151,7 @@ class VcsNavVectorEnv(VectorEnv):
 
     Autoreset: ``AutoresetMode.NEXT_STEP`` (``metadata["autoreset_mode"]``), as
     ``SyncVectorEnv``: the step after a world's episode ended returns that world's first
-    observation of a new episode with reward 0, and its action is ignored.
+    observation of a new episode with reward 0, and its action is ignored (not checked: it may be NaN).
     ``reset(options={"reset_mask": mask})`` resets only the worlds in ``mask`` ``(num_envs,)``
     bool. SB3 drives it through :class:`agents.gym_vec.GymVectorToSB3`.
 
@@ -254,7 +254,8 @@ class VcsNavVectorEnv(VectorEnv):
         return self._obs.copy(), info
 
     def step(self, actions):
-        arr = check_actions(actions, (self.num_envs, 2))
+        # A world that auto-resets in this call does not step with its action (as in SyncVectorEnv): not checked.
+        arr = check_actions(actions, (self.num_envs, 2), ignored=self._autoreset)
         eng = self.engine
         if self.others is not None:
             batch = _others_actions(self.others, eng, self._others_mask)
