@@ -16,12 +16,14 @@ Semantics of a slot (a robot's episode inside its world's episode):
   ``info["TimeLimit.truncated"]`` (True only for a time-out, so SB3 bootstraps the value of
   the terminal observation), ``info["episode"] = {"r", "l", "t", "success", "collision",
   "reached", "time_to_goal"}`` and ``info["is_success"]`` (SB3's ``ep_info_buffer`` and
-  ``ep_success_buffer`` then work without a ``VecMonitor``). Do not add one, nor score with SB3's
-  ``evaluate_policy``: both count every ``done`` as an episode, and padding segments (below) end
-  with ``done=True`` too; ``VecMonitor`` also overwrites ``info["episode"]``. Score policies with
-  :mod:`agents.evaluate`. ``VecNormalize`` would count the padding slots' zero observations in
-  its statistics, and :mod:`agents.evaluate` feeds policies raw observations (the observations
-  are already scaled to [-1, 1], :mod:`vcs_env.observations`): train without it.
+  ``ep_success_buffer`` then work without a ``VecMonitor``). Do not add one: it counts every ``done``
+  as an episode, and padding segments (below) end with ``done=True`` too, and it overwrites
+  ``info["episode"]`` (SB3 warns that it overwrites Monitor statistics: the slots say they are
+  Monitor-wrapped). SB3's ``evaluate_policy`` counts robot episodes by ``info["episode"]`` for
+  that reason; score policies with :mod:`agents.evaluate` (success, collisions, time to goal).
+  ``VecNormalize`` would count the padding slots' zero observations in its statistics, and
+  :mod:`agents.evaluate` feeds policies raw observations (the observations are already scaled to
+  [-1, 1], :mod:`vcs_env.observations`): train without it.
 * **padding**: after its robot ended and until its world resets (other robots still drive), and
   from the start for a robot that had already finished in a saved state the world starts from,
   the slot returns an all-zero observation, zero reward, ``done=False`` and
@@ -52,6 +54,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
 from vcs_env.checks import check_reset_options
@@ -88,7 +91,10 @@ class SharedSlots(VecEnv):
         return [result for _ in self._get_indices(indices)]
 
     def env_is_wrapped(self, wrapper_class, indices: VecEnvIndices = None) -> list[bool]:
-        return [False for _ in self._get_indices(indices)]
+        """True for SB3's ``Monitor`` alone: each slot reports its robot's episode as ``Monitor`` does
+        (``info["episode"]`` with ``r``, ``l`` and ``t`` at a robot's end; none where a padding segment ends), so
+        SB3's ``evaluate_policy`` counts robot episodes by it instead of every ``done``."""
+        return [wrapper_class is Monitor for _ in self._get_indices(indices)]
 
     def set_options(self, options: list[dict] | dict | None = None) -> None:
         """SB3's options of the next reset: none is read, so any is refused (``ValueError``) here, not at the reset."""
