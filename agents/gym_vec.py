@@ -19,7 +19,10 @@ single envs (same seeds, same actions, same numbers)::
 
 ``info`` per env: ``terminal_observation`` and ``TimeLimit.truncated`` on the step an episode
 ends (wrap in ``VecMonitor`` for episode returns and lengths); the vector env's own batched
-info is not unpacked.
+info is not unpacked. Keep episode statistics outside the adapter (``VecMonitor``), not inside
+it: Gymnasium's ``SyncVectorEnv`` and ``AsyncVectorEnv`` take ``reset_mask`` out of the reset's
+options, so its vector ``RecordEpisodeStatistics`` between them and the adapter never sees the
+mask and restarts every env's totals at each reset.
 """
 
 from __future__ import annotations

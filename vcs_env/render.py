@@ -1,6 +1,8 @@
 """Rendering: pygame frames (``human`` window or ``rgb_array``), text (``ansi``), GIF/MP4 writers
 and a matplotlib trajectory plot. pygame, Pillow, imageio and matplotlib are imported lazily
-(the ``render`` extra); headless machines need ``SDL_VIDEODRIVER=dummy``.
+(the ``render`` extra); headless machines need ``SDL_VIDEODRIVER=dummy``. Gymnasium's own
+``RecordVideo`` wrapper writes with moviepy, which the extra does not install (``pip install moviepy``);
+``vcs-env rollout --gif``/``--video`` and :func:`write_video` use imageio.
 """
 
 from __future__ import annotations
