@@ -105,6 +105,8 @@ def test_metadata_and_gymnasium_vector_wrappers():
 
 def test_bad_input_raises_clear_errors():
     env = make("vector_entry_point", num_envs=2)
+    with pytest.raises(RuntimeError, match=r"before the first reset\(\); call reset\(\) first"):
+        env.step(np.zeros((2, 2)))
     env.reset(seed=0)
     with pytest.raises(ValueError, match=r"shape \(2, 2\)"):
         env.step(np.zeros((3, 2)))

@@ -254,6 +254,10 @@ class VcsNavVectorEnv(VectorEnv):
         return self._obs.copy(), info
 
     def step(self, actions):
+        never = [b for b, rng in enumerate(self._world_rngs) if rng is None]
+        if never:
+            said = "the first reset()" if len(never) == self.num_envs else f"worlds {never} were ever reset"
+            raise RuntimeError(f"step() called before {said}; call reset() first")
         # A world that auto-resets in this call does not step with its action (as in SyncVectorEnv): not checked.
         arr = check_actions(actions, (self.num_envs, 2), ignored=self._autoreset)
         eng = self.engine
