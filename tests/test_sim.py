@@ -462,3 +462,24 @@ def test_long_episodes_draw_a_bounded_obstacle_script():
     )
     sim.reset(0)
     assert sim.motion_params["switch"].shape[-1] == MAX_PERIODS
+
+
+def test_a_world_field_replaced_with_another_shape_is_named_not_read_past_its_end():
+    """Robots may be moved by hand between steps (WorldState's docstring); a field given another shape was read by the
+    kernels past its end (a robot stepped to 1e-322, or planned from a goal it does not have)."""
+    from baselines.vcs import VCSPlanner
+
+    sim = Simulator(vcs_env.make_scenario("swap"))
+    sim.reset(0)
+    sim.world.check_shapes()  # a world as the simulator makes it fits
+    good = sim.world.copy()
+    sim.world.pos = sim.world.pos[:, :1].copy()  # one robot of two
+    with pytest.raises(ValueError, match=r"WorldState.heading must be an array of shape \(1, 1\), got shape \(1, 2\)"):
+        sim.step(np.zeros((1, 2, 2)))
+    wrong_goal = dataclasses.replace(good, goal=good.goal[:, :1].copy())
+    with pytest.raises(ValueError, match=r"WorldState.goal must be an array of shape \(1, 2, 2\), got shape \(1, 1, 2"):
+        VCSPlanner().plan(wrong_goal)
+    with pytest.raises(ValueError, match=r"WorldState.speed must be an array of shape \(1, 2\), got a list"):
+        dataclasses.replace(good, speed=[0.0, 0.0]).check_shapes()
+    with pytest.raises(ValueError, match=r"WorldState.obs_pos must be an array of shape \(B, m, 2\), got shape \(3,\)"):
+        dataclasses.replace(good, obs_pos=np.zeros(3)).check_shapes()

@@ -348,6 +348,7 @@ class Simulator:
         if self._needs_reset.any():
             raise RuntimeError(f"worlds {np.flatnonzero(self._needs_reset).tolist()} must be reset before step()")
         s, w = self.scenario, self.world
+        w.check_shapes()  # fields replaced by hand (WorldState's docstring)
         B, n = self.batch_size, s.n_robots
         actions = check_actions(actions, (B, n, 2))
         acted = w.active.copy()

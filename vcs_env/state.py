@@ -7,6 +7,8 @@ deleted. Planners read this (privileged) state; learned policies see observation
 from __future__ import annotations
 
 import dataclasses
+import functools
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,6 +58,34 @@ class WorldState:
             self.seg_a, self.seg_b = np.zeros((B, 0, 2)), np.zeros((B, 0, 2))
             self.seg_present = np.zeros((B, 0), dtype=bool)
 
+    def check_shapes(self) -> None:
+        """A ``ValueError`` naming the first array field whose shape does not fit the others: ``pos`` ``(B, n, 2)``
+        sets ``B`` and ``n``, ``obs_pos`` ``(B, m, 2)`` sets ``m`` and ``seg_present`` ``(B, s)`` sets ``s`` (the
+        other shapes in the field comments). The compiled kernels index every array by these sizes, so a field
+        replaced by hand with another shape would be read past its end. About a microsecond: the simulator's
+        step and the VCS planner's plan check it every time (robots may be moved by hand between steps)."""
+        try:
+            clock = None if self.clock is None else self.clock.shape
+            sizes = (*self.pos.shape[:2], self.obs_pos.shape[1], self.seg_present.shape[1], clock is not None)
+            if [a.shape for a in _ARRAYS(self)] + [clock] == _wanted(sizes):
+                return
+        except (AttributeError, IndexError):
+            pass
+        for name in ("pos", "obs_pos", "seg_present"):  # the sizes
+            value = getattr(self, name)
+            if not isinstance(value, np.ndarray) or value.ndim != len(_SHAPES[name]):
+                raise ValueError(f"WorldState.{name} must be an array of shape {_SIZED[name]}, got {_described(value)}")
+        sizes = (*self.pos.shape[:2], self.obs_pos.shape[1], self.seg_present.shape[1])
+        dims = dict(zip("Bnms", sizes), **{"2": 2, "6": 6})
+        for name in _FIELDS + (("clock",) if self.clock is not None else ()):
+            value, want = getattr(self, name), tuple(dims[c] for c in _SHAPES[name])
+            if not isinstance(value, np.ndarray) or value.shape != want:
+                raise ValueError(
+                    f"WorldState.{name} must be an array of shape {want}, got {_described(value)} (B={sizes[0]} worlds "
+                    f"and n={sizes[1]} robots from pos {self.pos.shape}, m={sizes[2]} obstacles from obs_pos, "
+                    f"s={sizes[3]} wall segments from seg_present)"
+                )
+
     def saved_arrays(self) -> dict[str, np.ndarray]:
         """The per-world arrays a saved state holds (:mod:`vcs_env.start_states`): :meth:`arrays` without
         the stall clock (a restored world starts a new clock, as the expert's memory starts afresh when a world
@@ -99,3 +129,29 @@ class WorldState:
     def world(self, b: int) -> WorldState:
         """World ``b`` alone, as a batch of one (arrays copied)."""
         return dataclasses.replace(self, **{f: v[b : b + 1].copy() for f, v in self.arrays().items()})
+
+
+_SHAPES = {
+    "pos": "Bn2", "obs_pos": "Bm2", "seg_present": "Bs", "time": "B", "steps": "B", "key": "B", "heading": "Bn",
+    "speed": "Bn", "radius": "Bn", "goal": "Bn2", "v_max": "Bn", "a_max": "Bn", "omega_max": "Bn", "active": "Bn",
+    "present": "Bn", "reached": "Bn", "collided": "Bn", "obs_vel": "Bm2", "obs_radius": "Bm", "seg_a": "Bs2",
+    "seg_b": "Bs2", "clock": "Bn6",
+}  # fmt: skip
+"""The shape of each array field (:meth:`WorldState.check_shapes`): ``B`` worlds, ``n`` robots, ``m`` obstacles, ``s``
+wall segments; ``2`` a point's coordinates, ``6`` the stall clock's entries."""
+_FIELDS = tuple(_SHAPES)[:-1]
+"""The fields :meth:`WorldState.check_shapes` compares (the clock, which may be None, apart)."""
+_ARRAYS = operator.attrgetter(*_FIELDS)
+_SIZED = {"pos": "(B, n, 2)", "obs_pos": "(B, m, 2)", "seg_present": "(B, s)"}
+
+
+@functools.cache
+def _wanted(sizes: tuple[int, int, int, int, bool]) -> tuple:
+    """The shapes of :data:`_FIELDS` for sizes ``(B, n, m, s, a clock is kept)``, then the clock's (None: not kept)."""
+    dims = dict(zip("Bnms", sizes[:4]), **{"2": 2, "6": 6})
+    return [*(tuple(dims[c] for c in _SHAPES[f]) for f in _FIELDS), (*sizes[:2], 6) if sizes[4] else None]
+
+
+def _described(value) -> str:
+    """``value`` in an error message: an array's shape, else its type."""
+    return f"shape {value.shape}" if isinstance(value, np.ndarray) else f"a {type(value).__name__}"

@@ -291,6 +291,7 @@ class VCSPlanner(Planner):
         """Targets ``(B, n, 2)`` of every robot, or only of ``robots`` ``(n,)`` bool (the others'
         rows keep their speed and heading, and their ``last`` entries are those of a robot
         that is done; the robots planned get the same targets either way)."""
+        world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
         if robots is not None:
             robots = robots_mask(world, robots)
         # The same state asked again (the env's expert action, then a policy that follows it) is planned once:
