@@ -90,3 +90,28 @@ def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monk
     monkeypatch.undo()
     assert cli.main(["train", "--n-robots", "2", "--timesteps", "10", "--out", str(afile)]) == 2
     assert "is a file: give a directory for the run" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "kw, message",
+    [
+        ({"seeds": [1.7]}, r"each seed must be an integer in \[0, \d+\], got 1.7"),  # it ran seed 1
+        ({"seeds": "12"}, "seeds must be a sequence of integers"),  # it ran seeds 1 and 2
+        ({"seeds": 3}, "seeds must be a sequence of integers"),
+        ({"seeds": [1, 2], "batch_size": 0}, r"batch_size must be an integer in \[1, "),  # it ran batches of 1
+        ({"seeds": [1, 2], "batch_size": 1.9}, r"batch_size must be an integer in \[1, "),
+        ({"seeds": [1, 2], "render_worlds": [5]}, r"render_worlds \(an index into seeds\) must be an integer"),
+        ({"seeds": [1, 2], "render_worlds": [-1]}, r"must be an integer in \[0, 1\], got -1"),  # it rendered nothing
+        ({"seeds": [1], "render_worlds": [0], "render_size": -10}, r"render_size \[px\] must be an integer"),
+    ],
+)
+def test_run_episodes_refuses_what_it_would_convert_or_clip(kw, message):
+    with pytest.raises(ValueError, match=message):
+        run_episodes(make_scenario("circle", n_robots=2), planner_controller("straight"), **kw)
+
+
+def test_planner_controller_takes_a_name_and_refuses_what_is_no_planner():
+    episode = run_episodes(make_scenario("circle", n_robots=2, max_steps=5), planner_controller("straight"), [0])[0]
+    assert episode.steps == 5
+    with pytest.raises(TypeError, match="planner must be a Planner or a planner's name, got int"):
+        planner_controller(3)

@@ -21,7 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .checks import check_int
 from .engine import NavEngine, StepResult
+from .planning import make_planner
 from .scenario import Scenario
 from .start_states import StartStates
 from .state import WorldState
@@ -348,10 +350,21 @@ def run_episodes(
     Returns:
         Episodes, in the order of ``seeds``.
     """
-    seeds = [int(s) for s in seeds]
+    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, Iterable):
+        raise ValueError(f"seeds must be a sequence of integers, one per episode, got {seeds!r}")
+    seeds = list(seeds)
     if not seeds:
         raise ValueError("seeds must not be empty")
-    bs = len(seeds) if batch_size is None else max(1, min(int(batch_size), len(seeds)))
+    for s in seeds:
+        check_int("each seed", s, 0, 2**63 - 1)
+    seeds = [int(s) for s in seeds]
+    if batch_size is not None:
+        check_int("batch_size", batch_size, 1, 2**31)
+    bs = len(seeds) if batch_size is None else min(int(batch_size), len(seeds))
+    for i in render_worlds:
+        check_int("each of render_worlds (an index into seeds)", i, 0, len(seeds) - 1)
+    if len(render_worlds):
+        check_int("render_size [px]", render_size, 1, 16384)
     recorder = EpisodeRecorder()
     frames = FrameRecorder(scenario.view_extent, render_worlds, render_size) if len(render_worlds) else None
     all_hooks = [recorder, *([frames] if frames else []), *hooks]
@@ -366,7 +379,12 @@ def run_episodes(
 
 
 def planner_controller(planner, action_mode: str = "delta") -> Controller:
-    """A controller from a :class:`~vcs_env.planning.Planner` (privileged state)."""
+    """A controller from a :class:`~vcs_env.planning.Planner` (privileged state), or a planner's name
+    (:func:`vcs_env.planning.make_planner`)."""
+    if isinstance(planner, str):
+        planner = make_planner(planner)
+    elif not callable(getattr(planner, "act", None)):
+        raise TypeError(f"planner must be a Planner or a planner's name, got {type(planner).__name__}")
 
     def control(world: WorldState, obs: np.ndarray) -> np.ndarray:
         return planner.act(world, action_mode)
