@@ -1,5 +1,6 @@
 """Contacts explained: who touched whom, at fault or not, on hand-made episodes."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -102,3 +103,30 @@ def test_episodes_without_the_record_have_no_fault_metrics():
     assert math.isnan(metrics.episode_metrics(ep)["at_fault_collision"])
     with pytest.raises(ValueError, match="robot_hits"):
         contact_events(ep)
+
+
+def test_a_hand_made_episode_that_disagrees_with_itself_is_named():
+    """``contact_events`` checks the episode as the metrics do (a position record one step short gave no contact at
+    all), and a step of 0 s is refused by both (it divided by zero)."""
+    pos = [[[0.0, 0], [0.6, 0]], [[0.05, 0], [0.6, 0]], [[0.1, 0], [0.6, 0]], [[0.12, 0], [0.6, 0]]]
+    hits = np.zeros((3, 2, 2), bool)
+    hits[1:, 0, 1] = hits[1:, 1, 0] = True
+    ep = episode(pos, np.zeros((4, 0, 2)), hits, np.zeros((3, 2, 0)), [[1, 0]] * 3, [-1, 0])
+    assert len(contact_events(ep)) == 2
+    with pytest.raises(ValueError, match=r"Episode.pos has shape \(3, 2, 2\), expected \(4, 2, 2\)"):
+        contact_events(dataclasses.replace(ep, pos=ep.pos[:-1]))
+    for call in (contact_events, metrics.episode_metrics):
+        with pytest.raises(ValueError, match=r"Episode.dt must be a step length > 0 \[s\], got 0.0"):
+            call(dataclasses.replace(ep, dt=0.0))
+
+
+def test_intervals_refuse_counts_that_are_none():
+    for bad in (0, -3, 1.5, True):
+        with pytest.raises(ValueError, match="df must be an integer >= 1"):
+            metrics.t95(bad)  # 0 and -3 read the table from its end (2.042, 2.052)
+    with pytest.raises(ValueError, match=r"successes must lie in \[0, n\] = \[0, 10\], got 12"):
+        metrics.wilson_interval(12, 10)  # a math domain error
+    with pytest.raises(ValueError, match="n must be a count of episodes"):
+        metrics.wilson_interval(5, -1)  # (6.27, -1.40)
+    with pytest.raises(ValueError, match=r"every row must have the same metrics: row 1 has \['success'\]"):
+        metrics.aggregate([{"success": 1.0, "jerk": 0.1}, {"jerk": 0.2}])  # a bare KeyError: 'success'

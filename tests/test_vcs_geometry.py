@@ -366,3 +366,19 @@ def test_the_planners_obstacles_are_the_numpy_oracles_bit_for_bit(motion):
         assert turned > 30  # the obstacles turn (and the rule turns their velocities) in most steps
     else:
         assert resting > 0  # movers at rest, and starting again (no turn is read from a standstill)
+
+
+def test_evaluate_refuses_a_world_a_robot_or_points_that_are_not_there():
+    from vcs_env.sim import Simulator
+
+    sim = Simulator(vcs_env.make_scenario("swap"))
+    sim.reset(0)
+    planner = VCSPlanner()
+    with pytest.raises(ValueError, match=r"b \(a world of the batch\) must be an integer in \[0, 0\], got 5"):
+        planner.evaluate(sim.world, 5, 0, [0.0], [0.0])  # a ZeroDivisionError inside the kernel
+    with pytest.raises(ValueError, match=r"i \(a robot of the world\) must be an integer in \[0, 1\], got 7"):
+        planner.evaluate(sim.world, 0, 7, [0.0], [0.0])
+    with pytest.raises(ValueError, match=r"dv and dth must have one shape \(one point each\), got \(3,\) and \(1,\)"):
+        planner.evaluate(sim.world, 0, 0, [0.0, 0.1, 0.2], [0.0])  # read dth past its end
+    ok, cost, _ = planner.evaluate(sim.world, 0, 1, [0.0, 0.1], [0.0, 0.0])
+    assert ok.shape == cost.shape == (2,)

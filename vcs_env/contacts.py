@@ -71,10 +71,11 @@ def contact_events(ep: Episode) -> list[Contact]:
     """Every contact of the episode, by step, then robot, then other body.
 
     Raises:
-        ValueError: the episode was recorded without the hit matrices.
+        ValueError: the episode was recorded without the hit matrices, or its arrays disagree (:meth:`Episode.check`).
     """
     if ep.robot_hits is None or ep.obstacle_hits is None:
         raise ValueError("this episode has no robot_hits/obstacle_hits record: contacts cannot be explained")
+    ep.check()
     n, m = ep.n_robots, len(ep.obs_radius)
     parts = [ep.robot_hits, ep.obstacle_hits]
     if ep.wall_hits is not None and ep.wall_hits.shape[-1]:

@@ -362,7 +362,12 @@ def episode_metrics(ep: Episode) -> dict[str, float]:
 
 
 def wilson_interval(successes: float, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval of a rate."""
+    """95 % Wilson score interval of a rate: ``successes`` in ``[0, n]`` (a count, or a sum of per-episode rates) of
+    ``n >= 0`` episodes (``n = 0``: NaN bounds); ``z`` the normal quantile (1.96 for 95 %)."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise ValueError(f"n must be a count of episodes (an integer >= 0), got {n!r}")
+    if not 0.0 <= successes <= n:
+        raise ValueError(f"successes must lie in [0, n] = [0, {n}], got {successes!r}")
     if n == 0:
         return (math.nan, math.nan)
     p = successes / n
@@ -382,6 +387,8 @@ errors)."""
 def t95(df: int) -> float:
     """Student's t quantile 0.975 for ``df`` >= 1 degrees of freedom: :data:`T95`, then ``1.96 + 2.37 / df`` (within
     0.004 of the exact value beyond 30; 1.96 in the limit)."""
+    if isinstance(df, bool) or not isinstance(df, (int, np.integer)) or df < 1:
+        raise ValueError(f"df must be an integer >= 1 (degrees of freedom), got {df!r}")
     return T95[df - 1] if df <= len(T95) else 1.959964 + 2.37 / df
 
 
@@ -402,6 +409,12 @@ def aggregate(
     if not rows:
         return out
     keys = list(rows[0])
+    for i, r in enumerate(rows):
+        if set(r) != set(keys):
+            raise ValueError(
+                f"every row must have the same metrics: row {i} has {sorted(set(r) ^ set(keys))} where row 0 "
+                "differs (rows of episode_metrics with other metric sets, or of other planners' extra metrics)"
+            )
     mask = np.ones(len(rows), dtype=bool) if solved_mask is None else np.asarray(solved_mask, dtype=bool)
     if mask.shape != (len(rows),):
         raise ValueError(f"solved_mask must have one entry per row ({len(rows)}), got shape {mask.shape}")

@@ -71,8 +71,11 @@ class Episode:
 
     def check(self) -> None:
         """A ``ValueError`` naming the first array whose shape disagrees with the episode's ``T`` steps, ``n`` robots
-        and ``m`` obstacles (from ``actions``, ``pos`` and ``obs_radius``), as a hand-made episode may; the metrics
-        check it first (a mismatch failed deep in numpy, or gave a wrong value silently)."""
+        and ``m`` obstacles (from ``actions``, ``pos`` and ``obs_radius``), or a step ``dt`` that is not > 0, as a
+        hand-made episode may; the metrics and the contacts check it first (a mismatch failed deep in numpy, or gave
+        a wrong value silently)."""
+        if not (isinstance(self.dt, (int, float, np.integer, np.floating)) and self.dt > 0 and np.isfinite(self.dt)):
+            raise ValueError(f"Episode.dt must be a step length > 0 [s], got {self.dt!r}")
         T, n, m = len(self.actions), (np.shape(self.pos) + (-1, -1))[1], len(self.obs_radius)
         s = None if self.segments is None else len(self.segments)
         want = {"pos": (T + 1, n, 2), "radius": (n,), "goal": (n, 2), "heading": (T + 1, n), "speed": (T + 1, n),

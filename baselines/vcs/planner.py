@@ -7,6 +7,7 @@ import operator
 
 import numpy as np
 
+from vcs_env.checks import check_int
 from vcs_env.geometry import rotate
 from vcs_env.planning import Planner, robots_mask
 from vcs_env.routes import route_direction
@@ -363,11 +364,20 @@ class VCSPlanner(Planner):
         """Admissibility and cost of arbitrary VCS points of robot ``i`` in world ``b`` at this
         state (same inputs as :meth:`plan`); for tests and plots.
 
+        Args:
+            world, b, i: the state, a world ``0 <= b < B`` and a robot ``0 <= i < n`` of it.
+            dv, dth: the VCS points, changes of speed [m/s] and of heading [rad], ``(k,)`` each (or any one shape,
+                read flat).
+
         Returns:
             ``admissible`` (k,) bool, ``cost`` (k,), ``horizon`` (2 n + m + s,) [s] per sensed object:
             robots, obstacles, the static twin of each arriving robot, then wall segments (inf: not sensed;
             the twins of ``stopping_obstacles`` are not reported).
         """
+        check_int("b (a world of the batch)", b, 0, world.batch_size - 1)
+        check_int("i (a robot of the world)", i, 0, world.n_robots - 1)
+        if np.shape(dv) != np.shape(dth):
+            raise ValueError(f"dv and dth must have one shape (one point each), got {np.shape(dv)} and {np.shape(dth)}")
         self.plan(world)  # memory and inputs of this state
         kworld = self._kernel_world(world)
         own, comm, detour = self._inputs(world, kworld)
