@@ -21,6 +21,7 @@ import inspect
 import json
 import os
 import shlex
+import tempfile
 import textwrap
 import types
 import typing
@@ -295,6 +296,25 @@ def check_out_file(
             raise PermissionError(f"{path!r} is not writable")
     except OSError as e:
         raise ValueError(f"{flag} {path!r} cannot be written ({e.strerror or e})") from None
+
+
+def check_out_dir(path: str | os.PathLike, flag: str = "--out", what: str = "the report") -> None:
+    """Before any work: a one-line ``ValueError`` if the output directory ``path`` of ``flag`` is a file, lies under
+    a file, or cannot be written in (a file cannot be made in the nearest directory on its path that exists; that
+    is where the directory will be made). Nothing is left behind: the test file is removed, no directory made."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"{flag} {str(path)!r} is a file: give a directory for {what}")
+    blocked = next((q for q in p.parents if q.exists() and not q.is_dir()), None)
+    if blocked is not None:
+        raise ValueError(f"{flag} {str(path)!r} lies under {str(blocked)!r}, a file: give a directory for {what}")
+    base = next(q for q in (p, *p.parents) if q.exists())
+    try:
+        with tempfile.TemporaryFile(dir=base):
+            pass
+    except OSError as e:
+        where = "" if base == p else f" (nothing can be made in {str(base)!r})"
+        raise ValueError(f"{flag} {str(path)!r} cannot be written{where}: {e.strerror or e}") from None
 
 
 def parse_seeds(text: str) -> tuple[int, ...]:

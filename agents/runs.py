@@ -27,7 +27,7 @@ from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 from vcs_env.start_states import StartStates
 
-from .config import FEATURES, ScenarioConfig, config_command
+from .config import FEATURES, ScenarioConfig, check_out_dir, config_command
 
 
 @dataclass
@@ -294,15 +294,12 @@ RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl",
 
 
 def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False, resume=None) -> None:
-    """A one-line ``ValueError`` when ``out`` is a file, or already holds a run's files: a new run there would replace
+    """A one-line ``ValueError`` when ``out`` is a file or cannot be written (:func:`~agents.config.check_out_dir`), or
+    already holds a run's files: a new run there would replace
     its model and append its evaluations to the other run's (``resume_hint``: name ``--resume``, for a run that can go
     on). A run resumed from the checkpoint ``resume`` may go on in that checkpoint's own run directory, nowhere else
     that holds a run."""
-    if Path(out).exists() and not Path(out).is_dir():
-        raise ValueError(f"--out {str(out)!r} is a file: give a directory for the run")
-    blocked = next((p for p in Path(out).parents if p.exists() and not p.is_dir()), None)
-    if blocked is not None:  # found only when the model was saved, after the training
-        raise ValueError(f"--out {str(out)!r} lies under {str(blocked)!r}, a file: give a directory for the run")
+    check_out_dir(out, "--out", "the run")  # a file, or a path under one, found only when the model was saved
     if resume is not None and Path(out).resolve() == resume.run_dir.resolve():
         return
     held = [f for f in RUN_FILES if (Path(out) / f).exists()]

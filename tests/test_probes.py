@@ -45,7 +45,7 @@ def test_a_probe_out_that_is_a_file_is_refused_before_any_episode(tmp_path, caps
     args = ["probe", "--policies", "vcs", "--families", "circle", "--episodes", "1", "--no-progress"]
     assert cli.main([*args, "--out", str(tmp_path / "table.zip")]) == 2
     captured = capsys.readouterr()
-    assert "is a file; give a directory" in captured.err and "circle" not in captured.out  # no table: no episode run
+    assert "is a file: give a directory" in captured.err and "circle" not in captured.out  # no table: no episode run
 
 
 def test_bad_probe_requests_are_named():

@@ -86,7 +86,7 @@ def test_cli_output_paths_are_checked_before_the_episodes(tmp_path, capsys, monk
     afile = tmp_path / "afile"
     afile.write_text("")
     assert cli.main(["compare", "--suite", "circle-8-v0-smoke", "--policies", "vcs", "--out", str(afile)]) == 2
-    assert "is a file; give a directory" in capsys.readouterr().err
+    assert "is a file: give a directory" in capsys.readouterr().err
     monkeypatch.undo()
     assert cli.main(["train", "--n-robots", "2", "--timesteps", "10", "--out", str(afile)]) == 2
     assert "is a file: give a directory for the run" in capsys.readouterr().err

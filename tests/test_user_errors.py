@@ -474,3 +474,24 @@ def test_a_run_record_that_is_not_a_json_object_is_named(tmp_path, capsys):
     (run / "model.json").write_text("{}")
     with pytest.raises(CheckpointError, match=r"model.json' holds no fields"):
         load_checkpoint(run, "doorway-v0")  # the scenario's sensing does not fit, and nothing says the trained one
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["collect", "--scenario", "circle", "--n-robots", "2", "--episodes", "2", "--out", "/proc/vcs-env-x.npz"],
+        ["compare", "--suite", "circle-8-v0-smoke", "--policies", "vcs", "--out", "/proc/vcs-env-x"],
+        ["evaluate", "--suite", "circle-8-v0-smoke", "--policy", "vcs", "--json", "/proc/vcs-env-x.json"],
+        ["train", "--n-robots", "2", "--timesteps", "10", "--out", "/proc/vcs-env-x"],
+    ],
+)
+def test_outputs_that_cannot_be_written_are_refused_before_the_work(args, capsys, monkeypatch):
+    """collect, compare and evaluate --json ran every episode and then failed with a PermissionError traceback; train
+    failed with one before training. (/proc takes no new file, even from root, who may write in a chmod 555
+    directory.)"""
+    from vcs_env import rollout
+
+    monkeypatch.setattr(rollout, "play", lambda *a, **k: pytest.fail("episodes were run"))
+    assert vcs_cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert f"{args[-2]} {args[-1]!r} cannot be written" in err and "Traceback" not in err

@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 import shlex
 from dataclasses import asdict
-from pathlib import Path
 
 from agents import shield
 from agents.checkpoint import attach_shield, open_checkpoint
@@ -25,6 +24,7 @@ from agents.config import (
     SCENARIO_FLAGS,
     ScenarioConfig,
     add_config_args,
+    check_out_dir,
     check_out_file,
     config_from_args,
     parse_seeds,
@@ -87,7 +87,7 @@ def episodes_of(args) -> Suite:
 
 
 def cmd_evaluate(args) -> int:
-    check_out_file(args.json, "--json")
+    check_out_file(args.json, "--json", writable=True)
     res = evaluate(
         args.policy,
         episodes_of(args),
@@ -128,12 +128,6 @@ def cmd_compare(args) -> int:
     print("\n".join(table_lines(comp)))
     print(f"wrote {len(files)} files to {args.out} (results.md, results.json{', plots' if not args.no_plots else ''})")
     return 0
-
-
-def check_out_dir(out) -> None:
-    """Refuse an ``--out`` that is a file before the episodes are run, not after them."""
-    if Path(out).exists() and not Path(out).is_dir():
-        raise ValueError(f"--out {str(out)!r} is a file; give a directory for the report")
 
 
 def cmd_probe(args) -> int:

@@ -94,7 +94,7 @@ def collect(cfg: CollectConfig) -> Path:
             f"--shaping {cfg.shaping} shapes PPO's reward; a dataset keeps the scenario's own reward (vcs-env bc "
             "rebuilds its scenario without shaping): collect without it"
         )
-    check_out_file(cfg.out, "--out", new=True)
+    check_out_file(cfg.out, "--out", new=True, writable=True)
     scenarios = scenarios_of(cfg, cfg.mixture)
     if cfg.episodes < len(scenarios):
         raise ValueError(

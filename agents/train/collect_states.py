@@ -113,7 +113,7 @@ def collect_states(cfg: StatesConfig) -> StartStates:
         raise ValueError(f"before must be finite times > 0 [s], got {cfg.before}")
     if not (math.isfinite(cfg.danger_time) and cfg.danger_time >= 0):
         raise ValueError(f"danger_time must be a finite time >= 0 [s], got {cfg.danger_time}")
-    check_out_file(cfg.out, "--out", new=True)
+    check_out_file(cfg.out, "--out", new=True, writable=True)
     scenarios = scenarios_of(cfg, cfg.mixture)
     ckpt = open_checkpoint(cfg.policy)
     sensed = [sensed_as_trained(ckpt, sc, str(cfg.policy)) for sc in scenarios]  # the policy's own sensing
