@@ -94,24 +94,6 @@ def test_early_finisher_padding_truncation_and_autoreset():
     assert venv.live_mask().all()
 
 
-def test_sb3_evaluate_policy_counts_robot_episodes_not_padding():
-    """A slot reports its robot's episode as SB3's Monitor does, and says so (``env_is_wrapped(Monitor)``):
-    ``evaluate_policy`` then counts episodes by ``info["episode"]``, not by every ``done`` (a padding segment
-    ends with done=True too, with no reward: it was counted as an episode of return 0)."""
-    from stable_baselines3.common.evaluation import evaluate_policy
-    from stable_baselines3.common.monitor import Monitor
-
-    class Throttle:
-        def predict(self, obs, state=None, episode_start=None, deterministic=True):
-            return np.tile(FULL_THROTTLE, (len(obs), 1)), None
-
-    venv = NavVecEnv(two_robot_scenario(), n_worlds=2)
-    assert venv.env_is_wrapped(Monitor) == [True] * 4 and venv.env_is_wrapped(NavVecEnv) == [False] * 4
-    returns, lengths = evaluate_policy(Throttle(), venv, n_eval_episodes=8, return_episode_rewards=True)
-    assert sorted(lengths) == [9] * 4 + [15] * 4  # robot_0 arrives after 9 steps, robot_1 times out at 15
-    assert 0.0 not in returns
-
-
 def test_head_on_collision_ends_both_slots_with_collision_flag():
     s = make_scenario("circle", n_robots=2, layout_radius=1.0, max_steps=50)  # on_collision="terminate"
     venv = NavVecEnv(s, n_worlds=1)

@@ -1,4 +1,4 @@
-"""Conformance with the PettingZoo and Gymnasium APIs, through their own checkers."""
+"""Conformance with the PettingZoo, Gymnasium and SB3 APIs, through their own checkers and tools."""
 
 import json
 import pickle
@@ -387,3 +387,28 @@ def test_pettingzoo_registry():
     aec = pettingzoo.make("aec", vcs_env.PZ_ID, scenario="swap")
     aec.reset(seed=0)
     assert aec.agent_selection == "robot_0"
+
+
+def test_sb3_evaluate_policy_counts_robot_episodes_not_padding():
+    """A slot reports its robot's episode as SB3's Monitor does, and says so (``env_is_wrapped(Monitor)``):
+    ``evaluate_policy`` then counts episodes by ``info["episode"]``, not by every ``done`` (a padding segment
+    ends with done=True too, with no reward: it was counted as an episode of return 0)."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3.common.evaluation import evaluate_policy
+    from stable_baselines3.common.monitor import Monitor
+
+    from agents.vec_env import NavVecEnv
+
+    full_throttle = np.array([1.0, 0.0], dtype=np.float32)
+
+    class Throttle:
+        def predict(self, obs, state=None, episode_start=None, deterministic=True):
+            return np.tile(full_throttle, (len(obs), 1)), None
+
+    # robot_0 starts 0.3 m from its goal (arrives after 9 full-throttle steps), robot_1 5 m (times out at 15)
+    layout = vcs_env.CustomLayout(start=((0.0, 0.0), (0.0, 3.0)), goal=((0.3, 0.0), (5.0, 3.0)))
+    venv = NavVecEnv(vcs_env.make_scenario("custom", custom=layout, n_robots=2, max_steps=15), n_worlds=2)
+    assert venv.env_is_wrapped(Monitor) == [True] * 4 and venv.env_is_wrapped(NavVecEnv) == [False] * 4
+    returns, lengths = evaluate_policy(Throttle(), venv, n_eval_episodes=8, return_episode_rewards=True)
+    assert sorted(lengths) == [9] * 4 + [15] * 4  # robot_0 arrives after 9 steps, robot_1 times out at 15
+    assert 0.0 not in returns
