@@ -31,12 +31,13 @@ import dataclasses
 import json
 import os
 import re
+import warnings
 import zipfile
 from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar
 
-from vcs_env.checks import install_hint
+from vcs_env.checks import install_hint, user_stacklevel
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -50,7 +51,9 @@ from .fits import check_checkpoint_fits as check_checkpoint_fits
 from .fits import check_observation_space as check_observation_space
 from .predictors import BenchMARLPolicy as BenchMARLPolicy
 from .predictors import RLlibPolicy as RLlibPolicy
-from .runs import network_of, run_record
+from .runs import config_path as config_path
+from .runs import network_of
+from .runs import save_model as save_model
 
 RAY_HINT = f"{install_hint('rllib')} (after torch, see the README)"
 """How to install Ray RLlib, for error messages."""
@@ -390,6 +393,13 @@ def open_checkpoint(spec: str | os.PathLike | Checkpoint) -> Checkpoint:
         raise CheckpointError(f"{str(path)!r} is a dataset (vcs-env collect's .npz), not a checkpoint ({ACCEPTED})")
     if path.suffix == ".json" and path.is_file():  # an exported policy's layout, say: it exists, so not "not found"
         raise CheckpointError(f"{str(path)!r} is a JSON file, not a checkpoint (expected {ACCEPTED})")
+    kept = [c.path for fmt in FORMATS for c in fmt.in_run(path)] if path.is_dir() else []
+    kept += [p for p in [path / "best_model.zip"] if p.is_file()]
+    if kept:  # a run stopped before its final model (Ctrl-C, a time limit): name what it left
+        raise CheckpointError(
+            f"{str(path)!r} holds no final model (a run stopped before its end?); pass one of what it kept: "
+            f"{', '.join(repr(str(p)) for p in kept[-3:])} (or vcs-env train --resume {str(path)!r} to finish it)"
+        )
     raise CheckpointError(f"checkpoint not found: {str(path)!r} (expected {ACCEPTED})")
 
 
@@ -404,16 +414,26 @@ def latest_checkpoint(spec: str | os.PathLike) -> Checkpoint:
     found = [c for fmt in FORMATS for c in fmt.in_run(path)]
     if not found:
         return open_checkpoint(path)  # the run directory's own error: not found, with every form
-    return max(reversed(found), key=lambda c: c.timesteps)
+    ranked = sorted(reversed(found), key=lambda c: c.timesteps, reverse=True)  # stable: the final one on a tie
+    whole = next((c for c in ranked if _whole(c)), ranked[0])  # none whole: the newest, for its own error
+    if whole is not ranked[0]:
+        warnings.warn(
+            f"{ranked[0].describe()} is incomplete (a run stopped while saving it?): going on from {whole}",
+            stacklevel=user_stacklevel(),
+        )
+    return whole
+
+
+def _whole(ckpt: Checkpoint) -> bool:
+    """Does ``ckpt`` have a run record that is a JSON object, and (SB3) a zip that is a zip archive?"""
+    try:
+        zipped = ckpt.format != "sb3" or zipfile.is_zipfile(ckpt.path)
+        return ckpt.record_path.is_file() and bool(ckpt.record) and zipped
+    except CheckpointError:
+        return False
 
 
 # --------------------------------------------------------------------------- checks
-def config_path(checkpoint: str | os.PathLike) -> Path:
-    """The run record beside an SB3 zip (``model.zip`` -> ``model.json``)."""
-    p = Path(checkpoint)
-    return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
-
-
 def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str, Any] | None:
     """Write ``shield`` (an :class:`agents.shield.Shield`) into the run record of ``checkpoint`` (None removes
     it); return the shield the record held before (its JSON object), or None."""
@@ -435,27 +455,6 @@ def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str
 
 
 # --------------------------------------------------------------------------- SB3 and RLlib
-def save_model(
-    model,
-    path: str | os.PathLike,
-    kind: str,
-    config: Any,
-    scenario: Scenario,
-    family: list[str] | None = None,
-    **extra: Any,
-) -> Path:
-    """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its run record beside it
-    (:func:`agents.runs.run_record`; ``extra``: more JSON-able entries). Returns the ``.zip`` path."""
-    path = Path(path)
-    if path.suffix != ".zip":
-        path = path.with_name(path.name + ".zip")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    model.save(str(path))
-    meta = run_record(kind, config, scenario, family, getattr(model, "num_timesteps", 0), **extra)
-    config_path(path).write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
-    return path
-
-
 def load_model(checkpoint: str | os.PathLike | Checkpoint, scenario: Scenario | None = None, env=None, device="cpu"):
     """Load a checkpoint of any format (:func:`open_checkpoint`), checking it first.
 

@@ -11,6 +11,7 @@ the scenario family, the config and the command that rebuilds it. No torch impor
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import shutil
@@ -312,6 +313,40 @@ def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False, resume=No
             f"--out {str(out)!r} already holds a run ({', '.join(held)}): a new run there would replace its model and "
             f"mix its logs with this one's; give another --out, or remove that one first{other}"
         )
+
+
+def config_path(checkpoint: str | os.PathLike) -> Path:
+    """The run record beside an SB3 zip (``model.zip`` -> ``model.json``)."""
+    p = Path(checkpoint)
+    return p.with_suffix(".json") if p.suffix == ".zip" else p.with_name(p.name + ".json")
+
+
+def save_model(
+    model,
+    path: str | os.PathLike,
+    kind: str,
+    config: Any,
+    scenario: Scenario,
+    family: list[str] | None = None,
+    **extra: Any,
+) -> Path:
+    """Save ``model`` (an SB3 PPO) to ``path`` (``.zip``) and its run record beside it
+    (:func:`run_record`; ``extra``: more JSON-able entries). Returns the ``.zip`` path. Both are written under
+    another name and then renamed into place, the record first: a run stopped while it saves (Ctrl-C, a killed job)
+    leaves the checkpoint before it whole, and at most a record without its zip, which no one takes for a
+    checkpoint (a half-written zip, or one without its record, stopped ``--resume``)."""
+    path = Path(path)
+    if path.suffix != ".zip":
+        path = path.with_name(path.name + ".zip")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    record = config_path(path)
+    part, record_part = path.with_name(path.name + ".part"), record.with_name(record.name + ".part")
+    model.save(str(part))  # SB3 keeps a name's own suffix
+    meta = run_record(kind, config, scenario, family, getattr(model, "num_timesteps", 0), **extra)
+    record_part.write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
+    os.replace(record_part, record)
+    os.replace(part, path)
+    return path
 
 
 def run_command(kind: str, cfg: Any) -> str:

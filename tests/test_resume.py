@@ -218,3 +218,46 @@ def test_an_eval_suite_is_observed_as_the_run_observes(tmp_path, capsys):
     assert main([*args.split(), "--out", str(out)]) == 0, capsys.readouterr().err
     logged = json.loads((out / "model.json").read_text())["history"][-1]["suite"]
     assert logged["success"] == evaluate(str(out / "model.zip"), "circle-8-v0-smoke").summary["success"]["mean"]
+
+
+def test_ctrl_c_saves_a_checkpoint_to_go_on_from_and_a_half_saved_one_is_passed_over(tmp_path, monkeypatch, capsys):
+    """Ctrl-C during training printed a long traceback and kept nothing since the last periodic checkpoint; and a run
+    stopped while saving left a half-written newest checkpoint (or a zip without its record) that --resume stopped
+    on. Now the interrupt saves one and says how to go on; a save writes its files under other names, then renames
+    them; --resume passes over an incomplete newest checkpoint with a warning; evaluate names what a run kept."""
+    import warnings
+
+    from stable_baselines3 import PPO
+
+    from agents.checkpoint import latest_checkpoint
+
+    run = tmp_path / "run"
+    real_learn = PPO.learn
+
+    def learn_then_interrupt(self, total_timesteps, **kw):
+        real_learn(self, 2048, **kw)  # one rollout of 4 worlds x 4 robots x 128 steps, then Ctrl-C
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(PPO, "learn", learn_then_interrupt)
+    args = ["train", *TINY, "--timesteps", "8192", "--eval-freq", "0", "--checkpoint-freq", "0", "--out", str(run)]
+    assert cli.main(args) == 130
+    out, err = capsys.readouterr()
+    kept = run / "checkpoints" / "model_2048.zip"
+    assert f"interrupted at 2048 timesteps: saved {kept}; go on with: vcs-env train --resume {run}" in out
+    assert "vcs-env train: interrupted" in err and "Traceback" not in err
+    assert sorted(p.name for p in kept.parent.iterdir()) == ["model_2048.json", "model_2048.zip"]  # no .part left
+    assert cli.main(["evaluate", "--suite", "circle-8-v0-smoke", "--policy", str(run)]) == 2
+    assert f"holds no final model (a run stopped before its end?); pass one of what it kept: {str(kept)!r}" in (
+        capsys.readouterr().err
+    )
+    # A newer checkpoint cut short by a stop while it was saved: --resume goes on from the whole one.
+    (run / "checkpoints" / "model_4096.zip").write_bytes(kept.read_bytes()[:1000])
+    record = json.loads((run / "checkpoints" / "model_2048.json").read_text())
+    (run / "checkpoints" / "model_4096.json").write_text(json.dumps({**record, "num_timesteps": 4096}))
+    assert (
+        max(c.timesteps for c in [latest_checkpoint(kept), latest_checkpoint(kept.with_name("model_4096.zip"))]) == 4096
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert latest_checkpoint(run).path == kept
+    assert any("model_4096.zip' is incomplete" in str(w.message) for w in caught)

@@ -109,6 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     warnings.formatwarning = one_line
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt:  # Ctrl-C: a line, not the traceback of wherever the work was
+        print(f"vcs-env {args.command}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:  # output piped into e.g. `head`, which has closed: stop quietly
         sys.stdout = None
         return 0

@@ -388,13 +388,20 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
     if isinstance(guide, JumpStart):  # SB3 resets the worlds before the first rollout starts: guide those too
         guide.rollout_start(venv, start_steps)
     if remaining > 0:
-        model.learn(
-            total_timesteps=remaining,
-            callback=callback,
-            progress_bar=cfg.progress_bar,
-            tb_log_name="ppo",
-            reset_num_timesteps=not resume,
-        )
+        try:
+            model.learn(
+                total_timesteps=remaining,
+                callback=callback,
+                progress_bar=cfg.progress_bar,
+                tb_log_name="ppo",
+                reset_num_timesteps=not resume,
+            )
+        except KeyboardInterrupt:  # Ctrl-C: keep the weights of the last update, and say how to go on
+            steps = model.num_timesteps
+            family = scenario_family(scenarios)
+            kept = save_model(model, out / "checkpoints" / f"model_{steps}.zip", "ppo", cfg, scenario, family)
+            print(f"interrupted at {steps} timesteps: saved {kept}; go on with: vcs-env train --resume {out}")
+            raise
     if getattr(callback, "model", None) is None:  # learn() did not run (budget already reached)
         if not hasattr(model, "_logger"):
             from stable_baselines3.common.logger import configure
