@@ -187,3 +187,18 @@ def test_robot_spec_limits_are_validated():
         with pytest.raises(ValueError, match=rf"robot.{name} must be a finite number in \[0.001, "):
             vcs_env.RobotSpec(**{name: 1e-8})
         vcs_env.RobotSpec(**{name: 1e-3})
+
+
+def test_numpy_bools_are_bools_and_other_flags_are_refused():
+    """A robot kind given as numpy's bool was refused while the scenario's flags took it, and kept it, so the run
+    record's JSON failed on it; an engine step with autoreset="yes" auto-reset."""
+    import json
+
+    robot = vcs_env.RobotSpec(holonomic=np.bool_(True))
+    scenario = vcs_env.make_scenario("walls", n_wall_points=2, stall_clock=np.bool_(True), robot=robot)
+    assert type(scenario.robot.holonomic) is bool and type(scenario.stall_clock) is bool
+    json.dumps(dataclasses.asdict(scenario))
+    engine = NavEngine(vcs_env.make_scenario("circle", n_robots=2), 1)
+    engine.reset(0)
+    with pytest.raises(ValueError, match="autoreset must be True or False, got 'yes'"):
+        engine.step(np.zeros((1, 2, 2)), autoreset="yes")

@@ -193,17 +193,21 @@ class NavEngine:
 
     @property
     def world(self) -> WorldState:
+        """The state of every world (the simulator's, updated in place)."""
         return self.sim.world
 
     @property
     def batch_size(self) -> int:
+        """The number of worlds ``B``."""
         return self.sim.batch_size
 
     def observe(self) -> np.ndarray:
+        """Every robot's observation now, ``(B, n, D)`` float32 (:mod:`vcs_env.observations`)."""
         return observe(self.sim.world, self.scenario)
 
     def reset(self, seeds=None, worlds: Sequence[int] | None = None) -> np.ndarray:
-        """Reset ``worlds`` (default all) with ``seeds`` (see :meth:`Simulator.reset`); returns obs."""
+        """Reset ``worlds`` (default all) with ``seeds`` (see :meth:`Simulator.reset`); returns every robot's
+        observation, ``(B, n, D)`` float32 (the worlds not reset as they are)."""
         idx = list(range(self.batch_size)) if worlds is None else list(worlds)
         self.sim.reset(seeds, idx)
         if self.expert is not None:
@@ -234,6 +238,8 @@ class NavEngine:
         reached) start a new episode (continuing their random streams): ``obs`` is then the
         first observation of the new episode and ``final_obs`` the last one of the old.
         """
+        if not isinstance(autoreset, (bool, np.bool_)):
+            raise ValueError(f"autoreset must be True or False, got {autoreset!r}")
         prev_expert = self._expert_action
         events = self.sim.step(actions)
         world = self.sim.world

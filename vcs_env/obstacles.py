@@ -55,7 +55,7 @@ class ObstacleMotion:
         return {}
 
     def velocity(self, params: Params, t: np.ndarray, pos: np.ndarray, dt: float) -> np.ndarray:
-        """Velocity over the step starting at time ``t`` ``(B,)`` [s]; ``pos`` is ``(B, m, 2)``.
+        """Velocity over the step of ``dt`` [s] starting at time ``t`` ``(B,)`` [s]; ``pos`` ``(B, m, 2)`` [m].
 
         May update ``params`` (it is called exactly once per step). Returns ``(B, m, 2)`` [m/s].
         """
@@ -69,7 +69,8 @@ class ObstacleMotion:
         Pedestrians crossing a square are placed here."""
 
     def world_velocity(self, params: Params, world: WorldState, dt: float) -> np.ndarray:
-        """:meth:`velocity` for models that see the whole world (robots, walls): ``(B, m, 2)`` [m/s].
+        """:meth:`velocity` for models that see the whole world (robots, walls), over the step of ``dt`` [s]:
+        ``(B, m, 2)`` [m/s].
 
         The simulator calls this; the default passes the time and obstacle positions to
         :meth:`velocity`. Models that react to robots override it."""

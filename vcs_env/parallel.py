@@ -247,6 +247,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
             raise ValueError(f"missing actions for live agents {missing}")
 
     def state(self) -> np.ndarray:
+        """The global state ``(S,)`` float32 (PettingZoo's ``state()``, ``state_space``):
+        :func:`vcs_env.observations.state_vector` of the world."""
         if not self._started:
             raise RuntimeError("state() called before the first reset(); call reset() first")
         return state_vector(self.engine.world)[0]

@@ -45,7 +45,7 @@ class Episode:
     heading: np.ndarray  # (T+1, n) [rad]
     speed: np.ndarray  # (T+1, n) [m/s]
     obs_pos: np.ndarray  # (T+1, m, 2) [m]
-    actions: np.ndarray  # (T, n, 2), as applied (zeros for robots that were not active)
+    actions: np.ndarray  # (T, n, 2), as applied, in the run's action units (vcs_env.dynamics; 0 for inactive robots)
     acted: np.ndarray  # (T, n) bool
     collided: np.ndarray  # (T, n) bool, robot touched something in that step
     robot_contact: np.ndarray  # (T, n) bool, ... a robot

@@ -128,7 +128,7 @@ class VCSParams:
     candidate out against the moving obstacles (the robot ramping to it and holding it, each
     obstacle at its planned velocity, up to ``t_max``): a candidate that meets one (contact radius
     r0 + ``fallback_clearance``, r0 with None), first after t_m [s], while driving toward the centre
-    of one it meets at up to v_t [m/s], costs this weight times ``1 / t_m + v_t`` more (t_m in s,
+    of one it meets at up to v_t [m/s], costs this weight [s] times ``1 / t_m + v_t`` more (t_m in s,
     v_t in units of 1 m/s): the least-bad escape meets a mover late and not head on (what matters
     against movers faster than the robot). Robots, driving, arriving or parked, and static bodies
     are not played out. ``None``: off (the ablation; vcs-method §2.13) [ours]."""

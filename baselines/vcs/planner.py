@@ -289,8 +289,8 @@ class VCSPlanner(Planner):
 
     # -------------------------------------------------------------------- plan
     def plan(self, world: WorldState, robots: np.ndarray | None = None) -> np.ndarray:
-        """Targets ``(B, n, 2)`` of every robot, or only of ``robots`` ``(n,)`` bool (the others'
-        rows keep their speed and heading, and their ``last`` entries are those of a robot
+        """Targets ``(B, n, 2)`` (speed [m/s], heading [rad]) of every robot, or only of ``robots`` ``(n,)`` bool (the
+        others' rows keep their speed and heading, and their ``last`` entries are those of a robot
         that is done; the robots planned get the same targets either way)."""
         world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
         if robots is not None:
