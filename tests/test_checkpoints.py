@@ -55,7 +55,7 @@ def test_checkpoint_formats_detect_themselves_and_a_run_resumes_from_its_newest(
     (sb3 / "checkpoints" / "model_2048.zip").write_bytes(b"")
     ckpt = latest_checkpoint(sb3)
     assert isinstance(ckpt, SB3Checkpoint) and ckpt.timesteps == 2048 and ckpt.run_dir == sb3
-    with pytest.raises(ValueError, match="checkpoint not found"):
+    with pytest.raises(ValueError, match="holds no final model .* pass one of what it kept: .*model_2048.zip"):
         open_checkpoint(sb3)  # a run directory is evaluated by its final model.zip only
 
 
