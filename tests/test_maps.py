@@ -363,3 +363,17 @@ def test_walls_whose_obstacles_find_no_room_are_drawn_again():
     for seed in (10, 42):
         env.reset(seed=seed)
         assert len(env.engine.world.obs_pos[0]) == 8
+
+
+def test_route_kernels_compile_once_for_every_source_of_walls():
+    """The roadmaps cached by their walls' bytes held read-only walls, the others writable ones, and numba compiled
+    every route kernel a second time for them (about 2 s at a process's first map with a cold cache)."""
+    from vcs_env import routes
+
+    seg = np.array([[[0.0, -1.0], [0.0, 1.0]], [[2.0, -1.0], [2.0, 3.0]]])
+    start, goal = np.array([[-1.0, 0.0]]), np.array([[3.0, 0.0]])
+    for rm in (Roadmap(seg, 0.25), routes._cached(seg.tobytes(), 2, 0.25)):
+        assert rm.segments.flags.writeable
+        rm.next_waypoints(start, goal)
+    for kernel in (routes._visible, routes._visible_pairs, routes._clearance, routes._next_waypoints):
+        assert len(kernel.signatures) == 1, kernel.signatures

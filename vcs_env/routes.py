@@ -150,7 +150,9 @@ class Roadmap:
     """
 
     def __init__(self, segments: np.ndarray, radius: float):
-        self.segments = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+        # A writable copy: the cached roadmaps' walls come from bytes (read-only), and numba compiles every kernel
+        # that takes them once more for a read-only array (2 s at the first map of a process with a cold cache).
+        self.segments = np.array(segments, dtype=np.float64).reshape(-1, 2, 2)
         self.radius = float(radius)
         self._r = self.radius + 0.5 * MARGIN  # lines of sight keep this from every wall
         rho = (self.radius + MARGIN) / math.cos(math.pi / _DIRECTIONS)
