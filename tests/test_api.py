@@ -412,3 +412,19 @@ def test_sb3_evaluate_policy_counts_robot_episodes_not_padding():
     returns, lengths = evaluate_policy(Throttle(), venv, n_eval_episodes=8, return_episode_rewards=True)
     assert sorted(lengths) == [9] * 4 + [15] * 4  # robot_0 arrives after 9 steps, robot_1 times out at 15
     assert 0.0 not in returns
+
+
+def test_a_gymnasium_seed_names_its_world_for_the_other_doors():
+    """The Gymnasium envs draw the world's seed from Gymnasium's np_random; gym_world_seed gives it, so the PettingZoo
+    env (which uses its seed as the world's) can start the same world (the same seed started another one)."""
+    from vcs_env.gym_env import gym_world_seed
+
+    kw = dict(scenario="random", n_robots=4, arena_half_size=3.0)
+    for seed in (0, 7):
+        g = gym.make("vcs_env/Navigation-v2", **kw)
+        obs, _ = g.reset(seed=seed)
+        p = vcs_env.parallel_env(**kw)
+        pobs, _ = p.reset(seed=gym_world_seed(seed))
+        np.testing.assert_array_equal(obs, pobs["robot_0"])
+        for field in ("pos", "goal", "heading", "obs_pos"):
+            np.testing.assert_array_equal(getattr(g.unwrapped.world, field), getattr(p.engine.world, field))

@@ -105,8 +105,8 @@ class VcsNavEnv(RenderMixin, gym.Env):
         check_reset_options(options)
         super().reset(seed=seed)
         # The world generator is seeded from Gymnasium's np_random so reset() without a seed
-        # continues one reproducible stream.
-        world_seed = int(self.np_random.integers(0, 2**63 - 1))
+        # continues one reproducible stream (gym_world_seed: the first world's seed).
+        world_seed = _next_world_seed(self.np_random)
         obs = self.engine.reset([world_seed])
         self._started = self._running = True
         if self._renderer is not None:
@@ -133,6 +133,18 @@ class VcsNavEnv(RenderMixin, gym.Env):
         if self.render_mode == "human":
             self.render()
         return res.obs[0, 0], float(res.reward[0, 0]), terminated, truncated, info
+
+
+def gym_world_seed(seed: int) -> int:
+    """The seed of the world a Gymnasium env's ``reset(seed=seed)`` starts (drawn from Gymnasium's ``np_random``, so
+    that resets without a seed continue one stream): ``parallel_env(...).reset(seed=gym_world_seed(s))``, the SB3
+    and TorchRL envs seeded so, start the world that ``gym.make(...).reset(seed=s)`` starts, with the same
+    scenario. The other front doors use their seed as the world's seed."""
+    return _next_world_seed(seeding.np_random(seed)[0])
+
+
+def _next_world_seed(rng: np.random.Generator) -> int:
+    return int(rng.integers(0, 2**63 - 1))
 
 
 class VcsNavVectorEnv(VectorEnv):
@@ -215,7 +227,7 @@ class VcsNavVectorEnv(VectorEnv):
         for b, seed in zip(worlds, seeds):
             if seed is not None or self._world_rngs[b] is None:
                 self._world_rngs[b] = seeding.np_random(seed)[0]
-            world_seeds.append(int(self._world_rngs[b].integers(0, 2**63 - 1)))
+            world_seeds.append(_next_world_seed(self._world_rngs[b]))
         obs = self.engine.reset(world_seeds, worlds.tolist())
         self._obs[worlds] = obs[worlds, 0]
         self._autoreset[worlds] = False
