@@ -16,7 +16,7 @@ class Block:
     """One block of a robot's observation: ``items`` slots of ``len(fields)`` floats each."""
 
     name: str
-    """``ego``, ``neighbors``, ``lidar`` or ``wall_points``."""
+    """``ego``, ``neighbors``, ``lidar``, ``wall_points`` or ``clock``."""
     items: int
     """Slots (1 for ``ego``, one per beam for ``lidar``)."""
     fields: tuple[str, ...]

@@ -40,8 +40,9 @@ zero-padded:
 ===== ============================ ===================================================
 +0    mask                         1 for a real object, 0 for padding
 +1,+2 relative position x, y       robot frame, / SENSE_REF (10 m), clipped to [-1, 1]
-+3,+4 relative velocity x, y       object minus own velocity, robot frame, / (2 V_REF)
-+5    object radius                / R_REF
++3,+4 relative velocity x, y       object minus own velocity, robot frame, / (2 V_REF), clipped to [-1, 1]
+                                   (never reached: speeds are validated <= V_REF)
++5    object radius                / R_REF, clipped to [-1, 1] (never reached: radii are validated <= R_REF)
 +6    gap (distance - radii)       / SENSE_REF, clipped to [-1, 1]
 +7    is-robot flag                1 robot, 0 obstacle
 +8    parked flag                  1 for a robot that has finished (arrived, or crashed under
@@ -178,7 +179,8 @@ def observation_layout(scenario: Scenario) -> Layout:
         blocks.append(
             Block("wall_points", scenario.n_wall_points, WALL_POINT_FIELDS[: 3 + 4 * scenario.wall_segments],
                   (0.0, -1.0, -1.0, -1.0, -1.0, 0.0, 0.0)[: 3 + 4 * scenario.wall_segments],
-                  f"positions and extents / {SENSE_REF} m", "the nearest points on walls, nearest first")
+                  f"positions and extents / {SENSE_REF} m" + (", directions unit" if scenario.wall_segments else ""),
+                  "the nearest points on walls, nearest first")
         )  # fmt: skip
     return Layout(version, tuple(blocks))
 

@@ -24,5 +24,6 @@ def state_space(scenario: Scenario) -> spaces.Box:
 
 
 def action_space() -> spaces.Box:
-    """Every robot's action: ``Box(-1, 1, (2,), float32)`` (:mod:`vcs_env.dynamics`)."""
+    """Every robot's action: ``Box(-1, 1, (2,), float32)``; a holonomic robot's is cut to the unit disc where it
+    drives (:mod:`vcs_env.dynamics`)."""
     return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
