@@ -32,7 +32,13 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+
+from vcs_env.checks import missing_extra
+
+try:
+    from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+except ImportError as e:  # a bare "No module named 'stable_baselines3'" named no extra
+    raise ImportError(missing_extra(e)) from e
 
 
 class GymVectorToSB3(VecEnv):

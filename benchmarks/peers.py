@@ -5,11 +5,9 @@ from __future__ import annotations
 
 import importlib
 
-from vcs_env.checks import install_hint
+from vcs_env.checks import EXTRA_OF, install_hint
 
 from .timing import Missing
-
-INSTALL_HINT = install_hint("bench")
 
 PEERS = {
     "mpe2": "PettingZoo MPE (simple_spread, parallel API, continuous actions)",
@@ -24,7 +22,8 @@ def require(module: str):
     try:
         return importlib.import_module(module)
     except Exception as e:  # ImportError, or a broken install that fails while importing
-        raise Missing(f"cannot import {module} ({type(e).__name__}: {e}); {INSTALL_HINT}") from None
+        hint = install_hint("train" if EXTRA_OF.get(module.split(".")[0]) == "train" else "bench")  # [bench]: the rest
+        raise Missing(f"cannot import {module} ({type(e).__name__}: {e}); {hint}") from None
 
 
 def status() -> dict[str, str]:

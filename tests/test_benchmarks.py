@@ -303,3 +303,18 @@ def test_install_bench_reports_every_step(tmp_path):
     assert "| 14 s |" in text and "| 1 min 11 s |" in text and "| 5 min 55 s | 1353 passed |" in text
     assert "629 MB" in text and "2,500 MB" in text
     assert "python -m benchmarks.install_bench --tests" in text
+
+
+def test_a_missing_peer_names_the_extra_that_installs_it(monkeypatch):
+    """Every peer's hint named [bench]; stable-baselines3 comes with [train]."""
+    import re
+
+    from benchmarks.timing import Missing
+
+    def absent(name):
+        raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+
+    monkeypatch.setattr(peers.importlib, "import_module", absent)
+    for module, extra in (("stable_baselines3", "train"), ("vmas", "bench"), ("pyrvo", "bench")):
+        with pytest.raises(Missing, match=re.escape(f"pip install -e '.[{extra}]'")):
+            peers.require(module)

@@ -2,6 +2,7 @@
 planner names it accepts, and the note before the first compilation of the kernels."""
 
 import re
+import sys
 import textwrap
 
 import pytest
@@ -123,3 +124,41 @@ def test_evaluate_writes_its_json_even_when_the_reader_of_its_table_has_gone(tmp
     argv = ["evaluate", "--scenario", "circle", "--seeds", "1000:1002", "--policy", "vcs", "--no-progress"]
     assert vcs_cli.main([*argv, "--json", str(out)]) == 0
     assert out.is_file() and len(json.loads(out.read_text())["episodes"]) == 2
+
+
+def test_a_missing_optional_package_names_its_extra_before_the_work(monkeypatch, capsys, tmp_path):
+    """Without torch, `vcs-env train` said only "No module named 'torch'"; `compare` ran every episode before it
+    found no matplotlib for its plots, `rollout --gif` compiled for half a minute before it found no pygame; the
+    Python modules of the other libraries failed on a bare import."""
+    import builtins
+    import importlib
+    import importlib.util
+
+    from vcs_env import rollout
+
+    real_find, real_import = importlib.util.find_spec, builtins.__import__
+    absent = ("torch", "matplotlib", "pygame", "stable_baselines3", "torchrl", "tensordict", "benchmarl")
+
+    def find(name, *a, **k):
+        return None if name.split(".")[0] in absent else real_find(name, *a, **k)
+
+    def imp(name, *a, **k):
+        if name.split(".")[0] in absent:
+            raise ModuleNotFoundError(f"No module named {name.split('.')[0]!r}", name=name.split(".")[0])
+        return real_import(name, *a, **k)
+
+    monkeypatch.setattr(importlib.util, "find_spec", find)
+    monkeypatch.setattr(builtins, "__import__", imp)
+    monkeypatch.setattr(rollout, "play", lambda *a, **k: pytest.fail("episodes were run"))
+    for args, extra in (
+        (["train", "--n-robots", "2", "--timesteps", "10", "--out", str(tmp_path / "run")], "train"),
+        (["compare", "--suite", "circle-8-v0-smoke", "--policies", "vcs", "--out", str(tmp_path / "cmp")], "render"),
+        (["rollout", "--scenario", "circle", "--n-robots", "2", "--gif", str(tmp_path / "a.gif")], "render"),
+    ):
+        assert vcs_cli.main(args) == 2
+        assert f"install it with: pip install -e '.[{extra}]'" in capsys.readouterr().err, args
+    modules = (("agents.gym_vec", "train"), ("vcs_env.torchrl", "torchrl"), ("vcs_env.benchmarl", "benchmarl"))
+    for module, extra in modules:
+        monkeypatch.delitem(sys.modules, module, raising=False)
+        with pytest.raises(ImportError, match=re.escape(f"install it with: pip install -e '.[{extra}]'")):
+            importlib.import_module(module)

@@ -116,7 +116,11 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = None
         return 0
     except (ValueError, ImportError) as e:  # bad parameters, unknown names, a missing extra: a message
-        print(f"vcs-env {args.command}: error: {e}", file=sys.stderr)
+        from vcs_env.checks import missing_extra  # late: the package's import is not needed for --help
+
+        print(
+            f"vcs-env {args.command}: error: {missing_extra(e) if isinstance(e, ImportError) else e}", file=sys.stderr
+        )
         return 2
     except (FileExistsError, IsADirectoryError, NotADirectoryError) as e:  # an output path in the way
         print(

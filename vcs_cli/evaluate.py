@@ -36,6 +36,7 @@ from agents.evaluate.report import describe_shield, fmt, provenance, table_lines
 from agents.policies import is_checkpoint_spec
 from agents.residual import refuse_residual
 from benchmarks.timing import machine_info
+from vcs_env.checks import require_modules
 from vcs_env.suites import Suite, get_suite, suite_names
 
 
@@ -114,6 +115,8 @@ def cmd_compare(args) -> int:
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
     check_out_dir(args.out)
+    if not args.no_plots:
+        require_modules(("matplotlib",), "the report's plots (--no-plots leaves them out)")
     comp = compare(
         policies,
         suite,

@@ -7,6 +7,7 @@ import json
 
 from agents.config import ScenarioConfig, add_config_args, build_scenario, check_out_file, config_from_args
 from agents.runs import jsonable
+from vcs_env.checks import require_modules
 from vcs_env.planning import PLANNERS
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg")
@@ -31,6 +32,10 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     for out, flag, suffixes in ((args.gif, "--gif", (".gif",)), (args.video, "--video", (".mp4",)),
                                 (args.plot, "--plot", PLOT_SUFFIXES), (args.json, "--json", ())):  # fmt: skip
         check_out_file(out, flag, suffixes, writable=True)
+    for out, flag, modules in ((args.gif, "--gif", ("pygame", "imageio")), (args.plot, "--plot", ("matplotlib",)),
+                               (args.video, "--video", ("pygame", "imageio", "imageio_ffmpeg"))):  # fmt: skip
+        if out:
+            require_modules(modules, flag)
     seeds = list(range(args.seed, args.seed + args.episodes))
     render = range(len(seeds)) if (args.gif or args.video) else ()
     controller = planner_controller(planner)

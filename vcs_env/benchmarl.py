@@ -27,9 +27,14 @@ import copy
 from collections.abc import Callable
 from typing import Any
 
-from benchmarl.environments.common import Task, TaskClass
-from torchrl.data import Composite
-from torchrl.envs import EnvBase
+from .checks import missing_extra
+
+try:
+    from benchmarl.environments.common import Task, TaskClass
+    from torchrl.data import Composite
+    from torchrl.envs import EnvBase
+except ImportError as e:  # a bare "No module named 'benchmarl'" named no extra
+    raise ImportError(missing_extra(e, "benchmarl")) from e
 
 from .scenario import Scenario
 from .torchrl import GROUP, VcsNavEnv

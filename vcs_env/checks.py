@@ -27,6 +27,38 @@ def install_hint(extra: str) -> str:
     return f"pip install -e '.[{extra}]' in the vcs-env checkout"
 
 
+EXTRA_OF = {
+    "torch": "train", "stable_baselines3": "train", "sb3_contrib": "train", "tqdm": "train", "rich": "train",
+    "tensorboard": "train", "matplotlib": "render", "pygame": "render", "PIL": "render", "imageio": "render",
+    "onnx": "export", "onnxruntime": "export", "ray": "rllib", "torchrl": "torchrl", "tensordict": "torchrl",
+    "benchmarl": "benchmarl", "hydra": "benchmarl", "pyrvo": "orca", "mpe2": "bench", "vmas": "bench",
+    "nbformat": "dev", "nbclient": "dev", "pytest": "dev", "hypothesis": "dev",
+}  # fmt: skip
+"""The extra (``pyproject.toml``) that installs each optional package, by its import name."""
+
+
+def require_modules(modules: Sequence[str], what: str) -> None:
+    """Before the work that needs them: an ``ImportError`` naming the first of ``modules`` (import names) that is not
+    installed, what needs it, and its extra (:data:`EXTRA_OF`)."""
+    import importlib.util
+
+    for name in modules:
+        if importlib.util.find_spec(name) is None:
+            hint = install_hint(EXTRA_OF.get(name, "all"))
+            raise ImportError(f"{what}: {name} is not installed; install it with: {hint}")
+
+
+def missing_extra(err: ImportError, extra: str | None = None) -> str:
+    """``err``'s message, with the extra to install when it is a missing optional package (:data:`EXTRA_OF`, or
+    ``extra`` for a module that needs that one) and the message does not name one already (a bare ``No module named
+    'torch'``)."""
+    name = (getattr(err, "name", None) or "").split(".")[0]
+    extra = EXTRA_OF.get(name) if extra is None or name not in EXTRA_OF else extra
+    if extra is None or "pip install" in str(err):
+        return str(err)
+    return f"{err}; install it with: {install_hint(extra)}"
+
+
 def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
     """Raise ``ValueError`` unless ``value`` is a finite number (not a bool) with ``lo <(=) value <(=) hi``."""
     ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)

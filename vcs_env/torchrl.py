@@ -10,10 +10,16 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-import torch
-from tensordict import TensorDict, TensorDictBase
-from torchrl.data import Bounded, Categorical, Composite, Unbounded
-from torchrl.envs import EnvBase
+
+from .checks import missing_extra
+
+try:
+    import torch
+    from tensordict import TensorDict, TensorDictBase
+    from torchrl.data import Bounded, Categorical, Composite, Unbounded
+    from torchrl.envs import EnvBase
+except ImportError as e:  # a bare "No module named 'torch'" named no extra
+    raise ImportError(missing_extra(e, "torchrl")) from e
 
 from .engine import NavEngine, RewardFn, check_max_steps, env_scenario
 from .observations import observation_bounds
