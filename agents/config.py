@@ -17,6 +17,7 @@ import argparse
 import ast
 import dataclasses
 import functools
+import importlib.util
 import inspect
 import json
 import os
@@ -30,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from vcs_env.applies import check_applies
+from vcs_env.checks import EXTRA_OF, install_hint
 from vcs_env.lidar import LidarSpec
 from vcs_env.scenario import RewardWeights, fit_time_limit, make_scenario, short_time_limit
 from vcs_env.start_states import npz_path
@@ -296,6 +298,15 @@ def check_out_file(
             raise PermissionError(f"{path!r} is not writable")
     except OSError as e:
         raise ValueError(f"{flag} {path!r} cannot be written ({e.strerror or e})") from None
+
+
+def require_modules(modules: tuple[str, ...], what: str) -> None:
+    """Before the work that needs them: an ``ImportError`` naming the first of ``modules`` (import names) that is not
+    installed, what needs it, and its extra (:data:`vcs_env.checks.EXTRA_OF`)."""
+    for name in modules:
+        if importlib.util.find_spec(name) is None:
+            hint = install_hint(EXTRA_OF.get(name, "all"))
+            raise ImportError(f"{what}: {name} is not installed; install it with: {hint}")
 
 
 def check_out_dir(path: str | os.PathLike, flag: str = "--out", what: str = "the report") -> None:

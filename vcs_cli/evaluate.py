@@ -29,6 +29,7 @@ from agents.config import (
     config_from_args,
     parse_seeds,
     probe_scenario,
+    require_modules,
 )
 from agents.evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate, selection
 from agents.evaluate import probes as probe_table
@@ -36,7 +37,6 @@ from agents.evaluate.report import describe_shield, fmt, provenance, table_lines
 from agents.policies import is_checkpoint_spec
 from agents.residual import refuse_residual
 from benchmarks.timing import machine_info
-from vcs_env.checks import require_modules
 from vcs_env.suites import Suite, get_suite, suite_names
 
 

@@ -5,9 +5,15 @@ from __future__ import annotations
 import argparse
 import json
 
-from agents.config import ScenarioConfig, add_config_args, build_scenario, check_out_file, config_from_args
+from agents.config import (
+    ScenarioConfig,
+    add_config_args,
+    build_scenario,
+    check_out_file,
+    config_from_args,
+    require_modules,
+)
 from agents.runs import jsonable
-from vcs_env.checks import require_modules
 from vcs_env.planning import PLANNERS
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg")

@@ -37,17 +37,6 @@ EXTRA_OF = {
 """The extra (``pyproject.toml``) that installs each optional package, by its import name."""
 
 
-def require_modules(modules: Sequence[str], what: str) -> None:
-    """Before the work that needs them: an ``ImportError`` naming the first of ``modules`` (import names) that is not
-    installed, what needs it, and its extra (:data:`EXTRA_OF`)."""
-    import importlib.util
-
-    for name in modules:
-        if importlib.util.find_spec(name) is None:
-            hint = install_hint(EXTRA_OF.get(name, "all"))
-            raise ImportError(f"{what}: {name} is not installed; install it with: {hint}")
-
-
 def missing_extra(err: ImportError, extra: str | None = None) -> str:
     """``err``'s message, with the extra to install when it is a missing optional package (:data:`EXTRA_OF`, or
     ``extra`` for a module that needs that one) and the message does not name one already (a bare ``No module named

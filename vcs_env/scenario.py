@@ -95,12 +95,11 @@ class RewardWeights:
     ``progress`` = decrease of the remaining route length [m] (the goal distance on open floor;
     among walls the route around them, :class:`vcs_env.rewards.Progress`); ``arrival`` = 1 on the step the goal is
     reached; ``collision`` = -1 on every step the robot touches something; ``time`` = -dt [s];
-    ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change
-    window, scaled to [-1, 0] (needs an expert; both actions clipped to the box [-1, 1]^2: a holonomic
-    robot's action beyond the unit disc, which drives as its point on the disc, is scored as given);
-    ``vcs_potential`` = gamma * phi(s') - phi(s) with
-    phi = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a
-    terminating collision (needs an expert; see :func:`vcs_env.rewards.potential_term`);
+    ``vcs_imitation`` = -distance between the taken and the expert action in the velocity change window, scaled to
+    [-1, 0] (needs an expert; both actions clipped to the box [-1, 1]^2: a holonomic robot's action beyond the unit
+    disc, which drives as its point on the disc, is scored as given); ``vcs_potential`` = gamma * phi(s') - phi(s) with
+    phi = minus the expert's optimal cost of the state, 0 on reaching the goal and its floor on a terminating collision
+    (needs an expert; see :func:`vcs_env.rewards.potential_term`);
     ``danger`` = ``-dt * max_j exp(-t_j / DANGER_TIME)`` [s], ``t_j`` the time until the robot
     would touch robot or obstacle ``j`` if both kept their velocities (0 when touching; walls not
     counted; :class:`vcs_env.rewards.Danger`); ``arrival_speed`` = ``-v / v_max`` on the step the
