@@ -296,10 +296,9 @@ RUN_FILES = ("model.zip", "model.json", "actor.pt", "config.json", "eval.jsonl",
 
 def check_fresh_out(out: str | os.PathLike, resume_hint: bool = False, resume=None) -> None:
     """A one-line ``ValueError`` when ``out`` is a file or cannot be written (:func:`~agents.config.check_out_dir`), or
-    already holds a run's files: a new run there would replace
-    its model and append its evaluations to the other run's (``resume_hint``: name ``--resume``, for a run that can go
-    on). A run resumed from the checkpoint ``resume`` may go on in that checkpoint's own run directory, nowhere else
-    that holds a run."""
+    already holds a run's files: a new run there would replace its model and append its evaluations to the other
+    run's (``resume_hint``: name ``--resume``, for a run that can go on). A run resumed from the checkpoint ``resume``
+    may go on in that checkpoint's own run directory, nowhere else that holds a run."""
     check_out_dir(out, "--out", "the run")  # a file, or a path under one, found only when the model was saved
     if resume is not None and Path(out).resolve() == resume.run_dir.resolve():
         return
@@ -341,11 +340,15 @@ def save_model(
     path.parent.mkdir(parents=True, exist_ok=True)
     record = config_path(path)
     part, record_part = path.with_name(path.name + ".part"), record.with_name(record.name + ".part")
-    model.save(str(part))  # SB3 keeps a name's own suffix
-    meta = run_record(kind, config, scenario, family, getattr(model, "num_timesteps", 0), **extra)
-    record_part.write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
-    os.replace(record_part, record)
-    os.replace(part, path)
+    try:
+        model.save(str(part))  # SB3 keeps a name's own suffix
+        meta = run_record(kind, config, scenario, family, getattr(model, "num_timesteps", 0), **extra)
+        record_part.write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
+        os.replace(record_part, record)
+        os.replace(part, path)
+    finally:  # a save that failed (a full disk, a record that is no JSON) leaves no part behind
+        part.unlink(missing_ok=True)
+        record_part.unlink(missing_ok=True)
     return path
 
 

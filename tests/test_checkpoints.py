@@ -1,14 +1,17 @@
 """Checkpoints in the evaluation harness: bad paths, formats that find themselves, a run record that is no
 checkpoint, and SB3 checkpoints checked against the scenario's observation space."""
 
+import dataclasses
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import vcs_cli as cli
 from agents.evaluate import evaluate
+from vcs_env.scenario import make_scenario
 from vcs_env.spaces import observation_space
 from vcs_env.suites import SMOKE_SEEDS, get_suite
 
@@ -110,3 +113,28 @@ def test_sb3_checkpoint_is_loaded_and_checked(tmp_path):
     A2C("MlpPolicy", SpacesOnly(observation_space(suite.scenario)), n_steps=8, device="cpu").save(tmp_path / "a2c.zip")
     with pytest.raises(ValueError, match="another SB3 algorithm than PPO.*ActorCriticPolicy"):
         evaluate(tmp_path / "a2c.zip", suite, progress=False)
+
+
+def test_a_save_that_fails_leaves_the_checkpoint_before_it_and_no_part(tmp_path):
+    """save_model writes under other names and renames into place: a save stopped midway (Ctrl-C, a full disk) left a
+    half-written zip, or a zip without its record, that --resume stopped on."""
+    from agents.runs import save_model
+
+    class Model:
+        num_timesteps = 10
+
+        def __init__(self, fail):
+            self.fail = fail
+
+        def save(self, path):
+            Path(path).write_bytes(b"PK half")
+            if self.fail:
+                raise KeyboardInterrupt
+
+    scenario, config = make_scenario("circle", n_robots=2), dataclasses.make_dataclass("Config", [])()
+    done = save_model(Model(False), tmp_path / "model.zip", "ppo", config, scenario)
+    before = done.read_bytes(), (tmp_path / "model.json").read_text()
+    with pytest.raises(KeyboardInterrupt):
+        save_model(Model(True), tmp_path / "model.zip", "ppo", config, scenario)
+    assert (done.read_bytes(), (tmp_path / "model.json").read_text()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json", "model.zip"]
