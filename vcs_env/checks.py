@@ -45,7 +45,12 @@ def missing_extra(err: ImportError, extra: str | None = None) -> str:
     extra = EXTRA_OF.get(name) if extra is None or name not in EXTRA_OF else extra
     if extra is None or "pip install" in str(err):
         return str(err)
-    return f"{err}; install it with: {install_hint(extra)}"
+    first = " (torch first, as the README installs it: else pip pulls a CUDA build)" if extra in TORCH_EXTRAS else ""
+    return f"{err}; install it with: {install_hint(extra)}{first}"
+
+
+TORCH_EXTRAS = ("train", "torchrl", "benchmarl", "rllib")
+"""The extras that need torch, which the README installs first (``pip install torch==...``)."""
 
 
 def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:
