@@ -2,6 +2,7 @@
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -449,19 +450,25 @@ def test_reset_takes_distinct_world_indices_in_range():
 
 def test_long_episodes_draw_a_bounded_obstacle_script():
     """A tiny turn period or a very long episode drew the turn rates (stop-and-go phases) of the whole episode at
-    reset: hundreds of MB to GB per world."""
-    from vcs_env.obstacles import MAX_PERIODS
+    reset: hundreds of MB to GB per world. Bounded, and said so (the obstacles changed their ways late in long
+    episodes without a word)."""
+    from vcs_env.obstacles import MAX_PERIODS, ShortScriptWarning
 
     for overrides in ({"turn_period": 1e-4}, {"max_steps": 10**7, "dt": 1.0}):
         sim = Simulator(vcs_env.make_scenario("dynamic", **overrides), 1)
-        sim.reset(0)
+        with pytest.warns(ShortScriptWarning, match="after that each keeps its last turn rate"):
+            sim.reset(0)
         assert sim.motion_params["rates"].shape[-1] == MAX_PERIODS
         sim.step(np.zeros((1, sim.scenario.n_robots, 2)))
     sim = Simulator(
         vcs_env.make_scenario("dynamic", obstacle_motion="stop_and_go", go_time=(1e-3, 1e-3), stop_time=(0, 0))
     )
-    sim.reset(0)
+    with pytest.warns(ShortScriptWarning, match="they may keep moving without stopping"):
+        sim.reset(0)
     assert sim.motion_params["switch"].shape[-1] == MAX_PERIODS
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ShortScriptWarning)  # a suite's episodes are covered: no warning
+        Simulator(vcs_env.make_scenario("dynamic-fast-v0")).reset(0)
 
 
 def test_a_world_field_replaced_with_another_shape_is_named_not_read_past_its_end():

@@ -17,10 +17,12 @@ Write your own model by subclassing :class:`ObstacleMotion` and passing an insta
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
 from . import kernels
+from .checks import user_stacklevel
 from .orca_kernel import orca_velocities
 from .pedestrians import SF_MAX_SPEED, PedestrianSpec, preferred_velocity, social_force
 from .placement import MAX_TRIES, Layout
@@ -138,7 +140,23 @@ class Patrol(ObstacleMotion):
 MAX_PERIODS = 4096
 """Turn periods (``arbitrary``) and phases (``stop_and_go``) drawn per obstacle at reset, at most: after them the
 last turn rate holds, and a stop-and-go obstacle keeps moving (no suite comes near: a tiny period or a very long
-episode would otherwise draw gigabytes per world)."""
+episode would otherwise draw gigabytes per world). A scenario whose episodes outlast them is warned of
+(:func:`warn_short_script`)."""
+
+
+class ShortScriptWarning(UserWarning):
+    """The obstacles' random script, drawn at reset, ends before the episode may (:data:`MAX_PERIODS`)."""
+
+
+def warn_short_script(scenario: Scenario, covered: float, after: str) -> None:
+    """Warn that the obstacles' script covers only ``covered`` [s] of ``scenario``'s episodes, and what ``after``."""
+    if covered < scenario.max_time:
+        warnings.warn(
+            f"{scenario.obstacle_motion} obstacles draw their motion for the first {covered:.3g} s of the "
+            f"{scenario.max_time:.3g} s an episode may last (max_steps x dt); after that {after}",
+            ShortScriptWarning,
+            stacklevel=user_stacklevel(),
+        )
 
 
 class Arbitrary(ObstacleMotion):
@@ -152,6 +170,7 @@ class Arbitrary(ObstacleMotion):
     def init(self, rng, scenario, pos, target):
         m = len(pos)
         periods = min(int(math.ceil(scenario.max_time / scenario.turn_period)) + 1, MAX_PERIODS)
+        warn_short_script(scenario, periods * scenario.turn_period, "each keeps its last turn rate (drives a circle)")
         d = _direction(pos, target)
         return {
             "heading": np.arctan2(d[:, 1], d[:, 0]),
@@ -186,6 +205,7 @@ class StopAndGo(ObstacleMotion):
         lo_go, hi_go = scenario.go_time
         lo_st, hi_st = scenario.stop_time
         phases = min(int(math.ceil(scenario.max_time / max(lo_go + lo_st, 1e-3))) * 2 + 2, MAX_PERIODS)
+        warn_short_script(scenario, phases // 2 * (lo_go + lo_st), "they may keep moving without stopping")
         durations = np.empty((m, phases))
         durations[:, 0::2] = rng.uniform(lo_go, hi_go, size=(m, phases // 2))
         durations[:, 1::2] = rng.uniform(lo_st, hi_st, size=(m, phases // 2))
@@ -280,6 +300,7 @@ class Pedestrians(ObstacleMotion):
         if spec.goal_policy == "wander":  # the layout's point, then random points in the arena
             # Enough legs of 0.5 m or more for the whole episode (at most 256; then they repeat).
             legs = min(256, 2 + int(math.ceil(scenario.max_time * spec.v_pref / 0.5)))
+            warn_short_script(scenario, legs * 0.5 / spec.v_pref, "they walk the same legs again")
             lo = -scenario.arena_half_size + scenario.obstacle_radius[1]
             more = rng.uniform(lo, -lo, size=(m, legs, 2))
             goals = np.concatenate((goals, more), axis=1)
