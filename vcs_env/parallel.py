@@ -76,6 +76,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, fix (same id, 2026-12-07, later): simulated time is the step count times ``dt`` (a sum of ``dt`` drifted:
+      an ``arbitrary`` obstacle's turn period came a step early or late from step 34,040 at dt 0.1); six suites x 20
+      episodes hash the same, and episodes shorter than some 30,000 steps are unchanged but for float rounding.
     * v2, fix (same id, 2026-12-07): with ``wall_segments``, a wall square to the robot's heading reads the same
       at every heading (the rounding of ``cos(pi / 2)`` flipped its direction and swapped its extents at headings
       ``pi`` and ``pi / 2``).
