@@ -37,7 +37,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar
 
-from vcs_env.checks import install_hint, user_stacklevel
+from vcs_env.checks import TORCH_FIRST, install_hint, user_stacklevel
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -55,7 +55,7 @@ from .runs import config_path as config_path
 from .runs import network_of
 from .runs import save_model as save_model
 
-RAY_HINT = f"{install_hint('rllib')} (after torch, see the README)"
+RAY_HINT = f"{install_hint('rllib')} {TORCH_FIRST}"
 """How to install Ray RLlib, for error messages."""
 ACCEPTED = (
     "an SB3 .zip file (the suffix may be left out), a run directory with model.zip, an RLlib checkpoint "

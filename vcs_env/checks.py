@@ -45,12 +45,22 @@ def missing_extra(err: ImportError, extra: str | None = None) -> str:
     extra = EXTRA_OF.get(name) if extra is None or name not in EXTRA_OF else extra
     if extra is None or "pip install" in str(err):
         return str(err)
-    first = " (torch first, as the README installs it: else pip pulls a CUDA build)" if extra in TORCH_EXTRAS else ""
+    first = f" {TORCH_FIRST}" if extra in TORCH_EXTRAS else ""
     return f"{err}; install it with: {install_hint(extra)}{first}"
 
 
 TORCH_EXTRAS = ("train", "torchrl", "benchmarl", "rllib")
 """The extras that need torch, which the README installs first (``pip install torch==...``)."""
+TORCH_FIRST = "(after torch, see the README: else pip pulls a CUDA build of it)"
+"""What an install line of one of :data:`TORCH_EXTRAS` adds."""
+
+
+def check_flag(name: str, value) -> bool:
+    """``value`` as a bool if it is one (numpy's too, kept as Python's: JSON takes it); ``ValueError`` naming ``name``
+    otherwise."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 def check_range(name: str, value: float, lo: float, hi: float, lo_open: bool = False, hi_open=False) -> None:

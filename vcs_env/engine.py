@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .applies import check_applies
-from .checks import user_stacklevel
+from .checks import check_flag, user_stacklevel
 from .observations import observe
 from .obstacles import Pedestrians
 from .planning import Planner, own_planner
@@ -238,8 +238,7 @@ class NavEngine:
         reached) start a new episode (continuing their random streams): ``obs`` is then the
         first observation of the new episode and ``final_obs`` the last one of the old.
         """
-        if not isinstance(autoreset, (bool, np.bool_)):
-            raise ValueError(f"autoreset must be True or False, got {autoreset!r}")
+        autoreset = check_flag("autoreset", autoreset)
         prev_expert = self._expert_action
         events = self.sim.step(actions)
         world = self.sim.world

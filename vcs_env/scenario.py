@@ -21,9 +21,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
-from .checks import A_REF, OMEGA_REF, R_REF, V_REF, check_choice, check_int, check_interval, check_range  # noqa: F401
+from .checks import A_REF, OMEGA_REF, R_REF, V_REF, check_choice, check_flag, check_int, check_interval, check_range  # noqa: F401
 from .custom_layout import CustomLayout, ObstacleTrajectory  # noqa: F401  (re-exported: Scenario's custom layouts)
 from .lidar import LidarSpec
 from .pedestrians import PedestrianSpec
@@ -81,9 +79,7 @@ class RobotSpec:
         # made each decision take seconds (a robot of 1e-3 m/s^2 needs 1000 s to reach 1 m/s).
         check_range("robot.a_max", self.a_max, LEAST_LIMIT, A_REF)
         check_range("robot.omega_max", self.omega_max, LEAST_LIMIT, OMEGA_REF)
-        if not isinstance(self.holonomic, (bool, np.bool_)):
-            raise ValueError(f"robot.holonomic must be a bool, got {self.holonomic!r}")
-        object.__setattr__(self, "holonomic", bool(self.holonomic))  # numpy's bool kept as a bool: JSON takes it
+        object.__setattr__(self, "holonomic", check_flag("robot.holonomic", self.holonomic))
 
 
 @dataclass(frozen=True)
@@ -255,16 +251,12 @@ class Scenario:
             object.__setattr__(self, name, tuple(getattr(self, name)))
         check_int("n_wall_points", self.n_wall_points, 0, 64)
         check_int("observation", self.observation, 1, 2)
-        if not isinstance(self.wall_segments, (bool, np.bool_)):
-            raise ValueError(f"wall_segments must be True or False, got {self.wall_segments!r}")
-        object.__setattr__(self, "wall_segments", bool(self.wall_segments))  # numpy's bool: JSON (run records) takes it
+        object.__setattr__(self, "wall_segments", check_flag("wall_segments", self.wall_segments))
         if self.wall_segments and not self.n_wall_points:
             raise ValueError("wall_segments needs the wall points block: set n_wall_points > 0 (--n-wall-points)")
         if self.wall_segments and self.observation < 2:
             raise ValueError("wall_segments needs observation version 2 (v1's wall points have three fields)")
-        if not isinstance(self.stall_clock, (bool, np.bool_)):
-            raise ValueError(f"stall_clock must be True or False, got {self.stall_clock!r}")
-        object.__setattr__(self, "stall_clock", bool(self.stall_clock))
+        object.__setattr__(self, "stall_clock", check_flag("stall_clock", self.stall_clock))
         if self.stall_clock and self.observation < 2:
             raise ValueError("stall_clock needs observation version 2 (the clock block is not part of v1)")
         if self.rewards.stuck != 0.0 and not self.stall_clock:
