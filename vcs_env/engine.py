@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from .applies import check_applies
-from .checks import check_flag, user_stacklevel
+from .checks import check_flag, check_int, user_stacklevel
 from .observations import observe
 from .obstacles import Pedestrians
 from .planning import Planner, own_planner
@@ -92,8 +92,7 @@ class StepResult:
 def check_max_steps(value, name: str = "max_steps") -> int:
     """``value`` as an int if it is an integer in [1, :data:`~vcs_env.scenario.MAX_STEPS`]; ``ValueError`` naming
     ``name`` otherwise (the scenario's own check named ``max_steps`` for an env's ``max_cycles``)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= MAX_STEPS:
-        raise ValueError(f"{name} must be an integer in [1, {MAX_STEPS}], got {value!r}")
+    check_int(name, value, 1, MAX_STEPS)
     return int(value)
 
 
