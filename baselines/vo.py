@@ -2,7 +2,7 @@
 
 The RVO Library (van den Berg, Lin and Manocha, ICRA 2008, "Reciprocal Velocity Obstacles for
 real-time multi-agent navigation") picks, every period, among the preferred velocity and random
-samples of the disc ``|v| <= v_max`` the candidate of least penalty (vcs-method §2.12)::
+samples of the disc ``|v| <= v_max`` the candidate of least penalty (vcs-method §2.13)::
 
     penalty(v) = w / t_c(v) + |v - v_pref|,      t_c(v) = min_j tau(p_j, w_j(v), r_j)
 

@@ -142,7 +142,8 @@ class VCSParams:
     """An arriving robot parks at its goal, dead, at whatever speed it has (the simulator parks it
     on arrival): it also gets a static twin there, which the robot can tell from the communicated
     preferred velocity (its direction, and its speed ``min(v_max, d / dt, sqrt(2 a_max d))`` at
-    goal distance ``d``), with the stopping-time margin of a static body. A robot following or
+    goal distance ``d``), with a margin that covers the robot's stopping time, as a static body's
+    (vcs-method §2.7). A robot following or
     crossing an arriving one thus keeps its braking distance from where that one will stop, not
     from where it is. Only for an arriving robot faster than it can brake to its goal (one step
     of braking over its preferred speed), and only in worlds without walls, where the preferred
@@ -196,7 +197,7 @@ class VCSParams:
     wall_brake: bool = True
     """Near a wall, a ramp must leave the robot able to stop: from every state along it, braking
     straight at a_max keeps clear of the wall; and with no admissible candidate, the fallback
-    also weighs the full stop and counts a ramp that sweeps into a wall as hard as a wall
+    counts a ramp that sweeps into a wall as hard as a wall
     (vcs-method §2.18) (False: the ramp's positions only, the ablation)."""
     # --- interaction (vcs-method §2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
@@ -223,7 +224,8 @@ class VCSParams:
     detour, so a robot stopped with its goal behind it turns around, and the size-regulation
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
     stall_turn: bool = True
-    """A robot that detours from rest measures its goal term in the VCS (vcs-method §2.9), so it
+    """A robot that detours from rest measures its goal term in the VCS (vcs-method §2.12, the rule
+    of vcs-method §2.13), so it
     turns in place toward the detour's direction: in the velocity metric every heading at zero
     speed costs the same, and a unicycle at rest beside a body, whose every way of starting off
     closes on that body (the ramp check), stood there for good. False: only beside a wall (the

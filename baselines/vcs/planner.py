@@ -169,7 +169,7 @@ class VCSPlanner(Planner):
         angle. i gives way to j when j comes from i's right (``det(u_i, u_j) > 0``), drives (faster
         than ``give_way_speed v_max``, not yet through: ``t_j > -c``), reaches its lane no later
         than ``give_way_slack`` after i would have cleared it at v_max, and i's disc is not in j's
-        way yet (``|s_i sin| >= r_i + r_j``): i's preferred speed is capped to stop
+        way yet (``s_i |sin| >= r_i + r_j``, s_i signed): i's preferred speed is capped to stop
         ``give_way_stop`` before the lane (``min(d / dt, sqrt(2 a_max d))``, as at a goal). Its
         stopping point is then moved back before the lane of any other robot about to cross
         where it would stop (a robot does not wait in the middle of a crossing)."""

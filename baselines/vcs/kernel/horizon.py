@@ -248,7 +248,8 @@ def set_horizons(wk, count, r, p):
         if r.holo:
             need_holonomic(wk, npend, nblk, r, p.coarse_n_v, p.coarse_n_theta, tmax)
         else:
-            # Levels beyond (T_max - T_m) / dt all give T_h = T_max.
+            # Levels beyond (T_max - t_margin) / dt give every capped record T_h = T_max; a mover under the
+            # crowd margin (uncapped) left there gets T_need = T_max, a horizon up to t_margin longer, never shorter.
             lmax = int(math.ceil((tmax - p.t_margin) / r.dt - STEP_SLACK))
             need_unicycle(wk, npend, nblk, r, p.coarse_n_v, p.coarse_n_theta, lmax, tmax)
     apply_horizons(wk, count, r, p, n_contest)
