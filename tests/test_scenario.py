@@ -80,6 +80,7 @@ def test_least_time_to_goal_bounds_every_robots_trip():
         ("n_obstacles", -1, "n_obstacles"),
         ("dt", 0.0, "dt"),
         ("dt", float("nan"), "dt"),
+        ("dt", 1e-4, r"dt \[s\] must be a finite number in \[0.001, 1.0\]"),  # the expert took 0.4 s a decision at 1e-6
         ("r_goal", -0.1, "r_goal"),
         ("r_ca", 0.0, "r_ca"),
         ("n_neighbors", 0, "n_neighbors"),

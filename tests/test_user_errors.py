@@ -304,6 +304,7 @@ def test_a_custom_goal_no_robot_can_arrive_at_is_refused():
     # no numbers (numpy's messages named no field; True was a speed of 1), a heading of many turns (wrapped).
     for kw, said in (
         ({"start": [(1e155, 0.0)]}, r"CustomLayout.start\[0\] = .* is beyond \+-1e\+06 m"),
+        ({"walls": [((-1e155, -1.5), (1e155, -1.5))]}, r"CustomLayout.walls\[0\] = .* reaches beyond \+-1e\+06 m"),
         ({"heading": ["a"]}, "CustomLayout.heading must be numbers, one per robot, got \\['a'\\]"),
         ({"heading": [1j]}, "CustomLayout.heading must be numbers"),
         ({"speed": [True]}, "CustomLayout.speed must be numbers"),

@@ -129,6 +129,12 @@ class CustomLayout:
         from .walls import check_segments
 
         walls = check_segments(self.walls, "CustomLayout.walls")
+        far = np.flatnonzero(np.any(np.abs(walls) > COORD_LIMIT, axis=(1, 2)))
+        if far.size:  # squared lengths overflow from about 1e154 m: a wall that far is lost to every test
+            raise ValueError(
+                f"CustomLayout.walls[{far[0]}] = {tuple(map(tuple, walls[far[0]].tolist()))} reaches beyond "
+                f"+-{COORD_LIMIT:g} m (COORD_LIMIT): shift the layout toward the origin"
+            )
         object.__setattr__(self, "walls", tuple(tuple(map(tuple, w)) for w in walls.tolist()))
         walls.setflags(write=False)
         object.__setattr__(self, "_wall_array", walls)  # the walls as an (s, 2, 2) array, for every reset

@@ -131,7 +131,7 @@ WALL_POINT_FIELDS = ("valid", "x", "y", "tx", "ty", "back", "ahead")
 WALL_POINT_DIM = 3
 """Features per nearest-wall-point slot without ``Scenario.wall_segments`` (valid, x, y)."""
 DT_REF = 1.0
-"""Largest allowed step [s] (``Scenario.dt`` is in (0, 1])."""
+"""Largest allowed step [s] (``Scenario.dt`` is in [0.001, 1])."""
 SENSOR_FIELDS = ("observation", "n_neighbors", "lidar", "n_wall_points", "wall_segments", "stall_clock")
 """Scenario fields that only change what robots observe, never the episode's worlds."""
 _SCALES = {

@@ -49,7 +49,7 @@ def _suites():
 
 
 LEAST_LIMIT = 1e-3
-"""Least ``RobotSpec.a_max`` [m/s^2] and ``omega_max`` [rad/s]."""
+"""Least ``RobotSpec.a_max`` [m/s^2] and ``omega_max`` [rad/s], and least ``Scenario.dt`` [s] (the same reason)."""
 
 
 MAX_STEPS = 10**7
@@ -75,8 +75,8 @@ class RobotSpec:
     def __post_init__(self) -> None:
         check_range("robot.radius", self.radius, 0.0, R_REF, lo_open=True)
         check_range("robot.v_max", self.v_max, 0.0, V_REF, lo_open=True)
-        # Limits below LEAST_LIMIT: the expert's window counts steps of a_max dt (omega_max dt), and a step of 1e-9
-        # made each decision take seconds (a robot of 1e-3 m/s^2 needs 1000 s to reach 1 m/s).
+        # Limits below LEAST_LIMIT (a_max, omega_max, dt): the expert counts steps of a_max dt (omega_max dt, dt), and
+        # a step of 1e-9 made each decision take seconds (a robot of 1e-3 m/s^2 needs 1000 s to reach 1 m/s).
         check_range("robot.a_max", self.a_max, LEAST_LIMIT, A_REF)
         check_range("robot.omega_max", self.omega_max, LEAST_LIMIT, OMEGA_REF)
         object.__setattr__(self, "holonomic", check_flag("robot.holonomic", self.holonomic))
@@ -147,7 +147,7 @@ class Scenario:
     initial_speed: float = 0.0
     """Initial robot speed [m/s] (robots start facing their goal)."""
     dt: float = 0.1
-    """Sensing-acting period [s], in (0, 1]."""
+    """Sensing-acting period [s], in [0.001, 1] (``LEAST_LIMIT``)."""
     robot: RobotSpec = field(default_factory=RobotSpec)
     """Robot body and limits."""
     obstacle_motion: str = "static"
@@ -228,7 +228,7 @@ class Scenario:
         check_range("jitter", self.jitter, 0.0, 1e3)
         check_range("min_separation", self.min_separation, 0.0, 1e3)
         check_range("initial_speed", self.initial_speed, 0.0, self.robot.v_max)
-        check_range("dt", self.dt, 0.0, 1.0, lo_open=True)
+        check_range("dt [s]", self.dt, LEAST_LIMIT, 1.0)
         check_choice("obstacle_motion", self.obstacle_motion, MOTIONS)
         check_interval("obstacle_radius", self.obstacle_radius, 1e-3, R_REF)
         check_interval("obstacle_speed", self.obstacle_speed, 0.0, V_REF)
