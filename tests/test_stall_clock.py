@@ -106,3 +106,20 @@ def test_bad_clock_settings_are_refused_with_a_message():
     world = Simulator(Scenario()).reset(0)  # made without the clock
     with pytest.raises(ValueError, match="keeps none"):
         observe(world, s)
+
+
+def test_a_robot_at_rest_in_its_first_state_has_not_stalled_at_any_step():
+    """At rest for ``stall_time`` means at rest in two states at least: with a step of dt >= stall_time (1 s) every
+    robot at rest at its reset detoured at once (a review: two robots side by side in a corridor both turned off
+    their walls, into each other). Held at rest into the next state, they do detour."""
+    s = dataclasses.replace(get_suite("circle-8-v0").scenario, dt=1.0, stall_clock=True)
+    eng = NavEngine(s, 2)
+    eng.reset([0, 1])
+    planner = VCSPlanner()
+    planner.plan(eng.world)
+    assert not planner.last["detour"].any()
+    assert not eng.world.clock[..., -1].any()  # the observed clock agrees
+    eng.step(np.zeros((2, s.n_robots, 2)))  # no change of speed: still at rest
+    planner.plan(eng.world)
+    assert planner.last["detour"].all()
+    np.testing.assert_array_equal(eng.world.clock[..., -1], 1.0)

@@ -76,6 +76,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, fix (same id, 2026-12-07, evening): the stall clock (``stall_clock``, the ``clock`` block) counts a robot
+      stalled after two states at rest at least: at ``dt >= 1`` s (the stall time) every robot at rest at its reset
+      read stalled, and the VCS expert detoured it; at any smaller ``dt`` nothing changes.
     * v2, fix (same id, 2026-12-07, later): simulated time is the step count times ``dt`` (a sum of ``dt`` drifted:
       an ``arbitrary`` obstacle's turn period came a step early or late from step 34,040 at dt 0.1); six suites x 20
       episodes hash the same, and episodes shorter than some 30,000 steps are unchanged but for float rounding.

@@ -102,7 +102,9 @@ def stall_rules(key, steps, speed, v_max, active, rules, d_goal, inp, out, psi, 
             progressed = ref - dg >= rl.stall_speed * v_max[b, i] * rl.progress_window
             wait = 0.0 if progressed else inp.wait[b, i] + dt
             no_progress = away and rl.progress_window > 0 and wait >= rl.progress_window - 1e-9
-            slow = stalled and inp.stall[b, i] + dt >= rl.stall_time - 1e-9
+            # Slow over this period and the ones before for stall_time; at least two states at rest (a robot at rest
+            # in its first state has not stalled yet: a step of dt >= stall_time detoured every robot at its reset).
+            slow = stalled and inp.stall[b, i] > 0.0 and inp.stall[b, i] + dt >= rl.stall_time - 1e-9
             start = inp.detour[b, i] <= 0 and (slow or no_progress)
             detour[b, i] = inp.detour[b, i] > 0 or start
             if start:

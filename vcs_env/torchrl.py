@@ -118,6 +118,8 @@ class VcsNavEnv(EnvBase):
     Scenario field as a keyword override (``n_robots=16``), as :func:`vcs_env.parallel_env` takes them.
 
     ## Version History
+    * v2, fix (same id, 2026-12-07, evening): the stall clock counts a robot stalled after two states at rest at
+      least, as in the PettingZoo ``vcs_nav_v2`` (its version history).
     * v2, fix (same id, 2026-12-07): simulated time is the step count times ``dt``, as in the PettingZoo
       ``vcs_nav_v2`` (its version history).
     * v2, fix (same id, 2026-12-05): a step through the goal disc and out again ends at its point nearest the
