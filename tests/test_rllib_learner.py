@@ -4,6 +4,8 @@ bit (sampling in the driver)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -90,3 +92,27 @@ def test_first_epoch_minibatches_are_shuffled_and_a_toy_run_repeats(monkeypatch)
         near = np.abs(np.diff(obs, axis=0)).max(axis=1) < 0.1
         assert near.mean() < 0.5, near.mean()
     assert torch.equal(weights[0], weights[1])
+
+
+def test_train_uses_a_ray_its_caller_started_and_leaves_it_running(tmp_path):
+    """A script or notebook that started Ray itself: ``train`` called ``ray.init`` again (Ray's "called ray.init
+    twice" error, nothing trained), and would have shut the caller's Ray down at the end."""
+    import ray
+
+    from agents.runs import RLlibConfig
+    from agents.train.rllib import train
+
+    torch.set_num_threads(1)
+    cfg = RLlibConfig(
+        scenario="circle", n_robots=4, n_worlds=2, n_steps=16, batch_size=64, n_epochs=1, eval_freq=0,
+        eval_episodes=1, checkpoint_freq=0, num_env_runners=0, timesteps=128, seed=5, out=str(tmp_path / "run"),
+    )  # fmt: skip
+    ray.init(num_cpus=1, include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
+    try:
+        out = train(cfg)
+        assert ray.is_initialized()  # the caller's Ray is the caller's to stop
+        assert out["timesteps"] >= 128 and (tmp_path / "run" / "checkpoint").is_dir()
+        with pytest.raises(ValueError, match="already runs Ray; --address 127.0.0.1:1 would join another"):
+            train(dataclasses.replace(cfg, address="127.0.0.1:1", out=str(tmp_path / "other")))
+    finally:
+        ray.shutdown()

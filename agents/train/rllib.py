@@ -46,7 +46,7 @@ from typing import Any
 from vcs_env.scenario import Scenario
 from vcs_env.suites import get_suite
 
-from ..checkpoint import Checkpoint, RLlibCheckpoint, RLlibPolicy, open_checkpoint
+from ..checkpoint import Checkpoint, RLlibCheckpoint, RLlibPolicy, import_ray, open_checkpoint
 from ..config import build_scenario
 from ..policies import warn_blind_training
 from ..runs import (
@@ -221,6 +221,7 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
         if not isinstance(resume, RLlibCheckpoint):
             raise ValueError(f"--backend rllib continues RLlib checkpoints; {resume.describe()} is an SB3 one")
         resume = kept_start(resume, cfg.out)
+    ours = not import_ray().is_initialized()  # a Ray the caller started stays up after the run
     ray = init_ray(cfg)
     import torch
 
@@ -267,7 +268,8 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
         )  # fmt: skip
     finally:
         algo.stop()
-        ray.shutdown()
+        if ours:
+            ray.shutdown()
     print(f"saved {ckpt} ({steps} timesteps, {wall:.0f} s)")
     print_reproduce(run_command("rllib_ppo", cfg), resume, resume.timesteps if resume is not None else 0)
     return {"checkpoint": str(ckpt), "evaluation": final, "wall_time": wall, "timesteps": steps}

@@ -113,10 +113,22 @@ def check_cluster(ray) -> list[dict[str, Any]]:
 
 
 def init_ray(cfg: RLlibConfig):
-    """Join ``cfg.address`` or start a local Ray instance; check every node can run the envs."""
+    """Join ``cfg.address`` or start a local Ray instance; check every node can run the envs. A Ray this process
+    already runs (a notebook's, a script's own ``ray.init``) is used as it is, and ``cfg.address`` must be unset:
+    its workers then have the environment it was started with (this function starts them with
+    ``OMP_NUM_THREADS=1`` and ``PYTHONHASHSEED=0``, which the run's reproducibility across runners needs)."""
+    ray = import_ray()
+    if ray.is_initialized():
+        if cfg.address not in (None, "", "auto"):
+            raise ValueError(
+                f"this process already runs Ray; --address {cfg.address} would join another cluster: leave it out to "
+                "use the running one, or call ray.shutdown() first"
+            )
+        nodes = check_cluster(ray)
+        print(f"ray cluster: the one this process runs ({len(nodes)} node{'s' * (len(nodes) != 1)})", flush=True)
+        return ray
     if cfg.address:
         check_address(cfg.address)
-    ray = import_ray()
     os.environ["RAY_AUTH_MODE"] = auth_mode(joining=bool(cfg.address))  # read by ray.init and the processes it starts
     # PYTHONHASHSEED: RLlib iterates over sets of agent ids, whose order (and so which robot gets
     # which exploration noise) otherwise changes with every runner process (measured).
