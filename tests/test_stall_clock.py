@@ -3,11 +3,12 @@ observed by policies (the ``clock`` block), changes no episode and tells a polic
 memory tells the expert."""
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
 
-from baselines.vcs.planner import VCSPlanner
+from baselines.vcs.planner import CoarseStepWarning, VCSPlanner
 from vcs_env.engine import NavEngine
 from vcs_env.observations import observation_config, observation_layout, observe, reference_observe, sensors_of
 from vcs_env.scenario import Scenario
@@ -111,15 +112,22 @@ def test_bad_clock_settings_are_refused_with_a_message():
 def test_a_robot_at_rest_in_its_first_state_has_not_stalled_at_any_step():
     """At rest for ``stall_time`` means at rest in two states at least: with a step of dt >= stall_time (1 s) every
     robot at rest at its reset detoured at once (a review: two robots side by side in a corridor both turned off
-    their walls, into each other). Held at rest into the next state, they do detour."""
+    their walls, into each other). Held at rest into the next state, they do detour. A step over 0.25 s warns,
+    once per planner: the expert is measured at shorter ones."""
     s = dataclasses.replace(get_suite("circle-8-v0").scenario, dt=1.0, stall_clock=True)
     eng = NavEngine(s, 2)
     eng.reset([0, 1])
     planner = VCSPlanner()
-    planner.plan(eng.world)
+    with pytest.warns(CoarseStepWarning, match=r"dt = 1 s; it is measured at dt <= 0.25 s"):
+        planner.plan(eng.world)
     assert not planner.last["detour"].any()
     assert not eng.world.clock[..., -1].any()  # the observed clock agrees
     eng.step(np.zeros((2, s.n_robots, 2)))  # no change of speed: still at rest
-    planner.plan(eng.world)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # told once
+        planner.plan(eng.world)
+        fine = NavEngine(dataclasses.replace(s, dt=0.25), 1)
+        fine.reset([0])
+        VCSPlanner().plan(fine.world)  # CrowdNav's step: no warning
     assert planner.last["detour"].all()
     np.testing.assert_array_equal(eng.world.clock[..., -1], 1.0)

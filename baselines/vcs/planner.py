@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import operator
+import warnings
 
 import numpy as np
 
@@ -19,6 +20,15 @@ from ..common import preferred_velocity
 from . import kernel
 from .kernel.records import STATIC_SPEED
 from .params import VCSParams
+
+COARSE_DT = 0.25
+"""[s] The longest step the expert is measured at (every suite: 0.1 s, CrowdNav's 0.25 s); a longer one warns."""
+
+
+class CoarseStepWarning(UserWarning):
+    """The world's step is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume velocities held
+    from now on, a robot holds its command for a whole step, and robots collide that would not at shorter steps
+    (vcs-calibration §5, "Coarse control steps")."""
 
 
 @dataclasses.dataclass
@@ -97,6 +107,7 @@ class VCSPlanner(Planner):
         self._movers: _MoverMemory | None = None
         self._cache_key: tuple | None = None
         self._cache_target: np.ndarray | None = None
+        self._coarse_told = False
         self.last: dict[str, np.ndarray] = {}
 
     @property
@@ -293,6 +304,15 @@ class VCSPlanner(Planner):
         others' rows keep their speed and heading, and their ``last`` entries are those of a robot
         that is done; the robots planned get the same targets either way)."""
         world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
+        if world.dt > COARSE_DT and not self._coarse_told:
+            self._coarse_told = True
+            warnings.warn(
+                f"the VCS expert plans steps of dt = {world.dt:g} s; it is measured at dt <= {COARSE_DT:g} s, and at "
+                "coarser steps robots collide that would not at shorter ones (vcs-calibration §5, 'Coarse control "
+                "steps')",
+                CoarseStepWarning,
+                stacklevel=2,
+            )
         if robots is not None:
             robots = robots_mask(world, robots)
         # The same state asked again (the env's expert action, then a policy that follows it) is planned once:
