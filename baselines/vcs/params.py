@@ -194,6 +194,14 @@ class VCSParams:
     """A candidate is admissible only if the ramp that reaches it keeps clear of non-reactive
     objects, and out of contact with driving robots that take the mirror of the change (the
     reciprocal assumption) (False: only its end velocity is judged, the ablation)."""
+    step_split: bool = True
+    """Simultaneous steps (vcs-method §2.15): every robot moves for a whole period on the velocity
+    it picks, from the same snapshot, while the velocity obstacles predict the other robot's
+    velocity (the mirror of one's change, or the current one). A candidate's first step may
+    advance towards another active robot (along the line of their centres) by at most
+    ``max(g / 2, g - U_j)``: ``g`` the surface gap less ``STEP_GAP``, ``U_j`` the farthest the
+    other can advance towards it in one step within its limits. Two robots that both keep the
+    rule cannot touch within the step, whatever each of them picks (False: the ablation)."""
     wall_brake: bool = True
     """Near a wall, a ramp must leave the robot able to stop: from every state along it, braking
     straight at a_max keeps clear of the wall; and with no admissible candidate, the fallback
@@ -318,6 +326,7 @@ class VCSParams:
             "crowd_margin",
             "crowd_reach",
             "ramp_check",
+            "step_split",
             "wall_brake",
             "detour_off_walls",
             "detour_escalate",

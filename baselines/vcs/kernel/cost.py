@@ -8,7 +8,7 @@ import math
 from numba import njit
 
 from .neighbours import forbidden
-from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_SLACK, TINY, WALL_RAMP_GAP
+from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_GAP, STEP_SLACK, TINY, WALL_RAMP_GAP
 from .scalar import reach_steps, tau, tau_within, wrap
 from .walls import brake_gap, wall_gap, wall_tau
 
@@ -55,6 +55,7 @@ def robot_context(b, i, world, inputs, p, dt, holo, rec):
     r.tau_s = p.tau_s
     r.goal_vcs = p.goal_vcs
     r.ramp = p.ramp_check
+    r.split = p.step_split
     r.dt = dt
     r.ramp_gap = 0.5 * p.delta_min
     r.ramp_hint = -1
@@ -200,10 +201,46 @@ def ramp_clear(nbs, count, r, dv, dth):
     driving robot on the way is caught here. Clear means a gap of at least delta_min / 2 (0 for
     a driving robot), or no smaller than now if the robot is already closer. Near a wall, with
     ``wall_brake``, every state along the ramp must also be able to brake straight to a stop
-    clear of it (vcs-method §2.18)."""
+    clear of it (vcs-method §2.18). With ``step_split`` the first step must also keep its share of
+    the gap to every active robot (:func:`step_clear`)."""
+    if r.split and not step_clear(nbs, count, r, dv, dth):
+        return False
     if not r.ramp:
         return True
     return ramp_walk(nbs, count, r, dv, dth, False)
+
+
+@njit(cache=True)
+def split_excess(nbs, count, dt, v1x, v1y):
+    """By how much [m] a first step at velocity (v1x, v1y) [m/s] oversteps its share of the gap to
+    the active robots (``VCSParams.step_split``; 0: it keeps every share). Its advance towards each
+    along the line of their centres is at most ``max(g / 2, g - U_j, 0)`` (``g``: the surface gap
+    less ``STEP_GAP``; ``U_j``: the other's farthest advance towards it, ``nb.reach``)."""
+    out = 0.0
+    for q in range(count):
+        nb = nbs[q]
+        if not nb.split or nb.overlap:
+            continue
+        u = (v1x * nb.px + v1y * nb.py) / nb.d * dt
+        if u <= 0.0:
+            continue
+        g = nb.d - nb.r0 - STEP_GAP
+        e = u - max(0.5 * g, g - nb.reach, 0.0)
+        if e > out:
+            out = e
+    return out
+
+
+@njit(cache=True)
+def step_clear(nbs, count, r, dv, dth):
+    """The first step toward VCS point (dv, dth) shares the gap with every active robot
+    (:func:`split_excess`). Every robot moves a whole period on the velocity it picks, from the
+    same snapshot: the velocity obstacles' guess of the other's next velocity is off by up to
+    2 a_max dt, a distance of 2 a_max dt^2 within the step; two robots that both keep their share
+    cannot touch within it, whatever each picks (vcs-method §2.15)."""
+    line = ramp_line(r, dv, dth)
+    v1x, v1y = ramp_velocity(r, dv, dth, line, 1)
+    return split_excess(nbs, count, r.dt, v1x, v1y) <= 0.0
 
 
 @njit(cache=True)

@@ -7,9 +7,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .cost import goal_term, ramp_line, ramp_velocity, wall_ramp_clear
+from .cost import goal_term, ramp_line, ramp_velocity, split_excess, wall_ramp_clear
 from .neighbours import collision_time, forbidden, inside_buffer
-from .records import INF, K_MOVER, K_STATIC, T_FLOOR, TINY, WALL_COST
+from .records import INF, K_MOVER, K_STATIC, SPLIT_COST, STEP_GAP, T_FLOOR, TINY, WALL_COST
 from .scalar import reach_steps, tau
 from .window import candidate
 
@@ -258,6 +258,11 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
         )  # fmt: skip
         if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
             j += WALL_COST
+        if r.split and j < best:  # a first step beyond its share of a gap to a robot (vcs-method §2.15)
+            v1x, v1y = first_step(r, dv, dth, vx, vy)
+            e = split_excess(nbs, count, r.dt, v1x, v1y)
+            if e > 0.0:
+                j += SPLIT_COST * (1.0 + e / STEP_GAP)
         if j < best:
             best = j
             bdv = dv

@@ -24,7 +24,7 @@ from .records import (
     TINY,
     Work,
 )
-from .scalar import tau, tau_within
+from .scalar import split_share, tau, tau_within
 from .walls import sensed_walls, wall_tau, wall_within
 
 
@@ -342,6 +342,7 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
             fit_disc_pairs(nbs, first, world.radius[b, i], clear, pref_comm[b, i, 0], pref_comm[b, i, 1])
     for q in range(count):
         nb = nbs[q]
+        split_share(nb, b, n, world, p.step_split, holo, dt)
         is_robot = nb.kind == K_RECIPROCAL
         rpx = 0.0
         rpy = 0.0

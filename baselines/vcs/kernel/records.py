@@ -34,6 +34,11 @@ answer, so among inadmissible candidates those that keep off the walls come firs
 WALL_RAMP_GAP = 0.005
 """Gap [m] a ramp keeps from a wall (vcs-method §2.18): a wall never comes closer, so a robot
 stopped a buffer delta_min from it may turn away while it starts moving."""
+STEP_GAP = 0.005
+"""Gap [m] two active robots keep within a step under ``VCSParams.step_split`` (vcs-method §2.15)."""
+SPLIT_COST = 1e3
+"""Extra fallback cost of a candidate whose first step oversteps its share of a gap to a robot
+(``VCSParams.step_split``), plus as much again per ``STEP_GAP`` of overstep: below a wall's."""
 SQRT_HALF = 0.7071067811865476
 """1 / sqrt(2): normalises a distance over the unit square of (dv / v_max, dtheta / pi)."""
 
@@ -75,6 +80,7 @@ PARAMS = np.dtype(
         ("stop_margin", "?"),
         ("joint_escape", "?"),
         ("ramp_check", "?"),
+        ("step_split", "?"),  # a first step shares the gap to each active robot (vcs-method §2.15)
         ("wall_brake", "?"),
         ("arriving_non_reactive", "?"),
         ("arriving_goal_twin", "?"),  # arriving robots also get a static twin where they will park
@@ -127,6 +133,7 @@ def params_record(p) -> np.ndarray:
         "stop_margin": p.stop_margin,
         "joint_escape": p.joint_escape,
         "ramp_check": p.ramp_check,
+        "step_split": p.step_split,
         "wall_brake": p.wall_brake,
         "arriving_non_reactive": p.arriving_non_reactive,
         "arriving_goal_twin": p.arriving_goal_twin,
@@ -170,12 +177,14 @@ NEIGHBOUR = np.dtype(
         ("vjx", "f8"),  # neighbour velocity [m/s]
         ("vjy", "f8"),
         ("stopk", "f8"),  # 1 / a_max of the robot when the stop margin applies [s^2/m]
+        ("reach", "f8"),  # an active robot's farthest one-step advance towards the robot [m] (signed)
         ("idx", "i8"),  # robot index (< n), n + obstacle index, or 2 n + m + wall index
         ("kind", "i8"),  # K_RECIPROCAL, K_MOVER or K_STATIC
         ("overlap", "?"),  # true penetration: a half-plane instead of a cone
         ("mover", "?"),  # an active robot (whatever the reciprocity rule)
         ("twin", "?"),  # the static twin of an arriving robot or of a moving obstacle that may stop
         ("wall", "?"),  # a wall segment (vcs-method §2.18): p is its nearest point
+        ("split", "?"),  # an active robot: the first step shares the gap with it (vcs-method §2.15)
         ("ax", "f8"),  # wall end points relative to the robot [m]
         ("ay", "f8"),
         ("bx", "f8"),
@@ -256,6 +265,7 @@ ROBOT = np.dtype(
         ("holo", "?"),  # holonomic robot
         ("goal_vcs", "?"),  # goal term measured in the VCS
         ("ramp", "?"),  # check admissibility along the way (vcs-method §2.15)
+        ("split", "?"),  # the first step shares the gap to active robots (vcs-method §2.15)
         ("walls", "?"),  # senses a wall (vcs-method §2.18)
         ("wall_brake", "?"),  # a ramp near a wall must leave the robot able to stop (vcs-method §2.18)
     ],

@@ -1,4 +1,4 @@
-"""Scalar geometry shared by every stage: time to collision, angle wrap, reach steps."""
+"""Scalar geometry shared by every stage: time to collision, angle wrap, reach steps, one step's reach."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 from numba import njit
 
-from .records import INF, STEP_SLACK
+from .records import INF, K_RECIPROCAL, STEP_SLACK, TINY
 
 
 @njit(cache=True)
@@ -87,3 +87,45 @@ def reach_steps(dv, dth, dv1, dth1, holo, vrx, vry, th_r, v_r):
     kt = steps_for(dth, dth1)
     k = kv if kv > kt else kt
     return k if k > 0 else 0
+
+
+@njit(cache=True)
+def step_reach(speed, heading, v_max, a_max, omega_max, holo, dt, mx, my):
+    """The farthest [m] a robot (``speed`` [m/s], ``heading`` [rad], limits ``v_max``, ``a_max``,
+    ``omega_max``) can move along the unit vector ``(mx, my)`` in one step ``dt`` [s], whatever it
+    picks (signed: negative when every reachable velocity moves away). A unicycle turns, then
+    drives straight at its new speed; a holonomic velocity changes by at most ``a_max dt`` and is
+    clipped to ``v_max`` (vcs_env.dynamics)."""
+    dv1 = a_max * dt
+    if holo:
+        x = speed * (math.cos(heading) * mx + math.sin(heading) * my) + dv1
+        if x >= 0.0:
+            return min(x, v_max) * dt
+        if speed + dv1 > v_max:  # clipped back onto the v_max disc: moves away less
+            x *= v_max / (speed + dv1)
+        return x * dt
+    lo = max(speed - dv1, 0.0)
+    hi = min(speed + dv1, v_max)
+    turn = omega_max * dt
+    off = abs(math.atan2(my, mx) - heading) % (2.0 * math.pi)
+    off = min(off, 2.0 * math.pi - off)
+    c = math.cos(max(off - turn, 0.0))
+    return (hi * c if c >= 0.0 else lo * c) * dt
+
+
+@njit(cache=True)
+def split_share(nb, b, n, world, on, holo, dt):
+    """The step-split fields of record ``nb`` of world ``b`` (``VCSParams.step_split`` = ``on``, vcs-method
+    §2.15): ``split`` for an active robot (not a twin, not a wall), and ``reach``, its farthest one-step advance
+    toward the planning robot [m] (:func:`step_reach`; at least 0 for an arriving robot, which may park within the
+    step: no credit for receding)."""
+    j = nb.idx
+    nb.split = on and not nb.wall and not nb.twin and nb.mover and 0 <= j < n and nb.d > TINY
+    nb.reach = 0.0
+    if nb.split:
+        nb.reach = step_reach(
+            world.speed[b, j], world.heading[b, j], world.v_max[b, j], world.a_max[b, j], world.omega_max[b, j],
+            holo, dt, -nb.px / nb.d, -nb.py / nb.d,
+        )  # fmt: skip
+        if nb.kind != K_RECIPROCAL:
+            nb.reach = max(nb.reach, 0.0)
