@@ -64,11 +64,12 @@ def test_ramp_check_keeps_turning_robots_off_driving_ones():
     one (4 of 300 episodes; 1 of 300, seed 5290, with driving robots covered): no contact
     between driving robots with it, contacts in every one of them with the ramp check off (and
     ``arriving_goal_twin`` off: the twin where an arriving robot will park also keeps the robots
-    of these four episodes apart without the ramp check, measured)."""
+    of these four episodes apart without the ramp check, measured; and ``step_split`` off, which
+    keeps two of them apart on its own)."""
     scenario = vcs_env.make_scenario("random", n_robots=12, arena_half_size=4.0, on_collision="continue")
     seeds = (5142, 5219, 5365, 5368)
     checked = _run(scenario, seeds, arriving_goal_twin=False)
-    ablated = _run(scenario, seeds, ramp_check=False, arriving_goal_twin=False)
+    ablated = _run(scenario, seeds, ramp_check=False, arriving_goal_twin=False, step_split=False)
     assert sum(_robot_contacts_at_fault(e) for e in checked) == 0
     assert sum(_robot_contacts_at_fault(e) > 0 for e in ablated) >= 3
     assert sum(_robot_contacts_at_fault(e) for e in _run(scenario, seeds, ramp_check=False)) == 0

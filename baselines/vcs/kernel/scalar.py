@@ -115,10 +115,10 @@ def step_reach(speed, heading, v_max, a_max, omega_max, holo, dt, mx, my):
 
 @njit(cache=True)
 def split_share(nb, b, n, world, on, holo, dt):
-    """The step-split fields of record ``nb`` of world ``b`` (``VCSParams.step_split`` = ``on``, vcs-method
-    §2.15): ``split`` for an active robot (not a twin, not a wall), and ``reach``, its farthest one-step advance
-    toward the planning robot [m] (:func:`step_reach`; at least 0 for an arriving robot, which may park within the
-    step: no credit for receding)."""
+    """The step-split fields of record ``nb`` of world ``b`` (``VCSParams.step_split`` = ``on``; see
+    vcs-method §2.15): ``split`` for an active robot (not a twin, not a wall), and ``reach``, its farthest
+    one-step advance toward the planning robot [m] (:func:`step_reach`; at least 0 for an arriving robot,
+    which may park within the step: no credit for receding)."""
     j = nb.idx
     nb.split = on and not nb.wall and not nb.twin and nb.mover and 0 <= j < n and nb.d > TINY
     nb.reach = 0.0
