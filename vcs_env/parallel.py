@@ -76,8 +76,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
-    * v2, planner default (same id, 2026-12-07, evening): the VCS expert behind the others, the expert labels and the
-      shaping keeps each first step within its share of the gap to every active robot (``VCSParams.step_split``):
+    * v2, planner default (same id, 2026-12-07, evening): the VCS expert (the others, the expert labels, the shaping)
+      keeps each first step within its share of the gap to every active robot (``VCSParams.step_split``):
       the same plans bit for bit on every suite (steps of 0.1 and 0.25 s); at coarser steps far fewer contacts.
     * v2, fix (same id, 2026-12-07, evening): the stall clock (``stall_clock``, the ``clock`` block) counts a robot
       stalled after two states at rest at least: at ``dt >= 1`` s (the stall time) every robot at rest at its reset

@@ -143,12 +143,11 @@ class VCSParams:
     on arrival): it also gets a static twin there, which the robot can tell from the communicated
     preferred velocity (its direction, and its speed ``min(v_max, d / dt, sqrt(2 a_max d))`` at
     goal distance ``d``), with a margin that covers the robot's stopping time, as a static body's
-    (vcs-method §2.7). A robot following or
-    crossing an arriving one thus keeps its braking distance from where that one will stop, not
-    from where it is. Only for an arriving robot faster than it can brake to its goal (one step
-    of braking over its preferred speed), and only in worlds without walls, where the preferred
-    velocity points at the goal (False: the twin where it is only, the ablation; see
-    vcs-method §2.4) [ours]."""
+    (vcs-method §2.7). A robot following or crossing an arriving one thus keeps its braking
+    distance from where that one will stop, not from where it is. Only for an arriving robot faster
+    than it can brake to its goal (one step of braking over its preferred speed), and only in
+    worlds without walls, where the preferred velocity points at the goal (False: the twin where it
+    is only, the ablation; see vcs-method §2.4) [ours]."""
     stopping_obstacles: bool = False
     """A moving obstacle may stop at any moment (``stop_and_go`` obstacles do): it also gets a
     static twin at its current position, as an arriving robot does, whose margin covers the
@@ -199,14 +198,14 @@ class VCSParams:
     it picks, from the same snapshot, while the velocity obstacles predict the other robot's
     velocity (the mirror of one's change, or the current one). A candidate's first step may
     advance towards another active robot (along the line of their centres) by at most
-    ``max(g / 2, g - U_j)``: ``g`` the surface gap less ``STEP_GAP``, ``U_j`` the farthest the
+    ``max(g / 2, g - U_j, 0)``: ``g`` the surface gap less ``STEP_GAP``, ``U_j`` the farthest the
     other can advance towards it in one step within its limits. Two robots that both keep the
     rule cannot touch within the step, whatever each of them picks (False: the ablation)."""
     wall_brake: bool = True
     """Near a wall, a ramp must leave the robot able to stop: from every state along it, braking
     straight at a_max keeps clear of the wall; and with no admissible candidate, the fallback
-    counts a ramp that sweeps into a wall as hard as a wall
-    (vcs-method §2.18) (False: the ramp's positions only, the ablation)."""
+    counts a ramp that sweeps into a wall as hard as a wall (vcs-method §2.18) (False: the ramp's
+    positions only, the ablation)."""
     # --- interaction (vcs-method §2.4) [paper: interactive velocity rule; default HRVO]
     reciprocity: str = "hrvo"
     """Robot-robot rule: ``"hrvo"``, ``"rvo"``, or ``"vo"`` (treat robots as passive movers)."""
@@ -233,11 +232,10 @@ class VCSParams:
     buffer shrinks to delta_min, so a gap the full buffer closed opens [reconstructed]."""
     stall_turn: bool = True
     """A robot that detours from rest measures its goal term in the VCS (vcs-method §2.12, the rule
-    of vcs-method §2.13), so it
-    turns in place toward the detour's direction: in the velocity metric every heading at zero
-    speed costs the same, and a unicycle at rest beside a body, whose every way of starting off
-    closes on that body (the ramp check), stood there for good. False: only beside a wall (the
-    rule of vcs-method §2.18), the ablation [ours]."""
+    of vcs-method §2.13), so it turns in place toward the detour's direction: in the velocity
+    metric every heading at zero speed costs the same, and a unicycle at rest beside a body, whose
+    every way of starting off closes on that body (the ramp check), stood there for good. False:
+    only beside a wall (the rule of vcs-method §2.18), the ablation [ours]."""
     detour_escalate: bool = True
     """A detour that began without progress since the last one turns further: the k-th
     consecutive detour rotates v_pref by k times detour_angle (at most a half turn; after four,
