@@ -78,7 +78,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     ## Version History
     * v2, planner default (same id, 2026-12-07, evening): the VCS expert (the others, the expert labels, the shaping)
       keeps each first step within its share of the gap to every active robot (``VCSParams.step_split``):
-      the same plans bit for bit on every suite (steps of 0.1 and 0.25 s); at coarser steps far fewer contacts.
+      the same plans bit for bit on every suite (steps of 0.1 and 0.25 s; hashed on one machine); at coarser steps
+      far fewer contacts.
     * v2, fix (same id, 2026-12-07, evening): the stall clock (``stall_clock``, the ``clock`` block) counts a robot
       stalled after two states at rest at least: at ``dt >= 1`` s (the stall time) every robot at rest at its reset
       read stalled, and the VCS expert detoured it; at any smaller ``dt`` nothing changes.
