@@ -95,5 +95,7 @@ class VelocityPlanner(Planner):
         raise NotImplementedError
 
     def plan(self, world: WorldState) -> np.ndarray:
+        world.check_shapes()  # the kernels index every field by its sizes
+        world.check_limits()  # and divide by dt and the robots' limits
         target = velocity_to_target(world, self.desired_velocity(world), goal_heading(world))
         return hold_inactive(world, target)

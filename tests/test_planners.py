@@ -57,6 +57,33 @@ def test_invalid_arguments():
         VCSPlanner().params = {"horizon": 3.0}
 
 
+@pytest.mark.parametrize("name", [*COMPARISON, "straight", "vcs"])
+def test_bad_limits_in_a_world_are_named(name):
+    """A world whose step or robot limits were set by hand out of a Scenario's ranges is refused by name, before the
+    planner divides by them (dt 0 and a_max 0 ended in a ZeroDivisionError inside a kernel, NaN and negative limits
+    in NaN actions or plans of the wrong sign)."""
+    import dataclasses
+
+    engine = NavEngine(vcs_env.make_scenario("crowd", n_robots=3), 2)
+    engine.reset([0, 1])
+    good = engine.world
+    assert np.isfinite(make_planner(name).act(good)).all()
+    cases = [(dataclasses.replace(good, dt=0.0), r"WorldState.dt \[s\] must be a finite number in \[0.001, 1.0\]")]
+    for field, value, text in [
+        ("a_max", 0.0, r"\[0.001, 10.0\], got 0.0"),
+        ("a_max", -1.0, r"\[0.001, 10.0\], got -1.0"),
+        ("omega_max", 1e-9, r"\[0.001, 6.28"),
+        ("v_max", np.nan, r"\(0, 3.0\], got nan"),
+        ("radius", 0.0, r"\(0, 2.0\], got 0.0"),
+    ]:
+        world = good.copy()
+        getattr(world, field)[1, 2] = value
+        cases.append((world, rf"WorldState.{field}\[1, 2\] must be a finite number in {text}"))
+    for world, text in cases:
+        with pytest.raises(ValueError, match=text):
+            make_planner(name).act(world)
+
+
 def test_new_params_set_on_a_planner_take_effect():
     """The compiled settings followed only the constructor's: params set afterwards were read by the Python parts
     and ignored by the kernels, so the planner planned with a mixture of the two."""

@@ -20,6 +20,8 @@ OMEGA_REF = 2.0 * math.pi
 """Largest allowed robot turn rate [rad/s]."""
 R_REF = 2.0
 """Largest allowed robot or obstacle radius [m]."""
+LEAST_LIMIT = 1e-3
+"""Least ``RobotSpec.a_max`` [m/s^2] and ``omega_max`` [rad/s], and least ``Scenario.dt`` [s] (the same reason)."""
 
 
 def install_hint(extra: str) -> str:

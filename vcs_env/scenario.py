@@ -21,7 +21,18 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-from .checks import A_REF, OMEGA_REF, R_REF, V_REF, check_choice, check_flag, check_int, check_interval, check_range  # noqa: F401
+from .checks import (  # noqa: F401
+    A_REF,
+    LEAST_LIMIT,
+    OMEGA_REF,
+    R_REF,
+    V_REF,
+    check_choice,
+    check_flag,
+    check_int,
+    check_interval,
+    check_range,
+)
 from .custom_layout import CustomLayout, ObstacleTrajectory  # noqa: F401  (re-exported: Scenario's custom layouts)
 from .lidar import LidarSpec
 from .pedestrians import PedestrianSpec
@@ -46,10 +57,6 @@ def _suites():
     from .suites import SUITES  # late import: the suites are built from this module's presets
 
     return SUITES
-
-
-LEAST_LIMIT = 1e-3
-"""Least ``RobotSpec.a_max`` [m/s^2] and ``omega_max`` [rad/s], and least ``Scenario.dt`` [s] (the same reason)."""
 
 
 MAX_STEPS = 10**7

@@ -12,7 +12,9 @@ import operator
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
+from .checks import A_REF, LEAST_LIMIT, OMEGA_REF, R_REF, V_REF, check_range
 from .geometry import unit
 
 
@@ -86,6 +88,20 @@ class WorldState:
                     f"s={sizes[3]} wall segments from seg_present)"
                 )
 
+    def check_limits(self) -> None:
+        """A ``ValueError`` naming the step or the first robot limit outside the ranges a
+        :class:`~vcs_env.scenario.Scenario` allows: ``dt`` in [0.001, 1] s, each robot's ``v_max`` in (0, 3] m/s,
+        ``a_max`` in [0.001, 10] m/s^2, ``omega_max`` in [0.001, 2 pi] rad/s and ``radius`` in (0, 2] m, every one
+        finite. The planners divide by them and count steps of them (a zero ended in a ZeroDivisionError inside a
+        kernel, a NaN in NaN actions), so they check it on every plan, as :meth:`check_shapes` (fields may be replaced
+        by hand). About a microsecond."""
+        check_range("WorldState.dt [s]", self.dt, LEAST_LIMIT, 1.0)
+        b, i, f = _first_out_of_range(self.v_max, self.a_max, self.omega_max, self.radius, LEAST_LIMIT, *_TOPS)
+        if f >= 0:
+            name, lo = _LIMITS[f]
+            got = float(getattr(self, name)[b, i])
+            raise ValueError(f"WorldState.{name}[{b}, {i}] must be a finite number in {lo}, {_TOPS[f]}], got {got!r}")
+
     def saved_arrays(self) -> dict[str, np.ndarray]:
         """The per-world arrays a saved state holds (:mod:`vcs_env.start_states`): :meth:`arrays` without
         the stall clock (a restored world starts a new clock, as the expert's memory starts afresh when a world
@@ -129,6 +145,29 @@ class WorldState:
     def world(self, b: int) -> WorldState:
         """World ``b`` alone, as a batch of one (arrays copied)."""
         return dataclasses.replace(self, **{f: v[b : b + 1].copy() for f, v in self.arrays().items()})
+
+
+_LIMITS = (("v_max", "(0"), ("a_max", f"[{LEAST_LIMIT}"), ("omega_max", f"[{LEAST_LIMIT}"), ("radius", "(0"))
+_TOPS = (V_REF, A_REF, OMEGA_REF, R_REF)
+"""The robot limits :meth:`WorldState.check_limits` checks, each with the bound it gives below and above."""
+
+
+@njit(cache=True)
+def _first_out_of_range(v_max, a_max, omega_max, radius, least, v_top, a_top, omega_top, r_top):
+    """``(b, i, f)`` of the first robot ``i`` of world ``b`` whose limit ``f`` (an index of ``_LIMITS``) is out of its
+    range (NaN is), or ``f = -1`` when none is."""
+    B, n = v_max.shape
+    for b in range(B):
+        for i in range(n):
+            if not 0.0 < v_max[b, i] <= v_top:
+                return b, i, 0
+            if not least <= a_max[b, i] <= a_top:
+                return b, i, 1
+            if not least <= omega_max[b, i] <= omega_top:
+                return b, i, 2
+            if not 0.0 < radius[b, i] <= r_top:
+                return b, i, 3
+    return 0, 0, -1
 
 
 _SHAPES = {

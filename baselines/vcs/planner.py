@@ -304,6 +304,7 @@ class VCSPlanner(Planner):
         others' rows keep their speed and heading, and their ``last`` entries are those of a robot
         that is done; the robots planned get the same targets either way)."""
         world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
+        world.check_limits()  # and divide by dt and the robots' limits
         if world.dt > COARSE_DT and not self._coarse_told:
             self._coarse_told = True
             warnings.warn(
