@@ -163,6 +163,52 @@ def test_one_planner_instance_given_to_several_envs_drives_each_as_its_own():
         np.testing.assert_array_equal(a, b)
 
 
+def test_a_masked_plan_of_a_state_already_planned_leaves_the_experts_memory():
+    """A label asked for some robots (``act(world, robots=mask)``) of a state the expert has planned: the robots left
+    out keep the residual its full plan gave them (they lost it, and the expert's episode turned from the next step on,
+    by up to a full action)."""
+    scenario = vcs_env.make_scenario("crowd", n_robots=4, n_obstacles=4)
+
+    def run(query: bool) -> np.ndarray:
+        engine = NavEngine(scenario, 1, expert="vcs")
+        engine.reset([1])
+        out = []
+        for t in range(30):
+            if query and t == 5:
+                engine.expert.act(engine.world, robots=np.array([True, False, False, False]))
+            out.append(engine.expert_action.copy())
+            engine.step(engine.expert_action)
+        return np.array(out)
+
+    np.testing.assert_array_equal(run(True), run(False))
+
+
+def test_the_others_of_a_gym_env_follow_robots_moved_by_hand():
+    """One planner instance as both the others and the expert of a Gymnasium env: after a robot is moved by hand the
+    others act on the state as it is (they took the expert's plan of the state before the move), as with two
+    instances."""
+    import gymnasium as gym
+
+    from baselines.vcs import VCSPlanner
+
+    def run(shared: bool) -> np.ndarray:
+        p = VCSPlanner()
+        kw = dict(others=p, expert=p) if shared else dict(others=VCSPlanner(), expert=VCSPlanner())
+        env = gym.make("vcs_env/Navigation-v2", scenario="crowd", n_robots=4, n_obstacles=4, **kw)
+        env.reset(seed=7)
+        world = env.unwrapped.world
+        out = []
+        for t in range(10):
+            if t in (0, 4):
+                world.heading[0, 2] += 1.5
+                world.pos[0, 3] += 0.2
+            env.step(np.zeros(2))
+            out.append(np.concatenate([world.pos[0].ravel(), world.heading[0]]))
+        return np.array(out)
+
+    np.testing.assert_array_equal(run(True), run(False))
+
+
 def test_time_is_the_step_count_times_dt_not_a_drifting_sum():
     """Time summed step by step drifted (-7e-10 s after 20k steps of 0.1 s, 7e-6 s after 2M): the turn periods of
     arbitrary obstacles changed a step early or late from step 34,040 on, and scripted waypoints were met a step off."""

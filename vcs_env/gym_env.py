@@ -20,13 +20,11 @@ from .spaces import action_space, observation_space
 
 
 def _others_actions(others: Planner, engine: NavEngine, mask: np.ndarray) -> np.ndarray:
-    """Actions ``(B, n, 2)`` of the planner driving the robots in ``mask`` ``(n,)``. When it is the
-    engine's expert instance, that planner has already planned this state (``expert_action``):
-    planning it again would overwrite the memory its own next plan starts from (hysteresis), so
-    the labels would change with the sharing; its plan is reused instead."""
-    if others is engine.expert:
-        return np.array(engine.expert_action, dtype=np.float64)
-    return others.act(engine.world, engine.action_mode, mask).astype(np.float64)
+    """Actions ``(B, n, 2)`` of the planner driving the robots in ``mask`` ``(n,)``, planned from the state as it is
+    (robots may have been moved by hand since the engine's expert labelled it). The engine's expert instance plans
+    every robot, as for its labels: the state unchanged, its plan is the one it made (the planner's cache)."""
+    robots = None if others is engine.expert else mask
+    return others.act(engine.world, engine.action_mode, robots).astype(np.float64)
 
 
 class VcsNavEnv(RenderMixin, gym.Env):
@@ -86,7 +84,7 @@ class VcsNavEnv(RenderMixin, gym.Env):
         self.engine = NavEngine(self.scenario, 1, action_mode, expert, reward_terms, obstacle_motion, gamma)
         n = self.scenario.n_robots
         # Checked even when no other robot needs it; an instance is the env's own copy (own_planner), the expert's
-        # copy when the same instance drives the others and labels (its plan is then reused, _others_actions).
+        # copy when the same instance drives the others and labels (it then plans every robot, _others_actions).
         others = self.engine.expert if others is expert and isinstance(others, Planner) else own_planner(others)
         self.others = others if n > 1 else None
         self._others_mask = np.arange(n) > 0  # robots the `others` planner drives (not robot_0)
@@ -205,7 +203,7 @@ class VcsNavVectorEnv(VectorEnv):
             self.scenario, self.num_envs, action_mode, expert, reward_terms, obstacle_motion, gamma, max_steps=limit
         )
         # Checked even when no other robot needs it; an instance is the env's own copy (own_planner), the expert's
-        # copy when the same instance drives the others and labels (its plan is then reused, _others_actions).
+        # copy when the same instance drives the others and labels (it then plans every robot, _others_actions).
         others = self.engine.expert if others is expert and isinstance(others, Planner) else own_planner(others)
         self.others = others if self.scenario.n_robots > 1 else None
         self._others_mask = np.arange(self.scenario.n_robots) > 0  # robots `others` drives (not robot_0)

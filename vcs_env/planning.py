@@ -51,7 +51,8 @@ class Planner:
         """Targets ``(B, n, 2)`` as :meth:`plan` gives them, of which the caller reads only the
         rows of ``robots`` ``(n,)`` bool (e.g. not the learner's); a planner may skip the other
         robots (their rows are then unspecified). The plans of the robots read are those of
-        :meth:`plan`. The default plans every robot."""
+        :meth:`plan` with the same mask every step (a planner with memory across periods, as the VCS expert, keeps
+        none for a robot it did not plan in a period). The default plans every robot."""
         robots_mask(world, robots)
         return self.plan(world)
 
@@ -177,7 +178,8 @@ def make_planner(spec: str | Planner, **kwargs) -> Planner:
 def own_planner(spec: str | Planner) -> Planner:
     """:func:`make_planner` for an env: a planner instance given is copied, so that envs never share one (a
     planner keeps memory across periods, per batch of worlds: two envs planning in turn with one instance
-    would clear each other's, and their episodes would differ from those with a planner each)."""
+    would clear each other's, or mix it at the same seeds, and their episodes would differ from those with a
+    planner each)."""
     return env_copy(spec, f"planner {type(spec).__name__}") if isinstance(spec, Planner) else make_planner(spec)
 
 

@@ -94,6 +94,14 @@ class VCSPlanner(Planner):
     admissible candidate), ``k`` (window steps), ``t_star`` (first threat time [s]),
     ``threats``, ``target`` (dv*, dtheta*) ``(B, n, 2)``, ``goal_point`` G and ``goal_step`` (G
     clipped to the one-step window) ``(B, n, 2)``, ``cost`` and ``detour``.
+
+    The planner keeps memory from period to period (J_h's residual, the stall and detour state, the
+    movers' last velocities) per batch row, matched by the world's episode ``key`` and ``steps``: a
+    world one step on continues it, a new episode or a jump clears it, and the same step planned
+    again starts from the same memory, so a robot left out of a replan (``plan_for``) keeps its own.
+    Another state planned at the same step of the same episode (a what-if copy of the world, or
+    another env at the same seed) takes the first's place for the next period: plan such states
+    with a copy of the planner (``copy.deepcopy(planner)`` continues bit for bit).
     """
 
     name = "vcs"

@@ -34,7 +34,10 @@ def wrap_angle(a):
 def sync_memory(steps, key, mem_step, mem_key, inp, out):
     """Last period's memory ``out`` becomes this period's ``inp`` in the worlds that advanced one
     step; worlds on a new episode (step 0, a new key) or that jumped clear it; worlds replanning
-    the same step keep it. ``mem_step``, ``mem_key`` ``(B,)`` become ``steps``, ``key``."""
+    the same step keep it. ``mem_step``, ``mem_key`` ``(B,)`` become ``steps``, ``key``. A new
+    period's ``out`` starts without a residual (``has_prev``): :func:`finish` gives one to the robots
+    it plans, so a robot left out of every plan of the period has none, and one left out of a replan
+    of the same period keeps the one its earlier plan gave it."""
     B, n = inp.stall.shape
     for b in range(B):
         fresh = steps[b] == 0 or key[b] != mem_key[b]
@@ -45,6 +48,7 @@ def sync_memory(steps, key, mem_step, mem_key, inp, out):
                 for c in range(2):
                     inp.prev[b, i, c] = out.prev[b, i, c] if advance else 0.0
                 inp.has_prev[b, i] = out.has_prev[b, i] if advance else False
+                out.has_prev[b, i] = False
                 inp.stall[b, i] = out.stall[b, i] if advance else 0.0
                 inp.detour[b, i] = out.detour[b, i] if advance else 0.0
                 inp.ref[b, i] = out.ref[b, i] if advance else 0.0
@@ -89,7 +93,8 @@ def finish(
 ):
     """After the search: the polar targets ``target`` ``(B, n, 2)`` (speed [m/s], heading [rad];
     robots that are done hold still), the residual of the planned point after this period's
-    saturated command (``prev_out``, ``has_prev_out``, for J_h next period), the cost capped at
+    saturated command (``prev_out``, ``has_prev_out``, for J_h next period; of the robots planned
+    only, the others' left as they are), the cost capped at
     ``cap`` and the goal point G = M^-1(own) ``(B, n, 2)`` (``own_angle`` its direction [rad]), from
     the robots' speeds [m/s], headings [rad], activity, ``a_max`` [m/s^2] and ``omega_max`` [rad/s]
     ``(B, n)``.
@@ -102,19 +107,23 @@ def finish(
         for i in range(n):
             dv = out.target[b, i, 0]
             dth = out.target[b, i, 1]
+            planned_i = planned[b, i]  # a robot not planned keeps its residual (sync_memory)
             if holo:  # the holonomic command reaches along the velocity change
                 cmd_dth = dth
-                prev_out[b, i, 0] = 0.0
-                prev_out[b, i, 1] = 0.0
+                if planned_i:
+                    prev_out[b, i, 0] = 0.0
+                    prev_out[b, i, 1] = 0.0
             else:
                 dv1 = a_max[b, i] * dt
                 dth1 = omega_max[b, i] * dt
                 cmd_dv = min(max(dv, -dv1), dv1)
                 cmd_dth = min(max(dth, -dth1), dth1)
-                prev_out[b, i, 0] = dv - cmd_dv
-                prev_out[b, i, 1] = wrap_angle(dth - cmd_dth)
+                if planned_i:
+                    prev_out[b, i, 0] = dv - cmd_dv
+                    prev_out[b, i, 1] = wrap_angle(dth - cmd_dth)
             act = active[b, i]
-            has_prev_out[b, i] = act and planned[b, i]
+            if planned_i:
+                has_prev_out[b, i] = act
             target[b, i, 0] = speed[b, i] + dv if act else 0.0
             target[b, i, 1] = wrap_angle(heading[b, i] + cmd_dth) if act else heading[b, i]
             cost[b, i] = min(out.cost[b, i], cap)
