@@ -76,6 +76,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
+    * v2, planner fix (same id, 2026-12-07, night): the VCS expert counts its search in periods of several world steps
+      where a robot would need more than 1024 steps to reach its top speed or turn half round (vcs-method §2.10): a
+      step far finer than the robots' limits made one decision take seconds to minutes. Every suite plans as before.
     * v2, planner default (same id, 2026-12-07, evening): the VCS expert (the others, the expert labels, the shaping)
       keeps each first step within its share of the gap to every active robot (``VCSParams.step_split``):
       the same plans bit for bit on every suite (steps of 0.1 and 0.25 s; hashed on one machine); at coarser steps

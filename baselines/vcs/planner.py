@@ -26,9 +26,19 @@ COARSE_DT = 0.25
 
 
 class CoarseStepWarning(UserWarning):
-    """The world's step is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume velocities held
-    from now on, a robot holds its command for a whole step, and robots collide that would not at shorter steps
-    (vcs-calibration §5, "Coarse control steps")."""
+    """The step the expert plans in (the world's, or a period of several where the world's is far finer than the
+    robots' limits, :func:`planning_period`) is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume
+    velocities held from now on, a robot holds its command for a whole step, and robots collide that would not at
+    shorter steps (vcs-calibration §5, "Coarse control steps")."""
+
+
+def planning_period(world: WorldState) -> float:
+    """The period [s] the expert's search counts its steps in (vcs-method §2.10): the world's ``dt``, or, where a
+    robot would need more than :data:`~.kernel.PLAN_STEPS` steps of it to cross its velocity space (its top speed at
+    ``a_max``, a half turn at ``omega_max``), the shortest whole number of world steps that brings every robot within
+    them. The robots are commanded every world step either way: the first step toward the point found."""
+    dt = float(world.dt)
+    return dt * kernel.planning_steps(world.v_max, world.a_max, world.omega_max, dt, bool(world.holonomic))
 
 
 @dataclasses.dataclass
@@ -303,7 +313,7 @@ class VCSPlanner(Planner):
         return (
             kworld,
             kernel.Inputs(own, comm, detour, mem.prev, mem.has_prev, planned),
-            kernel.Setting(self._prm, float(r_ca), float(world.dt), bool(world.holonomic)),
+            kernel.Setting(self._prm, float(r_ca), planning_period(world), bool(world.holonomic)),
         )
 
     # -------------------------------------------------------------------- plan
@@ -313,10 +323,11 @@ class VCSPlanner(Planner):
         that is done; the robots planned get the same targets either way)."""
         world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
         world.check_limits()  # and divide by dt and the robots' limits
-        if world.dt > COARSE_DT and not self._coarse_told:
+        if not self._coarse_told and planning_period(world) > COARSE_DT:
             self._coarse_told = True
             warnings.warn(
-                f"the VCS expert plans steps of dt = {world.dt:g} s; it is measured at dt <= {COARSE_DT:g} s, and at "
+                f"the VCS expert plans steps of {planning_period(world):g} s (the world's dt = {world.dt:g} s); it is "
+                f"measured at steps <= {COARSE_DT:g} s, and at "
                 "coarser steps robots collide that would not at shorter ones (vcs-calibration §5, 'Coarse control "
                 "steps')",
                 CoarseStepWarning,

@@ -20,7 +20,7 @@ from ..capsule import reference_capsule_tau
 from ..common import preferred_velocity
 from . import geometry as G
 from .kernel.records import WALL_RAMP_GAP
-from .planner import VCSPlanner
+from .planner import VCSPlanner, planning_period
 
 
 def object_forbidden_masks(
@@ -54,19 +54,16 @@ def object_forbidden_masks(
     v_r = world.vel[b, i]
     r_ca = world.r_ca if p.r_ca is None else p.r_ca
     dv, dth = G.velocity_to_vcs(vel, world.speed[b, i], world.heading[b, i])
-    ramp = G.ramp_positions(
-        dv, dth, world.speed[b, i], world.heading[b, i], world.a_max[b, i], world.omega_max[b, i], world.dt
-    )
-    ramp_t = world.dt * np.arange(1, ramp.shape[1] + 1)
+    dt = planning_period(world)  # the step the search counts in
+    a_max, omega_max = world.a_max[b, i], world.omega_max[b, i]
+    ramp = G.ramp_positions(dv, dth, world.speed[b, i], world.heading[b, i], a_max, omega_max, dt)
+    ramp_t = dt * np.arange(1, ramp.shape[1] + 1)
     steps_k = np.arange(1, ramp.shape[1] + 1)
-    ramp_vel = (
-        world.speed[b, i]
-        + np.clip(dv[:, None], -steps_k * world.a_max[b, i] * world.dt, steps_k * world.a_max[b, i] * world.dt)
-    )[..., None] * G.unit(
-        world.heading[b, i]
-        + np.clip(dth[:, None], -steps_k * world.omega_max[b, i] * world.dt, steps_k * world.omega_max[b, i] * world.dt)
+    dv_k, dth_k = steps_k * a_max * dt, steps_k * omega_max * dt
+    ramp_vel = (world.speed[b, i] + np.clip(dv[:, None], -dv_k, dv_k))[..., None] * G.unit(
+        world.heading[b, i] + np.clip(dth[:, None], -dth_k, dth_k)
     )
-    steps = G.reach_steps(dv, dth, world.a_max[b, i], world.omega_max[b, i], world.dt)
+    steps = G.reach_steps(dv, dth, a_max, omega_max, dt)
     on_ramp = (np.arange(1, ramp.shape[1] + 1) <= steps[:, None]) & (steps[:, None] > 1)  # (k, K)
     out = {}
     objects = []  # (index, position, velocity, other radius, reciprocal)
@@ -91,7 +88,7 @@ def object_forbidden_masks(
         if d > r_ca:
             continue
         if d <= r0:  # overlap: the half-plane rule (vcs-method §2.4)
-            apex, p_hat = G.overlap_apex(rel, np.array(r0), v_r, v_j, world.dt, np.array(reciprocal))
+            apex, p_hat = G.overlap_apex(rel, np.array(r0), v_r, v_j, dt, np.array(reciprocal))
             out[idx] = (vel - apex) @ p_hat > 0.0
             continue
         # Size regulation (vcs-method §2.6).
@@ -127,7 +124,7 @@ def object_forbidden_masks(
             continue
         if d <= r:  # touching: the half-plane rule, as for a static disc
             h = near / max(d, 1e-12)
-            out[2 * n + m + k] = (vel + (r - d) / world.dt * h) @ h > 0.0
+            out[2 * n + m + k] = (vel + (r - d) / dt * h) @ h > 0.0
             continue
         reff = r + p.delta_min if d > r + p.delta_min else max(r, d - p.eps_overlap)
         kk = len(vel)
@@ -213,14 +210,14 @@ def plot_decision(
         axv.scatter(vel[mask, 0], vel[mask, 1], s=2, color=color, alpha=0.25)
     # Domain, windows, points.
     k = int(info["k"][b, i])
-    dth1 = world.omega_max[b, i] * world.dt
-    lo, hi, half = G.window(k, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], world.dt)
+    dth1 = world.omega_max[b, i] * planning_period(world)
+    lo, hi, half = G.window(k, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], planning_period(world))
     ax.add_patch(
         Rectangle(
             (-half, lo), 2 * half, hi - lo, fill=False, ls="--", lw=1.5, color="k", label=f"window W_{k} (k* = {k})"
         )
     )
-    lo1, hi1, _ = G.window(1, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], world.dt)
+    lo1, hi1, _ = G.window(1, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], planning_period(world))
     ax.add_patch(
         Rectangle((-dth1, lo1), 2 * dth1, hi1 - lo1, fill=False, lw=1.5, color="tab:green", label="one-step window W_1")
     )

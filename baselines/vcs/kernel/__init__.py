@@ -24,13 +24,24 @@ cached kernels when a source of ``vcs_env`` or ``baselines`` changed (:mod:`vcs_
 edit in a new process. ``tests/test_planner_regression.py`` holds every plan to the fixture bit for bit.
 """
 
-from .period import finish, mover_images, push, remember_movers, stall_rules, sync_memory, turn_leads
+from .period import (
+    PLAN_STEPS,
+    finish,
+    mover_images,
+    planning_steps,
+    push,
+    remember_movers,
+    stall_rules,
+    sync_memory,
+    turn_leads,
+)
 from .records import PARAMS, Inputs, Memory, Outputs, Setting, StallRules, World, params_record
 from .scalar import tau, tau_within
 from .search import evaluate_points, plan_batch
 
 __all__ = [
     "PARAMS",
+    "PLAN_STEPS",
     "Inputs",
     "Memory",
     "Outputs",
@@ -42,6 +53,7 @@ __all__ = [
     "mover_images",
     "params_record",
     "plan_batch",
+    "planning_steps",
     "push",
     "remember_movers",
     "stall_rules",
