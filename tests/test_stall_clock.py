@@ -118,7 +118,7 @@ def test_a_robot_at_rest_in_its_first_state_has_not_stalled_at_any_step():
     eng = NavEngine(s, 2)
     eng.reset([0, 1])
     planner = VCSPlanner()
-    with pytest.warns(CoarseStepWarning, match=r"steps of 1 s \(the world.s dt = 1 s\); it is measured at steps <="):
+    with pytest.warns(CoarseStepWarning, match=r"dt = 1 s; it is measured at dt <= 0.25 s"):
         planner.plan(eng.world)
     assert not planner.last["detour"].any()
     assert not eng.world.clock[..., -1].any()  # the observed clock agrees

@@ -192,10 +192,11 @@ def test_the_ramp_hint_never_changes_an_answer(name):
 
 
 def test_the_search_counts_in_periods_of_at_most_plan_steps_to_cross_the_velocity_space():
-    """A world step far finer than the robots' limits (``a_max dt`` of 1e-4 m/s here, 1e-6 at the allowed least) made
-    the search walk its window, reach steps and ramps one world step at a time: seconds to minutes per decision. It
-    counts in periods of several world steps there (``planning_period``), and every suite's world plans in its own
-    step. The sluggish robots still pass each other untouched, commanded every world step."""
+    """A world step far finer than a robot's limits (``a_max dt`` of 1e-4 m/s here, 1e-6 at the allowed least) made
+    the search walk its window, reach steps and ramps one world step at a time: seconds to minutes per decision. Such a
+    robot's search counts in periods of several world steps (``planning_period``), set by its own limits alone (a
+    sluggish robot in one world does not change another world's plans); every suite's robots plan in its own step.
+    The sluggish robots still pass each other untouched, commanded every world step."""
     from baselines.vcs.kernel import PLAN_STEPS
     from baselines.vcs.planner import planning_period
     from vcs_env import RobotSpec, Simulator
@@ -203,12 +204,18 @@ def test_the_search_counts_in_periods_of_at_most_plan_steps_to_cross_the_velocit
     for name in ("circle-16-v0", "crowdnav-circle-v0", "random-dense-holonomic-v0", "corridor-narrow-v0"):
         engine = NavEngine(make_scenario(name), 1)
         engine.reset([0])
-        assert planning_period(engine.world) == engine.world.dt
+        assert (planning_period(engine.world) == engine.world.dt).all()
+    engine = NavEngine(make_scenario("crowd", n_robots=4), 2)
+    engine.reset([0, 1])
+    world = engine.world
+    world.a_max[1, 3] = 0.001  # 1 / (0.001 * 0.1) = 10^4 steps to top speed: periods of 10 steps for this robot
+    assert planning_period(world)[1, 3] == 1.0 and (planning_period(world)[0] == 0.1).all()
+    np.testing.assert_array_equal(VCSPlanner().plan(world)[0], VCSPlanner().plan(world.world(0))[0])
+
     scenario = make_scenario("circle", n_robots=8, robot=RobotSpec(a_max=0.01), dt=0.005, initial_speed=0.5)
     sim = Simulator(scenario)
     sim.reset([0])
-    period = planning_period(sim.world)
-    assert period == 0.1  # 1 / (0.01 * 0.005) = 20000 steps to top speed: periods of 20 world steps
+    assert (planning_period(sim.world) == 0.1).all()  # 1 / (0.01 * 0.005) = 20000 steps: periods of 20 steps
     planner = VCSPlanner()
     for _ in range(int(40.0 / scenario.dt)):
         sim.step(planner.act(sim.world))

@@ -194,8 +194,9 @@ def run(scenario: Scenario, planner: VCSPlanner | None = None, check_window: boo
         info = planner.last
         fallbacks += int(info["fallback"][0][w.active[0]].sum())
         # Avoidance onset: the command differs from the one-step-clipped goal point.
-        dv1 = w.a_max[0] * planning_period(w)
-        dth1 = w.omega_max[0] * planning_period(w)
+        period = planning_period(w)[0]  # (n,) [s]: goal_step is clipped to one period's window
+        dv1 = w.a_max[0] * period
+        dth1 = w.omega_max[0] * period
         cmd = np.stack((np.clip(info["target"][0, :, 0], -dv1, dv1), np.clip(info["target"][0, :, 1], -dth1, dth1)), -1)
         differs = (np.abs(cmd[:, 0] - info["goal_step"][0, :, 0]) > 1e-6) | (
             np.abs(cmd[:, 1] - info["goal_step"][0, :, 1]) > 1e-3
@@ -251,8 +252,9 @@ def _window_consistent(w, info) -> bool:
     k = info["k"][0]
     tgt = info["target"][0]
     act = w.active[0]
-    dv1 = w.a_max[0] * planning_period(w)
-    dth1 = w.omega_max[0] * w.dt
+    period = planning_period(w)[0]  # (n,) [s]: k counts periods
+    dv1 = w.a_max[0] * period
+    dth1 = w.omega_max[0] * period
     lo = np.maximum(-w.speed[0], -k * dv1) - 1e-9
     hi = np.minimum(w.v_max[0] - w.speed[0], k * dv1) + 1e-9
     half = np.minimum(np.pi, k * dth1) + 1e-9

@@ -26,19 +26,19 @@ COARSE_DT = 0.25
 
 
 class CoarseStepWarning(UserWarning):
-    """The step the expert plans in (the world's, or a period of several where the world's is far finer than the
-    robots' limits, :func:`planning_period`) is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume
-    velocities held from now on, a robot holds its command for a whole step, and robots collide that would not at
-    shorter steps (vcs-calibration §5, "Coarse control steps")."""
+    """The world's step is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume velocities held
+    from now on, a robot holds its command for a whole step, and robots collide that would not at shorter steps
+    (vcs-calibration §5, "Coarse control steps")."""
 
 
-def planning_period(world: WorldState) -> float:
-    """The period [s] the expert's search counts its steps in (vcs-method §2.10): the world's ``dt``, or, where a
-    robot would need more than :data:`~.kernel.PLAN_STEPS` steps of it to cross its velocity space (its top speed at
-    ``a_max``, a half turn at ``omega_max``), the shortest whole number of world steps that brings every robot within
-    them. The robots are commanded every world step either way: the first step toward the point found."""
+def planning_period(world: WorldState) -> np.ndarray:
+    """The period [s] each robot's search counts its steps in ``(B, n)`` (vcs-method §2.10): the world's ``dt``, or,
+    for a robot that would need more than :data:`~.kernel.PLAN_STEPS` steps of it to cross its velocity space (its top
+    speed at ``a_max``, a half turn at ``omega_max``), the fewest whole world steps that bring it within them. Each
+    robot's own limits set its period, and it is commanded every world step either way: the first step toward the point
+    found."""
     dt = float(world.dt)
-    return dt * kernel.planning_steps(world.v_max, world.a_max, world.omega_max, dt, bool(world.holonomic))
+    return dt * kernel.robot_planning_steps(world.v_max, world.a_max, world.omega_max, dt, bool(world.holonomic))
 
 
 @dataclasses.dataclass
@@ -101,9 +101,10 @@ class VCSPlanner(Planner):
             (``VCSPlanner(horizon="infinite")`` is the classic-VO foil).
 
     After each call, ``last`` holds per-robot diagnostics ``(B, n)``: ``fallback`` (no
-    admissible candidate), ``k`` (window steps), ``t_star`` (first threat time [s]),
-    ``threats``, ``target`` (dv*, dtheta*) ``(B, n, 2)``, ``goal_point`` G and ``goal_step`` (G
-    clipped to the one-step window) ``(B, n, 2)``, ``cost`` and ``detour``.
+    admissible candidate), ``k`` (window steps, of the robot's :func:`planning_period`: the world's
+    step at ordinary limits), ``t_star`` (first threat time [s]), ``threats``, ``target`` (dv*,
+    dtheta*) ``(B, n, 2)``, ``goal_point`` G and ``goal_step`` (G clipped to the one-period window)
+    ``(B, n, 2)``, ``cost`` and ``detour``.
 
     The planner keeps memory from period to period (J_h's residual, the stall and detour state, the
     movers' last velocities) per batch row, matched by the world's episode ``key`` and ``steps``: a
@@ -313,7 +314,7 @@ class VCSPlanner(Planner):
         return (
             kworld,
             kernel.Inputs(own, comm, detour, mem.prev, mem.has_prev, planned),
-            kernel.Setting(self._prm, float(r_ca), planning_period(world), bool(world.holonomic)),
+            kernel.Setting(self._prm, float(r_ca), float(world.dt), bool(world.holonomic)),
         )
 
     # -------------------------------------------------------------------- plan
@@ -323,11 +324,10 @@ class VCSPlanner(Planner):
         that is done; the robots planned get the same targets either way)."""
         world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
         world.check_limits()  # and divide by dt and the robots' limits
-        if not self._coarse_told and planning_period(world) > COARSE_DT:
+        if world.dt > COARSE_DT and not self._coarse_told:
             self._coarse_told = True
             warnings.warn(
-                f"the VCS expert plans steps of {planning_period(world):g} s (the world's dt = {world.dt:g} s); it is "
-                f"measured at steps <= {COARSE_DT:g} s, and at "
+                f"the VCS expert plans steps of dt = {world.dt:g} s; it is measured at dt <= {COARSE_DT:g} s, and at "
                 "coarser steps robots collide that would not at shorter ones (vcs-calibration §5, 'Coarse control "
                 "steps')",
                 CoarseStepWarning,

@@ -54,7 +54,7 @@ def object_forbidden_masks(
     v_r = world.vel[b, i]
     r_ca = world.r_ca if p.r_ca is None else p.r_ca
     dv, dth = G.velocity_to_vcs(vel, world.speed[b, i], world.heading[b, i])
-    dt = planning_period(world)  # the step the search counts in
+    dt = planning_period(world)[b, i]  # the step robot i's search counts in [s]
     a_max, omega_max = world.a_max[b, i], world.omega_max[b, i]
     ramp = G.ramp_positions(dv, dth, world.speed[b, i], world.heading[b, i], a_max, omega_max, dt)
     ramp_t = dt * np.arange(1, ramp.shape[1] + 1)
@@ -210,14 +210,15 @@ def plot_decision(
         axv.scatter(vel[mask, 0], vel[mask, 1], s=2, color=color, alpha=0.25)
     # Domain, windows, points.
     k = int(info["k"][b, i])
-    dth1 = world.omega_max[b, i] * planning_period(world)
-    lo, hi, half = G.window(k, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], planning_period(world))
+    period = planning_period(world)[b, i]  # k counts periods [s]
+    dth1 = world.omega_max[b, i] * period
+    lo, hi, half = G.window(k, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], period)
     ax.add_patch(
         Rectangle(
             (-half, lo), 2 * half, hi - lo, fill=False, ls="--", lw=1.5, color="k", label=f"window W_{k} (k* = {k})"
         )
     )
-    lo1, hi1, _ = G.window(1, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], planning_period(world))
+    lo1, hi1, _ = G.window(1, v_r, v_max, world.a_max[b, i], world.omega_max[b, i], period)
     ax.add_patch(
         Rectangle((-dth1, lo1), 2 * dth1, hi1 - lo1, fill=False, lw=1.5, color="tab:green", label="one-step window W_1")
     )

@@ -25,18 +25,17 @@ edit in a new process. ``tests/test_planner_regression.py`` holds every plan to 
 """
 
 from .period import (
-    PLAN_STEPS,
     finish,
     mover_images,
-    planning_steps,
     push,
     remember_movers,
+    robot_planning_steps,
     stall_rules,
     sync_memory,
     turn_leads,
 )
 from .records import PARAMS, Inputs, Memory, Outputs, Setting, StallRules, World, params_record
-from .scalar import tau, tau_within
+from .scalar import PLAN_STEPS, tau, tau_within
 from .search import evaluate_points, plan_batch
 
 __all__ = [
@@ -53,9 +52,9 @@ __all__ = [
     "mover_images",
     "params_record",
     "plan_batch",
-    "planning_steps",
     "push",
     "remember_movers",
+    "robot_planning_steps",
     "stall_rules",
     "sync_memory",
     "turn_leads",

@@ -8,8 +8,8 @@ import math
 from numba import njit
 
 from .neighbours import forbidden
-from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_GAP, STEP_SLACK, TINY, WALL_RAMP_GAP
-from .scalar import reach_steps, tau, tau_within, wrap
+from .records import INF, K_RECIPROCAL, SQRT_HALF, STEP_GAP, TINY, WALL_RAMP_GAP
+from .scalar import crossing_steps, reach_steps, tau, tau_within, wrap
 from .walls import brake_gap, wall_gap, wall_tau
 
 
@@ -21,12 +21,8 @@ def robot_context(b, i, world, inputs, p, dt, holo, rec):
     th = world.heading[b, i]
     v_max = world.v_max[b, i]
     dv1 = world.a_max[b, i] * dt
-    if holo:
-        dth1 = math.pi
-        kmax = float(max(math.ceil(2.0 * v_max / dv1 - STEP_SLACK), 1.0))
-    else:
-        dth1 = world.omega_max[b, i] * dt
-        kmax = float(max(math.ceil(v_max / dv1 - STEP_SLACK), math.ceil(math.pi / dth1 - STEP_SLACK)))
+    dth1 = math.pi if holo else world.omega_max[b, i] * dt
+    kmax = crossing_steps(v_max, dv1, dth1, holo)
     pvx = inputs.vpref[b, i, 0]
     pvy = inputs.vpref[b, i, 1]
     ps = math.sqrt(pvx * pvx + pvy * pvy)

@@ -288,12 +288,12 @@ def set_cone(nb, is_robot, vrx, vry, dt, reciprocity, rpx, rpy, eps=0.0, no_foll
 
 @njit(cache=True)
 def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
-    """Fill the records of robot i in world b (all but the horizons, stage 2) into ``wk.nbs``.
-    Returns their number; ``wk.order`` lists them nearest surface first. During a stall detour
-    the regulated buffer shrinks to delta_min, so gaps the full buffer closes open up. Records:
-    robots, obstacles, the static twins of arriving robots (and, with ``stopping_obstacles``, of
-    moving obstacles), with ``arriving_goal_twin`` the twins of arriving robots where they will
-    park (record ``idx`` ``-1 - j``), then walls, at most ``3 n + 2 m + s``."""
+    """Fill the records of robot i in world b (all but the horizons, stage 2) into ``wk.nbs``; returns their number,
+    ``wk.order`` nearest surface first. A stall detour shrinks the regulated buffer to delta_min. Records: robots,
+    obstacles, the static twins of arriving robots (and, with ``stopping_obstacles``, of moving obstacles), with
+    ``arriving_goal_twin`` the twins of arriving robots where they will park (``idx`` ``-1 - j``), then walls, at most
+    ``3 n + 2 m + s``. ``dt``: the world's step [s], with which the goal twins invert the preferred speed's cap; the
+    rest counts in the robot's planning period (``wk.robot[0].dt``, set by ``robot_context``)."""
     n = world.pos.shape[1]
     speed, heading, v_max, active, obs_vel = world.speed, world.heading, world.v_max, world.active, world.obs_vel
     sensed, nbs, key = wk.sensed, wk.nbs, wk.key
@@ -342,14 +342,14 @@ def setup_neighbours(b, i, world, pref_comm, p, r_ca, dt, detour, wk, holo):
             fit_disc_pairs(nbs, first, world.radius[b, i], clear, pref_comm[b, i, 0], pref_comm[b, i, 1])
     for q in range(count):
         nb = nbs[q]
-        split_share(nb, b, n, world, p.step_split, holo, dt)
+        split_share(nb, b, n, world, p.step_split, holo, wk.robot[0].dt)  # one planning period
         is_robot = nb.kind == K_RECIPROCAL
         rpx = 0.0
         rpy = 0.0
         if is_robot:
             rpx = pref_comm[b, i, 0] - pref_comm[b, nb.idx, 0]
             rpy = pref_comm[b, i, 1] - pref_comm[b, nb.idx, 1]
-        set_cone(nb, is_robot, vrx, vry, dt, p.reciprocity, rpx, rpy, p.eps, p.no_follow, a_max_i)
+        set_cone(nb, is_robot, vrx, vry, wk.robot[0].dt, p.reciprocity, rpx, rpy, p.eps, p.no_follow, a_max_i)
         key[q] = nb.d - nb.reff  # nearest surface first: inadmissible candidates fail early
     sort_nearest(wk.order, key, count)
     return count

@@ -14,17 +14,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from vcs_env.stall import stall_rules, uniform  # noqa: F401  (one implementation, shared with the clock)
 
-TWO_PI = 2.0 * math.pi
+from .scalar import planning_steps
 
-PLAN_STEPS = 1024
-"""The most steps the search counts for a robot to cross its velocity space (``kmax``: to its top speed, twice that
-for a holonomic robot, or a half turn, at ``a_max`` and ``omega_max``). Its window, reach steps and ramp checks walk
-such steps one by one, so a world step far finer than the robot's limits (``a_max dt`` of 1e-6 m/s) made a decision
-take seconds to minutes: there the search counts in periods of several world steps (:func:`planning_steps`)."""
+TWO_PI = 2.0 * math.pi
 
 
 @njit(cache=True)
@@ -221,17 +218,11 @@ def mover_images(pos, vel, turn, cos_t, sin_t, radius, half, far, out_pos, out_v
 
 
 @njit(cache=True)
-def planning_steps(v_max, a_max, omega_max, dt, holo):
-    """World steps per period of the search (vcs-method §2.10): 1 while every robot crosses its velocity space
-    (``v_max`` ``(B, n)`` [m/s] at ``a_max`` [m/s^2], twice for a holonomic robot, or a half turn at ``omega_max``
-    [rad/s]) in at most :data:`PLAN_STEPS` steps of ``dt`` [s]; else the fewest that bring the slowest robot
-    within them."""
-    most = 0.0
+def robot_planning_steps(v_max, a_max, omega_max, dt, holo):
+    """:func:`~.scalar.planning_steps` of every robot ``(B, n)`` (limits ``(B, n)``, ``dt`` [s])."""
     B, n = v_max.shape
+    out = np.ones((B, n), dtype=np.int64)
     for b in range(B):
         for i in range(n):
-            steps = (2.0 if holo else 1.0) * v_max[b, i] / (a_max[b, i] * dt)
-            if not holo:
-                steps = max(steps, math.pi / (omega_max[b, i] * dt))
-            most = max(most, steps)
-    return 1 if most <= PLAN_STEPS else int(math.ceil(most / PLAN_STEPS))
+            out[b, i] = planning_steps(v_max[b, i], a_max[b, i], omega_max[b, i], dt, holo)
+    return out

@@ -8,6 +8,12 @@ from numba import njit
 
 from .records import INF, K_RECIPROCAL, STEP_SLACK, TINY
 
+PLAN_STEPS = 1024
+"""The most steps a robot's search counts to cross its velocity space (``K_max``, :func:`crossing_steps`). Its
+window, reach steps and ramp checks walk such steps one by one, so a world step far finer than the robot's limits
+(``a_max dt`` of 1e-6 m/s) made a decision take seconds to minutes: there the robot's search counts in periods of
+several world steps (:func:`planning_steps`, vcs-method §2.10)."""
+
 
 @njit(cache=True)
 def tau(px, py, wx, wy, r):
@@ -129,3 +135,21 @@ def split_share(nb, b, n, world, on, holo, dt):
         )  # fmt: skip
         if nb.kind != K_RECIPROCAL:
             nb.reach = max(nb.reach, 0.0)
+
+
+@njit(cache=True)
+def crossing_steps(v_max, dv1, dth1, holo):
+    """``K_max``, the steps to cross the velocity space at per-step changes ``dv1`` [m/s] and ``dth1`` [rad]
+    (vcs-method §2.10): to the top speed ``v_max`` [m/s] (twice that for a holonomic robot) or a half turn."""
+    if holo:
+        return float(max(math.ceil(2.0 * v_max / dv1 - STEP_SLACK), 1.0))
+    return float(max(math.ceil(v_max / dv1 - STEP_SLACK), math.ceil(math.pi / dth1 - STEP_SLACK)))
+
+
+@njit(cache=True)
+def planning_steps(v_max, a_max, omega_max, dt, holo):
+    """World steps per period of a robot's search (vcs-method §2.10): 1 while it crosses its velocity space in at most
+    :data:`PLAN_STEPS` world steps of ``dt`` [s] (at ``a_max`` [m/s^2], ``omega_max`` [rad/s]), else the fewest that
+    bring it within them."""
+    k = crossing_steps(v_max, a_max * dt, omega_max * dt, holo)
+    return 1 if k <= PLAN_STEPS else int(math.ceil(k / PLAN_STEPS))

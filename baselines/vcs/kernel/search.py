@@ -16,7 +16,7 @@ from .fallback import fallback_search
 from .horizon import apply_horizons, contesting_movers, set_horizons
 from .neighbours import setup_neighbours, work
 from .records import INF, SQRT_HALF, STEP_SLACK, Grid
-from .scalar import reach_steps, steps_for, wrap
+from .scalar import planning_steps, reach_steps, steps_for, wrap
 from .walls import senses_wall
 from .window import candidate, goal_step, threats, window
 
@@ -38,7 +38,8 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     """Robot i of world b: its context and its neighbour records with horizons (stages 1 and 2,
     vcs-method §2.6-2.7): its context in ``wk.robot[0]``, its records in ``wk.nbs``, ordered by
     ``wk.order``. Returns the number of records."""
-    robot_context(b, i, world, inputs, p, st.dt, st.holo, wk.robot)
+    steps = planning_steps(world.v_max[b, i], world.a_max[b, i], world.omega_max[b, i], st.dt, st.holo)
+    robot_context(b, i, world, inputs, p, st.dt * steps, st.holo, wk.robot)  # counts in its planning period
     count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk, st.holo)
     r = wk.robot[0]
     r.walls = senses_wall(wk.nbs, count)
