@@ -28,7 +28,8 @@ COARSE_DT = 0.25
 class CoarseStepWarning(UserWarning):
     """The world's step is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume velocities held
     from now on, a robot holds its command for a whole step, and robots collide that would not at shorter steps
-    (vcs-calibration §5, "Coarse control steps")."""
+    (vcs-calibration §5, "Coarse control steps"). Also when a robot's planning period is (:func:`planning_period`: a
+    world step far finer than its limits): its search then sees the world in periods that coarse."""
 
 
 def planning_period(world: WorldState) -> np.ndarray:
@@ -324,15 +325,19 @@ class VCSPlanner(Planner):
         that is done; the robots planned get the same targets either way)."""
         world.check_shapes()  # the kernels index every field by the sizes of pos, obs_pos and seg_present
         world.check_limits()  # and divide by dt and the robots' limits
-        if world.dt > COARSE_DT and not self._coarse_told:
-            self._coarse_told = True
-            warnings.warn(
-                f"the VCS expert plans steps of dt = {world.dt:g} s; it is measured at dt <= {COARSE_DT:g} s, and at "
-                "coarser steps robots collide that would not at shorter ones (vcs-calibration §5, 'Coarse control "
-                "steps')",
-                CoarseStepWarning,
-                stacklevel=2,
-            )
+        if not self._coarse_told:
+            dt, holo = float(world.dt), bool(world.holonomic)
+            steps = kernel.most_planning_steps(world.v_max, world.a_max, world.omega_max, dt, holo, world.active)
+            said = f"dt = {dt:g} s" if dt > COARSE_DT else f"periods of {dt * steps:g} s (world steps of {dt:g} s)"
+            if max(dt, dt * steps) > COARSE_DT:
+                self._coarse_told = True
+                warnings.warn(
+                    f"the VCS expert plans steps of {said}; it is measured at dt <= {COARSE_DT:g} s, and at coarser "
+                    "steps robots collide that would not at shorter ones (vcs-calibration §5, 'Coarse control steps'"
+                    "; vcs-method §2.10 for planning periods)",
+                    CoarseStepWarning,
+                    stacklevel=2,
+                )
         if robots is not None:
             robots = robots_mask(world, robots)
         # The same state asked again (the env's expert action, then a policy that follows it) is planned once:

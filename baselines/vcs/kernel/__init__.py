@@ -26,6 +26,7 @@ edit in a new process. ``tests/test_planner_regression.py`` holds every plan to 
 
 from .period import (
     finish,
+    most_planning_steps,
     mover_images,
     push,
     remember_movers,
@@ -49,6 +50,7 @@ __all__ = [
     "World",
     "evaluate_points",
     "finish",
+    "most_planning_steps",
     "mover_images",
     "params_record",
     "plan_batch",
