@@ -210,7 +210,7 @@ def test_the_search_counts_in_periods_of_at_most_plan_steps_to_cross_the_velocit
     world = engine.world
     world.a_max[1, 3] = 0.001  # 1 / (0.001 * 0.1) = 10^4 steps to top speed: periods of 10 steps for this robot
     assert planning_period(world)[1, 3] == 1.0 and (planning_period(world)[0] == 0.1).all()
-    with pytest.warns(CoarseStepWarning, match=r"steps of periods of 1 s \(world steps of 0.1 s\)"):
+    with pytest.warns(CoarseStepWarning, match=r"plans in periods of 1 s \(dt = 0.1 s\)"):
         planned = VCSPlanner().plan(world)[0]
     np.testing.assert_array_equal(planned, VCSPlanner().plan(world.world(0))[0])
 

@@ -28,8 +28,9 @@ COARSE_DT = 0.25
 class CoarseStepWarning(UserWarning):
     """The world's step is longer than :data:`COARSE_DT`: the expert's velocity obstacles assume velocities held
     from now on, a robot holds its command for a whole step, and robots collide that would not at shorter steps
-    (vcs-calibration §5, "Coarse control steps"). Also when a robot's planning period is (:func:`planning_period`: a
-    world step far finer than its limits): its search then sees the world in periods that coarse."""
+    (vcs-calibration §5, "Coarse control steps"). Also when a robot's planning period is longer than
+    :data:`COARSE_DT` (:func:`planning_period`: a world step far finer than its limits): its search then counts in
+    steps that coarse."""
 
 
 def planning_period(world: WorldState) -> np.ndarray:
@@ -328,11 +329,11 @@ class VCSPlanner(Planner):
         if not self._coarse_told:
             dt, holo = float(world.dt), bool(world.holonomic)
             steps = kernel.most_planning_steps(world.v_max, world.a_max, world.omega_max, dt, holo, world.active)
-            said = f"dt = {dt:g} s" if dt > COARSE_DT else f"periods of {dt * steps:g} s (world steps of {dt:g} s)"
+            said = f"steps of dt = {dt:g} s" if dt > COARSE_DT else f"in periods of {dt * steps:g} s (dt = {dt:g} s)"
             if max(dt, dt * steps) > COARSE_DT:
                 self._coarse_told = True
                 warnings.warn(
-                    f"the VCS expert plans steps of {said}; it is measured at dt <= {COARSE_DT:g} s, and at coarser "
+                    f"the VCS expert plans {said}; it is measured at dt <= {COARSE_DT:g} s, and at coarser "
                     "steps robots collide that would not at shorter ones (vcs-calibration §5, 'Coarse control steps'"
                     "; vcs-method §2.10 for planning periods)",
                     CoarseStepWarning,
