@@ -114,6 +114,11 @@ def test_robot_that_never_moves_is_a_deadlock():
     )
     m = metrics.episode_metrics(short)
     assert m["timeout"] == 1.0 and m["deadlock"] == 0.0
+    # Also where the window is no whole number of steps: 33 steps of 0.3 s (9.9 s) are not 10 s.
+    for steps, outcome in ((33, "timeout"), (34, "deadlock")):
+        ep = make_episode(np.zeros((steps + 1, 2)), speed=still[: steps + 1], heading=still[: steps + 1],
+                          reached_step=-1, dt=0.3, goal=(5.0, 0.0))  # fmt: skip
+        assert metrics.episode_metrics(ep)[outcome] == 1.0
 
 
 def test_wilson_interval():

@@ -1,10 +1,11 @@
 """Navigation metrics of recorded episodes (:class:`~vcs_env.rollout.Episode`).
 
 Episode outcomes (exactly one is true): ``success`` (every robot arrived, nothing touched),
-``collision`` (some robot touched a robot or obstacle), ``deadlock`` (time out with some
-unfinished robot stuck: it moved less than ``DEADLOCK_DISTANCE`` over the last
-``DEADLOCK_WINDOW`` seconds; an episode shorter than that is never a deadlock), ``timeout``
-(any other time out). Collisions split into
+``collision`` (some robot touched a robot or obstacle while it drove: a robot that arrived or crashed is parked,
+and a body passing through it later is no contact of its), ``deadlock`` (time out with some unfinished robot stuck:
+its path over the last ``DEADLOCK_WINDOW`` seconds, the fewest whole steps that cover them, is shorter than
+``DEADLOCK_DISTANCE``; an episode shorter than that window is never a deadlock), ``timeout`` (any other time out:
+a robot that circles without progress is one). Collisions split into
 ``at_fault_collision`` (some contact was a robot's fault) and ``not_at_fault_collision`` (none
 was); ``parked_collision``: some robot touched a parked one (:mod:`vcs_env.contacts`).
 
@@ -107,7 +108,7 @@ def mean_jerk(ep: Episode) -> np.ndarray:
 
 
 def _stuck(ep: Episode, unfinished: np.ndarray) -> bool:
-    k = max(1, int(round(DEADLOCK_WINDOW / ep.dt)))
+    k = max(1, math.ceil(DEADLOCK_WINDOW / ep.dt - 1e-9))  # whole steps covering the window: never a shorter one
     if not unfinished.any() or len(ep.pos) < k + 1:  # shorter than the window: a plain time out
         return False
     window = ep.pos[-(k + 1) :]
