@@ -26,6 +26,7 @@ import tempfile
 import textwrap
 import types
 import typing
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -266,13 +267,29 @@ def _is_run_record(path: Path) -> bool:
     return isinstance(record, dict) and "kind" in record and "config" in record
 
 
+def _replaceable(path: Path, replaces: Callable[[Any], bool]) -> bool:
+    """``path`` is empty, or a JSON file whose content ``replaces`` accepts."""
+    try:
+        text = path.read_text()
+        return not text.strip() or bool(replaces(json.loads(text)))
+    except (OSError, ValueError):
+        return False
+
+
 def check_out_file(
-    path: str | None, flag: str, suffixes: tuple[str, ...] = (), new: bool = False, writable: bool = False
+    path: str | None,
+    flag: str,
+    suffixes: tuple[str, ...] = (),
+    new: bool = False,
+    writable: bool = False,
+    replaces: tuple[str, Callable[[Any], bool]] | None = None,
 ) -> None:
     """Before any work: ``ValueError`` if the output file ``path`` of ``flag`` is an existing
     directory, an existing checkpoint, dataset or run record (never overwritten), or lacks one of ``suffixes``
     (``new``: or exists at all, also with ``.npz`` added, as numpy adds it; for data that took long to make;
-    ``writable``: or cannot be written); its parent directory is made."""
+    ``writable``: or cannot be written; ``replaces = (what, accepts)``: or exists and is not an earlier output of
+    the command, ``what``, a JSON file whose parsed content ``accepts`` takes, e.g. an ONNX file's layout or a
+    report); its parent directory is made."""
     if path is None:
         return
     p = Path(path)
@@ -289,6 +306,11 @@ def check_out_file(
         raise ValueError(f"{flag} {path!r} is a checkpoint's run record that this would overwrite; give another file")
     if suffixes and p.suffix.lower() not in suffixes:
         raise ValueError(f"{flag} must end in {' or '.join(suffixes)}, got {path!r}")
+    if replaces is not None and p.is_file() and not _replaceable(p, replaces[1]):
+        raise ValueError(
+            f"{flag} {path!r} exists and is not {replaces[0]} (this would overwrite it); give another name or remove "
+            "it first"
+        )
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
         if writable and not p.exists():  # a file that cannot be made fails here, not after the run

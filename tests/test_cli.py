@@ -162,3 +162,34 @@ def test_a_missing_optional_package_names_its_extra_before_the_work(monkeypatch,
         monkeypatch.delitem(sys.modules, module, raising=False)
         with pytest.raises(ImportError, match=re.escape(f"install it with: pip install -e '.[{extra}]'")):
             importlib.import_module(module)
+
+
+def test_json_outputs_replace_only_their_own_kind(tmp_path, capsys):
+    """``evaluate --json`` and ``rollout --json`` replaced any JSON without a word (an ONNX file's layout, a compare
+    report), and rollout let two flags name one file (the plot, then the JSON over it): refused before the work."""
+    import json
+
+    layout = tmp_path / "policy.json"
+    layout.write_text(json.dumps({"format": "vcs-env-onnx", "version": 1}))
+    evaluate = [
+        "evaluate",
+        "--scenario",
+        "circle",
+        "--n-robots",
+        "2",
+        "--seeds",
+        "0:1",
+        "--policy",
+        "vcs",
+        "--no-progress",
+    ]
+    rollout = ["rollout", "--scenario", "swap", "--n-robots", "2", "--max-steps", "5"]
+    for argv in (evaluate, rollout):
+        assert vcs_cli.main([*argv, "--json", str(layout)]) == 2
+        assert "exists and is not an earlier" in capsys.readouterr().err
+        assert json.loads(layout.read_text())["format"] == "vcs-env-onnx"
+    assert vcs_cli.main([*rollout, "--plot", str(tmp_path / "o.png"), "--json", str(tmp_path / "o.png")]) == 2
+    assert "--plot and --json name the same file" in capsys.readouterr().err
+    for argv, name in ((evaluate, "e.json"), (rollout, "r.json")):  # an earlier output of the same command: rewritten
+        for _ in range(2):
+            assert vcs_cli.main([*argv, "--json", str(tmp_path / name)]) == 0

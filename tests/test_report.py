@@ -1,10 +1,10 @@
 """``results.json`` keeps every episode's metrics in a compact table that reads back losslessly
-(up to 6 significant digits)."""
+(up to 6 significant digits); a report rewritten into its directory removes its own earlier plots only."""
 
 import json
 import math
 
-from agents.evaluate.report import results_json
+from agents.evaluate.report import earlier_plots, results_json
 
 
 def test_results_json_is_a_table_per_policy_that_reads_back():
@@ -27,3 +27,13 @@ def test_results_json_is_a_table_per_policy_that_reads_back():
         "policies": {"x": {"episodes": {"columns": [], "rows": []}}}
     }
     assert json.loads(results_json({"suite": "s"})) == {"suite": "s"}
+
+
+def test_a_report_removes_only_its_own_earlier_plots(tmp_path):
+    ours = ["bar_success.png", "bar_ms_per_decision.png", "trajectory_vcs_ep0.png", "trajectory_my_net_ep12.png"]
+    mine = ["bar_mine.png", "trajectory_holiday.png", "photo.png", "bar_success.jpg"]
+    for name in ours + mine:
+        (tmp_path / name).write_bytes(b"x")
+    assert earlier_plots(tmp_path) == []  # no earlier report here: every file is the user's
+    (tmp_path / "results.json").write_text("{}")
+    assert [p.name for p in earlier_plots(tmp_path)] == sorted(ours)

@@ -87,8 +87,15 @@ def episodes_of(args) -> Suite:
     return Suite(name.replace(" ", ""), scenario, seeds, desc)
 
 
+EVALUATE_JSON = (
+    "an earlier evaluate's --json",
+    lambda data: isinstance(data, dict) and {"policy", "suite", "summary", "episodes"} <= data.keys(),
+)
+"""What ``--json`` may replace (:func:`~agents.config.check_out_file`)."""
+
+
 def cmd_evaluate(args) -> int:
-    check_out_file(args.json, "--json", writable=True)
+    check_out_file(args.json, "--json", writable=True, replaces=EVALUATE_JSON)
     res = evaluate(
         args.policy,
         episodes_of(args),

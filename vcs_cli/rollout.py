@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from agents.config import (
     ScenarioConfig,
@@ -20,6 +21,11 @@ PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg")
 """File types ``--plot`` writes (by its suffix)."""
 ROLLOUT_SKIP = ("rewards", "shaping", "shaping_weight")
 """Scenario flags a planner rollout has no use for (rewards do not change what a planner does)."""
+ROLLOUT_JSON = (
+    "an earlier rollout's --json (a list of episodes)",
+    lambda data: isinstance(data, list) and all(isinstance(row, dict) and "seed" in row for row in data),
+)
+"""What ``--json`` may replace (:func:`~agents.config.check_out_file`)."""
 
 
 def _fmt(x: float, spec: str = ".2f") -> str:
@@ -35,9 +41,14 @@ def cmd_rollout(args: argparse.Namespace) -> int:
     scenario = build_scenario(cfg)
     planner = make_planner(args.planner)
     # Before the episodes, not after them.
-    for out, flag, suffixes in ((args.gif, "--gif", (".gif",)), (args.video, "--video", (".mp4",)),
-                                (args.plot, "--plot", PLOT_SUFFIXES), (args.json, "--json", ())):  # fmt: skip
-        check_out_file(out, flag, suffixes, writable=True)
+    outputs = [(args.gif, "--gif"), (args.video, "--video"), (args.plot, "--plot"), (args.json, "--json")]
+    named = [(out, flag) for out, flag in outputs if out]
+    for k, (out, flag) in enumerate(named):  # the later would replace the earlier
+        for out2, flag2 in named[k + 1 :]:
+            if Path(out).resolve() == Path(out2).resolve():
+                raise ValueError(f"{flag} and {flag2} name the same file {out!r}; give each its own")
+    for (out, flag), suffixes in zip(outputs, ((".gif",), (".mp4",), PLOT_SUFFIXES, ())):
+        check_out_file(out, flag, suffixes, writable=True, replaces=ROLLOUT_JSON if flag == "--json" else None)
     for out, flag, modules in ((args.gif, "--gif", ("pygame", "imageio")), (args.plot, "--plot", ("matplotlib",)),
                                (args.video, "--video", ("pygame", "imageio", "imageio_ffmpeg"))):  # fmt: skip
         if out:

@@ -201,8 +201,21 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
     return written
 
 
-PLOT_FILES = ("bar_*.png", "trajectory_*.png")
-"""The plots a report writes (:func:`write_plots`)."""
+PLOT_FILES = re.compile(r"bar_[a-z0-9_]+\.png|trajectory_.+_ep[0-9]+\.png")
+"""The names of the plots a report writes (:func:`write_plots`): ``bar_<metric>.png``, ``trajectory_<policy>_ep<k>.png``."""
+
+
+def earlier_plots(out: Path) -> list[Path]:
+    """The plots of an earlier report in ``out`` (:data:`PLOT_FILES`, for a known metric's bars): none unless ``out``
+    holds its ``results.json``; other files are the user's."""
+    if not (out / "results.json").is_file():
+        return []
+    bars = {m.name for m in metrics.METRICS if m.plot} | {"ms_per_decision"}
+    return sorted(
+        p
+        for p in out.glob("*.png")
+        if PLOT_FILES.fullmatch(p.name) and (not p.name.startswith("bar_") or p.name[4:-4] in bars)
+    )
 
 
 def write_report(
@@ -213,7 +226,8 @@ def write_report(
     provenance: str | None = None,
 ) -> list[Path]:
     """Write ``results.md``, ``results.json`` and (``plots``) the PNGs into ``out_dir``; the plots of an earlier report
-    there (``bar_*.png``, ``trajectory_*.png``) go first, so that every file of the report is of this comparison.
+    there (:func:`earlier_plots`: ``bar_<metric>.png``, ``trajectory_<policy>_ep<k>.png`` beside its ``results.json``)
+    go first, so that every file of the report is of this comparison; any other file is left alone.
     ``provenance``: the command, machine and date that made it (``vcs-env compare`` gives :func:`provenance`), a line
     of ``results.md`` and the JSON's ``"provenance"``.
 
@@ -222,9 +236,8 @@ def write_report(
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    for pattern in PLOT_FILES:
-        for old in out.glob(pattern):
-            old.unlink()
+    for old in earlier_plots(out):
+        old.unlink()
     md, js = out / "results.md", out / "results.json"
     md.write_text(markdown_table(comparison, provenance))
     js.write_text(results_json({**({"provenance": provenance} if provenance else {}), **comparison.to_dict()}))
