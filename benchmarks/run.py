@@ -285,7 +285,10 @@ def _run(quick: bool, out: Path, sections, command: str, merge: bool) -> dict:
     threads = peers.torch_single_thread()
     data: dict = {"peers": peers.status()}
     if merge and out.with_suffix(".json").exists():
-        old = json.loads(out.with_suffix(".json").read_text())
+        try:
+            old = json.loads(out.with_suffix(".json").read_text())
+        except ValueError as e:
+            raise ValueError(f"--merge: {out.with_suffix('.json')} is not JSON ({e})") from None
         meta = old.get("meta") if isinstance(old, dict) else None
         if not isinstance(meta, dict) or not {"date", "commit", "quick"} <= set(meta):
             raise ValueError(f"--merge: {out.with_suffix('.json')} is no results file of python -m benchmarks")

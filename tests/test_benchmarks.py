@@ -127,6 +127,8 @@ def test_merge_keeps_the_sections_not_run(quick, tmp_path, capsys):
     refused(["--sections", "profiles", "--merge", "--out", str(merged)], "holds a quick run; a full run does not merge")
     merged.with_suffix(".json").write_text("{}")
     refused(["--quick", "--sections", "profiles", "--merge", "--out", str(merged)], "is no results file of python -m")
+    merged.with_suffix(".json").write_text('{"meta": {"da')  # cut short: named, not a bare JSON error
+    refused(["--quick", "--sections", "profiles", "--merge", "--out", str(merged)], "RESULTS.json is not JSON")
     refused(["--quick", "--sections", ",", "--out", str(merged)], "choose from")
 
 

@@ -43,6 +43,9 @@ def test_bad_datasets_are_named_and_a_held_out_share_leaves_episodes_to_train_on
         ("actions", lambda a: a[:, :1], r"actions has shape \(\d+, 1\)"),
         ("observations", lambda a: a[:0], "holds no robot-steps"),
         ("traj_start", lambda a: a[:-1], "traj_start must rise from 0 to N"),
+        ("episode_starts", lambda a: a[:5], r"episode_starts has shape \(5,\)"),  # these were not checked
+        ("traj_robot", lambda a: a[:0], r"traj_robot has shape \(0,\), expected \(4,\)"),
+        ("traj_truncated", lambda a: a[:1], r"traj_truncated has shape \(1,\)"),
     ):
         bad = {k: v for k, v in arrays.items() if k != key}
         if change is not None:

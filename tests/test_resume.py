@@ -58,6 +58,12 @@ def test_resume_continues_its_own_run_and_refuses_what_it_cannot_apply(tmp_path,
     # steps and saved a copy; the second trained with the run's backend without a word).
     assert cli.main(["train", "--resume", str(run), "--timesteps", "4096"]) == 2
     assert "new total: above the checkpoint's 8192 (got 4096)" in capsys.readouterr().err
+    # A log whose last line a killed run left half written is named with its line (a bare JSON error before).
+    log = (run / "eval.jsonl").read_text()
+    (run / "eval.jsonl").write_text(log[:-40])
+    assert cli.main(["train", "--resume", str(run), "--timesteps", "10000", "--no-progress-bar"]) == 2
+    assert f"{run / 'eval.jsonl'} line 4 is not JSON" in capsys.readouterr().err
+    (run / "eval.jsonl").write_text(log)
     assert cli.main(["train", "--resume", str(run)]) == 2  # the run's own total, reached
     assert "new total: above the checkpoint's 8192 (the run's own is 8000)" in capsys.readouterr().err
     assert cli.main(["train", "--resume", str(run), "--timesteps", "10000", "--backend", "rllib"]) == 2

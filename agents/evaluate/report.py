@@ -202,7 +202,8 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
 
 
 PLOT_FILES = re.compile(r"bar_[a-z0-9_]+\.png|trajectory_.+_ep[0-9]+\.png")
-"""The names of the plots a report writes (:func:`write_plots`): ``bar_<metric>.png``, ``trajectory_<policy>_ep<k>.png``."""
+"""The names of the plots a report writes (:func:`write_plots`): ``bar_<metric>.png``,
+``trajectory_<policy>_ep<k>.png``."""
 
 
 def earlier_plots(out: Path) -> list[Path]:

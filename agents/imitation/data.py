@@ -215,14 +215,15 @@ def check_rows(data: dict[str, np.ndarray], what: str = "dataset") -> int:
     n = len(obs)
     if obs.ndim != 2 or n == 0:
         raise ValueError(f"{what} holds no robot-steps (observations of shape {obs.shape}, expected (N > 0, D))")
-    shapes = {"actions": (n, 2), "rewards": (n,)}
-    for key, shape in shapes.items():
-        if key in data and data[key].shape != shape:
-            raise ValueError(f"{what}: {key} has shape {data[key].shape}, expected {shape} (N = {n} observations)")
+    for key, shape in {"actions": (n, 2), "rewards": (n,), "episode_starts": (n,)}.items():
+        if key in data and np.shape(data[key]) != shape:
+            raise ValueError(f"{what}: {key} has shape {np.shape(data[key])}, expected {shape} (N = {n} observations)")
     if start.ndim != 1 or len(start) < 2 or start[0] != 0 or start[-1] != n or np.any(np.diff(start) < 0):
         raise ValueError(f"{what}: traj_start must rise from 0 to N = {n}, got {start[:3]}...{start[-2:]}")
-    if "traj_seed" in data and len(data["traj_seed"]) != len(start) - 1:
-        raise ValueError(f"{what}: traj_seed has {len(data['traj_seed'])} entries for {len(start) - 1} trajectories")
+    k = len(start) - 1
+    for key in ("traj_seed", "traj_robot", "traj_reached", "traj_collided", "traj_truncated"):
+        if key in data and np.shape(data[key]) != (k,):
+            raise ValueError(f"{what}: {key} has shape {np.shape(data[key])}, expected ({k},) (one per trajectory)")
     return n
 
 

@@ -70,7 +70,14 @@ class PeriodicEval:
         log = self.out / "eval.jsonl"
         if not log.exists():
             return
-        rows = [json.loads(line) for line in log.read_text().splitlines() if line.strip()]
+        rows = []
+        for k, line in enumerate(log.read_text().splitlines()):
+            try:
+                rows += [json.loads(line)] if line.strip() else []
+            except ValueError as e:  # e.g. the last line of a run killed while it wrote it
+                raise ValueError(
+                    f"{log} line {k + 1} is not JSON ({e}): remove or mend that line, then resume again"
+                ) from None
         self.history = [r for r in rows if r.get("timesteps", 0) <= timesteps]
         log.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in self.history))
         for r in self.history:
