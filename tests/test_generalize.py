@@ -125,6 +125,7 @@ def test_cli_evaluate_and_compare_on_ad_hoc_episodes(tmp_path, capsys):
     # The report records the command that made it, with the date and machine.
     assert data["provenance"].startswith("`vcs-env compare --policies vcs,straight --scenario crowd --n-obstacles 3")
     assert data["provenance"] in (report / "results.md").read_text()
+    assert f"numpy {np.__version__}, numba" in data["provenance"]  # and the library versions a rerun matches
     args = ["evaluate", "--policy", "vcs", "--scenario", "dynamic", "--obstacle-motion", "constant", "--seeds", "3:4"]
     assert cli.main([*args, "--json", str(out), "--no-progress"]) == 0
     assert json.loads(out.read_text())["suite"] == "dynamic[obstacle_motion=constant]@3:4"

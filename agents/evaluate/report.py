@@ -250,11 +250,18 @@ def write_report(
 
 def provenance(command: str, machine: dict) -> str:
     """``command`` (a shell line) with the date and ``machine`` (:func:`benchmarks.timing.machine_info`: ``cpu``,
-    ``usable_cores``, ``load_average``), as a report records it."""
+    ``usable_cores``, ``load_average``, and ``python`` and ``packages``: the versions a rerun matches), as a report
+    records it."""
     load = ", ".join(f"{x:.1f}" for x in machine.get("load_average") or ())
+    packages = machine.get("packages") or {}
+    versions = "".join(
+        f", {name} {packages[name]}"
+        for name in ("vcs-env", "numpy", "numba", "torch")
+        if packages.get(name, "not installed") != "not installed"
+    )
     return (
         f"`{command}` ({datetime.date.today().isoformat()}, {machine['cpu']}, {machine['usable_cores']} cores, load "
-        f"average {load})"
+        f"average {load}; Python {machine.get('python', '?')}{versions})"
     )
 
 
