@@ -101,3 +101,22 @@ def test_potential_shaping_ranks_goal_above_crash():
 def test_unknown_planner_names_raise():
     with pytest.raises(ValueError, match="unknown planner"):
         vcs_env.parallel_env(scenario="swap", expert="teleport")
+
+
+def test_expert_action_follows_robots_moved_by_hand():
+    """Robots may be moved by hand between steps (WorldState); the engine's expert action, and so the label of the
+    vcs_imitation reward, was the plan of the state before the move."""
+    scenario = vcs_env.make_scenario("circle", n_robots=4, on_collision="continue")
+    engine = NavEngine(scenario, batch_size=2, expert="hrvo")
+    engine.reset(seeds=[1, 2])
+    before = engine.expert_action
+    assert engine.expert_action is before  # nothing moved: not planned again
+    engine.world.pos[1, 0] += (0.3, -0.2)
+    engine.world.heading[1, 2] += 1.0
+    fresh = vcs_env.make_planner("hrvo").act(engine.world, "delta")
+    assert np.array_equal(engine.expert_action, fresh) and not np.array_equal(fresh[1], before[1])
+    assert np.array_equal(fresh[0], before[0])
+    # A reset of world 0 after a move in world 1 plans world 1 too.
+    engine.world.pos[1, 1] += (0.2, 0.2)
+    engine.reset(seeds=[3], worlds=[0])
+    assert np.array_equal(engine._expert_action, vcs_env.make_planner("hrvo").act(engine.world, "delta"))

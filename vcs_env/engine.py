@@ -189,6 +189,7 @@ class NavEngine:
         self.gamma = float(gamma)
         self.max_steps = scenario.max_steps if max_steps is None else check_max_steps(max_steps)
         self._expert_action: np.ndarray | None = None
+        self._expert_state: np.ndarray | None = None  # the state it was planned in (_moving_state)
 
     @property
     def world(self) -> WorldState:
@@ -216,18 +217,26 @@ class NavEngine:
         return self.observe()
 
     def _refresh_expert(self, idx: Sequence[int] | None = None) -> None:
-        """Expert action for the current state of every world."""
+        """Expert action for the current state of every world (``idx``: of those worlds and of any moved by hand since
+        its last plan; the others' are kept)."""
         world = self.sim.world
         action = self.expert.act(world, self.action_mode)
+        state = _moving_state(world)
         if idx is None or self._expert_action is None:
             self._expert_action = action
         else:  # a new array: the old one may be held by a caller (infos, StepResult)
+            take = np.any(state != self._expert_state, axis=1)
+            take[idx] = True
             self._expert_action = self._expert_action.copy()
-            self._expert_action[idx] = action[idx]
+            self._expert_action[take] = action[take]
+        self._expert_state = state
 
     @property
     def expert_action(self) -> np.ndarray | None:
-        """Expert actions ``(B, n, 2)`` for the current state (None without an expert)."""
+        """Expert actions ``(B, n, 2)`` for the current state (None without an expert): planned again when robots or
+        obstacles were moved by hand since the last plan."""
+        if self._expert_action is not None and np.any(_moving_state(self.sim.world) != self._expert_state):
+            self._refresh_expert()
         return self._expert_action
 
     def step(self, actions: np.ndarray, autoreset: bool = False) -> StepResult:
@@ -238,7 +247,7 @@ class NavEngine:
         first observation of the new episode and ``final_obs`` the last one of the old.
         """
         autoreset = check_flag("autoreset", autoreset)
-        prev_expert = self._expert_action
+        prev_expert = self.expert_action  # of the state acted in, also after a move by hand
         events = self.sim.step(actions)
         world = self.sim.world
         crashed = events.collided & (self.scenario.on_collision == "terminate")
@@ -261,7 +270,7 @@ class NavEngine:
                 for term in self.terms.values():
                     term.start(world, self.expert, np.flatnonzero(ended))
         if self.expert is not None:
-            self._expert_action = self.expert.act(world, self.action_mode)
+            self._refresh_expert()
         return StepResult(
             obs=obs,
             reward=weighted_sum(terms, self.weights),
@@ -273,3 +282,11 @@ class NavEngine:
             final_obs=final_obs,
             ended=ended,
         )
+
+
+def _moving_state(world: WorldState) -> np.ndarray:
+    """What a move by hand changes, ``(B, k)`` per world: robot positions, headings, speeds and activity, obstacle
+    positions and velocities (a new expert plan when any differs)."""
+    parts = (world.pos, world.heading, world.speed, world.active, world.obs_pos, world.obs_vel)
+    B = world.batch_size
+    return np.concatenate([np.reshape(a, (B, -1)) for a in parts], axis=1)
