@@ -38,6 +38,24 @@ def test_a_term_object_is_computed_weighted_and_reported():
     assert res.info(0)["reward_terms"]["speed"] == pytest.approx(0.05)
 
 
+def test_a_term_object_that_forgets_the_mask_pays_no_robot_that_ended():
+    """The engine promises no reward after a robot ends; a RewardTerm of the user's that returns a value for every
+    robot paid parked robots through NavEngine (only FunctionTerm masked)."""
+
+    class One(RewardTerm):
+        name = "one"
+
+        def __call__(self, x):
+            return np.ones(x.events.acted.shape)
+
+    layout = vcs_env.CustomLayout(start=((0, 0), (0, 3)), goal=((0.35, 0), (3, 3)), heading=(0, 0), speed=(1, 0))
+    eng = NavEngine(vcs_env.Scenario(kind="custom", n_robots=2, custom=layout), reward_terms={"one": (1.0, One())})
+    eng.reset(seeds=[0])
+    for _ in range(5):
+        res = eng.step(np.zeros((1, 2, 2)))
+    assert list(eng.world.active[0]) == [False, True] and list(res.terms["one"][0]) == [0.0, 1.0]
+
+
 def test_built_in_terms_by_hand():
     s = vcs_env.make_scenario("swap", rewards={"vcs_imitation": 1.0})
     eng = NavEngine(s)

@@ -258,7 +258,7 @@ class NavEngine:
         )
         terms = {name: term(x) for name, term in self.terms.items()}
         for name in self._custom:  # the built-in terms are trusted (and checking costs a few % at large B)
-            terms[name] = checked_term(name, terms[name], world.active.shape)
+            terms[name] = np.where(events.acted, checked_term(name, terms[name], world.active.shape), 0.0)  # ended: 0
         obs = self.observe()
         final_obs, ended = None, np.zeros(self.batch_size, dtype=bool)
         if autoreset:
