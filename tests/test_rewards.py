@@ -56,6 +56,18 @@ def test_a_term_object_that_forgets_the_mask_pays_no_robot_that_ended():
     assert list(eng.world.active[0]) == [False, True] and list(res.terms["one"][0]) == [0.0, 1.0]
 
 
+def test_a_crash_into_a_wall_earns_no_progress():
+    """Among walls progress is the route's decrease; on the step a robot crashed (terminate) it was read from the
+    straight distance, as for robots no longer active, and paid the step's whole motion."""
+    wall = (((1, -1), (1, 1)),)
+    layout = vcs_env.CustomLayout(start=((0, 0),), goal=((2, 0),), heading=(0,), speed=(1,), walls=wall)
+    eng = NavEngine(vcs_env.Scenario(kind="custom", n_robots=1, custom=layout, on_collision="terminate"))
+    eng.reset(seeds=[0])
+    while eng.world.active[0, 0]:
+        res = eng.step(np.zeros((1, 1, 2)))
+    assert res.events.collided[0, 0] and res.terms["progress"][0, 0] <= 0.0
+
+
 def test_built_in_terms_by_hand():
     s = vcs_env.make_scenario("swap", rewards={"vcs_imitation": 1.0})
     eng = NavEngine(s)

@@ -9,6 +9,7 @@ there); a term of your own is passed to the env as ``reward_terms={name: (weight
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import types
 from collections.abc import Callable, Mapping, Sequence
@@ -73,7 +74,8 @@ class RewardTerm:
 class Progress(RewardTerm):
     """Decrease of the remaining route length [m]: of the goal distance on open floor; among walls,
     of the length of the shortest route around them (:func:`vcs_env.routes.waypoints`, the route
-    the planners follow), so that pressing into a wall between a robot and its goal earns nothing.
+    the planners follow; a robot that ends its episode on the step is routed where it stands), so that pressing into
+    a wall between a robot and its goal earns nothing, also on the step it crashes.
     A step's route progress is bounded by the distance the robot moved (the roadmap's routes are
     approximate: where the shortest one switches, or none is found, the length may jump)."""
 
@@ -96,7 +98,9 @@ class Progress(RewardTerm):
         ev = x.events
         if not routes.walled(x.world) or self.length is None:
             return np.where(ev.acted, ev.goal_dist_before - ev.goal_dist_after, 0.0)
-        length = routes.waypoints(x.world)[1]
+        ended = ev.acted & ~x.world.active  # arrived or stopped by a crash: routed where they stand, not straight
+        world = dataclasses.replace(x.world, active=x.world.active | ended) if ended.any() else x.world
+        length = routes.waypoints(world)[1]
         moved = np.linalg.norm(x.world.pos - self.pos, axis=-1)
         progress = np.clip(self.length - length, -moved, moved)
         self.length, self.pos = length, x.world.pos.copy()
