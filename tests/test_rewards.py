@@ -258,6 +258,13 @@ def test_danger_is_computed_only_when_weighted_and_counts_touching_as_now():
     world = eng.world
     world.pos[0, 1] = world.pos[0, 0] + [0.3, 0.0]  # closer than the two radii: touching now
     assert contact_times(world)[0, 0, 1] == 0.0
+    # A robot stopped at its point of contact (terminate) touches, whatever the rounding of its gap (1e-16 m either
+    # side read 0 or inf, so danger on a crash step depended on dt).
+    reach = world.radius[0, 0] + world.radius[0, 1]
+    for gap in (-1e-16, 1e-16, 1e-10):
+        world.pos[0, 1] = world.pos[0, 0] + [reach + gap, 0.0]
+        world.speed[0] = 0.0
+        assert contact_times(world)[0, 0, 1] == 0.0
     world.present[0, 1] = False  # a robot taken out of the world is no danger
     assert contact_times(world)[0, 0, 1] == np.inf
 

@@ -188,9 +188,14 @@ DANGER_TIME = 1.0
 """Time scale of the ``danger`` term [s]: a contact ``DANGER_TIME`` ahead weighs ``1/e`` of one now."""
 
 
+TOUCH_GAP = 1e-9
+"""[m] gap :func:`contact_times` counts as touching."""
+
+
 def contact_times(world: WorldState) -> np.ndarray:
     """``(B, n, n + m)`` time [s] until robot ``i`` touches robot ``j`` (columns ``:n``) or obstacle
-    ``k`` (columns ``n:``) if both keep their current velocities: 0 when they touch now, ``inf``
+    ``k`` (columns ``n:``) if both keep their current velocities: 0 when they touch now (within
+    :data:`TOUCH_GAP`: a robot stopped at its point of contact, whose gap is 0 up to rounding), ``inf``
     when they never will, for itself and for robots no longer present."""
     vel = world.vel
     pos = np.concatenate((world.pos, world.obs_pos), axis=1)  # (B, n + m, 2)
@@ -198,7 +203,9 @@ def contact_times(world: WorldState) -> np.ndarray:
     radius = np.concatenate((world.radius, world.obs_radius), axis=1)
     p = pos[:, None, :, :] - world.pos[:, :, None, :]  # (B, n, n + m, 2), from robot i to object j
     own_rel_vel = vel[:, :, None, :] - other_vel[:, None, :, :]  # robot i relative to object j
-    t = time_to_collision(p, own_rel_vel, radius[:, None, :] + world.radius[:, :, None])
+    reach = radius[:, None, :] + world.radius[:, :, None]
+    t = time_to_collision(p, own_rel_vel, reach)
+    t = np.where(np.einsum("...i,...i->...", p, p) <= (reach + TOUCH_GAP) ** 2, 0.0, t)
     n = world.pos.shape[1]
     gone = np.concatenate((~world.present, np.zeros(world.obs_pos.shape[:2], dtype=bool)), axis=1)
     t = np.where(gone[:, None, :], np.inf, t)
