@@ -244,7 +244,8 @@ class NavEngine:
 
         With ``autoreset``, worlds whose episode ended (no robot active, or ``max_steps``
         reached) start a new episode (continuing their random streams): ``obs`` is then the
-        first observation of the new episode and ``final_obs`` the last one of the old.
+        first observation of the new episode and ``final_obs`` the last one of the old. Without it a world whose
+        robots were truncated (``max_steps``) keeps stepping if asked (its robots stay active: the envs stop there).
         """
         autoreset = check_flag("autoreset", autoreset)
         prev_expert = self.expert_action  # of the state acted in, also after a move by hand

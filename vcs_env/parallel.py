@@ -45,10 +45,10 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     :mod:`vcs_env.observations`. ``state()`` is the global state (SI units).
 
     ## Rewards
-    Weighted sum of named terms (``progress``, ``arrival``, ``collision``, ``time``, optional
-    ``vcs_imitation`` / ``vcs_potential`` shaping and custom ``reward_terms``), weights in
-    ``scenario.rewards``. ``info[agent]["reward_terms"]`` has each term in use, unweighted (the shaping and
-    pairwise terms only when weighted).
+    Weighted sum of named terms (``progress``, ``arrival``, ``collision``, ``time``; optional ``vcs_imitation`` /
+    ``vcs_potential`` shaping, ``danger``, ``arrival_speed``, ``stuck`` (with the stall clock); custom
+    ``reward_terms``), weights in ``scenario.rewards`` (:data:`vcs_env.rewards.TERMS`). ``info[agent]["reward_terms"]``
+    has each term in use, unweighted (the optional ones only when weighted).
 
     ## Starting State
     Drawn from the scenario with the generator seeded by ``reset(seed=...)``.
@@ -76,9 +76,9 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
-    * v2, fix (same id, 2026-12-07, late): among walls the ``progress`` reward of the step on which a robot ends (a crash
-      under ``terminate``, an arrival) is its route's decrease where it stands, not the straight distance's: a crash
-      into a wall between a robot and its goal was paid the step's whole motion. The ``danger`` term (weight 0 by
+    * v2, fix (same id, 2026-12-07, late): among walls the ``progress`` reward of the step on which a robot ends (a
+      crash under ``terminate``, an arrival) is its route's decrease where it stands, not the straight distance's: a
+      crash into a wall between a robot and its goal was paid the step's whole motion. The ``danger`` term (weight 0 by
       default) counts a gap within 1e-9 m as touching (a robot stopped at its contact read touching or not by the
       rounding of its gap). Other steps unchanged.
     * v2, planner fix (same id, 2026-12-07, night): the VCS expert counts its search in periods of several world steps

@@ -296,15 +296,17 @@ def potential_term(
     gamma: float,
     floor: float,
 ):
-    """``gamma * phi(s') - phi(s)`` per robot ``(B, n)``: potential-based shaping (Ng et al. 1999;
-    with the learner's ``gamma`` it leaves the optimal policy unchanged). At the end of a robot's
-    episode ``phi(s')`` is replaced by the best potential, 0, on reaching the goal (``reached``)
-    and by the worst, ``floor`` (< 0), on a collision that ends it (``crashed``), so ending in a
-    crash never pays; a truncated robot keeps ``phi(s')`` (its value is bootstrapped).
+    """``gamma * phi(s') - phi(s)`` per robot ``(B, n)``: potential-based shaping (Ng et al. 1999), with the
+    learner's ``gamma``. At the end of a robot's episode ``phi(s')`` is replaced by the best potential, 0, on
+    reaching the goal (``reached``) and by the worst, ``floor`` (< 0), on a collision that ends it (``crashed``); a
+    truncated robot keeps ``phi(s')`` (its value is bootstrapped). Ng et al.'s guarantee (the optimal policy
+    unchanged) holds for one terminal potential; these two differ by outcome, so the term also adds ``gamma *
+    floor`` to a crash against an arrival: a crash penalty, by design. A crash step earns ``gamma * floor -
+    phi(s)``, no more than staying one step in a state at the floor does.
 
-    With ``gamma = 1`` an episode's terms sum to ``phi(s_T) - phi(s_0)``, but a learner that
-    discounts then pays about ``(1 - gamma) |phi|`` per step, most in crowded states (with
-    weight 10, PPO learned to stand still on ``circle``; measured).
+    With ``gamma = 1`` an episode's terms sum to ``phi(s_T) - phi(s_0)``; with ``gamma < 1`` a robot earns
+    ``(1 - gamma) |phi|`` per step for staying where it is, most in crowded states (with weight 10, PPO learned
+    to stand still on ``circle``; measured).
     """
     end = np.where(crashed, floor, np.where(reached, 0.0, phi_after))
     return np.where(acted, gamma * end - phi_before, 0.0)
