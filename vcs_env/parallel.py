@@ -32,7 +32,8 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     ``Box(-1, 1, (2,), float32)`` per robot. ``action_mode="delta"`` (default): (speed change,
     heading change) as fractions of the one-step limits ``a_max dt`` and ``omega_max dt``, i.e.
     a point of the one-step velocity change window. ``action_mode="absolute"``: (speed,
-    heading) commands tracked within the limits. Values outside [-1, 1] are clipped, and the new speed to
+    heading) commands tracked within the limits (a holonomic robot: a world-frame velocity in units of ``v_max``).
+    Values outside [-1, 1] are clipped, and the new speed to
     [0, v_max]; a holonomic robot's action (a velocity change, or command) is cut to the unit disc. NaN, inf
     and wrong shapes raise ``ValueError``. Details: :mod:`vcs_env.dynamics`.
 
