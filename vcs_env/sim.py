@@ -449,7 +449,14 @@ class Simulator:
                         "out through the other, or it was already outside; reduce dt or the obstacles' speed, or "
                         "increase arena_half_size"
                     )
-                self.motion.reflect(self.motion_params, flip)
+                params = self.motion_params
+                before = {k: np.copy(v) for k, v in params.items()}
+                self.motion.reflect(params, flip)
+                calm = ~flip.any(axis=(1, 2))  # worlds without a bounce keep their parameters: batched = one by one
+                if calm.any():
+                    for k, v in before.items():
+                        params[k] = np.array(params[k])  # a new array: snapshots of params stay unchanged
+                        params[k][calm] = v[calm]
         return vel
 
     # ---------------------------------------------------------------- queries
