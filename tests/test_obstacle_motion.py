@@ -39,3 +39,20 @@ def test_a_reflect_that_rewrites_every_obstacle_keeps_batched_worlds_as_one_by_o
 
     batched = run(seeds)
     assert all(np.array_equal(batched[b], run([s])[0]) for b, s in enumerate(seeds))
+
+
+class _Counting(_Heading):
+    """Also keeps a count of its calls in ``params``: one number, not per world."""
+
+    def velocity(self, params, t, pos, dt):
+        params["calls"] = params.get("calls", 0) + 1
+        return super().velocity(params, t, pos, dt)
+
+
+def test_a_parameter_that_is_not_per_world_is_left_to_the_model():
+    scenario = make_scenario("dynamic", n_obstacles=4, bounce=True)
+    engine = NavEngine(scenario, 2, obstacle_motion=_Counting())
+    engine.reset([3, 4])
+    for _ in range(150):  # bounces: the restore of calm worlds indexed the count by world (an IndexError)
+        engine.step(np.zeros((2, scenario.n_robots, 2)))
+    assert engine.sim.motion_params["calls"] == 150

@@ -134,6 +134,11 @@ def env_scenario(
     return out
 
 
+MOVED_BY_HAND = ("pos", "heading", "speed", "active", "present", "goal", "obs_pos", "obs_vel")
+"""The :class:`~vcs_env.state.WorldState` fields whose change by hand makes :attr:`NavEngine.expert_action` plan
+again."""
+
+
 class NavEngine:
     """Batched episodes of one scenario.
 
@@ -189,7 +194,7 @@ class NavEngine:
         self.gamma = float(gamma)
         self.max_steps = scenario.max_steps if max_steps is None else check_max_steps(max_steps)
         self._expert_action: np.ndarray | None = None
-        self._expert_state: np.ndarray | None = None  # the state it was planned in (_moving_state)
+        self._expert_state: tuple[np.ndarray, ...] = ()  # the fields of MOVED_BY_HAND it was planned with
 
     @property
     def world(self) -> WorldState:
@@ -221,22 +226,27 @@ class NavEngine:
         its last plan; the others' are kept)."""
         world = self.sim.world
         action = self.expert.act(world, self.action_mode)
-        state = _moving_state(world)
         if idx is None or self._expert_action is None:
             self._expert_action = action
         else:  # a new array: the old one may be held by a caller (infos, StepResult)
-            take = np.any(state != self._expert_state, axis=1)
+            take = np.zeros(self.batch_size, dtype=bool)
+            for field, was in zip(MOVED_BY_HAND, self._expert_state):
+                now = getattr(world, field)
+                take |= (now != was).reshape(self.batch_size, -1).any(axis=1)
             take[idx] = True
             self._expert_action = self._expert_action.copy()
             self._expert_action[take] = action[take]
-        self._expert_state = state
+        self._expert_state = tuple(getattr(world, field).copy() for field in MOVED_BY_HAND)
 
     @property
     def expert_action(self) -> np.ndarray | None:
-        """Expert actions ``(B, n, 2)`` for the current state (None without an expert): planned again when robots or
-        obstacles were moved by hand since the last plan."""
-        if self._expert_action is not None and np.any(_moving_state(self.sim.world) != self._expert_state):
-            self._refresh_expert()
+        """Expert actions ``(B, n, 2)`` for the current state (None without an expert): planned again when robots,
+        their goals or obstacles were changed by hand since the last plan (:data:`MOVED_BY_HAND`)."""
+        if self._expert_action is not None:
+            world = self.sim.world
+            now = (getattr(world, field).tobytes() for field in MOVED_BY_HAND)  # bytes: the quickest comparison
+            if not all(a == was.tobytes() for a, was in zip(now, self._expert_state)):
+                self._refresh_expert()
         return self._expert_action
 
     def step(self, actions: np.ndarray, autoreset: bool = False) -> StepResult:
@@ -283,11 +293,3 @@ class NavEngine:
             final_obs=final_obs,
             ended=ended,
         )
-
-
-def _moving_state(world: WorldState) -> np.ndarray:
-    """What a move by hand changes, ``(B, k)`` per world: robot positions, headings, speeds and activity, obstacle
-    positions and velocities (a new expert plan when any differs)."""
-    parts = (world.pos, world.heading, world.speed, world.active, world.obs_pos, world.obs_vel)
-    B = world.batch_size
-    return np.concatenate([np.reshape(a, (B, -1)) for a in parts], axis=1)

@@ -77,11 +77,11 @@ class VcsNavParallelEnv(RenderMixin, ParallelEnv):
     field as a keyword override (``n_robots=16``).
 
     ## Version History
-    * v2, fix (same id, 2026-12-07, late): among walls the ``progress`` reward of the step on which a robot ends (a
-      crash under ``terminate``, an arrival) is its route's decrease where it stands, not the straight distance's: a
-      crash into a wall between a robot and its goal was paid the step's whole motion. The ``danger`` term (weight 0 by
-      default) counts a gap within 1e-9 m as touching (a robot stopped at its contact read touching or not by the
-      rounding of its gap). Other steps unchanged.
+    * v2, fix (same id, 2026-12-07, 21:00 UTC): among walls the ``progress`` reward of the step on which a robot ends
+      (a crash under ``terminate``, an arrival) is its route's decrease where it stands, not the straight distance's:
+      a crash into a wall between a robot and its goal was paid the step's whole motion; other steps' progress is
+      unchanged. The ``danger`` term (weight 0 by default) counts a gap within 1e-9 m as touching, on any step (a
+      robot stopped at its contact read touching or not by the rounding of its gap).
     * v2, planner fix (same id, 2026-12-07, night): the VCS expert counts its search in periods of several world steps
       where a robot would need more than 1024 steps to reach its top speed or turn half round (vcs-method §2.10): a
       step far finer than the robots' limits made one decision take seconds to minutes. Every suite plans as before.

@@ -99,8 +99,10 @@ class Progress(RewardTerm):
         if not routes.walled(x.world) or self.length is None:
             return np.where(ev.acted, ev.goal_dist_before - ev.goal_dist_after, 0.0)
         ended = ev.acted & ~x.world.active  # arrived or stopped by a crash: routed where they stand, not straight
-        world = dataclasses.replace(x.world, active=x.world.active | ended) if ended.any() else x.world
-        length = routes.waypoints(world)[1]
+        ended_length = routes.waypoints(dataclasses.replace(x.world, active=ended))[1] if ended.any() else None
+        length = routes.waypoints(x.world)[1]  # last: the planners ask for this state next (waypoints' cache)
+        if ended_length is not None:
+            length = np.where(ended, ended_length, length)
         moved = np.linalg.norm(x.world.pos - self.pos, axis=-1)
         progress = np.clip(self.length - length, -moved, moved)
         self.length, self.pos = length, x.world.pos.copy()

@@ -453,8 +453,9 @@ class Simulator:
                 before = {k: np.copy(v) for k, v in params.items()}
                 self.motion.reflect(params, flip)
                 calm = ~flip.any(axis=(1, 2))  # worlds without a bounce keep their parameters: batched = one by one
-                if calm.any():
-                    for k, v in before.items():
+                B = len(calm)
+                for k, v in before.items():  # the per-world ones (leading size B) that reflect kept
+                    if calm.any() and v.ndim and len(v) == B and np.shape(params.get(k)) == v.shape:
                         params[k] = np.array(params[k])  # a new array: snapshots of params stay unchanged
                         params[k][calm] = v[calm]
         return vel
