@@ -116,7 +116,7 @@ def test_expert_action_follows_robots_moved_by_hand():
     fresh = vcs_env.make_planner("hrvo").act(engine.world, "delta")
     assert np.array_equal(engine.expert_action, fresh) and not np.array_equal(fresh[1], before[1])
     assert np.array_equal(fresh[0], before[0])
-    engine.world.goal[0, 3] = engine.world.pos[0, 3] + (0.0, 3.0)  # a new goal by hand: a new plan too
+    engine.world.goal[0, 3] = 2.0 * engine.world.pos[0, 3]  # a new goal by hand, behind the robot: a new plan too
     assert np.array_equal(engine.expert_action, vcs_env.make_planner("hrvo").act(engine.world, "delta"))
     assert not np.array_equal(engine.expert_action[0], before[0])
     # A reset of world 0 after a move in world 1 plans world 1 too.
