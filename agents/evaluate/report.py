@@ -125,6 +125,10 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "policy"
 
 
+TIME_BAR = "ms_per_decision"
+"""The bar chart of compute time beside the metrics' (``bar_ms_per_decision.png``)."""
+
+
 def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int | None = None) -> list[Path]:
     """Bar charts (one per metric with :attr:`~vcs_env.metrics.Metric.plot`, and ms/decision) and, if ``episode``
     is given and kept, one trajectory plot of that episode per policy.
@@ -176,7 +180,7 @@ def write_plots(comparison: Comparison, out_dir: str | os.PathLike, episode: int
         label = metric.label + (" (solved by all)" if metric.solved_only else "")
         means = [s.get("mean", math.nan) for s in stats]
         bar(metric.name, label, means, np.nan_to_num(err), unit_range=metric.rate)
-    bar("ms_per_decision", "ms per robot decision", [1e3 * comparison.results[k].seconds_per_decision for k in names])
+    bar(TIME_BAR, "ms per robot decision", [1e3 * comparison.results[k].seconds_per_decision for k in names])
     if episode is not None:
         seed = comparison.suite.seeds[episode]
         for name, res in comparison.results.items():
@@ -211,7 +215,7 @@ def earlier_plots(out: Path) -> list[Path]:
     holds its ``results.json``; other files are the user's."""
     if not (out / "results.json").is_file():
         return []
-    bars = {m.name for m in metrics.METRICS if m.plot} | {"ms_per_decision"}
+    bars = {m.name for m in metrics.METRICS if m.plot} | {TIME_BAR}  # the bars write_plots draws
     return sorted(
         p
         for p in out.glob("*.png")

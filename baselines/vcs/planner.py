@@ -328,7 +328,8 @@ class VCSPlanner(Planner):
         world.check_limits()  # and divide by dt and the robots' limits
         if not self._coarse_told:
             dt, holo = float(world.dt), bool(world.holonomic)
-            steps = kernel.most_planning_steps(world.v_max, world.a_max, world.omega_max, dt, holo, world.active)
+            steps = kernel.robot_planning_steps(world.v_max, world.a_max, world.omega_max, dt, holo)
+            steps = int(steps[world.active].max(initial=0))  # the longest period among the robots that drive
             said = f"steps of dt = {dt:g} s" if dt > COARSE_DT else f"in periods of {dt * steps:g} s (dt = {dt:g} s)"
             if max(dt, dt * steps) > COARSE_DT:
                 self._coarse_told = True

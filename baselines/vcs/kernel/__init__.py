@@ -26,7 +26,6 @@ edit in a new process. ``tests/test_planner_regression.py`` holds every plan to 
 
 from .period import (
     finish,
-    most_planning_steps,
     mover_images,
     push,
     remember_movers,
@@ -50,7 +49,6 @@ __all__ = [
     "World",
     "evaluate_points",
     "finish",
-    "most_planning_steps",
     "mover_images",
     "params_record",
     "plan_batch",

@@ -218,18 +218,6 @@ def mover_images(pos, vel, turn, cos_t, sin_t, radius, half, far, out_pos, out_v
 
 
 @njit(cache=True)
-def most_planning_steps(v_max, a_max, omega_max, dt, holo, active):
-    """The most world steps per period of the search over the ``active`` robots ``(B, n)`` (0 when none is)."""
-    most = 0
-    B, n = v_max.shape
-    for b in range(B):
-        for i in range(n):
-            if active[b, i]:
-                most = max(most, planning_steps(v_max[b, i], a_max[b, i], omega_max[b, i], dt, holo))
-    return most
-
-
-@njit(cache=True)
 def robot_planning_steps(v_max, a_max, omega_max, dt, holo):
     """:func:`~.scalar.planning_steps` of every robot ``(B, n)`` (limits ``(B, n)``, ``dt`` [s])."""
     B, n = v_max.shape
