@@ -428,3 +428,17 @@ def test_a_gymnasium_seed_names_its_world_for_the_other_doors():
         np.testing.assert_array_equal(obs, pobs["robot_0"])
         for field in ("pos", "goal", "heading", "obs_pos"):
             np.testing.assert_array_equal(getattr(g.unwrapped.world, field), getattr(p.engine.world, field))
+
+
+def test_numpy_integer_seeds_work_on_every_gymnasium_door():
+    """np.int64 seeds (as ``np.arange`` hands them out) start the same worlds as Python ints on ``gym.make``, and per
+    env on ``gym.make_vec`` in ``sync`` mode (Gymnasium's seeding takes Python ints only; the other doors take both)."""
+    kw = dict(scenario="random", n_robots=3, arena_half_size=3.0)
+    ints = [gym.make("vcs_env/Navigation-v2", **kw).reset(seed=5)[0]]
+    nps = [gym.make("vcs_env/Navigation-v2", **kw).reset(seed=np.int64(5))[0]]
+    for out, seeds in ((ints, [5, 6]), (nps, list(np.arange(5, 7)))):
+        v = gym.make_vec("vcs_env/Navigation-v2", num_envs=2, vectorization_mode="sync", **kw)
+        out.append(v.reset(seed=seeds)[0])
+        v.close()
+    for a, b in zip(ints, nps):
+        np.testing.assert_array_equal(a, b)

@@ -101,6 +101,8 @@ class VcsNavEnv(RenderMixin, gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         check_reset_options(options)
+        if isinstance(seed, np.integer):  # as the other doors take them (Gymnasium's seeding takes Python ints only)
+            seed = int(seed)
         super().reset(seed=seed)
         # The world generator is seeded from Gymnasium's np_random so reset() without a seed
         # continues one reproducible stream (gym_world_seed: the first world's seed).
