@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from vcs_env.checks import TORCH_FIRST, install_hint, user_stacklevel
+from vcs_env.files import write_text
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 
@@ -450,7 +451,7 @@ def attach_shield(checkpoint: str | os.PathLike, shield: Any | None) -> dict[str
     before = record.pop("shield", None)
     if shield is not None:
         record["shield"] = dataclasses.asdict(shield)
-    ckpt.record_path.write_text(json.dumps(record, indent=2) + "\n")
+    write_text(ckpt.record_path, json.dumps(record, indent=2) + "\n")
     return before
 
 

@@ -26,6 +26,8 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+from vcs_env.files import write_text
+
 from .evaluate import evaluate
 from .runs import jsonable
 
@@ -182,9 +184,9 @@ def main(argv: list[str] | None = None) -> int:
     table = markdown(result)
     print(table)
     if args.json:
-        Path(args.json).write_text(json.dumps(jsonable(result), indent=2, allow_nan=False) + "\n")
+        write_text(args.json, json.dumps(jsonable(result), indent=2, allow_nan=False) + "\n")
     if args.markdown:
-        Path(args.markdown).write_text(table)
+        write_text(args.markdown, table)
     if args.figure:
         plot_curves(result, args.figure)
     return 0

@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from vcs_env.checks import install_hint
+from vcs_env.files import replacing, write_text
 
 from .fits import CheckpointError, cause
 from .residual import GATE_RULE, RULE, Residual
@@ -335,39 +336,37 @@ def export_onnx(checkpoint, out: str | os.PathLike, opset: int = OPSET) -> tuple
             f"action is {RULE} with scale {residual.scale} (the JSON's 'residual')",
             file=sys.stderr,
         )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    part = path.with_name(path.name + ".part")  # moved onto ``path`` once checked: a failure leaves ``path`` as it was
     example = torch.zeros(2, dim, dtype=torch.float32)  # not 1: no size-1 broadcast baked into the graph
     obs = np.random.default_rng(0).uniform(space.low, space.high, size=(CHECK_ROWS, dim)).astype(np.float32)
-    try:
-        with warnings.catch_warnings(), torch.no_grad(), _stdout_dropped():
-            warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation and tracer warnings
-            torch.onnx.export(
-                actor,
-                (example,),
-                str(part),
-                dynamo=False,
-                opset_version=opset,
-                input_names=[INPUT],
-                output_names=[OUTPUT],
-                dynamic_axes={INPUT: {0: "batch"}, OUTPUT: {0: "batch"}},
+    with replacing(path) as part:  # moved onto ``path`` once checked: a failure leaves ``path`` as it was
+        try:
+            with warnings.catch_warnings(), torch.no_grad(), _stdout_dropped():
+                warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation and tracer warnings
+                torch.onnx.export(
+                    actor,
+                    (example,),
+                    str(part),
+                    dynamo=False,
+                    opset_version=opset,
+                    input_names=[INPUT],
+                    output_names=[OUTPUT],
+                    dynamic_axes={INPUT: {0: "batch"}, OUTPUT: {0: "batch"}},
+                )
+                expected = actor(torch.as_tensor(obs)).numpy()
+            onnx.checker.check_model(onnx.load(str(part)))
+            quiet = ort.SessionOptions()
+            quiet.log_severity_level = 4  # a file it cannot load raises below; its own log line said it first
+            session = ort.InferenceSession(str(part), quiet, providers=["CPUExecutionProvider"])
+            got = session.run([OUTPUT], {INPUT: obs})[0]
+        except Exception as e:  # an opset torch cannot write, an operator it cannot export, a file onnx refuses ...
+            raise CheckpointError(
+                f"{checkpoint.describe()} could not be exported at opset {opset}: {cause(e)}"
+            ) from None
+        if not np.allclose(got, expected, atol=TOLERANCE, rtol=0):
+            raise CheckpointError(
+                f"the ONNX file of {checkpoint.describe()} differs from the network by up to "
+                f"{float(np.abs(got - expected).max()):.2g} (more than {TOLERANCE}); not exported"
             )
-            expected = actor(torch.as_tensor(obs)).numpy()
-        onnx.checker.check_model(onnx.load(str(part)))
-        quiet = ort.SessionOptions()
-        quiet.log_severity_level = 4  # a file it cannot load raises below; its own log line said it first
-        session = ort.InferenceSession(str(part), quiet, providers=["CPUExecutionProvider"])
-        got = session.run([OUTPUT], {INPUT: obs})[0]
-    except Exception as e:  # an opset torch cannot write, an operator it cannot export, a file onnx refuses ...
-        part.unlink(missing_ok=True)
-        raise CheckpointError(f"{checkpoint.describe()} could not be exported at opset {opset}: {cause(e)}") from None
-    if not np.allclose(got, expected, atol=TOLERANCE, rtol=0):
-        part.unlink()
-        raise CheckpointError(
-            f"the ONNX file of {checkpoint.describe()} differs from the network by up to "
-            f"{float(np.abs(got - expected).max()):.2g} (more than {TOLERANCE}); not exported"
-        )
-    os.replace(part, path)
     side = path.with_suffix(".json")
-    side.write_text(json.dumps(layout(checkpoint, dim, opset, note, residual), indent=2, allow_nan=False) + "\n")
+    write_text(side, json.dumps(layout(checkpoint, dim, opset, note, residual), indent=2, allow_nan=False) + "\n")
     return path, side

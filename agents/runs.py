@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from vcs_env.checks import check_choice, check_positive
+from vcs_env.files import replacing
 from vcs_env.observations import observation_config, observation_layout
 from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
@@ -337,18 +338,12 @@ def save_model(
     path = Path(path)
     if path.suffix != ".zip":
         path = path.with_name(path.name + ".zip")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    record = config_path(path)
-    part, record_part = path.with_name(path.name + ".part"), record.with_name(record.name + ".part")
-    try:
+    # the inner block ends first, so the record is renamed into place first; a save that failed (a full disk, a record
+    # that is no JSON) leaves no part behind
+    with replacing(path) as part, replacing(config_path(path)) as record_part:
         model.save(str(part))  # SB3 keeps a name's own suffix
         meta = run_record(kind, config, scenario, family, getattr(model, "num_timesteps", 0), **extra)
         record_part.write_text(json.dumps(meta, indent=2, sort_keys=False, allow_nan=False) + "\n")
-        os.replace(record_part, record)
-        os.replace(part, path)
-    finally:  # a save that failed (a full disk, a record that is no JSON) leaves no part behind
-        part.unlink(missing_ok=True)
-        record_part.unlink(missing_ok=True)
     return path
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from vcs_env.files import replacing
 from vcs_env.observations import Layout, observation_config, observation_layout, with_sensors
 from vcs_env.scenario import Scenario
 
@@ -82,11 +83,11 @@ def wall_segments_copy(checkpoint, out) -> Path:
     if not hasattr(model, "policy"):
         raise ValueError(f"{ckpt.describe()} is not an SB3 checkpoint: vcs-env wall-segments copies SB3 networks")
     read_wall_segments(model, observation_layout(wide))
-    out.mkdir(parents=True, exist_ok=True)
-    model.save(str(out / "model.zip"))
     record = {**record, "observation": observation_config(wide), "observation_dim": observation_layout(wide).dim}
     if isinstance(record.get("config"), dict):
         record["config"] = {**record["config"], "wall_segments": True}
     record["wall_segments_from"] = str(ckpt.path)
-    config_path(out / "model.zip").write_text(json.dumps(record, indent=2) + "\n")
+    with replacing(out / "model.zip") as part, replacing(config_path(out / "model.zip")) as record_part:
+        model.save(str(part))  # SB3 keeps a name's own suffix; the record is renamed into place first
+        record_part.write_text(json.dumps(record, indent=2) + "\n")
     return out / "model.zip"

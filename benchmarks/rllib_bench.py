@@ -30,6 +30,8 @@ import statistics
 import sys
 import time
 
+from vcs_env.files import write_text
+
 from .timing import machine_info
 
 SCENARIO = dict(scenario="circle", n_robots=8, jitter=0.1)
@@ -108,11 +110,11 @@ def write_section(path: str, text: str) -> None:
     old = p.read_text() if p.exists() else ""
     start = old.find(SECTION)
     if start < 0:
-        p.write_text(old.rstrip("\n") + "\n\n" + text)
+        write_text(p, old.rstrip("\n") + "\n\n" + text)
         return
     end = old.find("\n## ", start + len(SECTION))
     rest = "" if end < 0 else "\n" + old[end + 1 :]
-    p.write_text(old[:start] + text.rstrip("\n") + "\n" + rest)
+    write_text(p, old[:start] + text.rstrip("\n") + "\n" + rest)
 
 
 def scaling_note(rows: dict[str, dict[str, float]]) -> str:
@@ -216,8 +218,7 @@ def main(argv=None) -> int:
     if args.markdown:
         write_section(args.markdown, render_section(out))
     if args.json and not args.from_json:
-        with open(args.json, "w") as f:
-            json.dump(out, f, indent=1)
+        write_text(args.json, json.dumps(out, indent=1))
     return 0
 
 

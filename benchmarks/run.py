@@ -24,6 +24,8 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from vcs_env.files import write_text
+
 from . import env_bench, peers, planner_bench, profile_bench, rllib_bench, train_bench
 from .report import render
 from .targets import targets
@@ -338,9 +340,8 @@ def _run(quick: bool, out: Path, sections, command: str, merge: bool) -> dict:
         "wall_seconds": time.perf_counter() - t0,
         "json": json_path.name,
     }
-    out.parent.mkdir(parents=True, exist_ok=True)
-    json_path.write_text(json.dumps(data, indent=1, default=_jsonable) + "\n")
-    out.write_text(render(data))
+    write_text(json_path, json.dumps(data, indent=1, default=_jsonable) + "\n")
+    write_text(out, render(data))
     rllib = Path(__file__).resolve().parent / rllib_bench.DEFAULT_JSON
     if rllib.exists():  # measured separately (needs Ray): keep its section in the report
         rllib_bench.write_section(str(out), rllib_bench.render_section(json.loads(rllib.read_text())))

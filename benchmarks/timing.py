@@ -29,6 +29,8 @@ from importlib import metadata
 
 import numpy as np
 
+from vcs_env.files import write_text
+
 Step = Callable[[], "int | tuple[int, float]"]
 """One unit of work. Returns the robot-steps (or decisions) done, or ``(units, seconds)`` when
 it times the part that counts itself (for lower bounds that exclude untimed restore work)."""
@@ -207,7 +209,6 @@ def write_report(out, text: str, res: dict) -> None:
     import json
 
     print(text)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    out.with_suffix(".json").write_text(json.dumps(res, indent=1, default=str) + "\n")
+    write_text(out, text)
+    write_text(out.with_suffix(".json"), json.dumps(res, indent=1, default=str) + "\n")
     print(f"wrote {out} and {out.with_suffix('.json')}")

@@ -37,6 +37,7 @@ from agents.evaluate.report import describe_shield, fmt, provenance, table_lines
 from agents.policies import is_checkpoint_spec
 from agents.residual import refuse_residual
 from benchmarks.timing import machine_info
+from vcs_env.files import write_text
 from vcs_env.suites import Suite, get_suite, suite_names
 
 
@@ -105,8 +106,7 @@ def cmd_evaluate(args) -> int:
         shield=not args.no_shield,
     )
     if args.json:  # before the table: output piped into a reader that closes early (head) stops the printing
-        with open(args.json, "w") as f:
-            json.dump(res.to_dict(), f, indent=1, allow_nan=False)
+        write_text(args.json, json.dumps(res.to_dict(), indent=1, allow_nan=False))
     _print_summary(res)
     if args.json:
         print(f"wrote {args.json}")

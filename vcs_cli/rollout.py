@@ -15,6 +15,7 @@ from agents.config import (
     require_modules,
 )
 from agents.runs import jsonable
+from vcs_env.files import write_text
 from vcs_env.planning import PLANNERS
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg")
@@ -99,8 +100,7 @@ def cmd_rollout(args: argparse.Namespace) -> int:
         ax.figure.savefig(args.plot, dpi=120, bbox_inches="tight")
         print(f"wrote {args.plot}")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump(jsonable(rows), f, indent=2, allow_nan=False)  # no value (NaN) is null, as JSON has it
+        write_text(args.json, json.dumps(jsonable(rows), indent=2, allow_nan=False))  # no value (NaN) is null in JSON
         print(f"wrote {args.json}")
     return 0
 

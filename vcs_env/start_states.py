@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .files import replacing
 from .observations import SENSOR_FIELDS
 from .scenario import RewardWeights, Scenario
 from .state import WorldState
@@ -171,8 +172,7 @@ class StartStates:
             arrays |= {f"{s}/world/{f}": v for f, v in self.pools[k].world.items()}
             arrays |= {f"{s}/motion/{f}": v for f, v in self.pools[k].motion.items()}
         path = npz_path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "wb") as f:
+        with replacing(path) as part, open(part, "wb") as f:
             np.savez_compressed(f, **arrays)
         return path
 

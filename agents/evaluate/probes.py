@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from vcs_env.applies import MAP_FIELDS
+from vcs_env.files import write_text
 from vcs_env.suites import Suite
 
 from ..checkpoint import open_checkpoint
@@ -301,6 +302,6 @@ def write_probes(table: dict, out: str | Path, planners: set[str], command: str,
     )
     notes = shield_lines(table.get("shields", {}))
     md = ["# Probe table", "", f"`{command}` ({stamp})", "", *table_lines(table, planners), *notes, ""]
-    (out / "probes.md").write_text("\n".join(md))
-    (out / "probes.json").write_text(json.dumps({**table, "command": command, "date": stamp}, indent=1))
+    write_text(out / "probes.md", "\n".join(md))
+    write_text(out / "probes.json", json.dumps({**table, "command": command, "date": stamp}, indent=1))
     return [out / "probes.md", out / "probes.json"]

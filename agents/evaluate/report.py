@@ -15,6 +15,7 @@ import numpy as np
 
 from vcs_env import metrics
 from vcs_env.checks import install_hint
+from vcs_env.files import write_text
 from vcs_env.metrics import OUTCOMES, Metric
 
 from . import EXTRA_TIME_PERCENTILES, Comparison
@@ -244,8 +245,8 @@ def write_report(
     for old in earlier_plots(out):
         old.unlink()
     md, js = out / "results.md", out / "results.json"
-    md.write_text(markdown_table(comparison, provenance))
-    js.write_text(results_json({**({"provenance": provenance} if provenance else {}), **comparison.to_dict()}))
+    write_text(md, markdown_table(comparison, provenance))
+    write_text(js, results_json({**({"provenance": provenance} if provenance else {}), **comparison.to_dict()}))
     written = [md, js]
     if plots:
         written += write_plots(comparison, out, episode)

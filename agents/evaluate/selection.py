@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from vcs_env.files import write_text
 from vcs_env.suites import Suite
 
 from ..checkpoint import SB3Checkpoint, open_checkpoint
@@ -157,6 +158,6 @@ def select_checkpoint(
     if record.exists():
         shutil.copy(record, out / "model.json")
     result = {"chosen": str(chosen), "candidates": scores} | ({"command": command} if command else {})
-    (out / "selection.json").write_text(json.dumps(result, indent=1))
+    write_text(out / "selection.json", json.dumps(result, indent=1))
     print(f"kept {chosen} as {out / 'model.zip'}")
     return result

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from vcs_env.files import replacing
 from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
 from vcs_env.start_states import StartStates, npz_path, saved_npz
@@ -173,7 +174,8 @@ def save_dataset(path: str | Path, data: dict[str, np.ndarray], meta: dict[str, 
     name without it, so the returned path has it; an existing directory is refused."""
     check_out_file(str(path), "--out")  # not a directory; its parent is made
     path = npz_path(path)
-    np.savez_compressed(path, **data, meta=np.array(json.dumps(meta)))
+    with replacing(path) as part, open(part, "wb") as f:  # a file object: numpy adds no .npz to the part's name
+        np.savez_compressed(f, **data, meta=np.array(json.dumps(meta)))
     return path
 
 

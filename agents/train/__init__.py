@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from vcs_env.checks import check_int, check_positive, check_range
+from vcs_env.files import write_text
 from vcs_env.rewards import TERMS
 from vcs_env.scenario import Scenario
 from vcs_env.suites import get_suite
@@ -356,7 +357,7 @@ def train(cfg: TrainConfig, resume: str | Checkpoint | None = None) -> dict[str,
                     with torch.no_grad():
                         model.policy.log_std.fill_(cfg.init_log_std)
         start_steps = int(model.num_timesteps)  # the checkpoint's for a resumed run, 0 for a new one
-        (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
+        write_text(out / "config.json", json.dumps(jsonable(cfg), indent=2) + "\n")
         wrote = True
         remaining = cfg.timesteps - model.num_timesteps
         periodic = PeriodicEval(cfg, scenarios, out, t_start)

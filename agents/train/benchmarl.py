@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from vcs_env.checks import install_hint
+from vcs_env.files import replacing, write_text
 from vcs_env.observations import observation_bounds
 from vcs_env.suites import get_suite
 
@@ -194,10 +195,10 @@ def save_actor(policy, scenario, path: Path, record: dict[str, Any]) -> BenchMAR
     import torch
 
     net, layout = actor_network(policy, scenario)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    torch.save({**layout, "state_dict": net.state_dict()}, path)
     ckpt = BenchMARLCheckpoint(path, path.with_suffix(".json"))
-    ckpt.record_path.write_text(json.dumps(jsonable(record), indent=2, allow_nan=False) + "\n")
+    with replacing(path) as part, replacing(ckpt.record_path) as record_part:  # the record renamed first
+        torch.save({**layout, "state_dict": net.state_dict()}, part)
+        record_part.write_text(json.dumps(jsonable(record), indent=2, allow_nan=False) + "\n")
     return ckpt
 
 
@@ -261,7 +262,7 @@ def train(cfg: BenchMARLConfig) -> Path:
     ])  # fmt: skip
     callbacks = [periodic] + ([LinearLR(cfg.learning_rate)] if cfg.lr_schedule == "linear" else [])
     exp = make_experiment(cfg, scenario, out / "benchmarl", callbacks)
-    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")  # out/ made by make_experiment
+    write_text(out / "config.json", json.dumps(jsonable(cfg), indent=2) + "\n")
     print(f"BenchMARL {cfg.algorithm}: {exp.config.max_n_frames} world steps ({exp.config.max_n_frames * n} robot "
           f"steps), {cfg.n_worlds} worlds, folder {exp.folder_name}", flush=True)  # fmt: skip
     exp.run()

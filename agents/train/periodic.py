@@ -18,6 +18,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from vcs_env.files import write_text
 from vcs_env.observations import SENSOR_FIELDS
 from vcs_env.scenario import Scenario
 from vcs_env.suites import get_suite
@@ -79,7 +80,7 @@ class PeriodicEval:
                     f"{log} line {k + 1} is not JSON ({e}): remove or mend that line, then resume again"
                 ) from None
         self.history = [r for r in rows if r.get("timesteps", 0) <= timesteps]
-        log.write_text("".join(json.dumps(r, allow_nan=False) + "\n" for r in self.history))
+        write_text(log, "".join(json.dumps(r, allow_nan=False) + "\n" for r in self.history))
         for r in self.history:
             self.best = _key(r) if self.best is None or _key(r) > self.best else self.best
 

@@ -43,6 +43,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from vcs_env.files import write_text
 from vcs_env.scenario import Scenario
 from vcs_env.suites import get_suite
 
@@ -175,7 +176,7 @@ def save(algo, path: Path, cfg: RLlibConfig, scenario: Scenario, steps: int, **e
     """Save ``algo`` to the checkpoint directory ``path`` with its run record (``vcs_env.json``)."""
     ckpt = Path(algo.save_to_path(path.resolve().as_posix()))
     meta = run_record("rllib_ppo", cfg, scenario, None, steps, **extra)
-    (ckpt / RLlibCheckpoint.record_name).write_text(json.dumps(meta, indent=2, allow_nan=False) + "\n")
+    write_text(ckpt / RLlibCheckpoint.record_name, json.dumps(meta, indent=2, allow_nan=False) + "\n")
     return ckpt
 
 
@@ -228,7 +229,7 @@ def train(cfg: RLlibConfig, resume: str | Checkpoint | None = None) -> dict[str,
     torch.set_num_threads(1)
     out = Path(cfg.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "config.json").write_text(json.dumps(jsonable(cfg), indent=2) + "\n")
+    write_text(out / "config.json", json.dumps(jsonable(cfg), indent=2) + "\n")
     t_start = time.time()
     algo = ppo_config(cfg).build_algo()
     try:
