@@ -19,23 +19,17 @@ import dataclasses
 import functools
 import importlib.util
 import inspect
-import json
-import os
 import shlex
-import tempfile
 import textwrap
 import types
 import typing
-from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from vcs_env.applies import check_applies
 from vcs_env.checks import EXTRA_OF, install_hint
 from vcs_env.lidar import LidarSpec
 from vcs_env.scenario import RewardWeights, fit_time_limit, make_scenario, short_time_limit
-from vcs_env.start_states import npz_path
 from vcs_env.suites import SUITES
 
 SHAPING = ("none", "vcs_imitation", "vcs_potential")
@@ -258,70 +252,6 @@ def print_suite_differences(scenarios, doing: str = "training on") -> list[str]:
     return out
 
 
-def _is_run_record(path: Path) -> bool:
-    """``path`` holds a checkpoint's run record (a JSON object with its ``kind`` and ``config``)."""
-    try:
-        record = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return False
-    return isinstance(record, dict) and "kind" in record and "config" in record
-
-
-def _replaceable(path: Path, replaces: Callable[[Any], bool]) -> bool:
-    """``path`` is empty, or a JSON file whose content ``replaces`` accepts."""
-    try:
-        text = path.read_text()
-        return not text.strip() or bool(replaces(json.loads(text)))
-    except (OSError, ValueError):
-        return False
-
-
-def check_out_file(
-    path: str | None,
-    flag: str,
-    suffixes: tuple[str, ...] = (),
-    new: bool = False,
-    writable: bool = False,
-    replaces: tuple[str, Callable[[Any], bool]] | None = None,
-) -> None:
-    """Before any work: ``ValueError`` if the output file ``path`` of ``flag`` is an existing
-    directory, an existing checkpoint, dataset or run record (never overwritten), or lacks one of ``suffixes``
-    (``new``: or exists at all, also with ``.npz`` added, as numpy adds it; for data that took long to make;
-    ``writable``: or cannot be written; ``replaces = (what, accepts)``: or exists and is not an earlier output of
-    the command, ``what``, a JSON file whose parsed content ``accepts`` takes, e.g. an ONNX file's layout or a
-    report); its parent directory is made."""
-    if path is None:
-        return
-    p = Path(path)
-    if p.is_dir():
-        raise ValueError(f"{flag} {path!r} is a directory; give a file name")
-    if new and (p.exists() or npz_path(p).exists()):
-        there = "" if p.exists() else f" (as {str(npz_path(p))!r}, the file it names)"
-        raise ValueError(
-            f"{flag} {path!r} exists{there}: the new data would replace it; give another name or remove it first"
-        )
-    if p.is_file() and p.suffix.lower() in (".zip", ".pt", ".npz", ".onnx"):
-        raise ValueError(f"{flag} {path!r} is a {p.suffix} file (a checkpoint or data) that this would overwrite")
-    if p.is_file() and _is_run_record(p):
-        raise ValueError(f"{flag} {path!r} is a checkpoint's run record that this would overwrite; give another file")
-    if suffixes and p.suffix.lower() not in suffixes:
-        raise ValueError(f"{flag} must end in {' or '.join(suffixes)}, got {path!r}")
-    if replaces is not None and p.is_file() and not _replaceable(p, replaces[1]):
-        raise ValueError(
-            f"{flag} {path!r} exists and is not {replaces[0]} (this would overwrite it); give another name or remove "
-            "it first"
-        )
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        if writable and not p.exists():  # a file that cannot be made fails here, not after the run
-            p.touch()
-            p.unlink()
-        elif writable and not os.access(p, os.W_OK):
-            raise PermissionError(f"{path!r} is not writable")
-    except OSError as e:
-        raise ValueError(f"{flag} {path!r} cannot be written ({e.strerror or e})") from None
-
-
 def require_modules(modules: tuple[str, ...], what: str) -> None:
     """Before the work that needs them: an ``ImportError`` naming the first of ``modules`` (import names) that is not
     installed, what needs it, and its extra (:data:`vcs_env.checks.EXTRA_OF`)."""
@@ -329,25 +259,6 @@ def require_modules(modules: tuple[str, ...], what: str) -> None:
         if importlib.util.find_spec(name) is None:
             hint = install_hint(EXTRA_OF.get(name, "all"))
             raise ImportError(f"{what}: {name} is not installed; install it with: {hint}")
-
-
-def check_out_dir(path: str | os.PathLike, flag: str = "--out", what: str = "the report") -> None:
-    """Before any work: a one-line ``ValueError`` if the output directory ``path`` of ``flag`` is a file, lies under
-    a file, or cannot be written in (a file cannot be made in the nearest directory on its path that exists; that
-    is where the directory will be made). Nothing is left behind: the test file is removed, no directory made."""
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise ValueError(f"{flag} {str(path)!r} is a file: give a directory for {what}")
-    blocked = next((q for q in p.parents if q.exists() and not q.is_dir()), None)
-    if blocked is not None:
-        raise ValueError(f"{flag} {str(path)!r} lies under {str(blocked)!r}, a file: give a directory for {what}")
-    base = next(q for q in (p, *p.parents) if q.exists())
-    try:
-        with tempfile.TemporaryFile(dir=base):
-            pass
-    except OSError as e:
-        where = "" if base == p else f" (nothing can be made in {str(base)!r})"
-        raise ValueError(f"{flag} {str(path)!r} cannot be written{where}: {e.strerror or e}") from None
 
 
 def parse_seeds(text: str) -> tuple[int, ...]:
@@ -364,6 +275,15 @@ def parse_seeds(text: str) -> tuple[int, ...]:
     if hi - lo > 100_000:
         raise ValueError(f"--seeds {text!r} asks for {hi - lo} episodes; at most 100000")
     return tuple(range(lo, hi))
+
+
+def parse_names(text: str, flag: str) -> list[str]:
+    """``"vcs, orca"`` -> ``["vcs", "orca"]``: the comma-separated list of ``flag``; an empty entry is a ``ValueError``
+    (``"vcs,,orca"`` is a typo, not two policies)."""
+    names = [name.strip() for name in str(text).split(",")]
+    if not all(names):
+        raise ValueError(f"{flag} {text!r} has an empty entry; give names separated by single commas")
+    return names
 
 
 def parse_weights(text: str | None) -> dict[str, float]:

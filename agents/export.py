@@ -31,6 +31,7 @@ import contextlib
 import json
 import os
 import sys
+import tempfile
 import warnings
 from dataclasses import asdict
 from pathlib import Path
@@ -71,8 +72,10 @@ def import_onnx():
 
 
 def check_out_path(out: str | os.PathLike) -> Path:
-    """``out`` as a Path if it ends in ``.onnx``; a one-line :class:`CheckpointError` otherwise."""
+    """``out`` as a Path if it ends in ``.onnx`` and can be written; a one-line :class:`CheckpointError` otherwise."""
     path = Path(out)
+    if path.name == ".onnx":
+        raise CheckpointError(f"--onnx {str(path)!r} has no name before .onnx; give a file name such as policy.onnx")
     if path.suffix != ".onnx":
         raise CheckpointError(f"--onnx {str(path)!r} must end in .onnx (the layout is written beside it as .json)")
     if path.is_dir():
@@ -83,6 +86,12 @@ def check_out_path(out: str | os.PathLike) -> Path:
             f"--onnx {str(path)!r} writes its layout to {str(side)!r}, which holds another file (a run record?); "
             "give the ONNX file another name"
         )
+    try:  # a file that cannot be made there fails now, not as an export error of the checkpoint
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path.parent):
+            pass
+    except OSError as e:
+        raise CheckpointError(f"--onnx {str(path)!r} cannot be written ({e.strerror or e})") from None
     return path
 
 

@@ -29,7 +29,8 @@ from vcs_env.scenario import Scenario
 from vcs_env.spaces import observation_space
 from vcs_env.start_states import StartStates
 
-from .config import FEATURES, ScenarioConfig, check_out_dir, config_command
+from .config import FEATURES, ScenarioConfig, config_command
+from .outputs import check_out_dir
 
 
 @dataclass

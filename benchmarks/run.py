@@ -269,12 +269,30 @@ def run(
     blocked = next((p for p in out.parents if p.exists() and not p.is_dir()), None)
     if blocked is not None:  # found only when the report was written, after every section had run
         raise ValueError(f"--out {str(out)!r} lies under {str(blocked)!r}, a file: give a path in a directory")
+    if out.suffix.lower() != ".md":
+        raise ValueError(f"--out {str(out)!r} must end in .md: the Markdown report (its numbers go beside it as .json)")
+    held = [f for f in (out, out.with_suffix(".json")) if f.exists()]
+    if held and not _is_results(out.with_suffix(".json")) and not (merge and out.with_suffix(".json").exists()):
+        raise ValueError(
+            f"--out {str(out)!r}: {str(held[0])!r} exists and {out.with_suffix('.json').name} is no earlier results of "
+            "python -m benchmarks (this would overwrite it); give another name or remove the file first"
+        )
     before = get_threads()
     set_threads(1)
     try:
         return _run(quick, out, sections, command, merge)
     finally:
         set_threads(before)
+
+
+def _is_results(path: Path) -> bool:
+    """``path`` holds the raw numbers of an earlier run (a JSON object with its ``meta``: date, commit, quick)."""
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return False
+    meta = data.get("meta") if isinstance(data, dict) else None
+    return isinstance(meta, dict) and {"date", "commit", "quick"} <= meta.keys()
 
 
 def _run(quick: bool, out: Path, sections, command: str, merge: bool) -> dict:
@@ -291,9 +309,9 @@ def _run(quick: bool, out: Path, sections, command: str, merge: bool) -> dict:
             old = json.loads(out.with_suffix(".json").read_text())
         except ValueError as e:
             raise ValueError(f"--merge: {out.with_suffix('.json')} is not JSON ({e})") from None
-        meta = old.get("meta") if isinstance(old, dict) else None
-        if not isinstance(meta, dict) or not {"date", "commit", "quick"} <= set(meta):
+        if not _is_results(out.with_suffix(".json")):
             raise ValueError(f"--merge: {out.with_suffix('.json')} is no results file of python -m benchmarks")
+        meta = old["meta"]
         if bool(meta["quick"]) != quick:
             raise ValueError(
                 f"--merge: {out.with_suffix('.json')} holds a {'quick' if meta['quick'] else 'full'} run; a "

@@ -24,9 +24,8 @@ from agents.config import (
     SCENARIO_FLAGS,
     ScenarioConfig,
     add_config_args,
-    check_out_dir,
-    check_out_file,
     config_from_args,
+    parse_names,
     parse_seeds,
     probe_scenario,
     require_modules,
@@ -34,6 +33,7 @@ from agents.config import (
 from agents.evaluate import DEFAULT_BATCH, EvalResult, compare, evaluate, selection
 from agents.evaluate import probes as probe_table
 from agents.evaluate.report import describe_shield, fmt, provenance, table_lines, table_metrics, write_report
+from agents.outputs import check_out_file, check_report_dir
 from agents.policies import is_checkpoint_spec
 from agents.residual import refuse_residual
 from benchmarks.timing import machine_info
@@ -92,11 +92,22 @@ EVALUATE_JSON = (
     "an earlier evaluate's --json",
     lambda data: isinstance(data, dict) and {"policy", "suite", "summary", "episodes"} <= data.keys(),
 )
-"""What ``--json`` may replace (:func:`~agents.config.check_out_file`)."""
+"""What ``--json`` may replace (:func:`~agents.outputs.check_out_file`)."""
+COMPARE_REPORT = (
+    "an earlier compare's report",
+    lambda data: isinstance(data, dict) and {"suite", "fingerprint", "seeds", "policies"} <= data.keys(),
+)
+"""What ``compare --out`` may replace (:func:`~agents.outputs.check_report_dir`)."""
+PROBE_TABLE = (
+    "an earlier probe table",
+    lambda data: isinstance(data, dict) and {"expert", "probes", "command"} <= data.keys(),
+)
+"""What ``probe --out`` may replace."""
 
 
 def cmd_evaluate(args) -> int:
     check_out_file(args.json, "--json", writable=True, replaces=EVALUATE_JSON)
+    _check_no_shield(args, [args.policy])
     res = evaluate(
         args.policy,
         episodes_of(args),
@@ -114,14 +125,15 @@ def cmd_evaluate(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    policies = probe_table.policy_labels([p.strip() for p in args.policies.split(",") if p.strip()], expert=None)
+    policies = probe_table.policy_labels(parse_names(args.policies, "--policies"), expert=None)
+    _check_no_shield(args, policies.values())
     suite = episodes_of(args)
     if args.episode is not None and args.no_plots:
         raise ValueError("--episode chooses the episode whose trajectories are plotted: leave it out with --no-plots")
     args.episode = 0 if args.episode is None else args.episode
     if not 0 <= args.episode < suite.n_episodes:
         raise ValueError(f"--episode must be in 0..{suite.n_episodes - 1} for {suite.name}, got {args.episode}")
-    check_out_dir(args.out)
+    check_report_dir(args.out, ("results.md", "results.json"), COMPARE_REPORT)
     if not args.no_plots:
         require_modules(("matplotlib",), "the report's plots (--no-plots leaves them out)")
     comp = compare(
@@ -141,9 +153,10 @@ def cmd_compare(args) -> int:
 
 
 def cmd_probe(args) -> int:
-    check_out_dir(args.out)
-    specs = [p.strip() for p in args.policies.split(",") if p.strip()]
+    check_report_dir(args.out, ("probes.md", "probes.json"), PROBE_TABLE)
+    specs = parse_names(args.policies, "--policies")
     policies = probe_table.policy_labels(specs)
+    _check_no_shield(args, policies.values())
     probes = probe_table.select_probes(args.families)
     table = probe_table.run_probes(
         policies,
@@ -192,6 +205,12 @@ def _common_args(p) -> None:
     p.add_argument("--batch-size", type=int, default=DEFAULT_BATCH, help="worlds stepped together")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     _shield_arg(p)
+
+
+def _check_no_shield(args, specs) -> None:
+    """``--no-shield`` among planners only changes nothing: refused, as other flags that cannot apply are."""
+    if args.no_shield and not any(is_checkpoint_spec(s) for s in specs):
+        raise ValueError("--no-shield applies to checkpoints (the shield their run record names); no policy is one")
 
 
 def _shield_arg(p) -> None:

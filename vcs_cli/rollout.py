@@ -10,10 +10,10 @@ from agents.config import (
     ScenarioConfig,
     add_config_args,
     build_scenario,
-    check_out_file,
     config_from_args,
     require_modules,
 )
+from agents.outputs import check_out_file
 from agents.runs import jsonable
 from vcs_env.files import write_text
 from vcs_env.planning import PLANNERS

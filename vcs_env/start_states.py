@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import zipfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -188,6 +189,10 @@ class StartStates:
         path = saved_npz(path)
         if not path.is_file():
             raise ValueError(f"no start-state file {str(path)!r} (make one with vcs-env collect-states)")
+        if not zipfile.is_zipfile(path):  # numpy would try it as a pickle and say how to load that unsafely
+            raise ValueError(
+                f"{str(path)!r} is not a .npz start-state file (no zip archive; make one with vcs-env collect-states)"
+            )
         try:
             with np.load(path, allow_pickle=False) as data:
                 arrays = {name: data[name] for name in data.files}

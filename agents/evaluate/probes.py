@@ -30,7 +30,7 @@ from vcs_env.files import write_text
 from vcs_env.suites import Suite
 
 from ..checkpoint import open_checkpoint
-from ..config import ScenarioConfig, build_scenario, config_from_dict, probe_scenario
+from ..config import ScenarioConfig, build_scenario, config_from_dict, parse_names, probe_scenario
 from ..mixture import mixture_scenarios
 from ..policies import is_checkpoint_spec, policy_label
 from . import compare
@@ -179,10 +179,10 @@ def select_probes(families: str | None) -> tuple[Probe, ...]:
     """The probes of the comma-separated families (all with None), with a clear error for a typo."""
     if families is None:
         return PROBES
-    wanted = [f.strip() for f in families.split(",") if f.strip()]
+    wanted = parse_names(families, "--families")
     known = sorted({p.scenario for p in PROBES})
     unknown = [f for f in wanted if f not in known]
-    if unknown or not wanted:
+    if unknown:
         raise ValueError(f"unknown probe families {unknown or families!r}; probes exist for {known}")
     return tuple(p for p in PROBES if p.scenario in wanted)
 

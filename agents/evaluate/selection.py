@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from vcs_env.checks import check_int
 from vcs_env.files import write_text
 from vcs_env.suites import Suite
 
@@ -60,6 +61,7 @@ def candidates_of(paths: Sequence[str | Path], from_step: int = 0) -> list[Path]
     is one candidate, at its first place; two files with the same content (:func:`_identity`) and the same run
     record (but for its ``wall_time``), such as a distil run's last round and its ``model.zip``, are one candidate,
     at the later place (later training wins a tie anyway)."""
+    check_int("--from-step", from_step, 0, 2**62)
     out: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():

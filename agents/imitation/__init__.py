@@ -44,9 +44,10 @@ from vcs_env.checks import check_choice, check_int, check_range
 from vcs_env.observations import observation_config, observation_dim
 
 from ..checkpoint import load_policy_weights, open_checkpoint, save_model
-from ..config import ScenarioConfig, check_out_file, config_command, config_from_dict, print_suite_differences
+from ..config import ScenarioConfig, config_command, config_from_dict, print_suite_differences
 from ..evaluate import scalar_results, score_scenarios
 from ..mixture import scenarios_of
+from ..outputs import check_out_file
 from ..policies import predictor_controller
 from ..residual import refuse_residual
 from ..runs import PolicyConfig, check_fresh_out, check_net_arch, policy_kwargs, scenario_family

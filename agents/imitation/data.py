@@ -42,8 +42,8 @@ from vcs_env.rollout import Hook
 from vcs_env.rollout import play as play_episodes
 from vcs_env.start_states import StartStates, npz_path, saved_npz
 
-from ..config import check_out_file
 from ..mixture import mixture_split
+from ..outputs import check_out_file
 
 DATASET_FORMAT = "vcs-env-expert-v1"
 

@@ -35,8 +35,9 @@ from vcs_env.rollout import Hook, Step, play
 from vcs_env.start_states import StartStates, StatePool, scenario_key
 
 from ..checkpoint import open_checkpoint
-from ..config import ScenarioConfig, check_out_file
+from ..config import ScenarioConfig
 from ..mixture import scenarios_of
+from ..outputs import check_out_file
 from ..policies import resolve_policy, sensed_as_trained
 
 DANGER_THIN = 20
