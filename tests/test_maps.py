@@ -58,7 +58,8 @@ def test_random_walls_differ_by_seed():
         ({"kind": "corridor", "layout_radius": 0.2}, "starts of robots 0 and 2"),
         ({"kind": "intersection", "layout_radius": 0.3}, "starts of robots 0 and 2"),  # the two groups meet
         ({"kind": "corridor", "n_robots": 8, "corridor_width": 4.0, "lane_spacing": 0.9, "jitter": 0.1}, "2 jitter"),
-        ({"kind": "room", "jitter": 1.0}, "2 jitter\\); increase layout_radius, or reduce jitter or n_robots"),
+        ({"kind": "room", "jitter": 1.0}, "2 jitter\\); increase layout_radius, or reduce n_robots, or reduce jitter"),
+        ({"kind": "intersection", "layout_radius": 0.3, "jitter": 0.0}, "min_separation\\); increase [^;]*radius$"),
         # Random walls too dense to draw a layout for every seed: refused here, not at some reset.
         (
             {"kind": "walls", "n_walls": 30, "wall_length": (3, 5), "arena_half_size": 4.0, "n_robots": 6},

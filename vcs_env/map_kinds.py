@@ -37,8 +37,9 @@ class MapKind(ScenarioKind):
     :meth:`check_layout` requires starts, goals and obstacles clear of the walls and a route for
     every robot (:func:`check_walls`)."""
 
-    spacing_hint = "increase lane_spacing or layout_radius, or reduce jitter"
-    """What to change when robots would start in contact (:func:`~vcs_env.placement.check_spacing`)."""
+    spacing_hint = "increase lane_spacing or layout_radius"
+    """What to change when robots would start in contact (:func:`~vcs_env.placement.check_spacing` adds ``jitter``
+    where it counts)."""
 
     def default_radius(self, s: Scenario) -> float:
         return 3.0
@@ -157,7 +158,7 @@ class Doorway(MapKind):
 
 class Room(MapKind):
     name = "room"
-    spacing_hint = "increase layout_radius, or reduce jitter or n_robots"  # its robots sit on a circle
+    spacing_hint = "increase layout_radius, or reduce n_robots"  # its robots sit on a circle
     summary = (
         "a square room of half size ``layout_radius`` with a door ``door_width`` wide in the middle of each "
         "side; robots start on a circle of radius layout_radius / 2 inside and leave for the antipodal point "

@@ -180,8 +180,8 @@ def check_walls(s: Scenario, lay: Layout, segments: np.ndarray | None = None, ex
 
 def check_spacing(s: Scenario, start: np.ndarray, goal: np.ndarray, hint: str) -> None:
     """Starts ``(n, 2)`` [m] (before their ``jitter``) at least 2 radius + ``min_separation`` + 2 jitter apart, goals
-    2 radius + ``min_separation``; a ``ValueError`` naming the closest pair and ``hint`` (the fields to change)
-    otherwise: robots would start in contact, or park on one another."""
+    2 radius + ``min_separation``; a ``ValueError`` naming the closest pair and ``hint`` (the fields to change, and
+    ``jitter`` where it counts) otherwise: robots would start in contact, or park on one another."""
     base = 2.0 * s.robot.radius + s.min_separation
     for what, pts, need in (("start", start, base + 2.0 * s.jitter), ("goal", goal, base)):
         if len(pts) < 2:
@@ -189,9 +189,11 @@ def check_spacing(s: Scenario, start: np.ndarray, goal: np.ndarray, hint: str) -
         d = np.linalg.norm(pts[:, None] - pts[None], axis=-1) + np.diag(np.full(len(pts), np.inf))
         if d.min() < need - 1e-9:  # a spacing of exactly the need passes, as check_lanes
             i, j = sorted(np.unravel_index(np.argmin(d), d.shape))
+            jitter = what == "start" and s.jitter > 0.0  # a jitter of 0, or the goals' spacing, has no jitter to reduce
             raise ValueError(
                 f"{s.kind}: the {what}s of robots {i} and {j} are {d[i, j]:.3f} m apart, need >= {need:.3f} m "
-                f"(2 radius + min_separation{' + 2 jitter' if what == 'start' and s.jitter else ''}); {hint}"
+                f"(2 radius + min_separation{' + 2 jitter' if jitter else ''}); {hint}"
+                + (", or reduce jitter" if jitter else "")
             )
 
 
