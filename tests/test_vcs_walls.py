@@ -170,6 +170,22 @@ def test_detour_jitter_breaks_the_door_head_on():
     assert (jittered.reached_step >= 0).all() and not contact_events(jittered)
 
 
+def test_narrow_pass_lets_one_through_first():
+    """vcs-method §2.20, against its ablation. A 0.9 m door with 4 robots (seed 7008): robots 1 and 2 reach it from its
+    two sides together, both drive in and touch; with ``narrow_pass`` the later one waits and all arrive untouched.
+    door-headon-v0 seed 1011 with detours of one length (which alone stalls there for good, the test above): the
+    later robot (by index: the pair is symmetric) waits before the door, and both arrive."""
+    door = Scenario(
+        kind="doorway", n_robots=4, door_width=0.9, arena_half_size=3.5, layout_radius=2.0, jitter=0.1,
+        max_steps=600, on_collision="continue",
+    )  # fmt: skip
+    (off,) = run_episodes(door, planner_controller(VCSPlanner()), [7008])
+    (on,) = run_episodes(door, planner_controller(VCSPlanner(narrow_pass=True)), [7008])
+    assert contact_events(off) and not contact_events(on) and (on.reached_step >= 0).all()
+    (e,) = _episodes("door-headon-v0", [1011], detour_jitter=0.0, narrow_pass=True)
+    assert (e.reached_step >= 0).all() and not contact_events(e)
+
+
 def test_fitted_buffers_pass_a_robot_parked_in_a_narrow_corridor():
     """corridor-narrow-v0 seed 1000: the first robot of each column parks at its goal in the middle
     of the 1.7 m corridor, 0.6 m from each wall, which lets a robot through with 0.05 m on each

@@ -276,6 +276,13 @@ class VCSParams:
     would have cleared it at v_max."""
     give_way_stop: float = 0.1
     """The robot stops this far [m] before the lane it gives way to."""
+    # --- one at a time through a narrow passage (vcs-method §2.20) [ours]
+    narrow_pass: bool = False
+    """On a map with walls, of two robots head-on at a passage too narrow for both side by side (a door), the one that
+    would reach it later stops ``r_i + r_j + give_way_margin`` before it and lets the other come out first
+    (vcs-method §2.20; off by default: it costs ``walls-v0`` two episodes). Without walls it never acts."""
+    narrow_pass_margin: float = 0.1
+    """A passage is narrow where the walls on its two sides are less than ``2 (r_i + r_j)`` plus this [m] apart."""
     r_ca: float | None = None
     """Sensing radius [m]; None uses the world's."""
 
@@ -294,6 +301,7 @@ class VCSParams:
             "give_way_margin",
             "give_way_slack",
             "give_way_stop",
+            "narrow_pass_margin",
             "w_goal",
             "w_safety",
             "w_change",
@@ -330,6 +338,7 @@ class VCSParams:
             "detour_escalate",
             "stall_turn",
             "give_way",
+            "narrow_pass",
             "holonomic_window_fit",
             "fit_discs",
         ):

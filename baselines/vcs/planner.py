@@ -20,6 +20,7 @@ from ..common import preferred_velocity
 from . import kernel
 from .kernel.records import STATIC_SPEED
 from .params import VCSParams
+from .passage import narrow_pass
 
 COARSE_DT = 0.25
 """[s] The longest step the expert is measured at (every suite: 0.1 s, CrowdNav's 0.25 s); a longer one warns."""
@@ -158,10 +159,12 @@ class VCSPlanner(Planner):
             d_goal = length
         else:
             d_goal = goal_distances(world)  # as the stall clock measures it
-        pref = preferred_velocity(world, route=route)
+        pref = route_pref = preferred_velocity(world, route=route)
         if p.give_way and world.n_segments and n > 1:
             # Give way at crossing routes (vcs-method §2.19): priority to the right.
             pref = self._give_way(world, pref, leg)
+        if p.narrow_pass and world.n_segments and n > 1:
+            pref = narrow_pass(world, p, route_pref, pref)  # one at a time through a door (vcs-method §2.20)
         # Stall handling (vcs-method §2.13), and the direction psi of the symmetry-breaking push.
         psi, detour = np.empty((B, n)), np.empty((B, n), dtype=bool)
         rules = kernel.StallRules(
