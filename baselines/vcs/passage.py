@@ -77,8 +77,15 @@ def narrow_pass(world: WorldState, p: VCSParams, route_pref: np.ndarray, pref: n
     stop = np.full((B, n), np.inf)
     np.minimum.at(stop, (bs[i_waits], iis[i_waits]), stop_i[i_waits])
     np.minimum.at(stop, (bs[j_waits], jjs[j_waits]), stop_j[j_waits])
+    return stop_within(world, pref, stop)
+
+
+def stop_within(world: WorldState, pref: np.ndarray, stop: np.ndarray) -> np.ndarray:
+    """Preferred velocities ``pref`` ``(B, n, 2)`` [m/s] with each robot's speed capped so that it can stop within
+    ``stop`` ``(B, n)`` [m] ahead (``inf``: not capped), as at a goal: ``min(d / dt, sqrt(2 a_max d))`` (giving way,
+    vcs-method §2.19, and a narrow passage, vcs-method §2.20)."""
+    sp = np.sqrt(np.einsum("...i,...i->...", pref, pref))  # (B, n) [m/s]
     room = np.maximum(stop, 0.0)
-    cap = np.minimum(room / world.dt, np.sqrt(2.0 * world.a_max * room))
-    have = np.sqrt(np.einsum("...i,...i->...", pref, pref))
-    scale = np.where(np.isfinite(stop), np.minimum(cap, have), have) / np.maximum(have, 1e-12)
+    cap = np.minimum(np.minimum(room / world.dt, np.sqrt(2.0 * world.a_max * room)), sp)
+    scale = np.where(np.isfinite(stop), cap, sp) / np.maximum(sp, 1e-12)
     return pref * scale[..., None]

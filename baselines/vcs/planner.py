@@ -20,7 +20,7 @@ from ..common import preferred_velocity
 from . import kernel
 from .kernel.records import STATIC_SPEED
 from .params import VCSParams
-from .passage import narrow_pass
+from .passage import narrow_pass, stop_within
 
 COARSE_DT = 0.25
 """[s] The longest step the expert is measured at (every suite: 0.1 s, CrowdNav's 0.25 s); a longer one warns."""
@@ -242,10 +242,7 @@ class VCSPlanner(Planner):
         for _ in range(world.n_robots):  # not inside the lane of another robot about to cross
             inside = ahead & (before < stop[..., None]) & (stop[..., None] < after)
             stop = np.minimum(stop, np.where(inside, before, np.inf).min(axis=-1))
-        room = np.maximum(stop, 0.0)
-        cap = np.minimum(np.minimum(room / world.dt, np.sqrt(2.0 * world.a_max * room)), sp)
-        scale = np.where(np.isfinite(stop), cap, sp) / np.maximum(sp, 1e-12)
-        return pref * scale[..., None]
+        return stop_within(world, pref, stop)
 
     def _detour_side(self, world: WorldState, own: np.ndarray, angle: np.ndarray, detour: np.ndarray) -> np.ndarray:
         """The detour's rotation ``(B, n)`` [rad] (vcs-method §2.13, vcs-method §2.18): keep right, unless the
