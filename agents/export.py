@@ -31,7 +31,6 @@ import contextlib
 import json
 import os
 import sys
-import tempfile
 import warnings
 from dataclasses import asdict
 from pathlib import Path
@@ -43,6 +42,7 @@ from vcs_env.checks import install_hint
 from vcs_env.files import replacing, write_text
 
 from .fits import CheckpointError, cause
+from .outputs import check_writable
 from .residual import GATE_RULE, RULE, Residual
 from .shield import shield_from_record
 
@@ -87,11 +87,9 @@ def check_out_path(out: str | os.PathLike) -> Path:
             "give the ONNX file another name"
         )
     try:  # a file that cannot be made there fails now, not as an export error of the checkpoint
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=path.parent):
-            pass
-    except OSError as e:
-        raise CheckpointError(f"--onnx {str(path)!r} cannot be written ({e.strerror or e})") from None
+        check_writable(str(path), "--onnx")
+    except ValueError as e:
+        raise CheckpointError(str(e)) from None
     return path
 
 

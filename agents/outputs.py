@@ -69,12 +69,20 @@ def check_out_file(
             f"{flag} {path!r} exists and is not {replaces[0]} (this would overwrite it); give another name or remove "
             "it first"
         )
+    check_writable(path, flag, probe=writable)
+
+
+def check_writable(path: str, flag: str, probe: bool = True) -> None:
+    """A ``ValueError`` naming ``flag`` if the file ``path`` cannot be written: its parent directory is made, and with
+    ``probe`` the file is made and removed (or, if it exists, found writable), so a file that cannot be made fails
+    before the work, not after it."""
+    p = Path(path)
     try:
         p.parent.mkdir(parents=True, exist_ok=True)
-        if writable and not p.exists():  # a file that cannot be made fails here, not after the run
+        if probe and not p.exists():
             p.touch()
             p.unlink()
-        elif writable and not os.access(p, os.W_OK):
+        elif probe and not os.access(p, os.W_OK):
             raise PermissionError(f"{path!r} is not writable")
     except OSError as e:
         raise ValueError(f"{flag} {path!r} cannot be written ({e.strerror or e})") from None
