@@ -56,6 +56,7 @@ PINNED = {
     "no_follow": False,
     "detour_escalate": False,
     "stall_turn": False,
+    "free_turn": False,
     "mover_turn_lead": None,
     "fallback_contact": None,
     "holonomic_window_fit": False,
@@ -65,7 +66,8 @@ PINNED = {
 twin, the mirror images of bouncing obstacles, no following inside a mover's buffer, escalating
 detours, turning in place from rest, movers that turn and the fallback's play-out against
 movers (2026-11-28), the holonomic window fitted to its disc (2026-11-29), buffers fitted between two
-parked robots (2026-12-01); ``tests/test_vcs_safety.py`` and ``tests/test_vcs_walls.py`` measure them."""
+parked robots (2026-12-01), turning in place toward a free heading (2026-12-08); ``tests/test_vcs_safety.py``
+and ``tests/test_vcs_walls.py`` measure them."""
 EVAL_EVERY = 25
 """Steps between the states at which ``evaluate()`` of robot 0 is hashed."""
 

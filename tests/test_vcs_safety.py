@@ -251,14 +251,15 @@ def test_escalating_detours_back_a_wedged_robot_out():
     move back out, away from its goal; a detour that keeps right by 45 degrees stays blocked, and
     the robot waits there for good. With ``detour_escalate`` each detour without progress turns
     further, up to a half turn: all seven of these episodes solved, against none without
-    (measured, with the gates between parked robots closed, ``fit_discs=False``, as before them; fitted,
-    the default, the gates let four of the seven out without escalating, and all seven with it)."""
+    (measured, with the gates between parked robots closed, ``fit_discs=False``, and turning toward the goal's own
+    heading, ``free_turn=False``, as before them; with both, the default, all seven are solved)."""
     scenario = get_suite("random-dense-v0").scenario
     seeds = (5016, 5032, 5084, 5149, 5180, 5197, 5238)
 
     assert _solved(_run(scenario, seeds)) == 7
-    assert _solved(_run(scenario, seeds, fit_discs=False)) == 7
-    assert _solved(_run(scenario, seeds, fit_discs=False, detour_escalate=False)) == 0
+    before = dict(fit_discs=False, free_turn=False)
+    assert _solved(_run(scenario, seeds, **before)) == 7
+    assert _solved(_run(scenario, seeds, detour_escalate=False, **before)) == 0
 
 
 def test_a_robot_stalled_at_rest_turns_in_place_toward_its_detour():

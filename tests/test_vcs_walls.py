@@ -149,16 +149,30 @@ def test_detour_keeps_off_the_wall():
     """A robot stopped facing a wall, its route along it: a detour that keeps right turned it
     into the wall on every try (door-headon-v0 seed 1007, robot 1, alone after the other passed;
     intersection-v0, robots pushed into the wrong branch). Keeping left there frees it."""
-    kw = dict(wall_brake=False, detour_jitter=0.0)  # the rule alone
+    kw = dict(wall_brake=False, detour_jitter=0.0, free_turn=False)  # the rule alone
     (stuck,) = _episodes("door-headon-v0", [1007], detour_off_walls=False, **kw)
     (free,) = _episodes("door-headon-v0", [1007], **kw)
     assert (stuck.reached_step < 0).any() and (free.reached_step >= 0).all()
     seeds = list(SUITES["intersection-v0"].seeds)[:8]
     arrived_off = sum(
-        int((e.reached_step >= 0).all()) for e in _episodes("intersection-v0", seeds, detour_off_walls=False)
+        int((e.reached_step >= 0).all())
+        for e in _episodes("intersection-v0", seeds, detour_off_walls=False, free_turn=False)
     )
-    arrived_on = sum(int((e.reached_step >= 0).all()) for e in _episodes("intersection-v0", seeds))
+    arrived_on = sum(int((e.reached_step >= 0).all()) for e in _episodes("intersection-v0", seeds, free_turn=False))
     assert arrived_on >= arrived_off + 3
+
+
+def test_free_turn_starts_a_robot_stopped_against_a_wall():
+    """A unicycle at rest 3 mm from a wall (the walls around robot 2 of walls-v0 seed 1074 with ``narrow_pass``),
+    facing its route past the wall's end: every way of starting off along that heading closes on the wall, and
+    turning in place toward the route gains nothing, so the ablation stands there, detour after detour. With
+    ``free_turn`` it turns toward the nearest heading it can start along (vcs-method §2.13) and arrives."""
+    walls = [((-0.33, -2.24), (0.59, -1.05)), ((0.83, -1.64), (2.23, -1.52)), ((-0.79, -1.05), (0.47, 1.33))]
+    s = _custom([(0.22, -1.115)], [(4.2, 1.2)], walls, heading=[0.35], max_steps=300, min_separation=0.001)
+    (stuck,) = run_episodes(s, planner_controller(VCSPlanner(free_turn=False)), [0])
+    (free,) = run_episodes(s, planner_controller(VCSPlanner()), [0])
+    assert (stuck.reached_step < 0).all() and np.ptp(stuck.pos[:, 0], axis=0).max() < 0.01
+    assert (free.reached_step >= 0).all() and not contact_events(free)
 
 
 def test_detour_jitter_breaks_the_door_head_on():
@@ -265,7 +279,7 @@ def test_give_way_keeps_robots_out_of_the_crossing_corridor():
     robots coming from the right (vcs-method §2.19), one group waits before the junction, every
     robot stays in its own corridor and arrives, and nothing touches anything."""
     seeds = [1014, 1022, 1029]
-    alone = dict(fit_clearance=None)  # the rule alone: fitted buffers let some of them through later
+    alone = dict(fit_clearance=None, free_turn=False)  # the rule alone: fitted buffers let some of them through later
     for e in _episodes("intersection-v0", seeds, give_way=False, **alone):
         assert (e.reached_step < 0).any() and _into_crossing_corridor(e).max() > 5.0
     for e in _episodes("intersection-v0", seeds, **alone):

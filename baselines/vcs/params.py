@@ -236,6 +236,11 @@ class VCSParams:
     metric every heading at zero speed costs the same, and a unicycle at rest beside a body, whose
     every way of starting off closes on that body (the ramp check), stood there for good. False:
     only beside a wall (the rule of vcs-method §2.18), the ablation [ours]."""
+    free_turn: bool = True
+    """A robot that turns in place from rest (``stall_turn``, or beside a wall) aims at the heading nearest its
+    goal's along which it can start off (the first step's speed admissible), instead of the goal's own: a unicycle
+    stopped against a wall with its route past the wall's end faces the route, every start refused, and stood there
+    for good (vcs-method §2.13). False: toward the goal's heading, the ablation [ours]."""
     detour_escalate: bool = True
     """A detour that began without progress since the last one turns further: the k-th
     consecutive detour rotates v_pref by k times detour_angle (at most a half turn; after four,
@@ -337,6 +342,7 @@ class VCSParams:
             "detour_off_walls",
             "detour_escalate",
             "stall_turn",
+            "free_turn",
             "give_way",
             "narrow_pass",
             "holonomic_window_fit",

@@ -95,6 +95,7 @@ PARAMS = np.dtype(
         ("stall_turn", "?"),  # a detouring robot at rest turns in place toward its goal (else: by walls only)
         ("holonomic_window_fit", "?"),  # a holonomic window grid spans its disc only
         ("fit_discs", "?"),  # fit_clearance also between two static discs, at a gate the robot heads through
+        ("free_turn", "?"),  # a robot turning in place from rest aims at the nearest heading it can start off along
     ],
     align=True,
 )
@@ -148,6 +149,7 @@ def params_record(p) -> np.ndarray:
         "stall_turn": p.stall_turn,
         "holonomic_window_fit": p.holonomic_window_fit,
         "fit_discs": p.fit_discs,
+        "free_turn": p.free_turn,
     }
     for name, value in values.items():
         rec[name] = value

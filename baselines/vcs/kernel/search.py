@@ -43,10 +43,28 @@ def prepare_robot(b, i, world, inputs, st, p, wk):
     count = setup_neighbours(b, i, world, inputs.pref_comm, p, st.r_ca, st.dt, inputs.detour[b, i], wk, st.holo)
     r = wk.robot[0]
     r.walls = senses_wall(wk.nbs, count)
-    if (r.walls or p.stall_turn) and inputs.detour[b, i] and r.v_r < r.dv1:
+    turn = (r.walls or p.stall_turn) and inputs.detour[b, i] and r.v_r < r.dv1
+    if turn:
         r.goal_vcs = True  # a stalled robot at rest turns in place toward its goal (vcs-method §2.13, vcs-method §2.18)
     set_horizons(wk, count, wk.robot[0], p)
+    if turn and p.free_turn:
+        free_heading(wk, count, r, p.n_theta_full)
     return count
+
+
+@njit(cache=True)
+def free_heading(wk, count, r, n_dir):
+    """Aim a robot that turns in place from rest (``VCSParams.free_turn``, vcs-method §2.13) at the heading
+    nearest its goal's, in steps of 2 pi / ``n_dir`` either side, along which a first step's speed (``dv1``) is
+    admissible: ``r.gth`` is set to it (left as it is when the goal's own heading is, or none is)."""
+    na, _ = relevant(wk.nbs, wk.order, count, r.tau_s, wk.adm, wk.js)
+    s, th0 = r.dv1, r.th + r.gth
+    for k in range(n_dir // 2 + 1):
+        for side in (1.0, -1.0):
+            a = th0 + side * 2.0 * math.pi * k / n_dir
+            if blocker(wk.nbs, wk.adm, na, s * math.cos(a), s * math.sin(a), 0) < 0:
+                r.gth = wrap(a - r.th)
+                return
 
 
 @njit(cache=True)
