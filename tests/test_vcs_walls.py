@@ -144,6 +144,15 @@ def test_wall_brake_keeps_a_turning_robot_off_the_wall():
     assert not contact_events(e) and (e.reached_step >= 0).all()
 
 
+def test_fallback_brakes_clear_of_a_wall_rather_than_turn_through_it():
+    """corridor-v0, fresh seeds: a robot that overshot its goal beside a parked robot comes back along the wall, closing
+    on it at 0.3 m/s, 0.12 m away, with nothing admissible. Its fallback turned toward the goal, away from the wall in
+    the end but through it on the way, where braking straight would have stopped it short: every such episode touched
+    the wall (0.005-0.027 m deep). A candidate that cannot stop clear now ranks below one whose end velocity only lies
+    in the wall's velocity obstacle (vcs-method §2.18), and none does."""
+    assert not _wall_contacts(_episodes("corridor-v0", [5082, 5104, 5289, 5340]))
+
+
 @pytest.mark.slow
 def test_detour_keeps_off_the_wall():
     """A robot stopped facing a wall, its route along it: a detour that keeps right turned it

@@ -213,8 +213,11 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
     (a holonomic window is the disc of radius k a_max dt). Near a wall, with ``wall_brake``
     (vcs-method §2.18), a candidate whose ramp (:func:`~.cost.wall_ramp_clear`: its first step
     too) touches a wall, or leaves the robot unable to brake straight to a stop short of it,
-    costs :data:`~.records.WALL_COST` more: a fallback that turned toward its goal point, or
-    sped up while turning away, swept into the wall. Returns ``(cost, dv, dth)``.
+    costs twice :data:`~.records.WALL_COST` more, so it ranks below one that can stop but whose end
+    velocity lies in a wall's velocity obstacle (one ``WALL_COST``): a fallback that turned toward its
+    goal point, or sped up while turning away, swept into the wall, and one that turned away from a
+    wall it was closing on, toward its goal, where braking straight would have stopped clear of it.
+    Returns ``(cost, dv, dth)``.
 
     A unicycle's first step clips the speed and direction changes to one step's, so the grid
     points beyond one step share their first step: least harm's refusals are worked out once per
@@ -257,7 +260,7 @@ def fallback_search(nbs, count, r, win, g1v, g1th, p):
             p.fallback_contact, p.t_max, movers, met,
         )  # fmt: skip
         if brake and j < INF and not wall_ramp_clear(nbs, count, r, dv, dth):
-            j += WALL_COST
+            j += 2.0 * WALL_COST
         if r.split and j < best:  # a first step beyond its share of a gap to a robot (vcs-method §2.15)
             v1x, v1y = first_step(r, dv, dth, vx, vy)
             e = split_excess(nbs, count, r.dt, v1x, v1y)
