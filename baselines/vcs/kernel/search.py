@@ -59,12 +59,11 @@ def free_heading(wk, count, r, n_dir):
     admissible: ``r.gth`` is set to it (left as it is when the goal's own heading is, or none is)."""
     na, _ = relevant(wk.nbs, wk.order, count, r.tau_s, wk.adm, wk.js)
     s, th0 = r.dv1, r.th + r.gth
-    for k in range(n_dir // 2 + 1):
-        for side in (1.0, -1.0):
-            a = th0 + side * 2.0 * math.pi * k / n_dir
-            if blocker(wk.nbs, wk.adm, na, s * math.cos(a), s * math.sin(a), 0) < 0:
-                r.gth = wrap(a - r.th)
-                return
+    for m in range(n_dir):  # offsets 0, +1, -1, +2, -2, ... steps, the half turn once
+        a = th0 + (1.0 if m % 2 else -1.0) * 2.0 * math.pi * ((m + 1) // 2) / n_dir
+        if blocker(wk.nbs, wk.adm, na, s * math.cos(a), s * math.sin(a), 0) < 0:
+            r.gth = wrap(a - r.th)
+            return
 
 
 @njit(cache=True)
