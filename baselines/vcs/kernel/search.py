@@ -58,11 +58,11 @@ def free_heading(wk, count, r, n_dir):
     nearest its goal's, in steps of 2 pi / ``n_dir`` either side, along which a first step's speed (``dv1``) is
     admissible: ``r.gth`` is set to it (left as it is when the goal's own heading is, or none is)."""
     na, _ = relevant(wk.nbs, wk.order, count, r.tau_s, wk.adm, wk.js)
-    s, th0 = r.dv1, r.th + r.gth
-    for m in range(n_dir):  # offsets 0, +1, -1, +2, -2, ... steps, the half turn once
-        a = th0 + (1.0 if m % 2 else -1.0) * 2.0 * math.pi * ((m + 1) // 2) / n_dir
-        if blocker(wk.nbs, wk.adm, na, s * math.cos(a), s * math.sin(a), 0) < 0:
-            r.gth = wrap(a - r.th)
+    for m in range(n_dir):  # offsets 0, +1, -1, +2, -2, ... steps from the goal's heading, the half turn once
+        dth = r.gth + (1.0 if m % 2 else -1.0) * 2.0 * math.pi * ((m + 1) // 2) / n_dir
+        if blocker(wk.nbs, wk.adm, na, r.dv1 * math.cos(r.th + dth), r.dv1 * math.sin(r.th + dth), 0) < 0:
+            if m:
+                r.gth = wrap(dth)
             return
 
 
